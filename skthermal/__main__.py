@@ -1,0 +1,7 @@
+"""``python -m skthermal`` runs the ``skthermal`` command."""
+
+import sys
+
+from skthermal.cli import main
+
+sys.exit(main())

@@ -1,0 +1,31 @@
+"""Run tables: reading, writing, validation, column roles and loaders.
+
+The run table is skthermal's data contract (see DATA_FORMAT): one row per
+sample time of one run, with ``run``, ``time_s``, drivers, sensors
+``T<name>_C`` / ``S<name>_ue`` and displacements ``disp_<axis>_um``. Also
+synthetic generators with a known sensor structure, for tests and demos.
+"""
+
+from skthermal.datasets._generators import make_sensor_groups
+from skthermal.datasets._loaders import load_fl_thermal, read_runs, write_runs
+from skthermal.datasets._runtable import (
+    changes_since_start,
+    driver_columns,
+    sensor_columns,
+    split_runs,
+    target_columns,
+    validate_runs,
+)
+
+__all__ = [
+    "changes_since_start",
+    "driver_columns",
+    "load_fl_thermal",
+    "make_sensor_groups",
+    "read_runs",
+    "sensor_columns",
+    "split_runs",
+    "target_columns",
+    "validate_runs",
+    "write_runs",
+]

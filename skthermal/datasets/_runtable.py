@@ -1,0 +1,609 @@
+"""The run table: naming rules, validation, column roles and splitting.
+
+A run table (``docs``: DATA_FORMAT) is a DataFrame with one row per sample time
+of one *run*: a ``run`` label, ``time_s``, optional drivers (``spindle_rpm``,
+``feed_mm_min``, ``ambient_C``), temperature sensors ``T<name>_C``, strain
+sensors ``S<name>_ue`` and thermal displacements ``disp_<axis>_um``. Everything
+in skthermal that reads or writes measurements goes through the checks here, so
+a user's own table works everywhere or fails once, with a message that names
+the column, the run and the row.
+"""
+
+import re
+
+import numpy as np
+import pandas as pd
+
+RUN = "run"
+TIME = "time_s"
+DRIVERS = ("spindle_rpm", "feed_mm_min", "ambient_C")
+REQUIRED_DRIVERS = ("spindle_rpm", "ambient_C")
+
+# <name> of a sensor or an axis: ASCII letters and digits, inner underscores.
+_NAME = r"[A-Za-z0-9]+(?:_[A-Za-z0-9]+)*"
+TEMPERATURE_PATTERN = re.compile(rf"T{_NAME}_C")
+STRAIN_PATTERN = re.compile(rf"S{_NAME}_ue")
+TARGET_PATTERN = re.compile(rf"disp_{_NAME}_um")
+
+_RULES = {
+    "temperature": (
+        "temperature columns are named T<name>_C "
+        f"(regex ^{TEMPERATURE_PATTERN.pattern}$), e.g. 'T05_C', 'Tcarrier3_C'"
+    ),
+    "strain": (
+        "strain columns are named S<name>_ue "
+        f"(regex ^{STRAIN_PATTERN.pattern}$), e.g. 'Sram1_ue'"
+    ),
+    "target": (
+        "displacement columns are named disp_<axis>_um "
+        f"(regex ^{TARGET_PATTERN.pattern}$), e.g. 'disp_y_um'"
+    ),
+}
+_TEMPERATURE_UNITS = {"c", "degc", "°c", "celsius", "k", "kelvin", "f", "degf"}
+_STRAIN_UNITS = {"ue", "µe", "μe", "με", "µε", "ustrain", "microstrain", "me"}
+_KNOWN = (RUN, TIME, *DRIVERS)
+
+
+def _is_temperature(name):
+    return isinstance(name, str) and TEMPERATURE_PATTERN.fullmatch(name) is not None
+
+
+def _is_strain(name):
+    return isinstance(name, str) and STRAIN_PATTERN.fullmatch(name) is not None
+
+
+def _is_target(name):
+    return isinstance(name, str) and TARGET_PATTERN.fullmatch(name) is not None
+
+
+def _columns(df):
+    columns = getattr(df, "columns", df)
+    return list(columns)
+
+
+def sensor_columns(df):
+    """Names of the sensor columns, in table order.
+
+    Sensors are temperatures ``T<name>_C`` (°C) and strains ``S<name>_ue``
+    (µε). Columns are recognised by name only; use :func:`validate_runs` to
+    check the table.
+
+    Parameters
+    ----------
+    df : DataFrame or iterable of str
+        A run table, or its column names.
+
+    Returns
+    -------
+    list of str
+
+    See Also
+    --------
+    target_columns, driver_columns
+
+    Examples
+    --------
+    >>> from skthermal.datasets import sensor_columns
+    >>> sensor_columns(["run", "time_s", "T1_C", "disp_y_um", "Sram1_ue", "T2_C"])
+    ['T1_C', 'Sram1_ue', 'T2_C']
+    """
+    return [c for c in _columns(df) if _is_temperature(c) or _is_strain(c)]
+
+
+def target_columns(df):
+    """Names of the thermal displacement columns ``disp_<axis>_um``, in order.
+
+    Parameters
+    ----------
+    df : DataFrame or iterable of str
+        A run table, or its column names.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> from skthermal.datasets import target_columns
+    >>> target_columns(["run", "time_s", "T1_C", "disp_y_um", "disp_z_um"])
+    ['disp_y_um', 'disp_z_um']
+    """
+    return [c for c in _columns(df) if _is_target(c)]
+
+
+def driver_columns(df):
+    """Names of the driver columns present, in table order.
+
+    Drivers are the inputs that heat the machine: ``spindle_rpm``,
+    ``feed_mm_min`` and ``ambient_C``.
+
+    Parameters
+    ----------
+    df : DataFrame or iterable of str
+        A run table, or its column names.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> from skthermal.datasets import driver_columns
+    >>> driver_columns(["run", "time_s", "ambient_C", "spindle_rpm", "T1_C"])
+    ['ambient_C', 'spindle_rpm']
+    """
+    return [c for c in _columns(df) if c in DRIVERS]
+
+
+def _looks_like(name):
+    """Which role a column that breaks the naming rules seems meant for.
+
+    Returns ``None`` for a valid or clearly unrelated column (kept and
+    ignored), otherwise ``(kind, expected)``.
+    """
+    if not isinstance(name, str) or name in _KNOWN:
+        return None
+    if _is_temperature(name) or _is_strain(name) or _is_target(name):
+        return None
+    lower = name.lower()
+    for known in _KNOWN:
+        if lower == known.lower():
+            return f"the column '{known}'", f"spell it exactly '{known}'"
+    last = lower.rsplit("_", 1)[-1] if "_" in lower else ""
+    if lower.startswith("disp"):
+        return "a displacement", _RULES["target"]
+    if (
+        (lower[:1] == "t" and last in _TEMPERATURE_UNITS)
+        or re.match(r"[Tt][0-9]", name)
+        or lower.startswith("temp")
+    ):
+        return "a temperature sensor", _RULES["temperature"]
+    if (lower[:1] == "s" and last in _STRAIN_UNITS) or lower.startswith("strain"):
+        return "a strain sensor", _RULES["strain"]
+    return None
+
+
+def _label(value):
+    """A run label or time as plain Python, for messages."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _where(df, pos):
+    """``run 'a', time_s 30.0 (row 2)`` for the row at position ``pos``."""
+    parts = []
+    if RUN in df.columns:
+        parts.append(f"run {_label(df[RUN].iloc[pos])!r}")
+    if TIME in df.columns:
+        parts.append(f"time_s {_label(df[TIME].iloc[pos])}")
+    return f"{', '.join(parts)} (row {pos})" if parts else f"row {pos}"
+
+
+def _as_float(df, columns):
+    """``df[columns]`` as a float array, missing values (also ``pd.NA``) as NaN."""
+    return df[list(columns)].to_numpy(dtype=float, na_value=np.nan)
+
+
+def _check_names(df):
+    problems = []
+    for name in df.columns:
+        hit = _looks_like(name)
+        if hit is not None:
+            kind, expected = hit
+            problems.append(f"{name!r} looks like {kind} but {expected}")
+    if problems:
+        raise ValueError(
+            "Run table columns break the naming rule (rename or drop them): "
+            + "; ".join(problems)
+            + "."
+        )
+
+
+def _missing_column(name, meaning, candidates):
+    hint = f"; columns that might be it: {candidates}" if candidates else ""
+    return ValueError(f"The run table has no {name!r} column ({meaning}){hint}.")
+
+
+def _check_numeric(df, columns):
+    for name in columns:
+        col = df[name]
+        if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
+            continue
+        where = ""
+        if not pd.api.types.is_bool_dtype(col):
+            coerced = pd.to_numeric(col, errors="coerce")
+            bad = np.flatnonzero(coerced.isna().to_numpy() & col.notna().to_numpy())
+            if bad.size:
+                value = _label(col.iloc[bad[0]])
+                where = f": {_where(df, bad[0])} holds {value!r}"
+        raise ValueError(
+            f"Column {name!r} must be numeric but has dtype {col.dtype}{where}."
+        )
+
+
+def _report_nonfinite(df, columns, mask, what, hint=""):
+    """Raise naming every column with a ``mask`` entry set, and its first row."""
+    bad_cols = np.flatnonzero(mask.any(axis=0))
+    if not bad_cols.size:
+        return
+    parts = []
+    for j in bad_cols:
+        rows = np.flatnonzero(mask[:, j])
+        first = _where(df, rows[0])
+        parts.append(
+            f"column {columns[j]!r} has {rows.size} {what} value(s), "
+            f"the first at {first}"
+        )
+    raise ValueError("; ".join(parts) + hint + ".")
+
+
+def _check_runs(df):
+    """Run labels present, runs contiguous and longer than one row."""
+    run = df[RUN]
+    missing = np.flatnonzero(run.isna().to_numpy())
+    if missing.size:
+        raise ValueError(
+            f"Column 'run' has {missing.size} missing label(s), the first at row "
+            f"{missing[0]}; every row needs a run label."
+        )
+    codes, _ = pd.factorize(run)
+    n = codes.shape[0]
+    starts = np.concatenate(([0], np.flatnonzero(codes[1:] != codes[:-1]) + 1))
+    stops = np.concatenate((starts[1:], [n]))
+    block_codes = codes[starts]
+    n_blocks = np.bincount(block_codes)
+    split = np.flatnonzero(n_blocks[block_codes] > 1)
+    if split.size:
+        code = block_codes[split[0]]
+        blocks = np.flatnonzero(block_codes == code)
+        spans = ", ".join(f"rows {starts[b]}-{stops[b] - 1}" for b in blocks[:3])
+        more = f" and {blocks.size - 3} more blocks" if blocks.size > 3 else ""
+        raise ValueError(
+            f"The rows of run {_label(run.iloc[starts[split[0]]])!r} are not "
+            f"contiguous ({spans}{more}); sort the table, e.g. "
+            "df.sort_values(['run', 'time_s'], kind='stable'), so that each run "
+            "is one block."
+        )
+    single = np.flatnonzero(stops - starts < 2)
+    if single.size:
+        pos = starts[single[0]]
+        raise ValueError(
+            f"Run {_label(run.iloc[pos])!r} has a single row (row {pos}); a run "
+            "needs at least two samples."
+        )
+    return codes
+
+
+def _check_time(df, codes):
+    time = _as_float(df, [TIME])[:, 0]
+    bad = np.flatnonzero(~np.isfinite(time))
+    if bad.size:
+        raise ValueError(
+            f"Column 'time_s' has {bad.size} missing or infinite value(s), the "
+            f"first at {_where(df, bad[0])}."
+        )
+    same_run = codes[1:] == codes[:-1]
+    bad = np.flatnonzero(same_run & ~(time[1:] > time[:-1]))
+    if bad.size:
+        i = bad[0] + 1
+        run = _label(df[RUN].iloc[i])
+        raise ValueError(
+            f"Column 'time_s' must be strictly increasing within a run: in run "
+            f"{run!r}, row {i} has time_s {time[i]} after time_s {time[i - 1]} "
+            f"at row {i - 1}."
+        )
+
+
+def validate_runs(
+    df, *, require_targets=False, require_drivers=False, allow_missing_sensors=False
+):
+    """Check that a DataFrame is a valid run table and return it unchanged.
+
+    The rules are those of DATA_FORMAT: a ``run`` label and a ``time_s``
+    column, at least one temperature sensor ``T<name>_C``, numeric sensors,
+    targets and drivers, runs that are contiguous blocks of at least two rows
+    with strictly increasing ``time_s``, and no missing or infinite values in
+    drivers, targets and (unless allowed) sensors. Extra columns are kept and
+    ignored, but a column that looks like a sensor, a displacement or a
+    required column while breaking its naming rule is an error.
+
+    Parameters
+    ----------
+    df : DataFrame
+        The run table.
+    require_targets : bool, default=False
+        Require at least one displacement column ``disp_<axis>_um`` (needed to
+        train a model).
+    require_drivers : bool, default=False
+        Require the drivers ``spindle_rpm`` and ``ambient_C`` (needed to
+        simulate).
+    allow_missing_sensors : bool, default=False
+        Accept missing (NaN) sensor values. The caller is then responsible for
+        a documented imputation; infinite values are still an error.
+
+    Returns
+    -------
+    df : DataFrame
+        The same object, unchanged.
+
+    Raises
+    ------
+    ValueError
+        If any rule is broken. The message names the column and, for problems
+        with values, the run, the ``time_s`` and the row (0-based position in
+        the table) of the first offending row.
+
+    See Also
+    --------
+    read_runs : Read and validate a run table from CSV or Parquet.
+
+    Notes
+    -----
+    Regular sampling within a run is not checked here: a method that needs it
+    checks it itself.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from skthermal.datasets import validate_runs
+    >>> df = pd.DataFrame({"run": ["a", "a", "b", "b"],
+    ...                    "time_s": [0.0, 60.0, 0.0, 60.0],
+    ...                    "T1_C": [20.0, 21.5, 20.1, 22.0],
+    ...                    "disp_y_um": [0.0, 3.2, 0.0, 4.1]})
+    >>> validate_runs(df, require_targets=True) is df
+    True
+    >>> validate_runs(df.iloc[:3])
+    Traceback (most recent call last):
+    ...
+    ValueError: Run 'b' has a single row (row 2); a run needs at least two samples.
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise ValueError(
+            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
+        )
+    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
+    if duplicated:
+        raise ValueError(f"The run table has duplicated columns: {duplicated}.")
+    names = [c for c in df.columns if isinstance(c, str)]
+    if RUN not in df.columns:
+        candidates = [c for c in names if c.lower().startswith(("run", "test"))]
+        raise _missing_column(RUN, "the label of the run of every row", candidates)
+    if TIME not in df.columns:
+        candidates = [
+            c for c in names if c.lower().startswith(("time", "t_")) or c == "t"
+        ]
+        raise _missing_column(TIME, "time since the start of the run, in s", candidates)
+    _check_names(df)
+    sensors = sensor_columns(df)
+    targets = target_columns(df)
+    drivers = driver_columns(df)
+    if not any(_is_temperature(c) for c in sensors):
+        hint = [c for c in names if c.endswith(("_C", "_degC"))]
+        raise ValueError(
+            "The run table has no temperature sensor column: "
+            f"{_RULES['temperature']}"
+            + (f"; columns that might be meant: {hint}" if hint else "")
+            + "."
+        )
+    if require_drivers:
+        absent = [c for c in REQUIRED_DRIVERS if c not in df.columns]
+        if absent:
+            raise ValueError(
+                f"The run table lacks the driver column(s) {absent}, required "
+                "here (e.g. to simulate): 'spindle_rpm' in rpm and 'ambient_C' "
+                "in °C."
+            )
+    if require_targets and not targets:
+        hint = [c for c in names if c.lower().endswith("_um")]
+        raise ValueError(
+            "The run table has no displacement (target) column: "
+            f"{_RULES['target']}"
+            + (f"; columns that might be meant: {hint}" if hint else "")
+            + "."
+        )
+    if len(df) == 0:
+        raise ValueError("The run table has no rows.")
+    _check_numeric(df, [TIME, *drivers, *sensors, *targets])
+    codes = _check_runs(df)
+    _check_time(df, codes)
+
+    strict = [*drivers, *targets]
+    values = _as_float(df, strict)
+    _report_nonfinite(
+        df,
+        strict,
+        np.isnan(values),
+        "missing",
+        "; drivers and targets may not have missing values",
+    )
+    everything = [*strict, *sensors]
+    values = np.concatenate([values, _as_float(df, sensors)], axis=1)
+    _report_nonfinite(df, everything, np.isinf(values), "infinite")
+    if not allow_missing_sensors:
+        _check_missing_sensors(df, sensors, values[:, len(strict) :])
+    return df
+
+
+def _check_missing_sensors(df, sensors, values=None):
+    if values is None:
+        values = _as_float(df, sensors)
+    _report_nonfinite(
+        df,
+        sensors,
+        np.isnan(values),
+        "missing",
+        "; impute them first (and say how) or pass allow_missing_sensors=True",
+    )
+
+
+def _as_list(columns):
+    return [columns] if isinstance(columns, str) else list(columns)
+
+
+def split_runs(df, *, sensors=None, targets=None, validate=True):
+    """Split a run table into features, targets and run labels.
+
+    Parameters
+    ----------
+    df : DataFrame
+        A run table.
+    sensors : str or list of str, optional
+        Columns to use as features: sensor columns, optionally also drivers
+        (e.g. ``ambient_C``). Default: every sensor column.
+    targets : str or list of str, optional
+        Displacement columns to predict. Default: every ``disp_<axis>_um``
+        column.
+    validate : bool, default=True
+        Check ``df`` with :func:`validate_runs` (with ``require_targets=True``);
+        missing values are then an error only in the selected sensors.
+
+    Returns
+    -------
+    X : DataFrame of shape (n_samples, n_sensors)
+        The selected sensor columns.
+    y : Series or DataFrame
+        A Series when ``targets`` is a string, or is None and the table has
+        exactly one target column; otherwise (a list of names, or several
+        target columns) a DataFrame.
+    groups : ndarray of shape (n_samples,)
+        The run label of every row, for ``GroupKFold`` and friends.
+
+    Notes
+    -----
+    ``X`` and ``y`` are indexed by a MultiIndex with levels ``("run",
+    "time_s")``. Run-aware skthermal estimators read the run boundaries from
+    the ``run`` level, so they keep working inside ``cross_validate`` and
+    pipelines, where ``groups`` is not passed on to ``fit``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from skthermal.datasets import split_runs
+    >>> df = pd.DataFrame({"run": ["a", "a", "b", "b"],
+    ...                    "time_s": [0.0, 60.0, 0.0, 60.0],
+    ...                    "T1_C": [20.0, 21.5, 20.1, 22.0],
+    ...                    "T2_C": [19.0, 19.5, 19.2, 19.9],
+    ...                    "disp_y_um": [0.0, 3.2, 0.0, 4.1]})
+    >>> X, y, groups = split_runs(df)
+    >>> X  # doctest: +NORMALIZE_WHITESPACE
+                T1_C  T2_C
+    run time_s
+    a   0.0     20.0  19.0
+        60.0    21.5  19.5
+    b   0.0     20.1  19.2
+        60.0    22.0  19.9
+    >>> y.name, groups.tolist()
+    ('disp_y_um', ['a', 'a', 'b', 'b'])
+    """
+    if validate:
+        validate_runs(df, require_targets=True, allow_missing_sensors=True)
+    elif not isinstance(df, pd.DataFrame):
+        raise ValueError(
+            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
+        )
+    for name in (RUN, TIME):
+        if name not in df.columns:
+            raise _missing_column(name, "required to split the table", [])
+    available = sensor_columns(df)
+    features = available if sensors is None else _as_list(sensors)
+    allowed = available + driver_columns(df)
+    for name in features:
+        if name not in allowed:
+            where = (
+                "is not in the table"
+                if name not in df.columns
+                else ("is not a sensor or driver column")
+            )
+            raise ValueError(
+                f"Sensor column {name!r} {where}; available sensor columns: "
+                f"{available}, drivers: {driver_columns(df)}."
+            )
+    if not features:
+        raise ValueError("No sensor columns selected.")
+    available = target_columns(df)
+    outputs = available if targets is None else _as_list(targets)
+    for name in outputs:
+        if name not in available:
+            where = (
+                "is not in the table"
+                if name not in df.columns
+                else ("is not a target column")
+            )
+            raise ValueError(
+                f"Target column {name!r} {where}; available target columns: "
+                f"{available}."
+            )
+    if not outputs:
+        raise ValueError(f"The run table has no target column: {_RULES['target']}.")
+    if validate:
+        _check_missing_sensors(df, features)
+
+    index = pd.MultiIndex.from_arrays([df[RUN], df[TIME]], names=[RUN, TIME])
+    X = df.loc[:, features].set_axis(index, axis=0)
+    if isinstance(targets, str) or (targets is None and len(outputs) == 1):
+        y = df[outputs[0]].set_axis(index)
+    else:
+        y = df.loc[:, outputs].set_axis(index, axis=0)
+    groups = df[RUN].to_numpy()
+    return X, y, groups
+
+
+def changes_since_start(df, columns=None):
+    """Subtract the first value of every run from the chosen columns.
+
+    Files keep absolute readings (DATA_FORMAT); methods that work on
+    "temperature change" or "thermal drift since the start of the test" apply
+    this transformation themselves.
+
+    Parameters
+    ----------
+    df : DataFrame
+        A run table; it needs a ``run`` column. Runs need not be contiguous.
+    columns : str or list of str, optional
+        Columns to transform. Default: every sensor and target column.
+
+    Returns
+    -------
+    DataFrame
+        A copy of ``df``; the chosen columns are zero on the first row of each
+        run (NaN on every row of a run whose first value is missing). Other
+        columns are unchanged.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from skthermal.datasets import changes_since_start
+    >>> df = pd.DataFrame({"run": ["a", "a", "b", "b"],
+    ...                    "time_s": [0.0, 60.0, 0.0, 60.0],
+    ...                    "T1_C": [20.0, 21.5, 20.1, 22.0],
+    ...                    "disp_y_um": [1.0, 3.0, -1.0, 4.0]})
+    >>> changes_since_start(df)
+      run  time_s  T1_C  disp_y_um
+    0   a     0.0   0.0        0.0
+    1   a    60.0   1.5        2.0
+    2   b     0.0   0.0        0.0
+    3   b    60.0   1.9        5.0
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise ValueError(
+            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
+        )
+    if RUN not in df.columns:
+        raise _missing_column(RUN, "needed to find the start of every run", [])
+    if columns is None:
+        columns = sensor_columns(df) + target_columns(df)
+    columns = _as_list(columns)
+    absent = [c for c in columns if c not in df.columns]
+    if absent:
+        raise ValueError(f"Columns {absent} are not in the table.")
+    _check_numeric(df, columns)
+    out = df.copy()
+    if not columns or len(df) == 0:
+        return out
+    codes, _ = pd.factorize(df[RUN])
+    if np.any(codes < 0):
+        raise ValueError("Column 'run' has missing labels; every row needs one.")
+    _, first = np.unique(codes, return_index=True)
+    values = _as_float(df, columns)
+    changes = values - values[first[codes]]
+    out[columns] = pd.DataFrame(changes, index=df.index, columns=columns)
+    return out

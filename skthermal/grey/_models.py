@@ -1,0 +1,218 @@
+"""GM(1,1), GM(0,N) and GM(1,N) grey models as plain array functions.
+
+METHODS §2-3 (000 eq. 10-13, 001 §3.7). The N-variable models estimate how
+strongly each input series drives the target and are the basis of the grey
+influence ranking of temperature sensors.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from skthermal.grey._ago import ago, background
+from skthermal.utils._runs import changes_since_start, run_slices
+
+
+def _solve(B, Y, alpha):
+    """Least squares ``min ||B theta - Y||``, optionally ridge-regularised.
+
+    ``alpha == 0`` uses LAPACK's SVD-based ``gelsd``: rank revealing, and the
+    minimum-norm solution when ``B`` is rank deficient (many collinear sensors).
+    ``alpha > 0`` solves a ridge problem on columns scaled to unit norm (so the
+    penalty does not depend on units or on the length of the series) and
+    scales the solution back: it spreads weight evenly across collinear columns.
+    """
+    if alpha == 0:
+        theta, *_ = linalg.lstsq(B, Y, lapack_driver="gelsd")
+        return theta
+    scale = np.linalg.norm(B, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    Bs = B / scale
+    G = Bs.T @ Bs
+    G[np.diag_indices_from(G)] += alpha
+    return linalg.solve(G, Bs.T @ Y, assume_a="pos") / scale
+
+
+def _prepare(y, X, groups, relative, min_rows, model):
+    y = np.asarray(y, dtype=float)
+    X = np.asarray(X, dtype=float)
+    if X.ndim == 1:
+        X = X[:, None]
+    if y.ndim != 1:
+        raise ValueError(f"{model}: the target must be 1-D, got shape {y.shape}.")
+    if X.shape[0] != y.shape[0]:
+        raise ValueError(
+            f"{model}: target has {y.shape[0]} samples but inputs have {X.shape[0]}."
+        )
+    slices, labels = run_slices(groups, y.shape[0])
+    for sl, lab in zip(slices, labels, strict=True):
+        if sl.stop - sl.start < 2:
+            where = "" if lab is None else f" (run {lab!r})"
+            raise ValueError(
+                f"{model}: a run needs at least 2 samples, got "
+                f"{sl.stop - sl.start}{where}."
+            )
+    n_rows = y.shape[0] - len(slices)
+    if n_rows < min_rows:
+        raise ValueError(
+            f"{model} needs more samples than unknowns: {X.shape[1]} input series "
+            f"need at least {min_rows + len(slices)} samples "
+            f"({min_rows} equations), got {y.shape[0]} samples in {len(slices)} "
+            "run(s)."
+        )
+    if relative:
+        y = changes_since_start(y, slices)
+        X = changes_since_start(X, slices)
+    return y, X, groups
+
+
+def gm0n(y, X, *, groups=None, relative=True, alpha=0.0):
+    """GM(0,N) static grey model; returns the influence coefficients ``theta``.
+
+    Solves ``z_1^(1)(k) = sum_j theta_j x_j^(1)(k)``, k = 2..n, by least squares
+    with ``Y = z_1^(1)`` and ``B = [x_2^(1) .. x_N^(1)]`` (METHODS §2).
+
+    Parameters
+    ----------
+    y : array-like of shape (n_samples,)
+        Target series ``x_1^(0)`` (e.g. a thermal displacement).
+    X : array-like of shape (n_samples, n_inputs)
+        Input series ``x_2^(0) .. x_N^(0)`` (e.g. temperatures).
+    groups : array-like of shape (n_samples,), optional
+        Run labels; the AGO restarts at every run and the equations of all runs
+        are solved together.
+    relative : bool, default=True
+        Use changes since the first sample of each run (the papers'
+        "temperature change"), not absolute readings.
+    alpha : float, default=0.0
+        0 gives the SVD-based minimum-norm least-squares solution (rank
+        revealing, so collinear sensors do not break it); > 0 a ridge penalty
+        on unit-norm columns of ``B`` (scale free), which spreads the weight of
+        collinear sensors evenly instead of arbitrarily.
+
+    Returns
+    -------
+    theta : ndarray of shape (n_inputs,)
+        Influence coefficients; ``|theta_j|`` ranks the inputs.
+    """
+    y, X, groups = _prepare(y, X, groups, relative, np.shape(X)[-1], "GM(0,N)")
+    z1, mask = background(ago(y, groups), groups)
+    B = ago(X, groups)[mask]
+    return _solve(B, z1, alpha)
+
+
+def gm1n(y, X, *, groups=None, relative=True, alpha=0.0):
+    """GM(1,N) grey model; returns the development and driving coefficients.
+
+    Solves ``x_1^(0)(k) + a z_1^(1)(k) = sum_j b_j x_j^(1)(k)``, k = 2..n, by
+    least squares with ``Y = x_1^(0)(2..n)`` and rows of ``B`` equal to
+    ``[-z_1^(1)(k), x_2^(1)(k) .. x_N^(1)(k)]`` (METHODS §3; the seeds print the
+    first column without its minus sign).
+
+    Parameters
+    ----------
+    y, X, groups, relative, alpha
+        As in :func:`gm0n`.
+
+    Returns
+    -------
+    a : float
+        Development coefficient.
+    b : ndarray of shape (n_inputs,)
+        Driving coefficients; ``|b_j|`` ranks the inputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.grey import gm1n
+    >>> t = np.arange(30.0)
+    >>> X = np.c_[1 - np.exp(-t / 5), 1 - np.exp(-t / 12)]
+    >>> a, b = gm1n(3 * X[:, 0] + 0.2 * X[:, 1], X)
+    >>> bool(abs(b[0]) > abs(b[1]))
+    True
+    """
+    y, X, groups = _prepare(y, X, groups, relative, np.shape(X)[-1] + 1, "GM(1,N)")
+    z1, mask = background(ago(y, groups), groups)
+    B = np.column_stack([-z1, ago(X, groups)[mask]])
+    theta = _solve(B, y[mask], alpha)
+    return float(theta[0]), theta[1:]
+
+
+@dataclass(frozen=True)
+class GM11:
+    """A fitted GM(1,1) model, ``x0(k) + a z1(k) = b``.
+
+    Attributes
+    ----------
+    a : float
+        Development coefficient.
+    b : float
+        Grey input.
+    x0_1 : float
+        First value of the original series, the model's initial condition.
+    n_samples : int
+        Length of the series it was fitted on.
+    """
+
+    a: float
+    b: float
+    x0_1: float
+    n_samples: int
+
+    def predict(self, n_samples=None):
+        """Restored series ``x0hat(1..n_samples)`` (default: the fitted length).
+
+        Values past the fitted length are forecasts.
+        """
+        n = self.n_samples if n_samples is None else int(n_samples)
+        k = np.arange(n, dtype=float)
+        if self.a == 0:
+            x1 = self.x0_1 + self.b * k
+        else:
+            x1 = (self.x0_1 - self.b / self.a) * np.exp(-self.a * k) + self.b / self.a
+        out = np.empty(n)
+        out[:1] = x1[:1]
+        out[1:] = np.diff(x1)
+        return out
+
+    def forecast(self, steps=1):
+        """The ``steps`` values after the fitted series."""
+        return self.predict(self.n_samples + int(steps))[self.n_samples :]
+
+
+def gm11(x0):
+    """Fit the single-series grey model GM(1,1).
+
+    Parameters
+    ----------
+    x0 : array-like of shape (n_samples,)
+        A short positive series, at least 3 samples.
+
+    Returns
+    -------
+    GM11
+        With ``a``, ``b`` and ``predict`` / ``forecast``.
+
+    Examples
+    --------
+    >>> from skthermal.grey import gm11
+    >>> model = gm11([2.874, 3.278, 3.337, 3.390, 3.679])
+    >>> round(model.a, 7), round(model.b, 7)
+    (-0.0372044, 3.0653633)
+    >>> round(float(model.forecast(1)[0]), 5)
+    3.75066
+    """
+    x0 = np.asarray(x0, dtype=float)
+    if x0.ndim != 1:
+        raise ValueError(f"GM(1,1) takes a 1-D series, got shape {x0.shape}.")
+    if x0.shape[0] < 3:
+        raise ValueError(
+            f"GM(1,1) needs at least 3 samples to estimate a and b, got {x0.shape[0]}."
+        )
+    if not np.all(np.isfinite(x0)):
+        raise ValueError("GM(1,1): the series contains NaN or infinite values.")
+    z1, mask = background(ago(x0))
+    B = np.column_stack([-z1, np.ones_like(z1)])
+    a, b = _solve(B, x0[mask], 0.0)
+    return GM11(a=float(a), b=float(b), x0_1=float(x0[0]), n_samples=x0.shape[0])

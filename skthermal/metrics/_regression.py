@@ -1,0 +1,252 @@
+"""Accuracy measures of thermal-error models (METHODS §12, 001 §3.8).
+
+The thesis and papers report a model with four numbers: the root mean squared
+error, the Nash-Sutcliffe efficiency, Pearson's correlation coefficient and the
+residual band ``max |z - p|`` (the "±4 µm" of a compensated test), plus the
+improvement ``1 - max|z - p| / max|z|`` (the "94%" of error removed). All take
+``y_true`` (measured error ``z``) and ``y_pred`` (predicted ``p``) of shape
+``(n_samples,)`` or ``(n_samples, n_outputs)``.
+"""
+
+import numpy as np
+
+_MULTIOUTPUT = ("raw_values", "uniform_average")
+
+
+def _as_2d(y, name):
+    try:
+        y = np.asarray(y, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric: {exc}") from exc
+    if y.ndim == 1:
+        y = y[:, None]
+    if y.ndim != 2:
+        raise ValueError(f"{name} must be 1-D or 2-D, got shape {y.shape}.")
+    return y
+
+
+def _check_targets(y_true, y_pred, multioutput):
+    """Validated 2-D float arrays of equal shape and the output weights."""
+    y_true = _as_2d(y_true, "y_true")
+    y_pred = _as_2d(y_pred, "y_pred")
+    if y_true.shape[0] != y_pred.shape[0]:
+        raise ValueError(
+            f"y_true has {y_true.shape[0]} samples but y_pred has "
+            f"{y_pred.shape[0]}; they must have the same length."
+        )
+    if y_true.shape[1] != y_pred.shape[1]:
+        raise ValueError(
+            f"y_true has {y_true.shape[1]} outputs but y_pred has {y_pred.shape[1]}."
+        )
+    if y_true.shape[0] == 0:
+        raise ValueError("y_true and y_pred are empty; need at least one sample.")
+    for name, y in (("y_true", y_true), ("y_pred", y_pred)):
+        bad = ~np.isfinite(y)
+        if bad.any():
+            row, col = np.argwhere(bad)[0]
+            where = f"row {row}" if y.shape[1] == 1 else f"row {row}, output {col}"
+            raise ValueError(
+                f"{name} has {int(bad.sum())} NaN or infinite value(s), the first "
+                f"at {where} ({y[row, col]})."
+            )
+    if isinstance(multioutput, str):
+        if multioutput not in _MULTIOUTPUT:
+            raise ValueError(
+                f"multioutput must be one of {list(_MULTIOUTPUT)} or an array of "
+                f"output weights, got {multioutput!r}."
+            )
+        weights = multioutput
+    else:
+        weights = np.asarray(multioutput, dtype=float)
+        if weights.shape != (y_true.shape[1],):
+            raise ValueError(
+                f"multioutput weights have shape {weights.shape}, expected "
+                f"({y_true.shape[1]},): one weight per output."
+            )
+    return y_true, y_pred, weights
+
+
+def _aggregate(values, weights):
+    if isinstance(weights, str):
+        if weights == "raw_values":
+            return values
+        weights = None
+    return float(np.average(values, weights=weights))
+
+
+def _ratio_score(num, den, force_finite):
+    """``1 - num / den`` per output, with the constant-target convention.
+
+    Where ``den == 0``: 1.0 when ``num == 0`` (perfect prediction) and 0.0
+    otherwise if ``force_finite``; NaN and -inf otherwise.
+    """
+    zero = den == 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        score = 1.0 - num / np.where(zero, 1.0, den)
+    if zero.any():
+        perfect = num == 0
+        if force_finite:
+            fill = np.where(perfect, 1.0, 0.0)
+        else:
+            fill = np.where(perfect, np.nan, -np.inf)
+        score = np.where(zero, fill, score)
+    return score
+
+
+def rmse(y_true, y_pred, *, multioutput="uniform_average"):
+    """Root mean squared error, ``sqrt(mean((z - p)^2))``.
+
+    Parameters
+    ----------
+    y_true : array-like of shape (n_samples,) or (n_samples, n_outputs)
+        Measured values.
+    y_pred : array-like of shape (n_samples,) or (n_samples, n_outputs)
+        Predicted values.
+    multioutput : {"raw_values", "uniform_average"} or array-like of shape \
+(n_outputs,), default="uniform_average"
+        ``"raw_values"`` returns one value per output; otherwise the (weighted)
+        mean over outputs.
+
+    Returns
+    -------
+    float or ndarray of shape (n_outputs,)
+
+    Raises
+    ------
+    ValueError
+        If the shapes differ or a value is NaN or infinite.
+
+    Examples
+    --------
+    >>> from skthermal.metrics import rmse
+    >>> rmse([1.0, 2.0, 3.0], [1.0, 2.0, 5.0])
+    1.1547005383792515
+    >>> rmse([[1.0, 0.0], [3.0, 0.0]], [[2.0, 0.0], [4.0, 3.0]],
+    ...      multioutput="raw_values")
+    array([1.        , 2.12132034])
+    """
+    y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    values = np.sqrt(np.mean((y_true - y_pred) ** 2, axis=0))
+    return _aggregate(values, weights)
+
+
+def nash_sutcliffe(y_true, y_pred, *, multioutput="uniform_average", force_finite=True):
+    """Nash-Sutcliffe efficiency, ``1 - sum (z - p)^2 / sum (z - mean z)^2``.
+
+    1 is a perfect model, 0 a model no better than the mean of the measured
+    values, negative values worse than that. It equals the coefficient of
+    determination R² of :func:`sklearn.metrics.r2_score`.
+
+    Parameters
+    ----------
+    y_true, y_pred, multioutput
+        As in :func:`rmse`.
+    force_finite : bool, default=True
+        What to return for an output whose measured values are constant
+        (``sum (z - mean z)^2 = 0``): with ``True``, 1.0 if the prediction is
+        exact and 0.0 otherwise (as ``r2_score``); with ``False``, NaN and
+        -inf.
+
+    Returns
+    -------
+    float or ndarray of shape (n_outputs,)
+
+    Examples
+    --------
+    >>> from skthermal.metrics import nash_sutcliffe
+    >>> nash_sutcliffe([1.0, 2.0, 3.0], [1.0, 2.0, 5.0])
+    -1.0
+    """
+    y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    sse = np.sum((y_true - y_pred) ** 2, axis=0)
+    sst = np.sum((y_true - y_true.mean(axis=0)) ** 2, axis=0)
+    return _aggregate(_ratio_score(sse, sst, force_finite), weights)
+
+
+def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
+    """Pearson's correlation coefficient R between measured and predicted values.
+
+    Parameters
+    ----------
+    y_true, y_pred, multioutput
+        As in :func:`rmse`.
+
+    Returns
+    -------
+    float or ndarray of shape (n_outputs,)
+        R in [-1, 1] per output (or their mean). R is undefined, and NaN is
+        returned for that output, when ``y_true`` or ``y_pred`` is constant in
+        it (or has a single sample).
+
+    Examples
+    --------
+    >>> from skthermal.metrics import pearson_r
+    >>> pearson_r([1.0, 2.0, 3.0], [2.0, 4.0, 6.0])
+    1.0
+    >>> pearson_r([1.0, 2.0, 3.0], [1.0, 3.0, 2.0])
+    0.5
+    """
+    y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    dt = y_true - y_true.mean(axis=0)
+    dp = y_pred - y_pred.mean(axis=0)
+    den = np.sqrt(np.sum(dt**2, axis=0) * np.sum(dp**2, axis=0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(den > 0, np.sum(dt * dp, axis=0) / den, np.nan)
+    return _aggregate(np.clip(r, -1.0, 1.0), weights)
+
+
+def residual_band(y_true, y_pred, *, multioutput="uniform_average"):
+    """Largest absolute residual, ``max |z - p|``.
+
+    A compensated test whose residual stays within ±4 µm has a residual band
+    of 4 µm.
+
+    Parameters
+    ----------
+    y_true, y_pred, multioutput
+        As in :func:`rmse`.
+
+    Returns
+    -------
+    float or ndarray of shape (n_outputs,)
+
+    Examples
+    --------
+    >>> from skthermal.metrics import residual_band
+    >>> residual_band([10.0, 20.0, 30.0], [12.0, 17.0, 31.0])
+    3.0
+    """
+    y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    return _aggregate(np.max(np.abs(y_true - y_pred), axis=0), weights)
+
+
+def improvement(y_true, y_pred, *, multioutput="uniform_average", force_finite=True):
+    """Share of the peak error removed by compensation, ``1 - max|z - p| / max|z|``.
+
+    ``y_true`` is the error before compensation (typically the displacement
+    since the start of the run) and ``y_true - y_pred`` the residual after
+    it: 0.94 means the peak error fell by 94%.
+
+    Parameters
+    ----------
+    y_true, y_pred, multioutput
+        As in :func:`rmse`.
+    force_finite : bool, default=True
+        What to return for an output whose measured values are all zero: with
+        ``True``, 1.0 if the prediction is exact and 0.0 otherwise; with
+        ``False``, NaN and -inf.
+
+    Returns
+    -------
+    float or ndarray of shape (n_outputs,)
+
+    Examples
+    --------
+    >>> from skthermal.metrics import improvement
+    >>> improvement([10.0, 20.0, 40.0], [12.0, 17.0, 38.0])
+    0.925
+    """
+    y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    band = np.max(np.abs(y_true - y_pred), axis=0)
+    peak = np.max(np.abs(y_true), axis=0)
+    return _aggregate(_ratio_score(band, peak, force_finite), weights)

@@ -1,0 +1,189 @@
+"""Run-aware base class of the sensor selectors.
+
+The selectors score sensors on how they *change* during a run, and grey models
+accumulate series over time; both must restart at every run boundary. The base
+class finds the run labels, validates the data with errors that name the
+offending sensor or run, and leaves the scoring to subclasses.
+"""
+
+from numbers import Integral, Real
+
+import numpy as np
+from sklearn.base import BaseEstimator, _fit_context
+from sklearn.feature_selection import SelectorMixin
+from sklearn.utils._param_validation import Interval, RealNotInt, StrOptions
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from skthermal.utils._runs import (
+    changes_since_start,
+    check_time_order,
+    extract_runs,
+    run_slices,
+)
+
+
+def _feature_label(estimator, j):
+    names = getattr(estimator, "feature_names_in_", None)
+    return f"sensor {names[j]!r}" if names is not None else f"feature {j}"
+
+
+def _run_label(labels, row, slices):
+    if labels[0] is None:
+        return ""
+    for sl, lab in zip(slices, labels, strict=True):
+        if sl.start <= row < sl.stop:
+            return f", run {lab!r}"
+    return ""
+
+
+class RunAwareSelector(SelectorMixin, BaseEstimator):
+    """Base class: validation, run handling and the ``transform`` of a selector.
+
+    Run labels are taken from the ``groups`` argument of ``fit`` (which can be
+    routed by scikit-learn's metadata routing), else from a ``run`` column of a
+    DataFrame ``X`` (removed from the features), else from a ``run`` level of
+    the DataFrame's index, as produced by :func:`skthermal.datasets.split_runs`;
+    otherwise all rows form one run. Subclasses implement ``_fit_runs``.
+    """
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.required = True
+        return tags
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y, groups=None):
+        """Score the sensors and choose the ones to keep.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_sensors)
+            Sensor readings, rows time-ordered within each run. A ``run``
+            column or index level of a DataFrame gives the run labels.
+        y : array-like of shape (n_samples,) or (n_samples, n_targets)
+            Thermal displacement(s).
+        groups : array-like of shape (n_samples,), default=None
+            Run label of every row; overrides a ``run`` column or index level.
+
+        Returns
+        -------
+        self : object
+        """
+        X, groups = extract_runs(X, groups)
+        check_time_order(X, groups)
+        X, y = validate_data(
+            self,
+            X,
+            y,
+            multi_output=True,
+            y_numeric=True,
+            ensure_min_samples=2,
+            ensure_all_finite=False,
+            dtype=np.float64,
+        )
+        Y = np.asarray(y, dtype=float).reshape(X.shape[0], -1)
+        slices, labels = run_slices(groups, X.shape[0])
+        self._check_runs(X, Y, slices, labels)
+        self._fit_runs(X, Y, groups, slices)
+        return self
+
+    def _check_runs(self, X, Y, slices, labels):
+        for name, A in (("X", X), ("y", Y)):
+            bad = ~np.isfinite(A)
+            if bad.any():
+                row, col = np.argwhere(bad)[0]
+                kind = "NaN" if np.isnan(A[row, col]) else "inf"
+                what = _feature_label(self, col) if name == "X" else f"target {col}"
+                raise ValueError(
+                    f"Input {name} contains {kind}: {what} at row {row}"
+                    f"{_run_label(labels, row, slices)}. Impute or drop the "
+                    "samples before fitting."
+                )
+        for sl, lab in zip(slices, labels, strict=True):
+            if sl.stop - sl.start < 2:
+                raise ValueError(
+                    f"Run {lab!r} has only 1 sample (row {sl.start}); every run "
+                    "needs at least 2 samples to measure a change."
+                )
+        change = changes_since_start(X, slices)
+        constant = ~np.any(change != 0, axis=0)
+        if constant.any():
+            j = int(np.flatnonzero(constant)[0])
+            label = _feature_label(self, j)
+            raise ValueError(
+                f"{label[0].upper()}{label[1:]} is constant within every "
+                "run: it carries no information about the thermal error. Drop it "
+                f"before fitting ({int(constant.sum())} constant sensor(s) in all)."
+            )
+
+    def _get_support_mask(self):
+        check_is_fitted(self)
+        return self.support_
+
+    def transform(self, X):
+        """Keep the selected sensors (a ``run`` column is dropped).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_sensors)
+
+        Returns
+        -------
+        X_selected : ndarray or DataFrame of shape (n_samples, n_selected)
+        """
+        X, _ = extract_runs(X)
+        return super().transform(X)
+
+
+class ScoreSelector(RunAwareSelector):
+    """Base class of selectors that keep the best-scoring sensors.
+
+    Subclasses implement ``_scores_per_target(X, Y, groups)`` returning an
+    array of shape (n_targets, n_features), bigger = more relevant.
+    """
+
+    _parameter_constraints: dict = {
+        "n_features_to_select": [
+            Interval(Integral, 1, None, closed="left"),
+            Interval(RealNotInt, 0, 1, closed="right"),
+            None,
+        ],
+        "threshold": [Real, StrOptions({"mean", "median"}), None],
+    }
+
+    def _fit_runs(self, X, Y, groups, slices):
+        per_output = self._scores_per_target(X, Y, groups)
+        if per_output.shape[0] == 1:
+            scores = per_output[0]
+        else:
+            # Several displacement axes: average the scores after scaling each
+            # axis' scores to a maximum of one, so no axis dominates by units.
+            top = per_output.max(axis=1, keepdims=True)
+            scores = (per_output / np.where(top > 0, top, 1.0)).mean(axis=0)
+        self.scores_ = scores
+        order = np.argsort(-scores, kind="stable")
+        ranking = np.empty_like(order)
+        ranking[order] = np.arange(1, order.size + 1)
+        self.ranking_ = ranking
+        self.support_ = self._support_from_scores(scores, order)
+
+    def _support_from_scores(self, scores, order):
+        n = scores.size
+        keep = np.ones(n, dtype=bool)
+        threshold = self.threshold
+        if threshold == "mean":
+            threshold = scores.mean()
+        elif threshold == "median":
+            threshold = np.median(scores)
+        if threshold is not None:
+            keep &= scores >= threshold
+        k = self.n_features_to_select
+        if k is None and threshold is None:
+            k = max(1, n // 2)
+        if k is not None:
+            if isinstance(k, Real) and not isinstance(k, Integral):
+                k = max(1, int(round(k * n)))
+            top = np.zeros(n, dtype=bool)
+            top[order[: min(int(k), n)]] = True
+            keep &= top
+        return keep

@@ -1,0 +1,564 @@
+"""Tests of skthermal.datasets: run-table validation, I/O, splitting, loaders."""
+
+import json
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.linear_model import LinearRegression
+from sklearn.model_selection import GroupKFold, cross_validate
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import FunctionTransformer
+
+from skthermal.datasets import (
+    changes_since_start,
+    driver_columns,
+    load_fl_thermal,
+    read_runs,
+    sensor_columns,
+    split_runs,
+    target_columns,
+    validate_runs,
+    write_runs,
+)
+from skthermal.utils import extract_runs
+
+
+def make_runs(n_runs=3, n_rows=4, seed=0):
+    """A small valid run table with drivers, two sensors, a strain and targets."""
+    rng = np.random.default_rng(seed)
+    n = n_runs * n_rows
+    return pd.DataFrame(
+        {
+            "run": np.repeat([f"r{i}" for i in range(n_runs)], n_rows),
+            "time_s": np.tile(np.arange(n_rows) * 60.0, n_runs),
+            "spindle_rpm": np.full(n, 4000.0),
+            "ambient_C": 20.0 + rng.normal(size=n),
+            "T1_C": 20.0 + rng.normal(size=n),
+            "operator": ["ann"] * n,
+            "Tcarrier3_C": 21.0 + rng.normal(size=n),
+            "Sram1_ue": rng.normal(size=n),
+            "disp_y_um": rng.normal(size=n),
+            "disp_z_um": rng.normal(size=n),
+        }
+    )
+
+
+@pytest.fixture
+def runs():
+    return make_runs()
+
+
+def with_value(df, column, row, value):
+    out = df.copy()
+    if not isinstance(value, float) or not pd.api.types.is_float_dtype(out[column]):
+        out[column] = out[column].astype(object)
+    out.loc[row, column] = value
+    return out
+
+
+# --- column roles ------------------------------------------------------------
+
+
+def test_column_roles_in_table_order(runs):
+    assert sensor_columns(runs) == ["T1_C", "Tcarrier3_C", "Sram1_ue"]
+    assert target_columns(runs) == ["disp_y_um", "disp_z_um"]
+    assert driver_columns(runs) == ["spindle_rpm", "ambient_C"]
+    assert driver_columns(["feed_mm_min", "T1_C"]) == ["feed_mm_min"]
+
+
+# --- validate_runs: valid tables ---------------------------------------------
+
+
+def test_validate_returns_same_object(runs):
+    assert validate_runs(runs, require_targets=True, require_drivers=True) is runs
+
+
+def test_validate_accepts_int_labels_and_extra_columns():
+    df = pd.DataFrame(
+        {
+            "run": [1, 1, 2, 2],
+            "time_s": [0, 15, 0, 30],
+            "T1_C": [20.0, 20.5, 21.0, 21.2],
+            "Temp3_C": [1.0, 2.0, 3.0, 4.0],
+            "Tspindle_front_C": [1.0, 2.0, 3.0, 4.0],
+            "comment": ["x", None, "y", "z"],
+            "tool_id": [7, 7, 8, 8],
+            "Tags": ["a", "b", "c", "d"],
+        }
+    )
+    assert validate_runs(df) is df
+    assert sensor_columns(df) == ["T1_C", "Temp3_C", "Tspindle_front_C"]
+
+
+def test_validate_does_not_modify(runs):
+    before = runs.copy()
+    validate_runs(runs)
+    pd.testing.assert_frame_equal(runs, before)
+
+
+# --- validate_runs: structural errors ----------------------------------------
+
+
+@pytest.mark.parametrize("obj", [np.zeros((3, 3)), [1, 2], None])
+def test_not_a_dataframe(obj):
+    with pytest.raises(ValueError, match="must be a pandas DataFrame"):
+        validate_runs(obj)
+
+
+@pytest.mark.parametrize(
+    "column, hint", [("run", "run_id"), ("time_s", "time")], ids=["run", "time"]
+)
+def test_missing_required_column(runs, column, hint):
+    df = runs.rename(columns={column: hint})
+    with pytest.raises(
+        ValueError, match=rf"no '{column}' column.*might be it: \['{hint}'\]"
+    ):
+        validate_runs(df)
+
+
+def test_no_temperature_column(runs):
+    df = runs.drop(columns=["T1_C", "Tcarrier3_C"])
+    with pytest.raises(ValueError, match="no temperature sensor column"):
+        validate_runs(df)
+
+
+def test_duplicated_columns(runs):
+    df = pd.concat([runs, runs[["T1_C"]]], axis=1)
+    with pytest.raises(ValueError, match=r"duplicated columns: \['T1_C'\]"):
+        validate_runs(df)
+
+
+def test_empty_table(runs):
+    with pytest.raises(ValueError, match="no rows"):
+        validate_runs(runs.iloc[:0])
+
+
+@pytest.mark.parametrize(
+    "bad, kind",
+    [
+        ("T05", "temperature"),
+        ("t05_C", "temperature"),
+        ("T05_K", "temperature"),
+        ("T05_degC", "temperature"),
+        ("T_C", "temperature"),
+        ("T_spindle_C", "temperature"),
+        ("T05_c", "temperature"),
+        ("temp3", "temperature"),
+        ("T 5_C", "temperature"),
+        ("Sfoo_uE", "strain"),
+        ("s1_ue", "strain"),
+        ("strain_1", "strain"),
+        ("disp_y", "displacement"),
+        ("disp_y_mm", "displacement"),
+        ("Disp_y_um", "displacement"),
+        ("disp__y_um", "displacement"),
+        ("Ambient_C", "the column 'ambient_C'"),
+        ("SPINDLE_RPM", "the column 'spindle_rpm'"),
+    ],
+)
+def test_naming_rule_errors_name_the_column(runs, bad, kind):
+    df = runs.assign(**{bad: 1.0})
+    with pytest.raises(ValueError, match=re.escape(f"'{bad}' looks like")) as info:
+        validate_runs(df)
+    message = str(info.value)
+    assert kind in message
+    if kind in ("temperature", "strain", "displacement"):
+        # The message states the expected pattern.
+        assert {"temperature": "T<name>_C", "strain": "S<name>_ue"}.get(
+            kind, "disp_<axis>_um"
+        ) in message
+
+
+def test_naming_errors_list_every_bad_column(runs):
+    df = runs.assign(T05=1.0, disp_x=2.0)
+    with pytest.raises(ValueError, match=r"'T05' looks like.*'disp_x' looks like"):
+        validate_runs(df)
+
+
+@pytest.mark.parametrize("name", ["S1_ue", "Sram1_ue", "disp_ch1_um", "TC2_C"])
+def test_valid_names_pass(runs, name):
+    validate_runs(runs.assign(**{name: 1.0}))
+
+
+def test_require_drivers(runs):
+    validate_runs(runs.drop(columns="ambient_C"))
+    with pytest.raises(ValueError, match=r"driver column\(s\) \['ambient_C'\]"):
+        validate_runs(runs.drop(columns="ambient_C"), require_drivers=True)
+
+
+def test_require_targets(runs):
+    df = runs.drop(columns=["disp_y_um", "disp_z_um"]).assign(dy_um=1.0)
+    validate_runs(df)
+    with pytest.raises(ValueError, match=r"no displacement.*might be meant: \['dy_um'"):
+        validate_runs(df, require_targets=True)
+
+
+# --- validate_runs: values ---------------------------------------------------
+
+
+@pytest.mark.parametrize("column", ["T1_C", "disp_y_um", "spindle_rpm", "time_s"])
+def test_non_numeric_column_names_column_and_row(runs, column):
+    df = with_value(runs, column, 5, "abc")
+    with pytest.raises(
+        ValueError,
+        match=rf"Column '{column}' must be numeric.*run 'r1'.*\(row 5\) holds 'abc'",
+    ):
+        validate_runs(df)
+
+
+def test_bool_column_is_not_numeric(runs):
+    with pytest.raises(ValueError, match="'Sram1_ue' must be numeric.*bool"):
+        validate_runs(runs.assign(Sram1_ue=True))
+
+
+def test_time_not_increasing_names_run_row_and_times(runs):
+    df = with_value(runs, "time_s", 6, 60.0)  # run r1: 0, 60, 60, 180
+    with pytest.raises(
+        ValueError,
+        match=r"in run 'r1', row 6 has time_s 60.0 after time_s 60.0 at row 5",
+    ):
+        validate_runs(df)
+
+
+def test_time_decreasing(runs):
+    df = with_value(runs, "time_s", 9, -5.0)
+    with pytest.raises(ValueError, match=r"run 'r2', row 9 has time_s -5.0"):
+        validate_runs(df)
+
+
+def test_time_may_restart_between_runs(runs):
+    # time_s restarts at 0 in every run of ``runs``; only within-run order counts
+    assert (np.diff(runs["time_s"]) < 0).any()
+    validate_runs(runs)
+
+
+def test_missing_time(runs):
+    df = with_value(runs, "time_s", 2, np.nan)
+    with pytest.raises(ValueError, match=r"'time_s' has 1 missing.*run 'r0'.*row 2"):
+        validate_runs(df)
+
+
+def test_runs_not_contiguous(runs):
+    df = runs.iloc[[0, 1, 4, 5, 2, 3, 6, 7, 8, 9, 10, 11]].reset_index(drop=True)
+    with pytest.raises(
+        ValueError, match=r"run 'r0' are not contiguous \(rows 0-1, rows 4-5\)"
+    ):
+        validate_runs(df)
+
+
+def test_single_row_run(runs):
+    df = runs.iloc[:9]  # r2 keeps one row, at position 8
+    with pytest.raises(ValueError, match=r"Run 'r2' has a single row \(row 8\)"):
+        validate_runs(df)
+
+
+def test_missing_run_label(runs):
+    df = with_value(runs, "run", 3, None)
+    with pytest.raises(ValueError, match=r"'run' has 1 missing label.*row 3"):
+        validate_runs(df)
+
+
+@pytest.mark.parametrize("column", ["disp_z_um", "spindle_rpm", "ambient_C"])
+def test_missing_driver_or_target_names_run_and_time(runs, column):
+    df = with_value(runs, column, 7, np.nan)
+    with pytest.raises(
+        ValueError,
+        match=rf"column '{column}' has 1 missing value\(s\), the first at run "
+        r"'r1', time_s 180.0 \(row 7\)",
+    ):
+        validate_runs(df, allow_missing_sensors=True)
+
+
+def test_missing_sensor(runs):
+    df = with_value(runs, "Tcarrier3_C", 4, np.nan)
+    df = with_value(df, "Tcarrier3_C", 10, np.nan)
+    with pytest.raises(
+        ValueError,
+        match=r"column 'Tcarrier3_C' has 2 missing value\(s\), the first at run "
+        r"'r1', time_s 0.0 \(row 4\).*allow_missing_sensors",
+    ):
+        validate_runs(df)
+    assert validate_runs(df, allow_missing_sensors=True) is df
+
+
+def test_nullable_missing_sensor(runs):
+    df = runs.astype({"T1_C": "Float64"})
+    df.loc[1, "T1_C"] = pd.NA
+    with pytest.raises(ValueError, match=r"'T1_C' has 1 missing.*\(row 1\)"):
+        validate_runs(df)
+
+
+@pytest.mark.parametrize("column", ["T1_C", "disp_y_um", "ambient_C", "time_s"])
+def test_infinite_values(runs, column):
+    df = with_value(runs, column, 3, np.inf)
+    with pytest.raises(ValueError, match=rf"'{column}' has 1 .*infinite.*\(row 3\)"):
+        validate_runs(df, allow_missing_sensors=True)
+
+
+# --- split_runs --------------------------------------------------------------
+
+
+def test_split_runs_defaults(runs):
+    X, y, groups = split_runs(runs)
+    assert list(X.columns) == ["T1_C", "Tcarrier3_C", "Sram1_ue"]
+    assert list(y.columns) == ["disp_y_um", "disp_z_um"]
+    assert X.index.names == ["run", "time_s"]
+    assert y.index.equals(X.index)
+    assert groups.tolist() == runs["run"].tolist()
+    np.testing.assert_array_equal(X.to_numpy(), runs[list(X.columns)].to_numpy())
+    assert X.index.get_level_values("time_s").tolist() == runs["time_s"].tolist()
+
+
+def test_split_runs_single_target_is_series(runs):
+    X, y, _ = split_runs(runs, sensors="T1_C", targets="disp_z_um")
+    assert isinstance(y, pd.Series) and y.name == "disp_z_um"
+    assert list(X.columns) == ["T1_C"]
+    _, y, _ = split_runs(runs.drop(columns="disp_z_um"))
+    assert isinstance(y, pd.Series) and y.name == "disp_y_um"
+    _, y, _ = split_runs(runs, targets=["disp_z_um"])
+    assert isinstance(y, pd.DataFrame)
+
+
+def test_split_runs_accepts_driver_as_feature(runs):
+    X, _, _ = split_runs(runs, sensors=["ambient_C", "T1_C"])
+    assert list(X.columns) == ["ambient_C", "T1_C"]
+
+
+def test_split_runs_unknown_columns(runs):
+    with pytest.raises(
+        ValueError, match=r"Sensor column 'T9_C' is not in the table.*'Tcarrier3_C'"
+    ):
+        split_runs(runs, sensors=["T1_C", "T9_C"])
+    with pytest.raises(ValueError, match=r"'disp_y_um' is not a sensor or driver"):
+        split_runs(runs, sensors=["disp_y_um"])
+    with pytest.raises(
+        ValueError, match=r"Target column 'disp_x_um' is not in the table.*disp_y_um"
+    ):
+        split_runs(runs, targets="disp_x_um")
+
+
+def test_split_runs_missing_values_only_in_selected_sensors(runs):
+    df = with_value(runs, "Sram1_ue", 2, np.nan)
+    X, _, _ = split_runs(df, sensors=["T1_C"])
+    assert list(X.columns) == ["T1_C"]
+    with pytest.raises(ValueError, match="'Sram1_ue' has 1 missing"):
+        split_runs(df)
+
+
+def test_split_runs_requires_targets(runs):
+    with pytest.raises(ValueError, match="no displacement"):
+        split_runs(runs.drop(columns=["disp_y_um", "disp_z_um"]))
+
+
+def test_split_runs_cross_validate_group_kfold():
+    df = make_runs(n_runs=6, n_rows=20)
+    X, y, groups = split_runs(df, targets="disp_y_um")
+    cv = cross_validate(
+        LinearRegression(), X, y, groups=groups, cv=GroupKFold(3), return_indices=True
+    )
+    assert cv["test_score"].shape == (3,)
+    for test in cv["indices"]["test"]:
+        # Whole runs in every test fold: the fold's runs have all their rows.
+        test_runs = set(groups[test])
+        assert len(test) == 20 * len(test_runs)
+
+
+# --- changes_since_start -----------------------------------------------------
+
+
+def test_changes_since_start_hand_values():
+    df = pd.DataFrame(
+        {
+            "run": ["a", "a", "a", "b", "b"],
+            "time_s": [0.0, 1.0, 2.0, 0.0, 1.0],
+            "T1_C": [20.0, 21.0, 23.5, 30.0, 29.0],
+            "spindle_rpm": [100.0, 200.0, 300.0, 0.0, 0.0],
+            "disp_y_um": [5.0, 7.0, 4.0, -1.0, 1.0],
+        }
+    )
+    out = changes_since_start(df)
+    assert out["T1_C"].tolist() == [0.0, 1.0, 3.5, 0.0, -1.0]
+    assert out["disp_y_um"].tolist() == [0.0, 2.0, -1.0, 0.0, 2.0]
+    assert out["spindle_rpm"].tolist() == df["spindle_rpm"].tolist()
+    assert df["T1_C"].tolist()[0] == 20.0  # the input is not modified
+    only = changes_since_start(df, columns="spindle_rpm")
+    assert only["spindle_rpm"].tolist() == [0.0, 100.0, 200.0, 0.0, 0.0]
+    assert only["T1_C"].tolist() == df["T1_C"].tolist()
+
+
+def test_changes_since_start_int_columns_and_errors(runs):
+    df = runs.assign(T1_C=np.arange(len(runs)))  # int64 column
+    out = changes_since_start(df, columns=["T1_C"])
+    assert out["T1_C"].tolist() == [0.0, 1.0, 2.0, 3.0] * 3
+    with pytest.raises(ValueError, match=r"\['T9_C'\] are not in the table"):
+        changes_since_start(runs, columns=["T9_C"])
+    with pytest.raises(ValueError, match="no 'run' column"):
+        changes_since_start(runs.drop(columns="run"))
+
+
+# --- read_runs / write_runs --------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["runs.csv", "runs.csv.gz", "runs.parquet", "r.pq"])
+def test_round_trip(tmp_path, runs, name):
+    path = tmp_path / name
+    write_runs(runs, path)
+    back = read_runs(path)
+    pd.testing.assert_frame_equal(back, runs)
+    assert not (tmp_path / f"{name}.json").exists()
+
+
+def test_csv_gz_is_compressed(tmp_path, runs):
+    write_runs(runs, tmp_path / "runs.csv.gz")
+    assert (tmp_path / "runs.csv.gz").read_bytes()[:2] == b"\x1f\x8b"
+
+
+def test_round_trip_with_metadata(tmp_path, runs):
+    meta = pd.DataFrame(
+        {
+            "run": ["r0", "r2"],
+            "machine": ["B", "B"],
+            "max_rpm": [4000, 8000],
+            "note": ["door opened", None],
+        }
+    )
+    meta.attrs["source"] = "test bench"
+    path = tmp_path / "runs.csv.gz"
+    write_runs(runs, path, metadata=meta)
+    sidecar = json.loads((tmp_path / "runs.csv.gz.json").read_text())
+    assert sidecar["source"] == "test bench"
+    assert sidecar["runs"][1] == {
+        "run": "r2",
+        "machine": "B",
+        "max_rpm": 8000,
+        "note": None,
+    }
+    df, back = read_runs(path, metadata=True)
+    pd.testing.assert_frame_equal(df, runs)
+    assert back["run"].tolist() == ["r0", "r2"]
+    assert back["max_rpm"].tolist() == [4000, 8000]
+    assert back["note"].iloc[0] == "door opened" and pd.isna(back["note"].iloc[1])
+    assert back.attrs == {"source": "test bench"}
+
+
+def test_metadata_forms(tmp_path, runs):
+    path = tmp_path / "runs.parquet"
+    write_runs(runs, path, metadata={"r1": {"date": "2024-05-01"}})
+    _, meta = read_runs(path, metadata=True)
+    assert meta.to_dict("records") == [{"run": "r1", "date": "2024-05-01"}]
+    frame = pd.DataFrame({"machine": ["A"]}, index=pd.Index(["r0"], name="run"))
+    write_runs(runs, path, metadata=frame)
+    _, meta = read_runs(path, metadata=True)
+    assert meta.to_dict("records") == [{"run": "r0", "machine": "A"}]
+
+
+def test_no_sidecar_gives_empty_metadata(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    write_runs(runs, path)
+    df, meta = read_runs(path, metadata=True)
+    assert list(meta.columns) == ["run"] and len(meta) == 0
+    assert isinstance(read_runs(path), pd.DataFrame)
+
+
+def test_write_without_metadata_removes_stale_sidecar(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    write_runs(runs, path, metadata={"r0": {"machine": "A"}})
+    write_runs(runs, path)
+    assert not (tmp_path / "runs.csv.json").exists()
+
+
+def test_metadata_errors(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    with pytest.raises(ValueError, match=r"run\(s\) \['r7'\] that are not in"):
+        write_runs(runs, path, metadata={"r7": {"machine": "A"}})
+    with pytest.raises(ValueError, match=r"keyed by run"):
+        write_runs(runs, path, metadata=pd.DataFrame({"machine": ["A"]}))
+    with pytest.raises(ValueError, match=r"\['r0'\] more than once"):
+        write_runs(runs, path, metadata=[{"run": "r0"}, {"run": "r0"}])
+    write_runs(runs, path)
+    (tmp_path / "runs.csv.json").write_text('{"machine": "A"}')
+    with pytest.raises(ValueError, match=r"runs.csv.json has no 'runs' list"):
+        read_runs(path, metadata=True)
+    (tmp_path / "runs.csv.json").write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        read_runs(path, metadata=True)
+    # A bare list of records is accepted.
+    (tmp_path / "runs.csv.json").write_text('[{"run": "r1", "x": 1}]')
+    assert read_runs(path, metadata=True)[1]["x"].tolist() == [1]
+
+
+def test_read_validates(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    runs.rename(columns={"T1_C": "T1_K"}).to_csv(path, index=False)
+    with pytest.raises(ValueError, match="'T1_K' looks like a temperature sensor"):
+        read_runs(path)
+    assert "T1_K" in read_runs(path, validate=False).columns
+
+
+def test_write_validates(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    with pytest.raises(ValueError, match="'disp_y' looks like a displacement"):
+        write_runs(runs.rename(columns={"disp_y_um": "disp_y"}), path)
+    assert not path.exists()
+
+
+def test_read_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.csv"):
+        read_runs(tmp_path / "nope.csv")
+
+
+# --- load_fl_thermal ---------------------------------------------------------
+
+
+def test_load_fl_thermal(shared_data):
+    df = load_fl_thermal(shared_data / "fl_thermal_spindle.csv.gz")
+    assert df.shape == (11115, 24)
+    assert df.columns[0] == "run" and (df["run"] == "fl_thermal").all()
+    assert sensor_columns(df) == [f"T{i}_C" for i in range(1, 17)]
+    assert target_columns(df) == [f"disp_ch{i}_um" for i in range(1, 6)]
+    assert driver_columns(df) == ["spindle_rpm"]
+    assert validate_runs(df, require_targets=True) is df
+    assert np.all(np.diff(df["time_s"]) == 15)
+    # Values unchanged: first row as in the file.
+    assert df["time_s"].iloc[0] == 0 and df["disp_ch1_um"].iloc[0] == 0.377452788
+    assert df["T1_C"].iloc[0] == 26.1908623380691
+    # Duty cycle: 1250 rpm for the first 4 h (hour 1-3).
+    assert set(df.loc[df["time_s"].between(3600, 3 * 3600), "spindle_rpm"]) == {1250}
+    X, y, groups = split_runs(df)
+    assert X.shape == (11115, 16) and y.shape == (11115, 5)
+    assert set(groups) == {"fl_thermal"}
+
+
+def test_load_fl_thermal_from_folder(shared_data):
+    df = load_fl_thermal(shared_data)
+    assert len(df) == 11115
+
+
+def test_load_fl_thermal_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="fl_thermal_spindle.csv.gz"):
+        load_fl_thermal(tmp_path)
+    with pytest.raises(FileNotFoundError, match="not found"):
+        load_fl_thermal(tmp_path / "other.csv")
+    path = tmp_path / "fl_thermal_spindle.csv.gz"
+    pd.DataFrame({"time_s": [0, 15], "T1_C": [1.0, 2.0]}).to_csv(path, index=False)
+    with pytest.raises(ValueError, match="does not look like.*'spindle_rpm'"):
+        load_fl_thermal(tmp_path)
+
+
+def test_split_runs_index_carries_runs_through_cross_validate():
+    seen = []
+
+    def record_runs(X):
+        seen.append(extract_runs(X)[1])
+        return X
+
+    df = make_runs(n_runs=6, n_rows=5)
+    X, y, groups = split_runs(df, targets="disp_y_um")
+    pipe = make_pipeline(FunctionTransformer(record_runs), LinearRegression())
+    cross_validate(pipe, X, y, groups=groups, cv=GroupKFold(3), error_score="raise")
+    assert len(seen) > 0
+    for labels in seen:
+        assert labels is not None and len(labels) in (10, 20)
+        assert set(labels) <= set(groups)

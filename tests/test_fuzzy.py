@@ -1,0 +1,108 @@
+"""Tests of fuzzy c-means (skthermal.fuzzy)."""
+
+import numpy as np
+import pytest
+from sklearn.datasets import make_blobs
+from sklearn.metrics import adjusted_rand_score
+
+from skthermal.fuzzy import fuzzy_cmeans, fuzzy_memberships
+from skthermal.fuzzy._cmeans import memberships_from_distances
+
+
+def _reference_fcm(X, u0, m, n_iter):
+    """Textbook fuzzy c-means, one sample at a time (for cross-checking)."""
+    u = u0.copy()
+    for _ in range(n_iter):
+        um = u**m
+        centers = (um.T @ X) / um.sum(axis=0)[:, None]
+        for j in range(X.shape[0]):
+            d = np.linalg.norm(X[j] - centers, axis=1)
+            for i in range(centers.shape[0]):
+                u[j, i] = 1.0 / np.sum((d[i] / d) ** (2 / (m - 1)))
+    return centers, u
+
+
+@pytest.mark.parametrize("m", [2.0, 1.5, 3.0])
+def test_matches_textbook_iteration(m):
+    X, _ = make_blobs(60, centers=3, random_state=0)
+    rng = np.random.default_rng(0)
+    u0 = rng.random((60, 3))
+    u0 /= u0.sum(axis=1, keepdims=True)
+    res = fuzzy_cmeans(X, 3, m=m, init=u0, max_iter=7, tol=0)
+    centers, u = _reference_fcm(X, u0, m, 7)
+    # The library returns the memberships computed from the last centres.
+    np.testing.assert_allclose(res.centers, centers, rtol=1e-10)
+    np.testing.assert_allclose(res.memberships, u, rtol=1e-9)
+    assert res.n_iter == 7
+
+
+def test_recovers_blobs_and_objective_decreases():
+    X, truth = make_blobs(300, centers=4, cluster_std=0.5, random_state=1)
+    res = fuzzy_cmeans(X, 4, n_init=3, random_state=0)
+    assert adjusted_rand_score(truth, res.labels) == 1.0
+    np.testing.assert_allclose(res.memberships.sum(axis=1), 1.0)
+    assert np.all(np.diff(res.objective_history) <= 1e-9 * res.objective_history[0])
+
+
+def test_seeded_results_are_identical():
+    X, _ = make_blobs(200, centers=3, random_state=2)
+    a = fuzzy_cmeans(X, 3, n_init=4, init="random", random_state=7)
+    b = fuzzy_cmeans(X, 3, n_init=4, init="random", random_state=7)
+    np.testing.assert_array_equal(a.memberships, b.memberships)
+
+
+def test_point_on_a_centre_gets_full_membership():
+    d2 = np.array([[0.0, 4.0, 9.0], [1.0, 1.0, 4.0], [0.0, 0.0, 1.0]])
+    u = memberships_from_distances(d2, 2.0)
+    np.testing.assert_allclose(u[0], [1, 0, 0])
+    np.testing.assert_allclose(u[1], [4 / 9, 4 / 9, 1 / 9])
+    np.testing.assert_allclose(u[2], [0.5, 0.5, 0])
+
+
+def test_far_away_points_stay_finite():
+    centers = np.array([[0.0, 0.0], [1.0, 1.0]])
+    u = fuzzy_memberships(np.array([[1e150, 1e150], [1e-160, 0.0]]), centers)
+    assert np.all(np.isfinite(u))
+    np.testing.assert_allclose(u.sum(axis=1), 1.0)
+
+
+def test_sample_weight_moves_centres():
+    X = np.array([[0.0], [1.0], [10.0]])
+    res = fuzzy_cmeans(X, 1, sample_weight=[1.0, 0.0, 0.0], random_state=0)
+    assert res.centers[0, 0] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"n_clusters": 0}, "n_clusters must be between 1"),
+        ({"n_clusters": 11}, "n_clusters must be between 1"),
+        ({"n_clusters": 2, "m": 1.0}, "fuzzifier m must be greater than 1"),
+        ({"n_clusters": 2, "init": "nope"}, "init must be"),
+        ({"n_clusters": 2, "sample_weight": [-1.0] * 10}, "sample_weight"),
+    ],
+)
+def test_errors(kwargs, match):
+    X = np.arange(20.0).reshape(10, 2)
+    n_clusters = kwargs.pop("n_clusters")
+    with pytest.raises(ValueError, match=match):
+        fuzzy_cmeans(X, n_clusters, **kwargs)
+
+
+def test_nan_is_rejected():
+    X = np.ones((4, 2))
+    X[1, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        fuzzy_cmeans(X, 2)
+
+
+def test_gram_path_for_wide_data_matches_direct_path():
+    """More features than samples switches to Gram-matrix distances: same result."""
+    rng = np.random.default_rng(0)
+    wide = rng.normal(size=(30, 200)) + np.repeat(rng.normal(size=(3, 200)), 10, 0)
+    u0 = rng.random((30, 3))
+    u0 /= u0.sum(axis=1, keepdims=True)
+    res = fuzzy_cmeans(wide, 3, init=u0, max_iter=5, tol=0)
+    centers, u = _reference_fcm(wide, u0, 2.0, 5)
+    np.testing.assert_allclose(res.centers, centers, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(res.memberships, u, rtol=1e-8)

@@ -1,0 +1,253 @@
+"""Tests of skthermal.metrics: hand-computed values, input checks and scorers."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.linear_model import LinearRegression
+from sklearn.metrics import r2_score
+from sklearn.model_selection import GroupKFold, cross_validate
+
+from skthermal.metrics import (
+    get_scorer,
+    get_scorer_names,
+    improvement,
+    nash_sutcliffe,
+    pearson_r,
+    residual_band,
+    rmse,
+    thermal_scorers,
+)
+
+METRICS = [rmse, nash_sutcliffe, pearson_r, residual_band, improvement]
+
+# z = measured error, p = prediction; residuals z - p = [-1, 1, -1, 3]
+Z = [2.0, 4.0, 6.0, 8.0]
+P = [3.0, 3.0, 7.0, 5.0]
+
+
+def test_hand_computed_values():
+    # SSE = 1 + 1 + 1 + 9 = 12, mean z = 5, SST = 9 + 1 + 1 + 9 = 20
+    assert rmse(Z, P) == pytest.approx(np.sqrt(12 / 4))
+    assert nash_sutcliffe(Z, P) == pytest.approx(1 - 12 / 20)
+    # z - 5 = [-3, -1, 1, 3], p - 4.5 = [-1.5, -1.5, 2.5, 0.5]
+    # sum = 4.5 + 1.5 + 2.5 + 1.5 = 10; sqrt(20 * 11) = sqrt(220)
+    assert pearson_r(Z, P) == pytest.approx(10 / np.sqrt(220))
+    assert residual_band(Z, P) == 3.0
+    assert improvement(Z, P) == pytest.approx(1 - 3 / 8)
+
+
+def test_returns_python_float():
+    for metric in METRICS:
+        assert type(metric(Z, P)) is float
+
+
+def test_perfect_prediction():
+    assert rmse(Z, Z) == 0.0
+    assert nash_sutcliffe(Z, Z) == 1.0
+    assert pearson_r(Z, Z) == pytest.approx(1.0)
+    assert residual_band(Z, Z) == 0.0
+    assert improvement(Z, Z) == 1.0
+
+
+def test_nse_equals_r2_and_mean_prediction_scores_zero(rng):
+    y = rng.normal(size=(50, 3))
+    p = y + rng.normal(scale=0.5, size=(50, 3))
+    np.testing.assert_allclose(
+        nash_sutcliffe(y, p, multioutput="raw_values"),
+        r2_score(y, p, multioutput="raw_values"),
+    )
+    assert nash_sutcliffe(y[:, 0], np.full(50, y[:, 0].mean())) == pytest.approx(0.0)
+
+
+def test_pearson_matches_numpy_and_sign(rng):
+    y = rng.normal(size=40)
+    p = 0.3 * y + rng.normal(size=40)
+    assert pearson_r(y, p) == pytest.approx(np.corrcoef(y, p)[0, 1])
+    assert pearson_r(y, -p) == pytest.approx(-np.corrcoef(y, p)[0, 1])
+    # Invariant to a linear rescaling of the prediction, unlike RMSE.
+    assert pearson_r(y, 5 * p + 2) == pytest.approx(pearson_r(y, p))
+
+
+def test_improvement_uses_absolute_peak():
+    # peak |z| = 10 comes from a negative value
+    assert improvement([-10.0, 2.0], [-9.0, 0.0]) == pytest.approx(1 - 2 / 10)
+
+
+def test_multioutput():
+    y = np.column_stack([Z, [1.0, 1.0, 1.0, 5.0]])
+    p = np.column_stack([P, [1.0, 2.0, 1.0, 3.0]])
+    raw = rmse(y, p, multioutput="raw_values")
+    np.testing.assert_allclose(raw, [np.sqrt(3.0), np.sqrt(5 / 4)])
+    assert rmse(y, p) == pytest.approx(raw.mean())
+    assert rmse(y, p, multioutput=[3.0, 1.0]) == pytest.approx(
+        (3 * raw[0] + raw[1]) / 4
+    )
+    np.testing.assert_array_equal(residual_band(y, p, multioutput="raw_values"), [3, 2])
+    np.testing.assert_allclose(
+        improvement(y, p, multioutput="raw_values"), [1 - 3 / 8, 1 - 2 / 5]
+    )
+    # A 1-D target gives one raw value.
+    assert rmse(Z, P, multioutput="raw_values").shape == (1,)
+
+
+def test_accepts_pandas_and_column_vectors():
+    assert rmse(pd.Series(Z), pd.DataFrame({"p": P})) == pytest.approx(np.sqrt(3))
+    assert rmse(np.array(Z)[:, None], P) == pytest.approx(np.sqrt(3))
+
+
+def test_constant_target_conventions():
+    y = [2.0, 2.0, 2.0]
+    assert nash_sutcliffe(y, y) == 1.0
+    assert nash_sutcliffe(y, [2.0, 3.0, 2.0]) == 0.0
+    assert np.isnan(nash_sutcliffe(y, y, force_finite=False))
+    assert nash_sutcliffe(y, [2.0, 3.0, 2.0], force_finite=False) == -np.inf
+    zero = [0.0, 0.0]
+    assert improvement(zero, zero) == 1.0
+    assert improvement(zero, [0.0, 1.0]) == 0.0
+    assert improvement(zero, [0.0, 1.0], force_finite=False) == -np.inf
+    assert np.isnan(pearson_r(y, [1.0, 2.0, 3.0]))
+    assert np.isnan(pearson_r([1.0, 2.0, 3.0], y))
+    raw = pearson_r(
+        np.column_stack([y, Z[:3]]),
+        np.column_stack([Z[:3], Z[:3]]),
+        multioutput="raw_values",
+    )
+    assert np.isnan(raw[0]) and raw[1] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("metric", METRICS)
+def test_length_mismatch(metric):
+    with pytest.raises(ValueError, match="y_true has 4 samples but y_pred has 3"):
+        metric(Z, P[:3])
+
+
+@pytest.mark.parametrize("metric", METRICS)
+def test_output_mismatch(metric):
+    with pytest.raises(ValueError, match="y_true has 2 outputs but y_pred has 3"):
+        metric(np.ones((4, 2)), np.ones((4, 3)))
+
+
+@pytest.mark.parametrize("metric", METRICS)
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_nan_and_inf(metric, bad):
+    p = np.array(P)
+    p[2] = bad
+    with pytest.raises(ValueError, match=r"y_pred has 1 NaN or infinite.*row 2"):
+        metric(Z, p)
+    y = np.ones((4, 2))
+    y[1, 1] = bad
+    with pytest.raises(ValueError, match=r"y_true has 1 NaN .*row 1, output 1"):
+        metric(y, np.ones((4, 2)))
+
+
+def test_other_input_errors():
+    with pytest.raises(ValueError, match="empty"):
+        rmse([], [])
+    with pytest.raises(ValueError, match="must be numeric"):
+        rmse(["a", "b"], [1.0, 2.0])
+    with pytest.raises(ValueError, match="1-D or 2-D"):
+        rmse(np.ones((2, 2, 2)), np.ones((2, 2, 2)))
+    with pytest.raises(ValueError, match="multioutput must be one of"):
+        rmse(Z, P, multioutput="variance_weighted")
+    with pytest.raises(ValueError, match="one weight per output"):
+        rmse(np.ones((4, 2)), np.ones((4, 2)), multioutput=[1.0])
+
+
+# --- scorers -----------------------------------------------------------------
+
+
+def test_scorer_names_and_signs(rng):
+    X = rng.normal(size=(30, 2))
+    y = X @ [1.0, -2.0] + rng.normal(size=30)
+    model = LinearRegression().fit(X, y)
+    p = model.predict(X)
+    assert get_scorer("neg_rmse")(model, X, y) == pytest.approx(-rmse(y, p))
+    assert get_scorer("neg_residual_band")(model, X, y) == pytest.approx(
+        -residual_band(y, p)
+    )
+    assert get_scorer("nse")(model, X, y) == pytest.approx(nash_sutcliffe(y, p))
+    assert get_scorer("pearson_r")(model, X, y) == pytest.approx(pearson_r(y, p))
+    assert get_scorer("improvement")(model, X, y) == pytest.approx(improvement(y, p))
+
+
+def test_get_scorer_falls_back_to_sklearn(rng):
+    X = rng.normal(size=(20, 2))
+    y = X[:, 0] + rng.normal(size=20)
+    model = LinearRegression().fit(X, y)
+    assert get_scorer("r2")(model, X, y) == pytest.approx(r2_score(y, model.predict(X)))
+    assert get_scorer(None) is None
+    scorer = get_scorer("nse")
+    assert get_scorer(scorer) is scorer
+    with pytest.raises(ValueError, match=r"'nope' is not a valid.*'neg_rmse'"):
+        get_scorer("nope")
+
+
+def test_get_scorer_names():
+    names = get_scorer_names()
+    assert names[:5] == list(thermal_scorers())
+    assert "neg_root_mean_squared_error" in names
+
+
+def test_thermal_scorers_are_fresh_copies():
+    a, b = thermal_scorers(), thermal_scorers()
+    assert set(a) == {
+        "neg_rmse",
+        "nse",
+        "pearson_r",
+        "neg_residual_band",
+        "improvement",
+    }
+    assert a["nse"] is not b["nse"]
+
+
+def test_cross_validate_with_thermal_scorers(rng):
+    n_runs, n_rows = 6, 15
+    groups = np.repeat(np.arange(n_runs), n_rows)
+    X = rng.normal(size=(n_runs * n_rows, 3))
+    y = X @ [2.0, 0.5, -1.0] + 0.3 * rng.normal(size=n_runs * n_rows)
+    cv = cross_validate(
+        LinearRegression(),
+        X,
+        y,
+        groups=groups,
+        cv=GroupKFold(3),
+        scoring=thermal_scorers(),
+        return_indices=True,
+        error_score="raise",
+    )
+    for k, (train, test) in enumerate(
+        zip(cv["indices"]["train"], cv["indices"]["test"], strict=True)
+    ):
+        assert not set(groups[train]) & set(groups[test])
+        p = LinearRegression().fit(X[train], y[train]).predict(X[test])
+        yt = y[test]
+        res = yt - p
+        assert cv["test_neg_rmse"][k] == pytest.approx(-np.sqrt(np.mean(res**2)))
+        nse = 1 - np.sum(res**2) / np.sum((yt - yt.mean()) ** 2)
+        assert cv["test_nse"][k] == pytest.approx(nse)
+        assert cv["test_pearson_r"][k] == pytest.approx(np.corrcoef(yt, p)[0, 1])
+        assert cv["test_neg_residual_band"][k] == pytest.approx(-np.abs(res).max())
+        assert cv["test_improvement"][k] == pytest.approx(
+            1 - np.abs(res).max() / np.abs(yt).max()
+        )
+
+
+def test_cross_validate_multioutput(rng):
+    X = rng.normal(size=(60, 2))
+    Y = np.column_stack([X @ [1.0, 2.0], X @ [-1.0, 0.5]]) + rng.normal(size=(60, 2))
+    groups = np.repeat(np.arange(6), 10)
+    cv = cross_validate(
+        LinearRegression(),
+        X,
+        Y,
+        groups=groups,
+        cv=GroupKFold(3),
+        scoring=thermal_scorers(),
+        return_indices=True,
+        error_score="raise",
+    )
+    test = cv["indices"]["test"][0]
+    train = cv["indices"]["train"][0]
+    p = LinearRegression().fit(X[train], Y[train]).predict(X[test])
+    per_output = np.sqrt(np.mean((Y[test] - p) ** 2, axis=0))
+    assert cv["test_neg_rmse"][0] == pytest.approx(-per_output.mean())

@@ -1,0 +1,307 @@
+"""Tests of the sensor selectors (skthermal.selection)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn import config_context
+from sklearn.base import clone
+from sklearn.linear_model import LinearRegression
+from sklearn.model_selection import GroupKFold, cross_validate
+from sklearn.pipeline import make_pipeline
+
+from skthermal import FCMClusterPicker, GRASelector, GreyInfluenceSelector
+from skthermal.datasets._generators import make_sensor_groups
+
+SELECTORS = [
+    GreyInfluenceSelector(n_features_to_select=3),
+    GreyInfluenceSelector("gm0n", n_features_to_select=3),
+    GRASelector(n_features_to_select=3),
+    GRASelector("deng", n_features_to_select=3),
+    FCMClusterPicker(n_clusters=3, random_state=0),
+]
+
+
+def _indexed(runs, truth):
+    """Sensors and target indexed by (run, time_s), as split_runs returns them."""
+    frame = runs.set_index(["run", "time_s"])
+    return frame[truth.index], frame["disp_y_um"]
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_fcm_picker_keeps_one_sensor_per_group_and_no_noise(seed):
+    runs, truth = make_sensor_groups(
+        n_groups=3, sensors_per_group=10, n_noise=10, random_state=seed
+    )
+    picker = FCMClusterPicker(n_clusters=3, random_state=seed)
+    picker.fit(runs[truth.index], runs["disp_y_um"], groups=runs["run"])
+    kept = truth[picker.get_feature_names_out()]
+    assert sorted(kept.tolist()) == [0, 1, 2]
+    # Every group sits in one cluster of its own.
+    for g in range(3):
+        assert len(set(picker.labels_[truth.to_numpy() == g])) == 1
+    assert len(set(picker.labels_[truth.to_numpy() >= 0])) == 3
+    np.testing.assert_allclose(picker.memberships_.sum(axis=1), 1.0)
+    assert picker.memberships_.argmax(axis=1).tolist() == picker.labels_.tolist()
+
+
+def test_fcm_picker_attributes_are_consistent():
+    runs, truth = make_sensor_groups(random_state=1)
+    picker = FCMClusterPicker(n_clusters=3, random_state=0).fit(
+        runs[truth.index], runs["disp_y_um"], groups=runs["run"]
+    )
+    reps = picker.representatives_
+    assert picker.support_.sum() == 3 and np.all(picker.support_[reps])
+    # Groups are numbered by decreasing score of their representative.
+    assert np.all(np.diff(picker.scores_[reps]) <= 0)
+    assert picker.labels_[reps].tolist() == [0, 1, 2]
+    for c, r in enumerate(reps):
+        members = np.flatnonzero(picker.labels_ == c)
+        assert picker.scores_[r] == picker.scores_[members].max()
+
+
+@pytest.mark.parametrize("scorer", ["gm0n", "gra", GRASelector(method="deng")])
+def test_fcm_picker_other_scorers(scorer):
+    runs, truth = make_sensor_groups(random_state=3)
+    picker = FCMClusterPicker(n_clusters=3, scorer=scorer, random_state=0)
+    picker.fit(runs[truth.index], runs["disp_y_um"], groups=runs["run"])
+    assert picker.get_support().sum() == 3
+    assert len(set(truth[picker.get_feature_names_out()])) == 3
+
+
+def test_fcm_picker_scorer_without_scores_is_an_error():
+    from sklearn.cluster import KMeans
+
+    runs, truth = make_sensor_groups(random_state=0)
+    picker = FCMClusterPicker(n_clusters=3, scorer=KMeans(2, n_init=1))
+    with pytest.raises(ValueError, match="has no scores_"):
+        picker.fit(runs[truth.index], runs["disp_y_um"])
+
+
+def test_fcm_picker_too_many_clusters():
+    X = np.random.default_rng(0).normal(size=(30, 3)).cumsum(axis=0)
+    with pytest.raises(ValueError, match="n_clusters=5 exceeds the number of sensors"):
+        FCMClusterPicker(n_clusters=5).fit(X, X.sum(axis=1))
+
+
+@pytest.mark.parametrize("selector", SELECTORS, ids=repr)
+def test_run_labels_from_groups_column_or_index_agree(selector):
+    runs, truth = make_sensor_groups(random_state=5)
+    X, y = runs[truth.index], runs["disp_y_um"]
+    by_groups = clone(selector).fit(X, y, groups=runs["run"])
+    by_column = clone(selector).fit(runs[["run", *truth.index]], y)
+    Xi, yi = _indexed(runs, truth)
+    by_index = clone(selector).fit(Xi, yi)
+    np.testing.assert_allclose(by_column.scores_, by_groups.scores_)
+    np.testing.assert_allclose(by_index.scores_, by_groups.scores_)
+    assert by_column.feature_names_in_.tolist() == truth.index.tolist()
+    # The run column is not a feature and is dropped at transform time too.
+    out = by_column.set_output(transform="pandas").transform(
+        runs[["run", *truth.index]]
+    )
+    assert "run" not in out.columns
+    assert out.columns.tolist() == by_groups.get_feature_names_out().tolist()
+
+
+@pytest.mark.parametrize("selector", SELECTORS[:4], ids=repr)
+def test_scores_ignore_absolute_run_offsets(selector):
+    """Runs are scored on changes since their start, restarting at each run."""
+    runs, truth = make_sensor_groups(random_state=6)
+    shifted = runs.copy()
+    second = shifted["run"] == "run2"
+    shifted.loc[second, truth.index] += 7.5
+    shifted.loc[second, "disp_y_um"] -= 30.0
+    a = clone(selector).fit(runs[truth.index], runs["disp_y_um"], groups=runs["run"])
+    b = clone(selector).fit(
+        shifted[truth.index], shifted["disp_y_um"], groups=shifted["run"]
+    )
+    np.testing.assert_allclose(a.scores_, b.scores_, rtol=1e-7, atol=1e-12)
+    # Without run labels the jump at the boundary changes the scores.
+    c = clone(selector).fit(shifted[truth.index], shifted["disp_y_um"])
+    assert not np.allclose(a.scores_, c.scores_, rtol=1e-3)
+
+
+def test_grey_influence_ranks_driving_sensors_first():
+    rng = np.random.default_rng(0)
+    t = np.arange(200.0)
+    drivers = np.c_[1 - np.exp(-t / 30), 1 - np.exp(-t / 70)] * [4.0, 2.0]
+    noise = rng.normal(0, 0.05, size=(200, 3))
+    X = np.c_[noise[:, :1], drivers[:, 0], noise[:, 1:2], drivers[:, 1], noise[:, 2:]]
+    y = drivers @ [5.0, 3.0]
+    sel = GreyInfluenceSelector(n_features_to_select=2).fit(X, y)
+    assert sel.get_support().tolist() == [False, True, False, True, False]
+    assert sorted(sel.ranking_[[1, 3]].tolist()) == [1, 2]
+    assert sel.coef_.shape == (1, 5) and np.isfinite(sel.development_coef_[0])
+
+
+def test_selection_size_and_threshold():
+    rng = np.random.default_rng(1)
+    X = rng.normal(size=(50, 6)).cumsum(axis=0)
+    y = X[:, 0] + 0.5 * X[:, 1]
+    n = GRASelector().fit(X, y).get_support().sum()
+    assert n == 3  # default: half of the sensors
+    assert GRASelector(n_features_to_select=0.5).fit(X, y).get_support().sum() == 3
+    assert GRASelector(n_features_to_select=2).fit(X, y).get_support().sum() == 2
+    sel = GRASelector(threshold="median").fit(X, y)
+    assert np.all(sel.scores_[sel.get_support()] >= np.median(sel.scores_))
+    sel = GRASelector(threshold=2.0).fit(X, y)  # degrees are <= 1
+    assert sel.get_support().sum() == 0
+
+
+def test_multi_output_target():
+    runs, truth = make_sensor_groups(random_state=2)
+    Y = np.c_[runs["disp_y_um"], 0.5 * runs["disp_y_um"] + 1.0]
+    sel = GreyInfluenceSelector(n_features_to_select=4)
+    sel.fit(runs[truth.index], Y, groups=runs["run"])
+    single = clone(sel).fit(runs[truth.index], runs["disp_y_um"], groups=runs["run"])
+    assert sel.coef_.shape == (2, truth.size)
+    # A target and its affine image rank the sensors alike.
+    assert sel.get_support().tolist() == single.get_support().tolist()
+
+
+def test_pipeline_cross_validate_with_group_kfold_unchanged():
+    runs, truth = make_sensor_groups(n_runs=4, random_state=4)
+    X, y = _indexed(runs, truth)
+    groups = runs["run"].to_numpy()
+    pipe = make_pipeline(
+        FCMClusterPicker(n_clusters=3, random_state=0), LinearRegression()
+    )
+    res = cross_validate(
+        pipe, X, y, groups=groups, cv=GroupKFold(n_splits=4), return_estimator=True
+    )
+    assert np.all(np.isfinite(res["test_score"]))
+    assert np.all(res["test_score"] > 0.9)
+    for est in res["estimator"]:
+        assert est[0].get_support().sum() == 3
+
+
+def test_metadata_routing_of_groups():
+    runs, truth = make_sensor_groups(n_runs=3, random_state=8)
+    X, y, groups = runs[truth.index], runs["disp_y_um"], runs["run"].to_numpy()
+    with config_context(enable_metadata_routing=True):
+        sel = GreyInfluenceSelector(n_features_to_select=5).set_fit_request(
+            groups=True
+        )
+        pipe = make_pipeline(sel, LinearRegression())
+        res = cross_validate(
+            pipe, X, y, cv=GroupKFold(3), params={"groups": groups},
+            return_estimator=True,
+        )
+    direct = GreyInfluenceSelector(n_features_to_select=5)
+    train = groups != "run1"
+    direct.fit(X[train], y[train], groups=groups[train])
+    fitted = [e[0] for e in res["estimator"]]
+    assert any(np.allclose(f.scores_, direct.scores_) for f in fitted)
+
+
+def test_set_output_pandas_and_feature_names():
+    runs, truth = make_sensor_groups(random_state=0)
+    sel = GRASelector(n_features_to_select=4).set_output(transform="pandas")
+    out = sel.fit(runs[truth.index], runs["disp_y_um"]).transform(runs[truth.index])
+    assert isinstance(out, pd.DataFrame)
+    assert out.columns.tolist() == sel.get_feature_names_out().tolist()
+    assert set(out.columns) <= set(truth.index)
+
+
+# --- errors that name the problem ---------------------------------------------
+
+
+def _small():
+    rng = np.random.default_rng(0)
+    X = pd.DataFrame(
+        rng.normal(size=(40, 4)).cumsum(axis=0), columns=["Ta_C", "Tb_C", "Tc_C", "Td_C"]
+    )
+    y = X["Ta_C"] * 2 + rng.normal(0, 0.1, 40)
+    groups = np.repeat(["r1", "r2"], 20)
+    return X, y, groups
+
+
+@pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
+def test_nan_names_sensor_and_run(selector):
+    X, y, groups = _small()
+    X.loc[25, "Tc_C"] = np.nan
+    with pytest.raises(ValueError, match=r"NaN: sensor 'Tc_C' at row 25, run 'r2'"):
+        clone(selector).fit(X, y, groups=groups)
+    X.loc[25, "Tc_C"] = np.inf
+    with pytest.raises(ValueError, match=r"contains inf: sensor 'Tc_C'"):
+        clone(selector).fit(X, y, groups=groups)
+
+
+@pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
+def test_constant_sensor_is_named(selector):
+    X, y, groups = _small()
+    X["Tb_C"] = 21.5
+    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
+        clone(selector).fit(X, y, groups=groups)
+
+
+def test_constant_within_each_run_is_constant():
+    X, y, groups = _small()
+    X["Tb_C"] = np.where(groups == "r1", 20.0, 25.0)
+    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant within every"):
+        GRASelector().fit(X, y, groups=groups)
+
+
+def test_one_row_run_is_named():
+    X, y, groups = _small()
+    groups = groups.copy()
+    groups[-1] = "r3"
+    with pytest.raises(ValueError, match=r"Run 'r3' has only 1 sample \(row 39\)"):
+        GRASelector().fit(X, y, groups=groups)
+
+
+def test_too_few_samples_for_gm1n_says_how_many():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(8, 10)).cumsum(axis=0)
+    with pytest.raises(ValueError, match="10 input series need at least 12 samples"):
+        GreyInfluenceSelector().fit(X, X[:, 0])
+
+
+def test_non_increasing_time_is_named():
+    runs, truth = make_sensor_groups(random_state=0)
+    runs.loc[[400, 401], "time_s"] = [60.0, 60.0]
+    X, y = _indexed(runs, truth)
+    with pytest.raises(ValueError, match=r"in run 'run2' row 400 has time_s=60 after 2340"):
+        GRASelector().fit(X, y)
+
+
+def test_non_contiguous_run_is_named():
+    X, y, groups = _small()
+    groups = np.array(["r1"] * 10 + ["r2"] * 10 + ["r1"] * 20)
+    with pytest.raises(ValueError, match="run 'r1' are not contiguous"):
+        GRASelector().fit(X, y, groups=groups)
+
+
+def test_transform_with_missing_or_renamed_columns():
+    X, y, groups = _small()
+    sel = GRASelector(n_features_to_select=2).fit(X, y, groups=groups)
+    with pytest.raises(ValueError, match="Tc_C"):
+        sel.transform(X.drop(columns="Tc_C"))
+    with pytest.raises(ValueError, match="T_renamed_C"):
+        sel.transform(X.rename(columns={"Tc_C": "T_renamed_C"}))
+
+
+def test_wrong_number_of_run_labels():
+    X, y, _ = _small()
+    with pytest.raises(ValueError, match="Got 3 run labels"):
+        GRASelector().fit(X, y, groups=["a", "b", "c"])
+
+
+# --- the real spindle test -----------------------------------------------------
+
+
+def test_selectors_on_the_real_spindle_test(shared_data):
+    from skthermal.datasets import load_fl_thermal, split_runs
+
+    runs = load_fl_thermal(shared_data / "fl_thermal_spindle.csv.gz")
+    X, y, groups = split_runs(runs, targets="disp_ch1_um")
+    picker = FCMClusterPicker(n_clusters=5, random_state=0).fit(X, y)
+    assert picker.get_support().sum() == 5
+    assert len(set(picker.labels_[picker.representatives_])) == 5
+    again = FCMClusterPicker(n_clusters=5, random_state=0).fit(X, y)
+    assert again.get_feature_names_out().tolist() == (
+        picker.get_feature_names_out().tolist()
+    )
+    for sel in (GreyInfluenceSelector(n_features_to_select=4), GRASelector()):
+        sel.fit(X, y)
+        assert np.all(np.isfinite(sel.scores_))
+        assert sel.transform(X).shape == (X.shape[0], sel.get_support().sum())
