@@ -39,7 +39,11 @@ def _cases():
     X, _ = make_blobs(5_000, n_features=20, centers=10, random_state=1)
     yield "blobs 5000x20, c=10, m=2", X, 10, 2.0
     runs, truth = make_sensor_groups(
-        n_groups=5, sensors_per_group=15, n_noise=1, n_runs=6, n_samples=600,
+        n_groups=5,
+        sensors_per_group=15,
+        n_noise=1,
+        n_runs=6,
+        n_samples=600,
         random_state=0,
     )
     Z = runs[truth.index].to_numpy()

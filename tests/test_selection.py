@@ -178,12 +178,14 @@ def test_metadata_routing_of_groups():
     runs, truth = make_sensor_groups(n_runs=3, random_state=8)
     X, y, groups = runs[truth.index], runs["disp_y_um"], runs["run"].to_numpy()
     with config_context(enable_metadata_routing=True):
-        sel = GreyInfluenceSelector(n_features_to_select=5).set_fit_request(
-            groups=True
-        )
+        sel = GreyInfluenceSelector(n_features_to_select=5).set_fit_request(groups=True)
         pipe = make_pipeline(sel, LinearRegression())
         res = cross_validate(
-            pipe, X, y, cv=GroupKFold(3), params={"groups": groups},
+            pipe,
+            X,
+            y,
+            cv=GroupKFold(3),
+            params={"groups": groups},
             return_estimator=True,
         )
     direct = GreyInfluenceSelector(n_features_to_select=5)
@@ -208,7 +210,8 @@ def test_set_output_pandas_and_feature_names():
 def _small():
     rng = np.random.default_rng(0)
     X = pd.DataFrame(
-        rng.normal(size=(40, 4)).cumsum(axis=0), columns=["Ta_C", "Tb_C", "Tc_C", "Td_C"]
+        rng.normal(size=(40, 4)).cumsum(axis=0),
+        columns=["Ta_C", "Tb_C", "Tc_C", "Td_C"],
     )
     y = X["Ta_C"] * 2 + rng.normal(0, 0.1, 40)
     groups = np.repeat(["r1", "r2"], 20)
@@ -260,7 +263,9 @@ def test_non_increasing_time_is_named():
     runs, truth = make_sensor_groups(random_state=0)
     runs.loc[[400, 401], "time_s"] = [60.0, 60.0]
     X, y = _indexed(runs, truth)
-    with pytest.raises(ValueError, match=r"in run 'run2' row 400 has time_s=60 after 2340"):
+    with pytest.raises(
+        ValueError, match=r"in run 'run2' row 400 has time_s=60 after 2340"
+    ):
         GRASelector().fit(X, y)
 
 
