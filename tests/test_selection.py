@@ -248,7 +248,7 @@ def test_one_row_run_is_named():
     X, y, groups = _small()
     groups = groups.copy()
     groups[-1] = "r3"
-    with pytest.raises(ValueError, match=r"Run 'r3' has only 1 sample \(row 39\)"):
+    with pytest.raises(ValueError, match=r"Run .r3. has only 1 sample \(rows 39-39\)"):
         GRASelector().fit(X, y, groups=groups)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from scipy import linalg
 
 from skthermal.grey._ago import ago, background
-from skthermal.utils._runs import changes_since_start, run_slices
+from skthermal.utils._runs import changes_since_start, check_run_lengths, run_slices
 
 
 def _solve(B, Y, alpha):
@@ -46,13 +46,7 @@ def _prepare(y, X, groups, relative, min_rows, model):
             f"{model}: target has {y.shape[0]} samples but inputs have {X.shape[0]}."
         )
     slices, labels = run_slices(groups, y.shape[0])
-    for sl, lab in zip(slices, labels, strict=True):
-        if sl.stop - sl.start < 2:
-            where = "" if lab is None else f" (run {lab!r})"
-            raise ValueError(
-                f"{model}: a run needs at least 2 samples, got "
-                f"{sl.stop - sl.start}{where}."
-            )
+    check_run_lengths(slices, labels, model)
     n_rows = y.shape[0] - len(slices)
     if n_rows < min_rows:
         raise ValueError(

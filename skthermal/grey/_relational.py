@@ -7,7 +7,7 @@ run); a bigger degree means a series follows the target more closely.
 
 import numpy as np
 
-from skthermal.utils._runs import changes_since_start, run_slices
+from skthermal.utils._runs import changes_since_start, check_run_lengths, run_slices
 
 _METHODS = ("similitude", "absolute", "deng")
 _NORMALIZE = ("range", "std", None)
@@ -85,13 +85,7 @@ def grey_relational_grade(
             f"Target of shape {y.shape} does not match inputs of shape {X.shape}."
         )
     slices, labels = run_slices(groups, y.shape[0])
-    for sl, lab in zip(slices, labels, strict=True):
-        if sl.stop - sl.start < 2:
-            where = "" if lab is None else f" (run {lab!r})"
-            raise ValueError(
-                "Grey relational analysis needs at least 2 samples per run, got "
-                f"{sl.stop - sl.start}{where}."
-            )
+    check_run_lengths(slices, labels, "grey relational analysis")
     A = changes_since_start(np.column_stack([y, X]), slices)
     A = _scale(A, normalize)
     a0, Ai = A[:, :1], A[:, 1:]

@@ -16,6 +16,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
     changes_since_start,
+    check_run_lengths,
     check_time_order,
     extract_runs,
     run_slices,
@@ -99,12 +100,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
                     f"{_run_label(labels, row, slices)}. Impute or drop the "
                     "samples before fitting."
                 )
-        for sl, lab in zip(slices, labels, strict=True):
-            if sl.stop - sl.start < 2:
-                raise ValueError(
-                    f"Run {lab!r} has only 1 sample (row {sl.start}); every run "
-                    "needs at least 2 samples to measure a change."
-                )
+        check_run_lengths(slices, labels, "measuring a change")
         change = changes_since_start(X, slices)
         constant = ~np.any(change != 0, axis=0)
         if constant.any():

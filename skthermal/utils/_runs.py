@@ -152,3 +152,19 @@ def check_time_order(X, groups):
                 f"time_s must increase strictly within a run, but{where} row {row} "
                 f"has time_s={t[row]:g} after {t[row - 1]:g}."
             )
+
+
+def check_run_lengths(slices, labels, what, min_samples=2):
+    """Raise a ValueError naming the first run shorter than ``min_samples``.
+
+    ``what`` names the method that needs the samples, e.g. ``"GM(1,N)"``.
+    """
+    for sl, lab in zip(slices, labels, strict=True):
+        n = sl.stop - sl.start
+        if n < min_samples:
+            run = "A run" if lab is None else f"Run {lab!r}"
+            got = f"{n} sample" + ("" if n == 1 else "s")
+            raise ValueError(
+                f"{run} has only {got} (rows {sl.start}-{sl.stop - 1}); {what} "
+                f"needs at least {min_samples} samples per run."
+            )
