@@ -310,3 +310,18 @@ def test_selectors_on_the_real_spindle_test(shared_data):
         sel.fit(X, y)
         assert np.all(np.isfinite(sel.scores_))
         assert sel.transform(X).shape == (X.shape[0], sel.get_support().sum())
+
+
+@pytest.mark.parametrize("selector", SELECTORS, ids=repr)
+def test_joblib_round_trip(selector, tmp_path):
+    import joblib
+
+    runs, truth = make_sensor_groups(random_state=9)
+    X, y = _indexed(runs, truth)
+    fitted = clone(selector).fit(X, y)
+    joblib.dump(fitted, tmp_path / "sel.joblib")
+    loaded = joblib.load(tmp_path / "sel.joblib")
+    np.testing.assert_array_equal(loaded.transform(X), fitted.transform(X))
+    assert loaded.get_feature_names_out().tolist() == (
+        fitted.get_feature_names_out().tolist()
+    )
