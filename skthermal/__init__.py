@@ -7,6 +7,7 @@ time-ordered test runs.
 
 __version__ = "0.1.0.dev0"
 
+from skthermal.grey import GNNMCIRegressor, GreyPSORegressor  # noqa: E402
 from skthermal.selection import (  # noqa: E402
     FCMClusterPicker,
     GRASelector,
@@ -15,7 +16,9 @@ from skthermal.selection import (  # noqa: E402
 
 __all__ = [
     "FCMClusterPicker",
+    "GNNMCIRegressor",
     "GRASelector",
+    "GreyPSORegressor",
     "GreyInfluenceSelector",
     "__version__",
 ]

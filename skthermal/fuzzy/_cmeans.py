@@ -9,22 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.cluster import kmeans_plusplus
 from sklearn.utils import check_random_state
-from threadpoolctl import ThreadpoolController
 
-_THREADPOOLS = None
-
-
-def _single_threaded_blas():
-    """Limit BLAS to one thread, as scikit-learn's KMeans does in its loop.
-
-    Each iteration is a few small matrix products; a multi-threaded BLAS spends
-    more time waking and syncing threads than computing, and on a busy machine
-    it can be tens of times slower.
-    """
-    global _THREADPOOLS
-    if _THREADPOOLS is None:
-        _THREADPOOLS = ThreadpoolController()
-    return _THREADPOOLS.limit(limits=1, user_api="blas")
+from skthermal.utils._threads import single_threaded_blas
 
 
 @dataclass(frozen=True)
@@ -258,7 +244,7 @@ def fuzzy_cmeans(
     rng = check_random_state(random_state)
     x_sq = np.einsum("ij,ij->i", X, X)
     best = None
-    with _single_threaded_blas():
+    with single_threaded_blas():
         gram = X @ X.T if X.shape[1] > X.shape[0] else None
         for _ in range(int(n_init)):
             u0 = _initial_memberships(X, int(n_clusters), init, m, rng, x_sq)
