@@ -14,7 +14,6 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
-from threadpoolctl import threadpool_limits
 
 from skthermal.grey._ago import iago
 from skthermal.grey._gmc import (
@@ -28,6 +27,7 @@ from skthermal.grey._gmc import (
 )
 from skthermal.optimize._pso import particle_swarm
 from skthermal.utils._runs import extract_runs, run_slices
+from skthermal.utils._threads import single_threaded_blas
 
 
 def _rms(A):
@@ -290,7 +290,7 @@ class GreyPSORegressor(_GreyRunRegressor):
         # times n_particles per epoch): a multi-threaded BLAS only adds
         # synchronisation, several times their cost on a busy machine. As
         # scikit-learn's KMeans does, keep BLAS on one thread meanwhile.
-        with threadpool_limits(limits=1, user_api="blas"):
+        with single_threaded_blas():
             return self._fit(X, y, slices)
 
     def _fit(self, X, y, slices):
@@ -510,7 +510,7 @@ class GNNMCIRegressor(_GreyRunRegressor):
         # times n_particles per epoch): a multi-threaded BLAS only adds
         # synchronisation, several times their cost on a busy machine. As
         # scikit-learn's KMeans does, keep BLAS on one thread meanwhile.
-        with threadpool_limits(limits=1, user_api="blas"):
+        with single_threaded_blas():
             return self._fit(X, y, slices)
 
     def _fit(self, X, y, slices):
