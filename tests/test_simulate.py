@@ -1,0 +1,408 @@
+"""Tests of the thermal simulator (skthermal.simulate) and the campaigns."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.integrate import solve_ivp
+
+from skthermal.datasets import (
+    make_etve,
+    make_machine_b_tests,
+    make_multipart_test,
+    validate_runs,
+)
+from skthermal.simulate import (
+    EFFECTS,
+    AmbientProfile,
+    DoorEvent,
+    DutyCycle,
+    ModalSystem,
+    ThermalMachine,
+    describe_effects,
+    linear_recurrence,
+)
+from skthermal.simulate._solver import first_order_lag
+
+# --- numerics -----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 64, 65, 1000, 5000])
+def test_linear_recurrence_matches_loop(n, rng):
+    lam = np.r_[rng.uniform(0, 1, 3), 0.0, 0.999999]
+    g = rng.normal(size=(n, 5))
+    x = linear_recurrence(lam, g, np.ones(5))
+    ref = np.empty((n + 1, 5))
+    ref[0] = 1.0
+    for k in range(n):
+        ref[k + 1] = lam * ref[k] + g[k]
+    np.testing.assert_allclose(x, ref, rtol=1e-10, atol=1e-10)
+
+
+def test_modal_step_matches_an_ode_solver(rng):
+    """Exact discretisation: ZOH heat, linearly varying air, any step length."""
+    n = 6
+    C = rng.uniform(1e3, 1e5, n)
+    G = np.zeros((n, n))
+    for i in range(n - 1):
+        G[i, i + 1] = G[i + 1, i] = rng.uniform(1, 20)
+    h = rng.uniform(0.1, 2, n)
+    K = np.diag(G.sum(axis=1)) - G + np.diag(h)
+    modal = ModalSystem.from_network(C, K)
+    dt, steps = 60.0, 120
+    Q = np.zeros((steps, n))
+    Q[:50, 0] = 80.0
+    Q[30:90, 3] = 25.0
+    air = 20 + 3 * np.sin(np.arange(steps + 1) * dt / 2000)
+    T = modal.step(np.full(n, 20.0), Q, h, air, dt)
+
+    def f(t, T):
+        k = min(int(t // dt), steps - 1)
+        a = air[k] + (air[k + 1] - air[k]) * (t / dt - k)
+        return (-K @ T + h * a + Q[k]) / C
+
+    ref = solve_ivp(
+        f,
+        (0, steps * dt),
+        np.full(n, 20.0),
+        t_eval=np.arange(steps + 1) * dt,
+        rtol=1e-10,
+        atol=1e-10,
+        max_step=dt / 8,
+    )
+    np.testing.assert_allclose(T, ref.y.T, atol=1e-6)
+
+
+def test_first_order_lag_settles_and_starts_at_input():
+    x = np.r_[np.zeros(10), np.ones(400)][:, None] * [1.0, 2.0]
+    y = first_order_lag(x, tau=60.0, dt=10.0)
+    np.testing.assert_allclose(y[0], x[0])
+    np.testing.assert_allclose(y[-1], [1.0, 2.0], rtol=1e-6)
+    # After one time constant past the step, 1 - 1/e of the way (FOH ramp).
+    assert 0.5 < y[16, 0] < 0.7
+
+
+# --- the machine ----------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def vmc_b():
+    return ThermalMachine.from_preset("vmc-b")
+
+
+def test_vmc_b_layout(vmc_b):
+    assert vmc_b.sensors == [f"T{i:02d}_C" for i in range(1, 78)]
+    assert vmc_b.targets == ["disp_x_um", "disp_y_um", "disp_z_um"]
+    groups = vmc_b.spec.groups
+    assert groups["carrier strip 1"][0] == "T08_C"
+    assert groups["carrier strip 1"][-1] == "T33_C"
+    assert len(groups["carrier strip 2"]) == 29
+    assert groups["spindle boss"] == ["T63_C", "T64_C", "T65_C"]
+
+
+def test_vmc_a_layout():
+    machine = ThermalMachine.from_preset("vmc-a")
+    assert machine.sensors == [f"T{i:02d}_C" for i in range(1, 27)]
+    assert machine.spec.feed_axis == "x"
+
+
+def test_simulated_run_is_a_valid_run_table(vmc_b):
+    run = vmc_b.simulate(
+        DutyCycle.heat_cool(4000, heat_h=1, cool_h=0.5),
+        AmbientProfile(noise_C=0.05),
+        run="A",
+        random_state=0,
+    )
+    validate_runs(run, require_targets=True, require_drivers=True)
+    assert run["time_s"].iloc[-1] == 5400.0
+    meta = run.attrs["metadata"][0]
+    assert meta["machine"] == "vmc-b" and meta["run"] == "A"
+    assert meta["effect_sensor_lag"] and not meta["effect_sensor_drift"]
+    # Quantised temperatures.
+    assert np.allclose(run["T10_C"] / 0.125, np.round(run["T10_C"] / 0.125))
+
+
+def test_seeded_simulation_is_reproducible(vmc_b):
+    duty = DutyCycle.heat_cool(8000, heat_h=0.5, cool_h=0.5)
+    a = vmc_b.simulate(duty, AmbientProfile(noise_C=0.1), random_state=3)
+    b = vmc_b.simulate(duty, AmbientProfile(noise_C=0.1), random_state=3)
+    c = vmc_b.simulate(duty, AmbientProfile(noise_C=0.1), random_state=4)
+    pd.testing.assert_frame_equal(a, b)
+    assert not a["disp_y_um"].equals(c["disp_y_um"])
+
+
+def test_heating_raises_spindle_first_and_column_core_last(vmc_b):
+    _, states = vmc_b.simulate(
+        DutyCycle([(7200, 6000)]), noise=False, return_states=True
+    )
+    rise = states.iloc[-1] - states.iloc[0]
+    assert rise["bearings"] > rise["carrier3"] > rise["column_core"] > 0
+    # Response times (63% of the rise): minutes, tens of minutes, hours.
+    minutes = vmc_b.response_times(6000, hours=48)
+    assert 2 <= minutes["bearings"] <= 20
+    carrier = minutes[[f"carrier{i}" for i in range(1, 7)]]
+    assert carrier.min() >= 10 and carrier.median() <= 100
+    assert minutes["column_core"] >= 180
+
+
+def test_faster_spindle_heats_more_like_n_to_the_alpha(vmc_b):
+    slow = vmc_b.simulate(DutyCycle([(3600, 4000)]), noise=False, return_states=True)
+    fast = vmc_b.simulate(DutyCycle([(3600, 8000)]), noise=False, return_states=True)
+    rise_slow = slow[1]["bearings"].iloc[-1] - 20.0
+    rise_fast = fast[1]["bearings"].iloc[-1] - 20.0
+    # Losses grow like n^1.65; stronger convection at speed takes some back.
+    assert 1.8 < rise_fast / rise_slow < 3.2
+
+
+def test_steady_initial_state_stays_put(vmc_b):
+    run = vmc_b.simulate(DutyCycle([(7200, 3000)]), 21.0, initial="steady", noise=False)
+    assert np.ptp(run["disp_y_um"]) < 1e-6
+    assert np.ptp(run["T40_C"]) < 1e-6
+
+
+# --- effects --------------------------------------------------------------------
+
+
+def test_effect_vocabulary_is_documented():
+    table = describe_effects()
+    expected = {
+        "sensor_lag",
+        "speed_convection",
+        "tool_growth",
+        "ambient_transient",
+        "feed_heating",
+        "sensor_drift",
+    }
+    assert expected <= set(table["effect"])
+    assert table["summary"].str.len().min() > 80
+    assert set(EFFECTS) == set(table["effect"])
+
+
+def test_effects_are_switchable_and_reported(vmc_b):
+    bare = vmc_b.with_effects([])
+    assert bare.effects == ()
+    assert not any(bare.effect_status().values())
+    both = bare.with_effects(add=["tool_growth", "sensor_lag"])
+    assert both.effects == ("sensor_lag", "tool_growth")
+    assert both.with_effects(remove="sensor_lag").effects == ("tool_growth",)
+    with pytest.raises(ValueError, match="Unknown effect"):
+        vmc_b.with_effects(add=["magic"])
+
+
+def test_tool_keeps_growing_after_the_spindle_stops(vmc_b):
+    duty = DutyCycle.heat_cool(8000, heat_h=1, cool_h=1)
+    on = vmc_b.simulate(duty, noise=False, return_states=True)[1]["tool"]
+    stop = 120  # samples of 30 s: the spindle stops at 1 h
+    # The tool's temperature rises for a while after the stop ...
+    assert on.iloc[stop + 10] > on.iloc[stop] + 0.05
+    # ... and its growth is in Z only with the effect.
+    z_on = vmc_b.simulate(duty, noise=False)["disp_z_um"]
+    z_off = vmc_b.with_effects(remove="tool_growth").simulate(duty, noise=False)[
+        "disp_z_um"
+    ]
+    assert z_on.iloc[stop + 20] > z_off.iloc[stop + 20]
+
+
+def test_sensor_lag_gives_hysteresis(vmc_b):
+    duty = DutyCycle.heat_cool(4000, heat_h=1, cool_h=1)
+    lagged = vmc_b.simulate(duty, noise=False)
+    direct = vmc_b.with_effects(remove="sensor_lag").simulate(duty, noise=False)
+    # During heating the lagged boss sensor reads lower, during cooling higher.
+    assert lagged["T63_C"].iloc[30] < direct["T63_C"].iloc[30] - 1.0
+    assert lagged["T63_C"].iloc[140] > direct["T63_C"].iloc[140] + 0.5
+    # Air sensors do not lag; displacements are the same.
+    np.testing.assert_allclose(lagged["T76_C"], direct["T76_C"])
+    np.testing.assert_allclose(lagged["disp_y_um"], direct["disp_y_um"])
+
+
+def test_speed_convection_cools_a_running_spindle(vmc_b):
+    duty = DutyCycle([(3600, 8000)])
+    on = vmc_b.simulate(duty, noise=False)["T64_C"].iloc[-1]
+    off = vmc_b.with_effects(remove="speed_convection").simulate(duty, noise=False)
+    assert on < off["T64_C"].iloc[-1] - 0.5
+
+
+def test_ambient_transient_lets_a_door_event_reach_the_structure():
+    machine = ThermalMachine.from_preset("vmc-a")
+    air = AmbientProfile(door_events=[DoorEvent(start_h=1.0)])
+    duty = DutyCycle([(4 * 3600, 0)])
+    with_ = machine.simulate(duty, air, noise=False)
+    without = machine.with_effects(remove="ambient_transient").simulate(
+        duty, air, noise=False
+    )
+    # 30 minutes after the door opens the exposed structure has moved Z
+    # several times more than the enclosure-shielded one.
+    k = 180  # 1.5 h at 30 s
+    assert abs(with_["disp_z_um"].iloc[k]) > 3 * abs(without["disp_z_um"].iloc[k])
+    assert np.ptp(with_["disp_z_um"]) > 2 * np.ptp(without["disp_z_um"])
+
+
+def test_feed_heating_warms_the_screw_and_moves_the_feed_axis():
+    machine = ThermalMachine.from_preset("vmc-a")
+    duty = DutyCycle([(3 * 3600, 0, 4000)])
+    on = machine.simulate(duty, noise=False)
+    off = machine.with_effects(remove="feed_heating").simulate(duty, noise=False)
+    assert on["T25_C"].iloc[-1] > off["T25_C"].iloc[-1] + 1.0  # X bearing cap
+    assert abs(on["disp_x_um"].iloc[-1]) > 5 * abs(off["disp_x_um"].iloc[-1]) + 1
+    # Position-dependent: measured nearer the fixed end, the screw moves it less.
+    near = machine.with_params({"feed_heating.measure_at": 0.1}).simulate(
+        duty, noise=False
+    )
+    assert abs(near["disp_x_um"].iloc[-1]) < 0.5 * abs(on["disp_x_um"].iloc[-1])
+
+
+def test_sensor_drift_moves_readings_slowly(vmc_b):
+    duty = DutyCycle([(48 * 3600, 0)])
+    drift = vmc_b.with_effects(add="sensor_drift").with_params(
+        {"sensor_drift.rate_C_per_h": 0.05}
+    )
+    a = drift.simulate(duty, 20.0, sample_period_s=600, random_state=0)
+    b = vmc_b.simulate(duty, 20.0, sample_period_s=600, random_state=0)
+    sensors = vmc_b.sensors
+    spread_a = (a[sensors].iloc[-1] - a[sensors].iloc[0]).abs().mean()
+    spread_b = (b[sensors].iloc[-1] - b[sensors].iloc[0]).abs().mean()
+    assert spread_a > 5 * spread_b
+
+
+# --- campaigns and realism ------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def machine_b_tests():
+    return make_machine_b_tests(random_state=0)
+
+
+def test_machine_b_tests_match_the_papers_magnitudes(machine_b_tests):
+    runs = machine_b_tests
+    assert runs["run"].unique().tolist() == ["I", "II", "III", "IV", "V", "VI"]
+    peak = runs.groupby("run", sort=False)[["disp_x_um", "disp_y_um", "disp_z_um"]]
+    peak = peak.agg(lambda s: s.abs().max())
+    paper = {"I": 25, "II": 35, "III": 40, "IV": 39, "V": 64, "VI": 79}
+    for run, y in paper.items():
+        assert 0.8 * y <= peak.loc[run, "disp_y_um"] <= 1.2 * y, run
+    for run in ("V", "VI"):
+        assert 0.8 * 22 <= peak.loc[run, "disp_z_um"] <= 1.2 * 22
+    assert peak["disp_x_um"].max() <= 3.0
+    meta = pd.DataFrame(runs.attrs["metadata"])
+    assert meta["paper_max_disp_y_um"].tolist() == [25, 35, 40, 39, 64, 79]
+    hours = runs.groupby("run", sort=False)["time_s"].max() / 3600
+    assert hours.round(2).tolist() == [2, 5, 5, 8, 2, 2]
+    validate_runs(runs, require_targets=True, require_drivers=True)
+
+
+def test_etve_door_event_magnitudes():
+    runs = make_etve(hours=48, random_state=0)
+    t = runs["time_s"] / 3600
+    window = (t >= 0.3) & (t < 3.0)  # the door opens at 0.5 h
+    dz = np.ptp(runs.loc[window, "disp_z_um"])
+    dy = np.ptp(runs.loc[window, "disp_y_um"])
+    assert 0.75 * 35 <= dz <= 1.25 * 35
+    assert 0.75 * 25 <= dy <= 1.25 * 25
+    air = runs["ambient_C"]
+    assert np.ptp(air[window]) > 7  # about 9 °C drop
+    assert runs["spindle_rpm"].eq(0).all()
+    assert (runs["time_s"].diff().dropna() == 60).all()
+
+
+def test_multipart_test_moves_all_three_axes():
+    runs = make_multipart_test(random_state=0)
+    peak = runs[["disp_x_um", "disp_y_um", "disp_z_um"]].abs().max()
+    assert (peak > 10).all()
+    assert runs["feed_mm_min"].gt(0).any() and runs["spindle_rpm"].nunique() > 3
+
+
+# --- calibration ----------------------------------------------------------------
+
+
+def test_calibration_recovers_hidden_parameters():
+    truth = ThermalMachine.from_preset(
+        "vmc-b", params={"q.bearing_W": 13.0, "k.y.carrier3": 2.4}
+    )
+    runs = pd.concat(
+        [
+            truth.simulate(
+                DutyCycle.heat_cool(4000, heat_h=1, cool_h=1), run="a", noise=False
+            ),
+            truth.simulate(
+                DutyCycle.heat_cool(7000, heat_h=1, cool_h=1), run="b", noise=False
+            ),
+        ],
+        ignore_index=True,
+    )
+    model = ThermalMachine.from_preset("vmc-b")
+    fitted, result = model.calibrate(runs, ["q.bearing_W", "k.y.carrier3"])
+    assert result.success
+    np.testing.assert_allclose(result.params, [13.0, 2.4], rtol=1e-4)
+    assert (result.rmse_after < 1e-3).all()
+    assert (result.rmse_before > 0.5).any()
+    assert fitted.params["q.bearing_W"] == pytest.approx(13.0, rel=1e-4)
+    assert model.params["q.bearing_W"] == 10.0  # the original is unchanged
+
+
+def test_calibration_errors():
+    machine = ThermalMachine.from_preset("vmc-b")
+    runs = machine.simulate(DutyCycle([(600, 1000)]), noise=False)
+    with pytest.raises(ValueError, match="Unknown parameter"):
+        machine.calibrate(runs, ["q.nothing"])
+    with pytest.raises(ValueError, match="are 0: give bounds"):
+        machine.calibrate(runs, ["k.x.base"])
+    with pytest.raises(ValueError, match="no 'ambient_C' column"):
+        machine.calibrate(runs.drop(columns="ambient_C"), ["q.bearing_W"])
+
+
+# --- bad input ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "segments, match",
+    [
+        ([(600, -100)], "spindle_rpm must not be negative"),
+        ([(600, float("nan"))], "spindle_rpm must be finite"),
+        ([(0, 1000)], "duration_s must be positive"),
+        ([], "at least one segment"),
+        ([(600,)], None),
+    ],
+)
+def test_bad_duty_cycles(segments, match):
+    if match is None:  # a bare duration is a stopped spindle
+        assert DutyCycle(segments).segments[0].spindle_rpm == 0
+        return
+    with pytest.raises(ValueError, match=match):
+        DutyCycle(segments)
+
+
+def test_bad_drivers_name_the_problem(vmc_b):
+    t = np.arange(5) * 30.0
+    ok = np.full(5, 20.0)
+    with pytest.raises(ValueError, match=r"negative: -5 in run 'x' at row 2"):
+        vmc_b.simulate_drivers(t, [0, 0, -5, 0, 0], ok, run="x")
+    with pytest.raises(ValueError, match=r"ambient_C is NaN or infinite in run 'x'"):
+        vmc_b.simulate_drivers(t, np.zeros(5), [20, np.nan, 20, 20, 20], run="x")
+    with pytest.raises(
+        ValueError, match=r"time_s must increase strictly: run 'x', row 3"
+    ):
+        vmc_b.simulate_drivers([0, 30, 60, 60, 90], np.zeros(5), ok, run="x")
+    with pytest.raises(ValueError, match="not regularly sampled"):
+        vmc_b.simulate_drivers([0, 30, 60, 100, 130], np.zeros(5), ok)
+
+
+def test_bad_presets_and_parameters():
+    with pytest.raises(ValueError, match="Unknown preset 'vmc-z'"):
+        ThermalMachine.from_preset("vmc-z")
+    with pytest.raises(ValueError, match="'C.boss' is a heat capacity and must be pos"):
+        ThermalMachine.from_preset("vmc-b", params={"C.boss": -5.0})
+    with pytest.raises(ValueError, match="'G.bearings-boss'.*must not be negative"):
+        ThermalMachine.from_preset("vmc-b", params={"G.bearings-boss": -1.0})
+    with pytest.raises(ValueError, match="q.alpha"):
+        ThermalMachine.from_preset("vmc-b", params={"q.alpha": 5.0})
+    with pytest.raises(ValueError, match="Unknown parameter"):
+        ThermalMachine.from_preset("vmc-b").with_params({"C.nowhere": 1.0})
+    with pytest.raises(ValueError, match="sensor_lag.tau_s"):
+        ThermalMachine.from_preset("vmc-b", params={"sensor_lag.tau_s": 0.0})
+
+
+def test_long_run_memory_is_linear_and_fast_enough(vmc_b):
+    """A week at one-minute sampling: one array per quantity, no blow-up."""
+    duty = DutyCycle.from_hours([(4, 4000), (4, 0)] * 21)
+    run = vmc_b.simulate(duty, AmbientProfile(day_amplitude_C=2.5), sample_period_s=60)
+    assert run.shape == (168 * 60 + 1, 85)
+    assert run.memory_usage(deep=False).sum() < 200 * run.shape[0] * 8
