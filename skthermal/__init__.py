@@ -7,6 +7,7 @@ time-ordered test runs.
 
 __version__ = "0.1.0.dev0"
 
+from skthermal.fuzzy import ANFISRegressor  # noqa: E402
 from skthermal.grey import GNNMCIRegressor, GreyPSORegressor  # noqa: E402
 from skthermal.selection import (  # noqa: E402
     FCMClusterPicker,
@@ -15,6 +16,7 @@ from skthermal.selection import (  # noqa: E402
 )
 
 __all__ = [
+    "ANFISRegressor",
     "FCMClusterPicker",
     "GNNMCIRegressor",
     "GRASelector",

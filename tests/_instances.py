@@ -6,6 +6,7 @@ public estimator is added here, with settings that keep the checks quick.
 """
 
 from skthermal import (
+    ANFISRegressor,
     FCMClusterPicker,
     GNNMCIRegressor,
     GRASelector,
@@ -22,6 +23,9 @@ INSTANCES = [
     # The checks use X with as few as 3 sensors: 2 groups fit.
     FCMClusterPicker(n_clusters=2, n_init=2, random_state=0),
     FCMClusterPicker(n_clusters=2, scorer="pearson", features="scores", random_state=0),
+    ANFISRegressor(epochs=5),
+    ANFISRegressor(init="grid", mf="gbell", epochs=5),
+    ANFISRegressor(learning="backprop", validation_fraction=0.2, epochs=5),
     GreyPSORegressor(n_particles=10, epochs=5, random_state=0),
     GreyPSORegressor(calibration="ls"),
     GreyPSORegressor(n_particles=10, epochs=5, delay=2, init="random", random_state=0),

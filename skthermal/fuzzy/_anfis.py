@@ -1,0 +1,754 @@
+"""ANFISRegressor: the scikit-learn estimator around the ANFIS core.
+
+METHODS §6 (000 §2, 001 §3.3, 003 §5; Jang 1993); the array-level algorithm
+lives in :mod:`skthermal.fuzzy._anfis_core`.
+"""
+
+import contextlib
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
+from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_array, check_is_fitted, validate_data
+
+from skthermal.fuzzy._anfis_core import (
+    _HALF,
+    _SINGLE_THREAD_COLUMNS,
+    _CheckingSet,
+    anfis_predict,
+    anfis_train,
+    fcm_mf_params,
+    grid_mf_params,
+    grid_rules,
+)
+from skthermal.fuzzy._membership import (
+    MF_PARAMS,
+    log_membership,
+)
+from skthermal.grey._ago import ago, iago
+from skthermal.utils._runs import extract_runs, run_slices
+from skthermal.utils._threads import single_threaded_blas
+
+# --------------------------------------------------------------------------
+# The estimator
+# --------------------------------------------------------------------------
+
+
+def _ago_by_run(X, groups):
+    """AGO restarting at every run, each run accumulated on its own.
+
+    Accumulating run by run (rather than over the stacked table, then
+    subtracting offsets) makes a run's series bit-for-bit independent of the
+    rows around it.
+    """
+    slices, _ = run_slices(groups, X.shape[0])
+    out = np.empty_like(X)
+    for sl in slices:
+        out[sl] = ago(X[sl])
+    return out
+
+
+def _tail_split(slices, n, fraction):
+    """Boolean mask of the last ``fraction`` of the rows of every run."""
+    val = np.zeros(n, dtype=bool)
+    for sl in slices:
+        length = sl.stop - sl.start
+        k = min(int(round(fraction * length)), length - 1)
+        if k > 0:
+            val[sl.stop - k : sl.stop] = True
+    if not val.any():
+        raise ValueError(
+            f"validation_fraction={fraction} holds out no rows of {n} samples; "
+            "use a larger fraction or pass X_val and y_val."
+        )
+    return val
+
+
+class ANFISRegressor(RegressorMixin, BaseEstimator):
+    """Adaptive neuro-fuzzy inference system (first-order Takagi-Sugeno).
+
+    Rules ``IF x_1 is A_1r AND ... AND x_d is A_dr THEN f_r = p_r . x + q_r``;
+    the output is the firing-strength-weighted mean of the rule outputs
+    (METHODS §6). The rule base comes from fuzzy c-means (one rule per cluster,
+    few rules, as in 000) or from a grid partition of the inputs (Jang 1993);
+    training is Jang's hybrid rule: least squares for the consequents and a
+    gradient step with an adaptive step size for the membership functions.
+
+    Parameters
+    ----------
+    init : {"fcm", "grid"} or array-like of shape (n_features, n_mfs, n_params), \
+default="fcm"
+        Rule base. ``"fcm"``: one rule per fuzzy c-means cluster of the
+        (standardised) inputs, each with its own membership function on every
+        input, centred on the cluster centre, width from the membership-
+        weighted spread. ``"grid"``: ``n_mfs`` functions per input evenly over
+        the training range (Jang's initialisation) and one rule per
+        combination, ``n_mfs ** n_features`` rules, first input slowest. An
+        array gives the initial grid membership functions directly (parameters
+        as ``mf``), e.g. the initial functions of a paper.
+    n_clusters : int, default=3
+        Number of rules with ``init="fcm"``.
+    n_mfs : int, default=2
+        Membership functions per input with ``init="grid"``.
+    mf : {"gaussian", "gbell"}, default="gaussian"
+        Membership function: Gaussian ``exp(-(x - c)^2 / (2 sigma^2))``,
+        parameters ``(sigma, c)``, or generalised bell
+        ``1 / (1 + |(x - c) / a|^(2b))``, parameters ``(a, b, c)``.
+    epochs : int, default=100
+        Maximum number of training epochs (full passes over the data).
+    learning : {"hybrid", "backprop"}, default="hybrid"
+        ``"hybrid"``: every epoch a least-squares solve of all consequents and
+        a gradient step on the premise parameters (Jang). ``"backprop"``:
+        gradient descent on all parameters, consequents starting as constant
+        rules equal to the target mean.
+    step_size : float, default=0.5
+        Initial step size: the length of the gradient step in parameter space
+        (the gradient is rescaled to this length, Jang 1993). It is in the
+        units of the inputs: scale the inputs (e.g. ``StandardScaler``) or pick
+        a smaller step (MATLAB's default is 0.01) for inputs spanning a
+        narrow range.
+    step_increase : float, default=1.2
+        Factor applied to the step after four consecutive decreases of the
+        training error.
+    step_decrease : float, default=0.9
+        Factor applied to the step after two consecutive up/down oscillations
+        of the training error.
+    ridge : float, default=1e-8
+        Ridge regularisation of the least-squares solve, relative to the mean
+        diagonal of the normal equations (scale free); 0 uses the SVD-based
+        minimum-norm least-squares solution.
+    validation_fraction : float in (0, 1) or None, default=None
+        Hold out the last ``validation_fraction`` of the rows of every run
+        (of all rows without runs) as checking data. The split is deterministic
+        and keeps time order, as suits time series; shuffle beforehand, or
+        pass ``X_val``/``y_val`` to ``fit``, for unordered data.
+    tol : float, default=0.0
+        Minimum decrease of the monitored error (checking RMSE if there is a
+        checking set, else training RMSE) that counts as an improvement for
+        ``n_iter_no_change``.
+    n_iter_no_change : int or None, default=None
+        Stop when the monitored error has not improved by more than ``tol`` for
+        this many epochs; None trains all ``epochs``.
+    grey : bool, default=False
+        Grey-ANFIS (001 §6.2.2): train on the accumulated (AGO) series of the
+        inputs and the target and return predictions through the inverse AGO.
+        Accumulation restarts at every run (``groups``, a ``run`` column or a
+        ``run`` index level); every run is predicted from its own start, so a
+        run's prediction does not depend on the other rows passed with it.
+    max_rules : int, default=4096
+        Largest rule base a grid partition may create; a larger one raises a
+        ValueError before anything is allocated.
+    random_state : int, RandomState instance or None, default=None
+        Seeds the fuzzy c-means initialisation.
+    verbose : int, default=0
+        1 prints progress ten times during training, 2 every epoch.
+
+    Attributes
+    ----------
+    mf_params_ : ndarray of shape (n_features_in_, n_mfs, n_params)
+        Trained membership functions: ``mf_params_[j, m]`` is ``(sigma, c)``
+        or ``(a, b, c)`` of the m-th function of input j.
+    initial_mf_params_ : ndarray of the same shape
+        Membership functions before training.
+    rules_ : ndarray of shape (n_rules_, n_features_in_)
+        ``rules_[r, j]`` is the index of the membership function of input j
+        in rule r.
+    consequents_ : ndarray of shape (n_rules_, n_features_in_ + 1) or \
+(n_rules_, n_features_in_ + 1, n_outputs_)
+        Linear coefficients of every rule, then its constant.
+    n_rules_ : int
+        Number of rules.
+    n_outputs_ : int
+        Number of targets.
+    history_ : dict of ndarray
+        Per epoch: ``"epoch"`` (1-based), ``"train_rmse"`` (in AGO space when
+        ``grey``), ``"step_size"`` and, with a checking set, ``"val_rmse"``
+        (in the original space). ``pandas.DataFrame(history_)`` tabulates it.
+    best_epoch_ : int
+        Epoch whose parameters were kept: least checking RMSE, or least
+        training RMSE without a checking set.
+    n_iter_ : int
+        Epochs run.
+    n_features_in_ : int
+        Number of features seen during fit (a ``run`` column is not one).
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Names of the features seen during fit, when X has string column names.
+
+    See Also
+    --------
+    skthermal.fuzzy.fuzzy_cmeans : The clustering behind ``init="fcm"``.
+    skthermal.grey.ago : The accumulated generating operation of ``grey=True``.
+
+    Notes
+    -----
+    Jang, J.-S. R. (1993), "ANFIS: adaptive-network-based fuzzy inference
+    system", IEEE Trans. SMC 23(3): layers eq. (1)-(5) of METHODS §6, hybrid
+    learning §IV, step-size rule §III (also 003 §5). The firing strengths are
+    normalised in log space (log-sum-exp of summed log-memberships), so inputs
+    far outside the training range still give a finite output: that of the
+    rule whose membership functions decay slowest there. Abdulshahed et al.
+    (000) found 3 FCM rules to beat a 243-rule grid for thermal error.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.fuzzy import ANFISRegressor
+    >>> rng = np.random.default_rng(0)
+    >>> X = rng.uniform(-1, 1, size=(200, 2))
+    >>> y = np.sin(2 * X[:, 0]) + X[:, 1] ** 2
+    >>> model = ANFISRegressor(n_clusters=4, epochs=30, random_state=0).fit(X, y)
+    >>> model.n_rules_
+    4
+    >>> bool(model.score(X, y) > 0.95)
+    True
+    """
+
+    _parameter_constraints: dict = {
+        "init": [StrOptions({"fcm", "grid"}), "array-like"],
+        "n_clusters": [Interval(numbers.Integral, 1, None, closed="left")],
+        "n_mfs": [Interval(numbers.Integral, 1, None, closed="left")],
+        "mf": [StrOptions({"gaussian", "gbell"})],
+        "epochs": [Interval(numbers.Integral, 1, None, closed="left")],
+        "learning": [StrOptions({"hybrid", "backprop"})],
+        "step_size": [Interval(numbers.Real, 0, None, closed="neither")],
+        "step_increase": [Interval(numbers.Real, 1, None, closed="left")],
+        "step_decrease": [Interval(numbers.Real, 0, 1, closed="right")],
+        "ridge": [Interval(numbers.Real, 0, None, closed="left")],
+        "validation_fraction": [
+            Interval(numbers.Real, 0, 1, closed="neither"),
+            None,
+        ],
+        "tol": [Interval(numbers.Real, 0, None, closed="left")],
+        "n_iter_no_change": [Interval(numbers.Integral, 1, None, closed="left"), None],
+        "grey": ["boolean"],
+        "max_rules": [Interval(numbers.Integral, 1, None, closed="left")],
+        "random_state": ["random_state"],
+        "verbose": ["verbose"],
+    }
+
+    def __init__(
+        self,
+        *,
+        init="fcm",
+        n_clusters=3,
+        n_mfs=2,
+        mf="gaussian",
+        epochs=100,
+        learning="hybrid",
+        step_size=0.5,
+        step_increase=1.2,
+        step_decrease=0.9,
+        ridge=1e-8,
+        validation_fraction=None,
+        tol=0.0,
+        n_iter_no_change=None,
+        grey=False,
+        max_rules=4096,
+        random_state=None,
+        verbose=0,
+    ):
+        self.init = init
+        self.n_clusters = n_clusters
+        self.n_mfs = n_mfs
+        self.mf = mf
+        self.epochs = epochs
+        self.learning = learning
+        self.step_size = step_size
+        self.step_increase = step_increase
+        self.step_decrease = step_decrease
+        self.ridge = ridge
+        self.validation_fraction = validation_fraction
+        self.tol = tol
+        self.n_iter_no_change = n_iter_no_change
+        self.grey = grey
+        self.max_rules = max_rules
+        self.random_state = random_state
+        self.verbose = verbose
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        return tags
+
+    # ---------------------------------------------------------------- fit
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y, *, groups=None, X_val=None, y_val=None, groups_val=None):
+        """Build the rule base and train it.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+            Inputs. A ``run`` column (or index level) holds run labels and is
+            not a feature.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Targets.
+        groups : array-like of shape (n_samples,), optional
+            Run labels (each run one contiguous block of rows); used by
+            ``grey=True`` and by ``validation_fraction``. Overrides a ``run``
+            column.
+        X_val, y_val : array-like, optional
+            Checking data: the parameters of the epoch with the least checking
+            RMSE are kept. Cannot be combined with ``validation_fraction``.
+        groups_val : array-like of shape (n_val_samples,), optional
+            Run labels of ``X_val`` (for ``grey=True``).
+
+        Returns
+        -------
+        self : ANFISRegressor
+            The fitted estimator.
+        """
+        X, groups = extract_runs(X, groups)
+        X, y = validate_data(
+            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+        )
+        Y = y.reshape(y.shape[0], -1)
+        n, d = X.shape
+        rng = check_random_state(self.random_state)
+        if groups is not None:
+            groups = np.asarray(groups)
+            if groups.shape != (n,):
+                raise ValueError(
+                    f"groups must hold one run label per row ({n}), got shape "
+                    f"{groups.shape}."
+                )
+
+        has_val = X_val is not None or y_val is not None
+        if has_val and (X_val is None or y_val is None):
+            raise ValueError("Pass both X_val and y_val, or neither.")
+        if has_val and self.validation_fraction is not None:
+            raise ValueError(
+                "Give either validation_fraction or X_val/y_val, not both."
+            )
+
+        X_model, Y_model = X, Y
+        if self.grey:
+            X_model, Y_model = _ago_by_run(X, groups), _ago_by_run(Y, groups)
+
+        checking = None
+        train_rows = slice(None)
+        if has_val:
+            checking = self._explicit_checking(X_val, y_val, groups_val, Y.shape[1])
+        elif self.validation_fraction is not None:
+            slices, _ = run_slices(groups, n)
+            val = _tail_split(slices, n, self.validation_fraction)
+            train_rows = ~val
+            checking = self._tail_checking(X_model, Y, groups, slices, val)
+
+        X_train, Y_train = X_model[train_rows], Y_model[train_rows]
+        mf_params, rules = self._initial_rule_base(X_train, rng)
+
+        n_columns = rules.shape[0] * (d + 1)
+        small = n_columns <= _SINGLE_THREAD_COLUMNS
+        with single_threaded_blas() if small else contextlib.nullcontext():
+            result = anfis_train(
+                X_train,
+                Y_train,
+                mf_params,
+                rules,
+                self.mf,
+                epochs=self.epochs,
+                learning=self.learning,
+                step_size=self.step_size,
+                step_increase=self.step_increase,
+                step_decrease=self.step_decrease,
+                ridge=self.ridge,
+                checking=checking,
+                tol=self.tol,
+                n_iter_no_change=self.n_iter_no_change,
+                verbose=self.verbose,
+            )
+        self.initial_mf_params_ = mf_params
+        self.mf_params_ = result["mf_params"]
+        self.rules_ = rules
+        self._set_consequents(result["consequents"], y.ndim == 1)
+        self.history_ = result["history"]
+        self.best_epoch_ = int(result["best_epoch"])
+        self.n_iter_ = len(self.history_["epoch"])
+        self._input_range = np.c_[X_train.min(axis=0), X_train.max(axis=0)]
+        return self
+
+    def _set_consequents(self, consequents, single_output):
+        self._consequents = np.asarray(consequents, dtype=float)
+        self.n_outputs_ = self._consequents.shape[2]
+        self.n_rules_ = self._consequents.shape[0]
+        self._single_output = bool(single_output)
+        self.consequents_ = (
+            self._consequents[:, :, 0] if single_output else self._consequents
+        )
+
+    def _initial_rule_base(self, X, rng):
+        n, d = X.shape
+        k = len(MF_PARAMS[self.mf])
+        if isinstance(self.init, str) and self.init == "fcm":
+            if self.n_clusters > n:
+                raise ValueError(
+                    f"init='fcm' with n_clusters={self.n_clusters} needs at least "
+                    f"{self.n_clusters} training samples, got {n} sample"
+                    f"{'' if n == 1 else 's'}."
+                )
+            return fcm_mf_params(X, self.n_clusters, self.mf, random_state=rng)
+        if isinstance(self.init, str):  # "grid"
+            n_mfs = self.n_mfs
+            self._check_grid_size(n_mfs, d)
+            if n == 0:
+                raise ValueError("Cannot build a grid rule base from 0 samples.")
+            params = grid_mf_params(X, n_mfs, self.mf)
+        else:
+            params = np.array(self.init, dtype=float)
+            if params.ndim != 3 or params.shape[0] != d or params.shape[2] != k:
+                raise ValueError(
+                    f"An init array must have shape (n_features, n_mfs, {k}) = "
+                    f"({d}, n_mfs, {k}) for mf={self.mf!r} "
+                    f"(parameters {MF_PARAMS[self.mf]}), got {params.shape}."
+                )
+            if not np.all(np.isfinite(params)) or np.any(params[..., :-1] <= 0):
+                raise ValueError(
+                    "An init array must be finite with positive widths (and "
+                    "bell slopes)."
+                )
+            n_mfs = params.shape[1]
+            self._check_grid_size(n_mfs, d)
+        return params, grid_rules(n_mfs, d)
+
+    def _check_grid_size(self, n_mfs, d):
+        n_rules = int(n_mfs) ** int(d)
+        if n_rules > self.max_rules:
+            raise ValueError(
+                f"A grid partition with n_mfs={n_mfs} membership functions on each "
+                f"of {d} inputs has {n_mfs}**{d} = {n_rules} rules, more than "
+                f"max_rules={self.max_rules}. Use init='fcm', fewer inputs or "
+                "membership functions, or raise max_rules."
+            )
+
+    def _explicit_checking(self, X_val, y_val, groups_val, n_out):
+        X_val, groups_val = extract_runs(X_val, groups_val)
+        X_val = validate_data(self, X_val, reset=False, dtype=np.float64)
+        y_val = check_array(
+            y_val, ensure_2d=False, dtype=np.float64, input_name="y_val"
+        )
+        Y_val = y_val.reshape(y_val.shape[0], -1)
+        if Y_val.shape != (X_val.shape[0], n_out):
+            raise ValueError(
+                f"y_val must have {X_val.shape[0]} rows and {n_out} output(s) like "
+                f"y, got shape {y_val.shape}."
+            )
+        if not self.grey:
+            return _CheckingSet(X_val, Y_val)
+        run_slices(groups_val, X_val.shape[0])  # validates the labels
+        labels = (
+            np.zeros(X_val.shape[0], dtype=np.intp)
+            if groups_val is None
+            else np.asarray(groups_val)
+        )
+        return _CheckingSet(
+            _ago_by_run(X_val, groups_val), Y_val, groups=labels, grey=True
+        )
+
+    def _tail_checking(self, X_model, Y, groups, slices, val):
+        if not self.grey:
+            return _CheckingSet(X_model[val], Y[val])
+        # IAGO of a tail needs the prediction of the row just before it: score
+        # the tail plus that row, which the inverse AGO treats as the start.
+        rows, labels, mask = [], [], []
+        for r, sl in enumerate(slices):
+            tail = np.flatnonzero(val[sl]) + sl.start
+            if tail.size == 0:
+                continue
+            block = np.r_[tail[0] - 1, tail]
+            rows.append(block)
+            labels.append(np.full(block.size, r))
+            mask.append(np.r_[False, np.ones(tail.size, dtype=bool)])
+        rows = np.concatenate(rows)
+        return _CheckingSet(
+            X_model[rows],
+            Y[rows],
+            mask=np.concatenate(mask),
+            groups=np.concatenate(labels),
+            grey=True,
+        )
+
+    # ------------------------------------------------------------ predict
+
+    def predict(self, X, groups=None):
+        """Predict the targets.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+            Inputs; a ``run`` column or index level holds run labels.
+        groups : array-like of shape (n_samples,), optional
+            Run labels, for ``grey=True`` (every run is accumulated, predicted
+            and restored from its own start).
+
+        Returns
+        -------
+        ndarray of shape (n_samples,) or (n_samples, n_outputs)
+        """
+        check_is_fitted(self)
+        X, groups = extract_runs(X, groups)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        if self.grey:
+            X = _ago_by_run(X, groups)
+        pred = anfis_predict(
+            X, self.mf_params_, self.rules_, self._consequents, self.mf
+        )
+        if self.grey:
+            pred = iago(pred, groups)
+        return pred[:, 0] if self._single_output else pred
+
+    # ------------------------------------------------- parameters and text
+
+    @classmethod
+    def from_parameters(
+        cls,
+        *,
+        mf,
+        mf_params,
+        consequents,
+        rules=None,
+        feature_names=None,
+        **params,
+    ):
+        """A fitted estimator from given parameters (e.g. a published model).
+
+        Parameters
+        ----------
+        mf : {"gaussian", "gbell"}
+        mf_params : array-like of shape (n_features, n_mfs, n_params)
+            ``mf_params[j, m]`` is ``(sigma, c)`` or ``(a, b, c)`` of the m-th
+            membership function of input j (MATLAB's ``gaussmf`` /
+            ``gbellmf`` order).
+        consequents : array-like of shape (n_rules, n_features + 1) or \
+(n_rules, n_features + 1, n_outputs)
+            Per rule the coefficients ``p_1 .. p_d`` then the constant.
+        rules : array-like of shape (n_rules, n_features), optional
+            Index of the membership function of every input in every rule.
+            Default: the grid product ``n_mfs ** n_features`` rules with the
+            first input varying slowest (Jang 1993, MATLAB ``genfis1``); or,
+            when ``n_rules == n_mfs`` and that is not a grid, rule r uses the
+            r-th function of every input (an FCM rule base).
+        feature_names : sequence of str, optional
+            Sets ``feature_names_in_``.
+        **params
+            Other constructor parameters (e.g. ``grey=True``).
+
+        Returns
+        -------
+        ANFISRegressor
+            Fitted: ``predict``, ``describe_rules`` and the plots work.
+
+        Examples
+        --------
+        >>> from skthermal.fuzzy import ANFISRegressor
+        >>> model = ANFISRegressor.from_parameters(
+        ...     mf="gaussian",
+        ...     mf_params=[[[1.0, 0.0], [1.0, 2.0]]],
+        ...     consequents=[[0.0, -1.0], [0.0, 1.0]],
+        ... )
+        >>> model.predict([[-5.0], [1.0], [7.0]]).round(3).tolist()
+        [-1.0, 0.0, 1.0]
+        """
+        est = cls(mf=mf, **params)
+        k = len(MF_PARAMS[mf]) if mf in MF_PARAMS else None
+        if k is None:
+            raise ValueError(f"mf must be 'gaussian' or 'gbell', got {mf!r}.")
+        mf_params = np.array(mf_params, dtype=float)
+        if mf_params.ndim != 3 or mf_params.shape[2] != k:
+            raise ValueError(
+                f"mf_params must have shape (n_features, n_mfs, {k}) for "
+                f"mf={mf!r}, got {mf_params.shape}."
+            )
+        d, n_mfs = mf_params.shape[:2]
+        if not np.all(np.isfinite(mf_params)) or np.any(mf_params[..., :-1] <= 0):
+            raise ValueError("mf_params must be finite with positive widths.")
+        cons = np.array(consequents, dtype=float)
+        single = cons.ndim == 2
+        cons = cons[:, :, None] if single else cons
+        if cons.ndim != 3 or cons.shape[1] != d + 1:
+            raise ValueError(
+                f"consequents must have shape (n_rules, {d + 1}[, n_outputs]) for "
+                f"{d} inputs, got {np.shape(consequents)}."
+            )
+        n_rules = cons.shape[0]
+        if rules is None:
+            if n_mfs**d == n_rules:
+                rules = grid_rules(n_mfs, d)
+            elif n_mfs == n_rules:
+                rules = np.tile(np.arange(n_rules)[:, None], (1, d))
+            else:
+                raise ValueError(
+                    f"{n_rules} rules match neither a grid of {n_mfs}**{d} rules "
+                    f"nor one rule per membership function; pass rules."
+                )
+        rules = np.array(rules, dtype=np.intp)
+        if rules.shape != (n_rules, d) or rules.min() < 0 or rules.max() >= n_mfs:
+            raise ValueError(
+                f"rules must have shape ({n_rules}, {d}) with entries in "
+                f"[0, {n_mfs}), got shape {rules.shape}."
+            )
+        est.n_features_in_ = d
+        if feature_names is not None:
+            names = np.asarray(list(feature_names), dtype=object)
+            if names.shape != (d,):
+                raise ValueError(f"feature_names must hold {d} names.")
+            est.feature_names_in_ = names
+        est.initial_mf_params_ = mf_params.copy()
+        est.mf_params_ = mf_params
+        est.rules_ = rules
+        est._set_consequents(cons, single)
+        est.history_ = {
+            "epoch": np.array([], dtype=int),
+            "train_rmse": np.array([]),
+            "step_size": np.array([]),
+        }
+        est.best_epoch_ = 0
+        est.n_iter_ = 0
+        spread = mf_params[..., 0] * (1.0 if mf == "gbell" else _HALF)
+        centres = mf_params[..., -1]
+        est._input_range = np.c_[
+            (centres - 2 * spread).min(axis=1), (centres + 2 * spread).max(axis=1)
+        ]
+        return est
+
+    def _feature_names(self):
+        names = getattr(self, "feature_names_in_", None)
+        if names is not None:
+            return [str(s) for s in names]
+        return [f"x{j + 1}" for j in range(self.n_features_in_)]
+
+    def describe_rules(self, precision=4):
+        """The rules as readable linguistic text (001 Table 5-6).
+
+        Membership function m of input j is called ``in{j}mf{m}`` (1-based, as
+        MATLAB), followed by its parameters; the inputs are named by
+        ``feature_names_in_`` when the model was fitted on a DataFrame.
+
+        Parameters
+        ----------
+        precision : int, default=4
+            Significant digits of the numbers.
+
+        Returns
+        -------
+        str
+            One line per rule.
+
+        Examples
+        --------
+        >>> from skthermal.fuzzy import ANFISRegressor
+        >>> model = ANFISRegressor.from_parameters(
+        ...     mf="gaussian",
+        ...     mf_params=[[[1.0, 0.0], [1.0, 2.0]]],
+        ...     consequents=[[0.5, -1.0], [0.0, 1.0]],
+        ...     feature_names=["T18"],
+        ... )
+        >>> print(model.describe_rules())
+        Rule 1: IF T18 is in1mf1 (sigma=1, c=0) THEN y = 0.5*T18 - 1
+        Rule 2: IF T18 is in1mf2 (sigma=1, c=2) THEN y = 0*T18 + 1
+        """
+        check_is_fitted(self)
+        names = self._feature_names()
+        pnames = MF_PARAMS[self.mf]
+
+        def num(v):
+            return f"{v:.{precision}g}"
+
+        lines = []
+        C = self._consequents
+        outs = (
+            ["y"] if self.n_outputs_ == 1 else [f"y{o + 1}" for o in range(C.shape[2])]
+        )
+        for r, rule in enumerate(self.rules_):
+            premises = []
+            for j, m in enumerate(rule):
+                pars = ", ".join(
+                    f"{p}={num(v)}"
+                    for p, v in zip(pnames, self.mf_params_[j, m], strict=True)
+                )
+                premises.append(f"{names[j]} is in{j + 1}mf{m + 1} ({pars})")
+            thens = []
+            for o, out in enumerate(outs):
+                terms = [f"{num(C[r, j, o])}*{names[j]}" for j in range(len(names))]
+                const = C[r, -1, o]
+                expr = " + ".join(terms)
+                expr += f" - {num(-const)}" if const < 0 else f" + {num(const)}"
+                thens.append(f"{out} = {expr.replace('+ -', '- ')}")
+            lines.append(
+                f"Rule {r + 1}: IF {' AND '.join(premises)} THEN {', '.join(thens)}"
+            )
+        return "\n".join(lines)
+
+    def plot_membership_functions(self, ax=None, which="trained", n_points=201):
+        """Plot the membership functions of every input (001 Fig. 6-6).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes or sequence of Axes, optional
+            One Axes per input; by default a new figure with one panel per
+            input.
+        which : {"trained", "initial", "both"}, default="trained"
+            Trained functions (solid), initial ones (dashed), or both.
+        n_points : int, default=201
+            Points per curve.
+
+        Returns
+        -------
+        ndarray of matplotlib Axes
+        """
+        check_is_fitted(self)
+        if which not in ("trained", "initial", "both"):
+            raise ValueError(
+                f"which must be 'trained', 'initial' or 'both', got {which!r}."
+            )
+        try:
+            import matplotlib.pyplot as plt
+        except ImportError as exc:  # pragma: no cover - depends on the env
+            raise ImportError(
+                "plot_membership_functions needs matplotlib; install it with "
+                'pip install "skthermal[plot]".'
+            ) from exc
+        d = self.n_features_in_
+        if ax is None:
+            ncols = min(d, 4)
+            nrows = -(-d // ncols)
+            _, axes = plt.subplots(
+                nrows, ncols, figsize=(3.2 * ncols, 2.6 * nrows), squeeze=False
+            )
+            axes = axes.ravel()
+            for extra in axes[d:]:
+                extra.set_visible(False)
+            axes = axes[:d]
+        else:
+            axes = np.atleast_1d(np.asarray(ax, dtype=object)).ravel()
+            if axes.size != d:
+                raise ValueError(f"ax must hold one Axes per input ({d}).")
+        names = self._feature_names()
+        sets = []
+        if which in ("initial", "both"):
+            sets.append((self.initial_mf_params_, "--", "initial"))
+        if which in ("trained", "both"):
+            sets.append((self.mf_params_, "-", "trained"))
+        for j, axis in enumerate(axes):
+            lo, hi = self._input_range[j]
+            pad = 0.05 * (hi - lo) if hi > lo else 1.0
+            x = np.linspace(lo - pad, hi + pad, n_points)
+            used = np.unique(self.rules_[:, j])
+            for params, style, label in sets:
+                mu = np.exp(log_membership(x[:, None], params[j][used], self.mf))
+                for i, m in enumerate(used):
+                    axis.plot(
+                        x,
+                        mu[:, i],
+                        style,
+                        color=f"C{i % 10}",
+                        label=f"in{j + 1}mf{m + 1} ({label})" if j == 0 else None,
+                    )
+            axis.set_xlabel(names[j])
+            axis.set_ylim(-0.02, 1.05)
+        axes[0].set_ylabel("membership")
+        axes[0].legend(fontsize="x-small")
+        return axes

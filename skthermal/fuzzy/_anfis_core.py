@@ -1,0 +1,480 @@
+"""ANFIS core: rule bases, forward pass, least squares, gradients, training.
+
+METHODS §6 (000 §2, 001 §3.3, 003 §5; Jang 1993): plain functions on arrays,
+wrapped by :class:`skthermal.fuzzy.ANFISRegressor`.
+
+Storage layout used throughout:
+
+- ``mf_params`` : ``(n_features, n_mfs, n_params)``; the membership functions
+  of every input, parameters ``(sigma, c)`` (Gaussian) or ``(a, b, c)``
+  (generalised bell), as MATLAB's ``gaussmf`` / ``gbellmf``.
+- ``rules`` : ``(n_rules, n_features)`` integers; ``rules[r, j]`` is the index of
+  the membership function of input ``j`` used by rule ``r``.
+- ``consequents`` : ``(n_rules, n_features + 1, n_outputs)``; rule ``r`` says
+  ``f_r = consequents[r, :-1] . x + consequents[r, -1]``.
+"""
+
+import itertools
+import sys
+
+import numpy as np
+from scipy import linalg
+
+from skthermal.fuzzy._cmeans import fuzzy_cmeans
+from skthermal.fuzzy._membership import (
+    log_membership,
+    log_membership_grad,
+)
+from skthermal.grey._ago import iago
+
+# sqrt(2 ln 2): a Gaussian of width sigma is 0.5 at sigma * _HALF, so that
+# Gaussian and bell functions of the same "half width" cross at 0.5 alike.
+_HALF = np.sqrt(2.0 * np.log(2.0))
+# Floors that keep widths and bell slopes positive during gradient steps,
+# widths relative to each input's spread.
+_WIDTH_FLOOR = 1e-6
+_SLOPE_FLOOR = 1e-3
+# Up to this many consequent columns the per-epoch linear algebra is small:
+# one BLAS thread is then faster than several, and much faster when the cores
+# are shared (oversubscribed OpenBLAS threads slow small solves down 10-50x).
+_SINGLE_THREAD_COLUMNS = 512
+
+
+# --------------------------------------------------------------------------
+# Rule bases
+# --------------------------------------------------------------------------
+
+
+def grid_rules(n_mfs, n_features):
+    """Rules of a grid partition: every combination of the inputs' MFs.
+
+    Product order with the first input varying slowest, as Jang (1993) and
+    MATLAB's ``genfis1``.
+
+    Returns
+    -------
+    ndarray of shape (n_mfs ** n_features, n_features), dtype intp
+    """
+    return np.array(
+        list(itertools.product(range(n_mfs), repeat=n_features)), dtype=np.intp
+    ).reshape(-1, n_features)
+
+
+def _input_scale(X):
+    """A positive length scale per input (its range, else 1)."""
+    span = np.ptp(X, axis=0) if X.shape[0] else np.zeros(X.shape[1])
+    return np.where(span > 0, span, 1.0)
+
+
+def grid_mf_params(X, n_mfs, mf):
+    """Evenly spaced membership functions over each input's range.
+
+    Jang's initialisation: centres evenly spaced from the minimum to the maximum
+    of each input; adjacent functions cross at membership 0.5, i.e. bell
+    ``a = range / (2 (n_mfs - 1))``, ``b = 2``, Gaussian
+    ``sigma = a / sqrt(2 ln 2)``. With ``n_mfs = 1`` the single function is
+    centred on the range with half width ``range / 2``.
+
+    Returns
+    -------
+    ndarray of shape (n_features, n_mfs, n_params)
+    """
+    lo, hi = X.min(axis=0), X.max(axis=0)
+    span = hi - lo
+    if n_mfs == 1:
+        centres = ((lo + hi) / 2.0)[:, None]
+        half = span / 2.0
+    else:
+        centres = lo[:, None] + span[:, None] * np.linspace(0.0, 1.0, n_mfs)[None]
+        half = span / (2.0 * (n_mfs - 1))
+    half = np.where(half > 0, half, 0.5 * _input_scale(X))
+    half = np.broadcast_to(half[:, None], centres.shape)
+    if mf == "gaussian":
+        return np.stack([half / _HALF, centres], axis=-1)
+    return np.stack([half, np.full_like(centres, 2.0), centres], axis=-1)
+
+
+def fcm_mf_params(X, n_clusters, mf, *, m=2.0, random_state=None):
+    """One rule per fuzzy c-means cluster of the inputs (``genfis3`` style).
+
+    The inputs are standardised for the clustering only (so that the units of
+    the sensors do not decide the partition; MATLAB's ``genfis3`` clusters the
+    raw inputs together with the output). Every rule gets, on every input, a
+    membership function centred on its cluster centre with width equal to the
+    membership-weighted spread of the input around it,
+    ``sigma_ij = sqrt(sum_n u_ni^m (x_nj - c_ij)^2 / sum_n u_ni^m)`` (bell:
+    half width ``a = sigma sqrt(2 ln 2)``, ``b = 2``), floored at 1e-3 of the
+    input's range.
+
+    Returns
+    -------
+    mf_params : ndarray of shape (n_features, n_clusters, n_params)
+    rules : ndarray of shape (n_clusters, n_features)
+    """
+    mean = X.mean(axis=0)
+    std = X.std(axis=0)
+    std = np.where(std > 0, std, 1.0)
+    res = fuzzy_cmeans((X - mean) / std, n_clusters, m=m, random_state=random_state)
+    centres = res.centers * std + mean  # (c, d)
+    um = res.memberships**m  # (n, c)
+    weight = um.sum(axis=0)
+    d2 = (X[:, None, :] - centres[None, :, :]) ** 2  # (n, c, d)
+    spread = np.sqrt(np.einsum("nc,ncd->cd", um, d2) / weight[:, None])
+    spread = np.maximum(spread, 1e-3 * _input_scale(X)[None, :])
+    centres, spread = centres.T, spread.T  # (d, c)
+    if mf == "gaussian":
+        params = np.stack([spread, centres], axis=-1)
+    else:
+        params = np.stack(
+            [spread * _HALF, np.full_like(centres, 2.0), centres], axis=-1
+        )
+    rules = np.tile(np.arange(n_clusters, dtype=np.intp)[:, None], (1, X.shape[1]))
+    return params, rules
+
+
+def _rule_selectors(rules, n_mfs):
+    """One-hot ``S[j, r, m] = rules[r, j] == m``, shape (d, R, M)."""
+    n_rules, d = rules.shape
+    S = np.zeros((d, n_rules, n_mfs))
+    S[np.arange(d)[None, :], np.arange(n_rules)[:, None], rules] = 1.0
+    return S
+
+
+# --------------------------------------------------------------------------
+# Forward pass
+# --------------------------------------------------------------------------
+
+
+def _log_memberships(X, mf_params, mf):
+    """Log-memberships of every input in each of its MFs, shape (n, d, M)."""
+    return log_membership(X[:, :, None], mf_params[None], mf)
+
+
+def _normalised_firing(X, mf_params, rules, mf):
+    """Normalised firing strengths ``wbar`` (n, R), computed in log space.
+
+    ``log w_r = sum_j log mu_{j, rules[r, j]}(x_j)`` and
+    ``wbar = exp(log w - logsumexp(log w))``: however far an input lies from
+    every membership function, the largest ``wbar`` is of order one, so the
+    output stays finite (METHODS §6).
+    """
+    logmu = _log_memberships(X, mf_params, mf)
+    d = X.shape[1]
+    logw = np.zeros((X.shape[0], rules.shape[0]))
+    for j in range(d):  # a loop over inputs, not samples
+        logw += logmu[:, j, rules[:, j]]
+    # Squared distances of ~1e155 and beyond overflow to -inf; clipping keeps
+    # the normalisation well defined (all rules then share the weight).
+    np.maximum(logw, -np.finfo(float).max / 4, out=logw)
+    # Softmax with the row maximum subtracted (log-sum-exp): the largest
+    # weight is exp(0) = 1 before normalisation, so the sum never underflows.
+    logw -= logw.max(axis=1, keepdims=True)
+    w = np.exp(logw, out=logw)
+    w /= w.sum(axis=1, keepdims=True)
+    return w
+
+
+def _rule_outputs(X1, consequents):
+    """Rule outputs ``f`` (n, R, o) for inputs with a trailing ones column."""
+    n_rules, p, n_out = consequents.shape
+    C = consequents.transpose(1, 0, 2).reshape(p, n_rules * n_out)
+    return (X1 @ C).reshape(X1.shape[0], n_rules, n_out)
+
+
+def _with_ones(X):
+    return np.hstack([X, np.ones((X.shape[0], 1))])
+
+
+def anfis_predict(X, mf_params, rules, consequents, mf):
+    """Output of a first-order Takagi-Sugeno system, ``sum_r wbar_r f_r``.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+    mf_params : ndarray of shape (n_features, n_mfs, n_params)
+    rules : ndarray of shape (n_rules, n_features)
+    consequents : ndarray of shape (n_rules, n_features + 1, n_outputs)
+    mf : {"gaussian", "gbell"}
+
+    Returns
+    -------
+    ndarray of shape (n_samples, n_outputs)
+    """
+    wbar = _normalised_firing(X, mf_params, rules, mf)
+    f = _rule_outputs(_with_ones(X), consequents)
+    return np.einsum("nr,nro->no", wbar, f)
+
+
+# --------------------------------------------------------------------------
+# Least squares and gradients
+# --------------------------------------------------------------------------
+
+
+def _design(wbar, X1):
+    """Consequent design matrix ``[wbar_r x, wbar_r]`` over rules, (n, R(d+1))."""
+    return (wbar[:, :, None] * X1[:, None, :]).reshape(X1.shape[0], -1)
+
+
+def solve_consequents(A, Y, ridge):
+    """Least-squares consequents for the design matrix ``A`` and targets ``Y``.
+
+    ``ridge > 0`` solves the ridge problem by Cholesky with
+    ``lam = ridge * mean(diag(A^T A))`` (a scale-free ridge that keeps rules
+    that hardly fire, and collinear inputs, well posed): from the normal
+    equations ``(A^T A + lam I) theta = A^T Y`` when ``A`` has more rows than
+    columns, else from the dual ``(A A^T + lam I) alpha = Y``,
+    ``theta = A^T alpha`` (the same solution, and a grid of many rules on few
+    samples never forms a huge ``A^T A``). ``ridge == 0`` (or a failed
+    factorisation) uses LAPACK's SVD-based ``gelsd``, the minimum-norm
+    solution. All outputs are solved at once.
+
+    Returns
+    -------
+    ndarray of shape (n_columns, n_outputs)
+    """
+    n, p = A.shape
+    if ridge > 0:
+        dual = p > n
+        G = A @ A.T if dual else A.T @ A
+        lam = ridge * np.trace(G) / max(p, 1)
+        if lam > 0:
+            G[np.diag_indices_from(G)] += lam
+            try:
+                factor = linalg.cho_factor(G, check_finite=False)
+                if dual:
+                    return A.T @ linalg.cho_solve(factor, Y, check_finite=False)
+                return linalg.cho_solve(factor, A.T @ Y, check_finite=False)
+            except linalg.LinAlgError:
+                pass
+    theta, *_ = linalg.lstsq(A, Y, lapack_driver="gelsd")
+    return theta
+
+
+def _premise_gradient(X, mf_params, mf, S, wbar, f, yhat, err):
+    """Gradient of ``0.5 * sum(err^2)`` w.r.t. ``mf_params`` (analytic).
+
+    ``d yhat / d log w_r = wbar_r (f_r - yhat)`` (softmax), the log firing
+    strength is a sum of log-memberships, and the log-membership derivatives
+    come from :mod:`skthermal.fuzzy._membership`; everything is vectorised over
+    samples, rules and inputs.
+    """
+    g = wbar * (
+        np.einsum("nro,no->nr", f, err) - np.einsum("no,no->n", yhat, err)[:, None]
+    )  # (n, R)
+    per_mf = g @ S  # (d, n, M): dE/dlog mu_jm
+    dlog = log_membership_grad(X.T[:, :, None], mf_params[:, None], mf)
+    return np.einsum("jnm,jnmk->jmk", per_mf, dlog)
+
+
+def _apply_floors(mf_params, mf, width_floor):
+    np.maximum(mf_params[..., 0], width_floor[:, None], out=mf_params[..., 0])
+    if mf == "gbell":
+        np.maximum(mf_params[..., 1], _SLOPE_FLOOR, out=mf_params[..., 1])
+
+
+class StepSizeRule:
+    """Jang's (1993) heuristic step-size rule for the premise gradient step.
+
+    The step size ``kappa`` is the length of each gradient step in parameter
+    space (``eta = kappa / ||grad||``). After every epoch's training error:
+
+    - four consecutive decreases (five errors, each below the previous)
+      multiply ``kappa`` by ``increase``;
+    - two consecutive combinations of one increase and one decrease (five
+      errors alternating up/down/up/down or down/up/down/up) multiply it by
+      ``decrease``.
+
+    As in Jang's reference implementation (MATLAB ``anfis``), each rule waits
+    at least four epochs after it last fired before it can fire again.
+    """
+
+    def __init__(self, step, increase, decrease):
+        self.step = float(step)
+        self.increase = float(increase)
+        self.decrease = float(decrease)
+        self._last_inc = 0
+        self._last_dec = 0
+
+    def update(self, errors):
+        """Update the step from the error history; returns the new step."""
+        i = len(errors) - 1
+        if i < 4:
+            return self.step
+        d = np.sign(np.diff(errors[-5:]))  # oldest move first
+        if i - self._last_dec >= 4 and np.all(d != 0) and np.all(d[1:] == -d[:-1]):
+            self.step *= self.decrease
+            self._last_dec = i
+        elif i - self._last_inc >= 4 and np.all(d < 0):
+            self.step *= self.increase
+            self._last_inc = i
+        return self.step
+
+
+# --------------------------------------------------------------------------
+# Training loop
+# --------------------------------------------------------------------------
+
+
+def _rmse(residual):
+    return float(np.sqrt(np.mean(residual * residual))) if residual.size else 0.0
+
+
+class _CheckingSet:
+    """Held-out data scored every epoch, in the space of the final output.
+
+    ``X`` is in model space (AGO space for grey ANFIS); the predictions are
+    turned back with IAGO over ``groups`` when ``grey`` and compared with the
+    original targets ``y`` on the rows of ``mask``.
+    """
+
+    def __init__(self, X, y, mask=None, groups=None, grey=False):
+        self.X = X
+        self.y = y
+        self.mask = np.ones(X.shape[0], dtype=bool) if mask is None else mask
+        self.groups = groups
+        self.grey = grey
+
+    def rmse(self, mf_params, rules, consequents, mf):
+        pred = anfis_predict(self.X, mf_params, rules, consequents, mf)
+        if self.grey:
+            pred = iago(pred, self.groups)
+        return _rmse(pred[self.mask] - self.y[self.mask])
+
+
+def anfis_train(
+    X,
+    Y,
+    mf_params,
+    rules,
+    mf,
+    *,
+    epochs=100,
+    learning="hybrid",
+    step_size=0.5,
+    step_increase=1.2,
+    step_decrease=0.9,
+    ridge=1e-8,
+    checking=None,
+    tol=0.0,
+    n_iter_no_change=None,
+    consequents=None,
+    verbose=0,
+):
+    """Train a first-order Takagi-Sugeno system (Jang's hybrid rule or backprop).
+
+    Hybrid learning, every epoch (Jang 1993, §IV): forward pass; full-batch
+    least squares for all consequents at once (they enter the output
+    linearly); training error; gradient step of length ``step_size`` on the
+    premise parameters; :class:`StepSizeRule` adapts the step. Backprop
+    learning takes the same normalised gradient step on premise and
+    consequent parameters together.
+
+    The parameters of the epoch with the least checking error (least training
+    error without a checking set) are returned, as MATLAB's ``anfis`` does.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_features)
+    Y : ndarray of shape (n_samples, n_outputs)
+    mf_params : ndarray of shape (n_features, n_mfs, n_params)
+        Initial premise parameters (copied).
+    rules : ndarray of shape (n_rules, n_features)
+    mf : {"gaussian", "gbell"}
+    epochs, learning, step_size, step_increase, step_decrease, ridge, tol, \
+n_iter_no_change, verbose
+        See :class:`ANFISRegressor`.
+    checking : _CheckingSet, optional
+    consequents : ndarray of shape (n_rules, n_features + 1, n_outputs), optional
+        Initial consequents for backprop learning (default: constant rules
+        equal to the target mean).
+
+    Returns
+    -------
+    dict
+        ``mf_params``, ``consequents``, ``history`` (dict of arrays) and
+        ``best_epoch`` (1-based).
+    """
+    n, d = X.shape
+    n_out = Y.shape[1]
+    n_rules = rules.shape[0]
+    mf_params = np.array(mf_params, dtype=float)
+    X1 = _with_ones(X)
+    S = _rule_selectors(rules, mf_params.shape[1])
+    width_floor = _WIDTH_FLOOR * _input_scale(X)
+    if learning == "backprop" and consequents is None:
+        consequents = np.zeros((n_rules, d + 1, n_out))
+        consequents[:, -1, :] = Y.mean(axis=0)
+    rule = StepSizeRule(step_size, step_increase, step_decrease)
+
+    history = {"epoch": [], "train_rmse": [], "step_size": []}
+    if checking is not None:
+        history["val_rmse"] = []
+    best = (np.inf, None, None, 0)
+    stop_best = np.inf
+    no_improvement = 0
+    report_every = max(1, epochs // 10) if verbose == 1 else 1
+
+    for epoch in range(1, epochs + 1):
+        wbar = _normalised_firing(X, mf_params, rules, mf)
+        if learning == "hybrid":
+            A = _design(wbar, X1)
+            theta = solve_consequents(A, Y, ridge)
+            consequents = theta.reshape(n_rules, d + 1, n_out)
+        f = _rule_outputs(X1, consequents)
+        yhat = np.einsum("nr,nro->no", wbar, f)
+        err = yhat - Y
+        train = _rmse(err)
+        history["epoch"].append(epoch)
+        history["train_rmse"].append(train)
+        history["step_size"].append(rule.step)
+        monitored = train
+        if checking is not None:
+            monitored = checking.rmse(mf_params, rules, consequents, mf)
+            history["val_rmse"].append(monitored)
+        if not np.isfinite(monitored):
+            break
+        if monitored < best[0]:
+            best = (monitored, mf_params.copy(), consequents.copy(), epoch)
+        if verbose and (epoch % report_every == 0 or epoch == epochs):
+            msg = f"Epoch {epoch}/{epochs}: train RMSE {train:.6g}"
+            if checking is not None:
+                msg += f", checking RMSE {monitored:.6g}"
+            print(f"{msg}, step size {rule.step:.4g}", file=sys.stdout)
+        if n_iter_no_change is not None:
+            if monitored > stop_best - tol:
+                no_improvement += 1
+            else:
+                no_improvement = 0
+            stop_best = min(stop_best, monitored)
+            if no_improvement >= n_iter_no_change:
+                if verbose:
+                    print(
+                        f"Stopped after epoch {epoch}: no improvement of more "
+                        f"than tol={tol} in {n_iter_no_change} epochs.",
+                        file=sys.stdout,
+                    )
+                break
+        if epoch == epochs:
+            break
+        step = rule.update(history["train_rmse"])
+        grad = _premise_gradient(X, mf_params, mf, S, wbar, f, yhat, err)
+        if learning == "hybrid":
+            norm = np.sqrt(np.vdot(grad, grad))
+            if norm > 0 and np.isfinite(norm):
+                mf_params -= (step / norm) * grad
+        else:
+            grad_c = (_design(wbar, X1).T @ err).reshape(consequents.shape)
+            norm = np.sqrt(np.vdot(grad, grad) + np.vdot(grad_c, grad_c))
+            if norm > 0 and np.isfinite(norm):
+                mf_params -= (step / norm) * grad
+                consequents = consequents - (step / norm) * grad_c
+        _apply_floors(mf_params, mf, width_floor)
+
+    if best[1] is None:  # not a single finite epoch: keep the last parameters
+        best = (np.inf, mf_params.copy(), consequents.copy(), len(history["epoch"]))
+    return {
+        "mf_params": best[1],
+        "consequents": best[2],
+        "history": {k: np.asarray(v) for k, v in history.items()},
+        "best_epoch": best[3],
+    }

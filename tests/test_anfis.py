@@ -1,0 +1,572 @@
+"""Tests of ANFISRegressor, its array-level core and the membership functions."""
+
+import pickle
+import re
+
+import joblib
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+from sklearn.base import clone
+from sklearn.model_selection import GroupKFold, cross_validate
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+from skthermal.fuzzy import ANFISRegressor
+from skthermal.fuzzy._anfis_core import (
+    StepSizeRule,
+    _normalised_firing,
+    _premise_gradient,
+    _rule_outputs,
+    _rule_selectors,
+    _with_ones,
+    anfis_predict,
+    grid_rules,
+    solve_consequents,
+)
+from skthermal.fuzzy._membership import (
+    gaussian_mf,
+    gbell_mf,
+    log_gaussian_mf,
+    log_gbell_mf,
+    log_membership,
+    log_membership_grad,
+)
+
+# Jang (1993) example 4, Table VI: bell MFs (a, b, c), two per input.
+JANG_MFS = np.array(
+    [
+        (0.1790, 2.0456, 0.4798),
+        (0.1584, 2.0103, 1.4975),
+        (0.2410, 1.9533, 0.2960),
+        (0.2923, 1.9178, 1.7824),
+        (0.3798, 2.1490, 0.6599),
+        (0.4884, 1.8967, 1.6465),
+        (0.2815, 2.0170, 0.3341),
+        (0.1616, 2.0165, 1.4727),
+    ]
+).reshape(4, 2, 3)
+JANG_INITIAL = np.array([[[0.444045, 2.0, 0.425606], [0.444045, 2.0, 1.313696]]] * 4)
+
+
+def _mackey_glass(shared_data):
+    folder = shared_data / "mackey_glass"
+    for name in ("ex4.trn", "ex4.chk", "jang_consequents.csv"):
+        if not (folder / name).exists():
+            pytest.skip(f"reference data file {folder / name} is absent")
+    trn = np.loadtxt(folder / "ex4.trn")
+    chk = np.loadtxt(folder / "ex4.chk")
+    cons = np.loadtxt(folder / "jang_consequents.csv", delimiter=",", skiprows=1)
+    return trn, chk, cons
+
+
+def _rmse(a, b):
+    return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
+
+
+@pytest.fixture
+def regression_data(rng):
+    X = rng.uniform(-1, 1, size=(240, 3))
+    y = np.sin(2 * X[:, 0]) + X[:, 1] ** 2 - 0.5 * X[:, 2]
+    return X, y
+
+
+def _runs_table(rng, n_runs=4):
+    """Heat-up runs of different length; error linear in the temperature rises."""
+    frames = []
+    for r in range(n_runs):
+        n = 40 + 10 * r
+        t = np.arange(n)
+        t1 = (3 + r) * (1 - np.exp(-t / (10 + 4 * r))) + rng.normal(0, 0.02, n)
+        t2 = (1 + r) * (1 - np.exp(-t / (20 + 4 * r))) + rng.normal(0, 0.02, n)
+        err = 4 * t1 + 2 * t2 + rng.normal(0, 0.05, n)
+        frames.append(pd.DataFrame({"run": f"r{r}", "T1": t1, "T2": t2, "err": err}))
+    return pd.concat(frames, ignore_index=True)
+
+
+# ---------------------------------------------------------------- membership
+
+
+def test_membership_values():
+    assert_allclose(gaussian_mf([0.0, 1.0, -2.0], 1.0, 0.0), np.exp([0, -0.5, -2]))
+    x = np.array([-3.0, 0.5, 1.0, 2.0])
+    assert_allclose(gbell_mf(x, 1.5, 2.0, 0.5), 1 / (1 + np.abs((x - 0.5) / 1.5) ** 4))
+    # Log forms stay finite where the plain memberships underflow to zero.
+    assert np.isfinite(log_gbell_mf(1e200, 0.1, 2.0, 0.0))
+    assert np.isfinite(log_gaussian_mf(1e100, 1.0, 0.0))
+    assert gbell_mf(1e200, 0.1, 2.0, 0.0) == 0.0
+
+
+@pytest.mark.parametrize(
+    "mf, params",
+    [("gaussian", [0.7, 0.3]), ("gbell", [0.6, 1.7, 0.3]), ("gbell", [0.4, 0.8, -1])],
+)
+def test_log_membership_grad_matches_finite_differences(mf, params):
+    x = np.array([-2.0, -0.4, 0.1, 0.3, 0.31, 1.2, 5.0])
+    params = np.asarray(params, dtype=float)
+    grad = log_membership_grad(x, params, mf)
+    h = 1e-6
+    for k in range(params.size):
+        up, down = params.copy(), params.copy()
+        up[k] += h
+        down[k] -= h
+        num = (log_membership(x, up, mf) - log_membership(x, down, mf)) / (2 * h)
+        assert_allclose(grad[:, k], num, rtol=1e-5, atol=1e-6)
+    # At the centre the bell derivatives are their (zero) limits, not NaN.
+    at_centre = log_membership_grad(params[-1], params, mf)
+    assert np.all(np.isfinite(at_centre))
+
+
+# ---------------------------------------------------------------------- core
+
+
+def test_grid_rules_first_input_slowest():
+    assert_array_equal(
+        grid_rules(2, 3)[:4], [[0, 0, 0], [0, 0, 1], [0, 1, 0], [0, 1, 1]]
+    )
+    assert grid_rules(3, 5).shape == (243, 5)
+
+
+@pytest.mark.parametrize("mf", ["gaussian", "gbell"])
+@pytest.mark.parametrize("grid", [True, False])
+def test_premise_gradient_matches_finite_differences(rng, mf, grid):
+    n, d, n_out = 30, 3, 2
+    X = rng.uniform(-1, 1, size=(n, d))
+    Y = rng.normal(size=(n, n_out))
+    if grid:
+        rules = grid_rules(2, d)
+        centres = np.tile([-0.5, 0.6], (d, 1))
+    else:
+        rules = np.tile(np.arange(4)[:, None], (1, d))
+        centres = rng.uniform(-1, 1, size=(d, 4))
+    widths = rng.uniform(0.4, 0.9, size=centres.shape)
+    if mf == "gaussian":
+        params = np.stack([widths, centres], axis=-1)
+    else:
+        slopes = rng.uniform(1.5, 2.5, size=centres.shape)
+        params = np.stack([widths, slopes, centres], axis=-1)
+    cons = rng.normal(size=(rules.shape[0], d + 1, n_out))
+
+    def loss(p):
+        return 0.5 * np.sum((anfis_predict(X, p, rules, cons, mf) - Y) ** 2)
+
+    wbar = _normalised_firing(X, params, rules, mf)
+    f = _rule_outputs(_with_ones(X), cons)
+    yhat = np.einsum("nr,nro->no", wbar, f)
+    S = _rule_selectors(rules, params.shape[1])
+    grad = _premise_gradient(X, params, mf, S, wbar, f, yhat, yhat - Y)
+    num = np.zeros_like(params)
+    h = 1e-6
+    for idx in np.ndindex(params.shape):
+        up, down = params.copy(), params.copy()
+        up[idx] += h
+        down[idx] -= h
+        num[idx] = (loss(up) - loss(down)) / (2 * h)
+    assert_allclose(grad, num, rtol=1e-5, atol=1e-7)
+
+
+def test_step_size_rule():
+    rule = StepSizeRule(0.5, 1.2, 0.9)
+    errors = [5.0, 4.0, 3.0, 2.0]
+    assert rule.update(errors) == 0.5  # four errors are only three decreases
+    errors.append(1.0)
+    assert rule.update(errors) == pytest.approx(0.6)  # four decreases
+    errors.append(0.9)
+    assert rule.update(errors) == pytest.approx(0.6)  # waits four epochs
+    # Two up/down combinations shrink the step, in either phase.
+    rule = StepSizeRule(0.5, 1.2, 0.9)
+    assert rule.update([1.0, 2.0, 1.0, 2.0, 1.0]) == pytest.approx(0.45)
+    rule = StepSizeRule(0.5, 1.2, 0.9)
+    assert rule.update([2.0, 1.0, 2.0, 1.0, 2.0]) == pytest.approx(0.45)
+    # One oscillation is not enough.
+    rule = StepSizeRule(0.5, 1.2, 0.9)
+    assert rule.update([3.0, 2.0, 1.0, 2.0, 1.0]) == 0.5
+
+
+# ---------------------------------------------------- Jang's Mackey-Glass model
+
+
+def test_jang_published_model_reproduces_paper_rmse(shared_data):
+    trn, chk, cons = _mackey_glass(shared_data)
+    model = ANFISRegressor.from_parameters(
+        mf="gbell", mf_params=JANG_MFS, consequents=cons
+    )
+    assert model.n_rules_ == 16
+    assert_array_equal(model.rules_[1], [0, 0, 0, 1])
+    assert abs(_rmse(model.predict(trn[:, :4]), trn[:, 4]) - 0.00148) < 1e-4
+    assert abs(_rmse(model.predict(chk[:, :4]), chk[:, 4]) - 0.00163) < 1e-4
+
+
+def test_grid_initialisation_is_jangs(shared_data):
+    trn, chk, _ = _mackey_glass(shared_data)
+    # Jang's initial MFs span the range of all 1000 rows.
+    model = ANFISRegressor(init="grid", mf="gbell", epochs=1)
+    model.fit(np.r_[trn, chk][:, :4], np.r_[trn, chk][:, 4])
+    assert_allclose(model.initial_mf_params_, JANG_INITIAL, atol=1e-9)
+    assert model.n_rules_ == 16
+
+
+def test_jang_training_from_scratch(shared_data):
+    trn, chk, _ = _mackey_glass(shared_data)
+    # Jang's initial MFs; 100 hybrid epochs (Jang ran 500; see
+    # benchmarks/bench_anfis.py). No checking data: the least-training-error
+    # epoch is kept, then scored on the checking rows.
+    model = ANFISRegressor(init=JANG_INITIAL, mf="gbell", epochs=100, step_size=0.1)
+    model.fit(trn[:, :4], trn[:, 4])
+    assert _rmse(model.predict(trn[:, :4]), trn[:, 4]) < 0.00148
+    assert _rmse(model.predict(chk[:, :4]), chk[:, 4]) <= 0.0016
+    hist = model.history_
+    assert hist["train_rmse"][-1] < hist["train_rmse"][0] / 2
+    assert hist["step_size"][0] == 0.1 and len(np.unique(hist["step_size"])) > 2
+
+
+def test_checking_set_keeps_best_epoch(shared_data):
+    trn, chk, _ = _mackey_glass(shared_data)
+    model = ANFISRegressor(init=JANG_INITIAL, mf="gbell", epochs=30, step_size=0.1)
+    model.fit(trn[:, :4], trn[:, 4], X_val=chk[:, :4], y_val=chk[:, 4])
+    val = model.history_["val_rmse"]
+    assert model.best_epoch_ == int(np.argmin(val)) + 1
+    assert _rmse(model.predict(chk[:, :4]), chk[:, 4]) == pytest.approx(val.min())
+
+
+# ------------------------------------------------------------------ estimator
+
+
+@pytest.mark.parametrize("mf", ["gaussian", "gbell"])
+@pytest.mark.parametrize("init", ["fcm", "grid"])
+@pytest.mark.parametrize("learning", ["hybrid", "backprop"])
+def test_fits_nonlinear_function(regression_data, mf, init, learning):
+    X, y = regression_data
+    model = ANFISRegressor(
+        init=init, mf=mf, learning=learning, n_clusters=4, epochs=40, random_state=0
+    ).fit(X, y)
+    assert model.score(X, y) > (0.99 if learning == "hybrid" else 0.9)
+    assert model.n_rules_ == (4 if init == "fcm" else 8)
+    assert model.consequents_.shape == (model.n_rules_, 4)
+    k = 2 if mf == "gaussian" else 3
+    assert model.mf_params_.shape[::2] == (3, k)
+    hist = model.history_
+    assert len(hist["train_rmse"]) == model.n_iter_ == 40
+    assert hist["train_rmse"][model.best_epoch_ - 1] == hist["train_rmse"].min()
+
+
+def test_out_of_range_inputs_stay_finite(regression_data):
+    X, y = regression_data
+    far = np.array([[1e6, -1e6, 1e6], [-1e6, 0.0, 0.0], [0.0, 1e6, 0.0]])
+    for mf in ("gbell", "gaussian"):
+        model = ANFISRegressor(mf=mf, epochs=10, random_state=0).fit(X, y)
+        pred = model.predict(far)
+        assert np.all(np.isfinite(pred))
+        # The output is a convex combination of the rules' linear models (with
+        # Gaussians far away, the widest rule alone), not 0/0.
+        rule_out = far @ model.consequents_[:, :3].T + model.consequents_[:, 3]
+        tol = 1e-9 * np.abs(rule_out).max(axis=1)
+        assert np.all(pred >= rule_out.min(axis=1) - tol)
+        assert np.all(pred <= rule_out.max(axis=1) + tol)
+    # With Gaussians, products of plain memberships underflow to zero there,
+    # and the plain normalisation would be 0/0.
+    mu = [np.exp(log_membership(far[0, j], model.mf_params_[j], mf)) for j in range(3)]
+    w = np.prod([m[model.rules_[:, j]] for j, m in enumerate(mu)], axis=0)
+    assert np.all(w == 0.0)
+
+
+def test_multi_output(regression_data):
+    X, y = regression_data
+    Y = np.c_[y, -2 * y + 1]
+    model = ANFISRegressor(epochs=20, random_state=0).fit(X, Y)
+    pred = model.predict(X)
+    assert pred.shape == (X.shape[0], 2)
+    assert model.consequents_.shape == (3, 4, 2)
+    assert model.n_outputs_ == 2
+    assert model.score(X, Y) > 0.95
+    single = ANFISRegressor(epochs=20, random_state=0).fit(X, y)
+    assert single.predict(X).shape == (X.shape[0],)
+
+
+def test_random_state_reproducible_and_matters(regression_data):
+    X, y = regression_data
+    a = ANFISRegressor(epochs=5, random_state=1).fit(X, y).predict(X)
+    b = ANFISRegressor(epochs=5, random_state=1).fit(X, y).predict(X)
+    assert_array_equal(a, b)
+
+
+def test_validation_fraction_holds_out_the_tail(regression_data):
+    X, y = regression_data
+    model = ANFISRegressor(epochs=15, validation_fraction=0.25, random_state=0)
+    model.fit(X, y)
+    val = model.history_["val_rmse"]
+    assert model.best_epoch_ == int(np.argmin(val)) + 1
+    tail = slice(180, None)
+    assert _rmse(model.predict(X[tail]), y[tail]) == pytest.approx(val.min())
+    # Held out per run when there are runs.
+    groups = np.repeat([0, 1], 120)
+    model.fit(X, y, groups=groups)
+    assert model.history_["val_rmse"].shape == (15,)
+
+
+def test_early_stopping(regression_data):
+    X, y = regression_data
+    model = ANFISRegressor(
+        epochs=200, tol=1e9, n_iter_no_change=3, validation_fraction=0.2
+    ).fit(X, y)
+    assert model.n_iter_ == 4  # the first epoch, then three without improvement
+
+
+def test_verbose(regression_data, capsys):
+    X, y = regression_data
+    ANFISRegressor(epochs=20, verbose=1, random_state=0).fit(X, y)
+    out = capsys.readouterr().out
+    assert out.count("Epoch") == 10 and "train RMSE" in out
+    ANFISRegressor(epochs=3, verbose=2, random_state=0).fit(X, y)
+    assert capsys.readouterr().out.count("Epoch") == 3
+
+
+def test_describe_rules_uses_feature_names(regression_data):
+    X, y = regression_data
+    df = pd.DataFrame(X, columns=["T18", "T55", "T63"])
+    model = ANFISRegressor(n_clusters=2, epochs=5, random_state=0).fit(df, y)
+    text = model.describe_rules()
+    lines = text.splitlines()
+    assert len(lines) == 2
+    assert re.match(
+        r"Rule 1: IF T18 is in1mf1 \(sigma=\S+, c=\S+\) AND T55 is in2mf1 .* "
+        r"THEN y = \S+\*T18 [+-] \S+\*T55 [+-] \S+\*T63 [+-] \S+$",
+        lines[0],
+    )
+    assert_array_equal(model.feature_names_in_, ["T18", "T55", "T63"])
+
+
+def test_plot_membership_functions(regression_data):
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    X, y = regression_data
+    model = ANFISRegressor(init="grid", mf="gbell", epochs=5).fit(X, y)
+    axes = model.plot_membership_functions(which="both")
+    assert len(axes) == 3
+    assert len(axes[0].lines) == 4  # 2 trained + 2 initial
+    _, ax = plt.subplots(1, 3)
+    assert model.plot_membership_functions(ax=ax)[2] is ax[2]
+    with pytest.raises(ValueError, match="which"):
+        model.plot_membership_functions(which="final")
+    plt.close("all")
+
+
+def test_plot_without_matplotlib_names_the_extra(regression_data, monkeypatch):
+    import sys
+
+    X, y = regression_data
+    model = ANFISRegressor(epochs=2).fit(X, y)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=re.escape('pip install "skthermal[plot]"')):
+        model.plot_membership_functions()
+
+
+# ---------------------------------------------------------------- grey ANFIS
+
+
+def test_grey_runs_predicted_independently(rng):
+    df = _runs_table(rng)
+    X, y = df[["run", "T1", "T2"]], df["err"]
+    model = ANFISRegressor(grey=True, n_clusters=2, epochs=30, random_state=0)
+    model.fit(X, y)
+    assert_array_equal(model.feature_names_in_, ["T1", "T2"])
+    pred = model.predict(X)
+    assert _rmse(pred, y) < 0.2 * y.std()
+    for run in ("r0", "r2"):
+        rows = (df["run"] == run).to_numpy()
+        assert_array_equal(model.predict(X[rows]), pred[rows])
+    # Same with explicit groups, and with a run index level.
+    arr = X[["T1", "T2"]].to_numpy()
+    model_arr = ANFISRegressor(grey=True, n_clusters=2, epochs=30, random_state=0)
+    model_arr.fit(arr, y.to_numpy(), groups=df["run"].to_numpy())
+    assert_allclose(model_arr.predict(arr, groups=df["run"]), pred)
+    indexed = X.set_index("run", append=True)
+    assert_allclose(model.predict(indexed), pred)
+    # Without run labels everything is one run: a different prediction.
+    assert not np.allclose(model.predict(X[["T1", "T2"]]), pred)
+
+
+def test_grey_checking_data(rng):
+    df = _runs_table(rng)
+    X, y = df[["run", "T1", "T2"]], df["err"]
+    last = (df["run"] == "r3").to_numpy()
+    model = ANFISRegressor(grey=True, n_clusters=2, epochs=10, random_state=0)
+    model.fit(X[~last], y[~last], X_val=X[last], y_val=y[last])
+    val = model.history_["val_rmse"]
+    assert _rmse(model.predict(X[last]), y[last]) == pytest.approx(val.min())
+    model.set_params(validation_fraction=0.2).fit(X, y)
+    assert np.all(np.isfinite(model.history_["val_rmse"]))
+
+
+# --------------------------------------------------------------- ecosystem
+
+
+def test_clone_set_params_pickle_joblib(regression_data, tmp_path):
+    X, y = regression_data
+    model = ANFISRegressor(epochs=10, random_state=0)
+    model.set_params(mf="gbell", n_clusters=2)
+    fitted = clone(model).fit(X, y)
+    assert fitted.n_rules_ == 2 and fitted.mf == "gbell"
+    pred = fitted.predict(X)
+    assert_array_equal(pickle.loads(pickle.dumps(fitted)).predict(X), pred)
+    path = tmp_path / "anfis.joblib"
+    joblib.dump(fitted, path)
+    assert_array_equal(joblib.load(path).predict(X), pred)
+    assert not hasattr(clone(fitted), "mf_params_")
+    with_array = clone(ANFISRegressor(init=JANG_INITIAL.copy(), mf="gbell"))
+    assert_array_equal(with_array.init, JANG_INITIAL)
+
+
+def test_pipeline_and_grouped_cross_validation(regression_data):
+    X, y = regression_data
+    groups = np.repeat(np.arange(6), 40)
+    pipe = make_pipeline(
+        StandardScaler(), ANFISRegressor(n_clusters=3, epochs=15, random_state=0)
+    )
+    res = cross_validate(pipe, X, y, groups=groups, cv=GroupKFold(n_splits=3))
+    assert res["test_score"].shape == (3,)
+    assert np.all(res["test_score"] > 0.8)
+
+
+def test_optuna_study(regression_data):
+    optuna = pytest.importorskip("optuna")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    X, y = regression_data
+    Xtr, Xte, ytr, yte = X[:160], X[160:], y[:160], y[160:]
+
+    def objective(trial):
+        init = trial.suggest_categorical("init", ["fcm", "grid"])
+        model = ANFISRegressor(
+            init=init,
+            n_clusters=trial.suggest_int("n_clusters", 2, 4),
+            n_mfs=trial.suggest_int("n_mfs", 2, 3),
+            mf=trial.suggest_categorical("mf", ["gaussian", "gbell"]),
+            epochs=trial.suggest_int("epochs", 5, 15),
+            random_state=0,
+        )
+        return model.fit(Xtr, ytr).score(Xte, yte)
+
+    study = optuna.create_study(
+        direction="maximize", sampler=optuna.samplers.TPESampler(seed=0)
+    )
+    study.optimize(objective, n_trials=3)
+    assert len(study.trials) == 3
+    assert study.best_value > 0.5
+
+
+def test_from_parameters_roundtrip(regression_data):
+    X, y = regression_data
+    model = ANFISRegressor(init="grid", epochs=10).fit(X, y)
+    copy = ANFISRegressor.from_parameters(
+        mf=model.mf, mf_params=model.mf_params_, consequents=model.consequents_
+    )
+    assert_allclose(copy.predict(X), model.predict(X))
+    fcm = ANFISRegressor(n_clusters=4, epochs=5, random_state=0).fit(X, y)
+    copy = ANFISRegressor.from_parameters(
+        mf=fcm.mf, mf_params=fcm.mf_params_, consequents=fcm.consequents_
+    )
+    assert_array_equal(copy.rules_, fcm.rules_)
+    assert_allclose(copy.predict(X), fcm.predict(X))
+    with pytest.raises(ValueError, match="neither a grid"):
+        ANFISRegressor.from_parameters(
+            mf="gaussian", mf_params=np.ones((2, 3, 2)), consequents=np.ones((5, 3))
+        )
+
+
+# ------------------------------------------------------------------- errors
+
+
+def test_grid_too_large_raises_before_allocation():
+    X = np.zeros((5, 13))
+    X[0] = 1.0
+    with pytest.raises(ValueError, match=r"n_mfs=2 .* 13 inputs .* 8192 rules"):
+        ANFISRegressor(init="grid").fit(X, np.zeros(5))
+    X20 = np.random.default_rng(0).random((5, 40))
+    with pytest.raises(ValueError, match=r"max_rules=4096"):
+        ANFISRegressor(init="grid", n_mfs=3).fit(X20, np.zeros(5))
+
+
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"mf": "triangle"}, "'mf' parameter"),
+        ({"init": "kmeans"}, "'init' parameter"),
+        ({"learning": "lm"}, "'learning' parameter"),
+        ({"step_decrease": 1.5}, "'step_decrease' parameter"),
+        ({"validation_fraction": 1.0}, "'validation_fraction' parameter"),
+    ],
+)
+def test_invalid_parameters(regression_data, params, match):
+    X, y = regression_data
+    with pytest.raises(ValueError, match=match):
+        ANFISRegressor(**params).fit(X, y)
+
+
+def test_input_errors(regression_data):
+    X, y = regression_data
+    Xn = X.copy()
+    Xn[3, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        ANFISRegressor(epochs=2).fit(Xn, y)
+    model = ANFISRegressor(epochs=2).fit(X, y)
+    with pytest.raises(ValueError, match="NaN"):
+        model.predict(Xn)
+    with pytest.raises(ValueError, match="n_clusters=3 needs at least 3"):
+        ANFISRegressor().fit(X[:2], y[:2])
+    with pytest.raises(ValueError, match="either validation_fraction or X_val"):
+        ANFISRegressor(validation_fraction=0.2).fit(X, y, X_val=X, y_val=y)
+    with pytest.raises(ValueError, match="both X_val and y_val"):
+        ANFISRegressor().fit(X, y, X_val=X)
+    with pytest.raises(ValueError, match="init array"):
+        ANFISRegressor(init=np.ones((3, 2, 3))).fit(X, y)  # gbell params, gaussian
+    with pytest.raises(ValueError, match="not contiguous"):
+        ANFISRegressor(grey=True).fit(X, y, groups=np.tile([0, 1], 120))
+
+
+def test_solve_consequents_primal_and_dual_agree(rng):
+    A = rng.normal(size=(30, 12))
+    Y = rng.normal(size=(30, 2))
+    ridge = 1e-3
+    lam = ridge * np.sum(A * A) / 12
+    expected = np.linalg.solve(A.T @ A + lam * np.eye(12), A.T @ Y)
+    assert_allclose(solve_consequents(A, Y, ridge), expected, rtol=1e-10)
+    wide = A[:8]  # more columns than rows: the dual form
+    lam = ridge * np.sum(wide * wide) / 12
+    expected = np.linalg.solve(wide.T @ wide + lam * np.eye(12), wide.T @ Y[:8])
+    assert_allclose(solve_consequents(wide, Y[:8], ridge), expected, rtol=1e-8)
+    exact = np.linalg.lstsq(A, Y, rcond=None)[0]
+    assert_allclose(solve_consequents(A, Y, 0.0), exact, rtol=1e-10)
+
+
+def test_fcm_rules_beat_a_243_rule_grid_on_simulated_machine_b():
+    """000's finding on the simulated campaign: trained on Test IV, ANFIS-FCM
+    with 3 rules predicts the held-out Tests I, II, III, V, VI better than
+    ANFIS-Grid with 3 MFs on 5 inputs (243 rules)."""
+    from skthermal import FCMClusterPicker
+    from skthermal.datasets import make_machine_b_tests, split_runs
+
+    runs = make_machine_b_tests(sample_period_s=60.0, random_state=0)
+    X, y, groups = split_runs(runs, targets="disp_y_um")
+    train = groups == "IV"
+    picker = FCMClusterPicker(n_clusters=5, random_state=0).fit(X[train], y[train])
+    Xs = picker.transform(X)
+    fcm = ANFISRegressor(init="fcm", n_clusters=3, epochs=30, random_state=0)
+    grid = ANFISRegressor(init="grid", n_mfs=3, mf="gbell", epochs=10)
+    scores = {}
+    for name, est in (("fcm", fcm), ("grid", grid)):
+        est.fit(Xs[train], y[train])
+        errors = []
+        for run in ("I", "II", "III", "V", "VI"):
+            held = groups == run
+            z, p = y[held].to_numpy(), est.predict(Xs[held])
+            errors.append(np.sqrt(np.mean(((z - z[0]) - (p - p[0])) ** 2)))
+        scores[name] = np.mean(errors)
+    assert grid.n_rules_ == 243 and fcm.n_rules_ == 3
+    assert scores["fcm"] < 5.0
+    assert scores["fcm"] < scores["grid"]
