@@ -22,11 +22,13 @@ from skthermal.datasets._runtable import (
     target_columns,
     validate_runs,
 )
+from skthermal.linear_model._adaptive import make_batch_campaign
 
 __all__ = [
     "changes_since_start",
     "driver_columns",
     "load_fl_thermal",
+    "make_batch_campaign",
     "make_etve",
     "make_machine_b_tests",
     "make_multipart_test",

@@ -4,6 +4,7 @@ Metric functions take ``(y_true, y_pred, *, multioutput=...)`` like
 :mod:`sklearn.metrics`; the scorers plug them into ``cross_validate``.
 """
 
+from skthermal.metrics._levels import RMSELevels, cross_batch_rmse, rmse_levels
 from skthermal.metrics._regression import (
     improvement,
     nash_sutcliffe,
@@ -14,6 +15,8 @@ from skthermal.metrics._regression import (
 from skthermal.metrics._scorers import get_scorer, get_scorer_names, thermal_scorers
 
 __all__ = [
+    "RMSELevels",
+    "cross_batch_rmse",
     "get_scorer",
     "get_scorer_names",
     "improvement",
@@ -21,5 +24,6 @@ __all__ = [
     "pearson_r",
     "residual_band",
     "rmse",
+    "rmse_levels",
     "thermal_scorers",
 ]

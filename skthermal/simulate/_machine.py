@@ -461,6 +461,8 @@ class ThermalMachine:
         position-dependent term. The tool's growth counts only with the
         ``tool_growth`` effect.
         """
+        if "displacement" in self._cache:
+            return self._cache["displacement"].copy()
         p, spec = self._params, self.spec
         M = pd.DataFrame(0.0, index=list(spec.axes), columns=list(spec.nodes))
         for key, value in p.items():
@@ -474,7 +476,8 @@ class ThermalMachine:
             M.loc[spec.feed_axis, list(spec.screw_nodes)] += screw_total / m * reach
         if not self._on("tool_growth"):
             M[spec.tool] = 0.0
-        return M
+        self._cache["displacement"] = M
+        return M.copy()
 
     def calibrate(
         self,
@@ -763,9 +766,11 @@ class ThermalMachine:
                 f"{steps.max():g} s); resample it to a constant period first."
             )
 
-    def _integrate(self, rpm, feed, air, dt, T0):
+    def _integrate(self, rpm, feed, air, dt, T0, heat=True):
         n_steps = rpm.shape[0] - 1
         Q, cols = self._heat(rpm[:-1], feed[:-1])
+        if not heat:
+            Q = np.zeros_like(Q)
         T = np.empty((n_steps + 1, len(self.spec.nodes)))
         T[0] = T0
         change = np.flatnonzero(np.diff(rpm[:-1]) != 0) + 1

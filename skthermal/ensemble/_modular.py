@@ -1,0 +1,437 @@
+"""Modular thermal-error models: modules trained on single-source tests,
+superposed to predict tests in which the sources act together.
+
+001 §5.4.1.3: a model of the ram's Z error trained on a Z-axis heating test
+and one trained on a C-axis heating test were superposed to predict a
+combined (helical) test, "so the thermal model could be built up in a modular
+form and so is extensible to the remainder of the structure". Heat conduction
+is linear, so the temperature changes caused by separate sources add up, and
+so do the displacements they cause; each module learns one source from the
+sensors that see it.
+"""
+
+from numbers import Integral, Real
+
+import numpy as np
+import pandas as pd
+from sklearn.base import RegressorMixin, _fit_context, clone
+from sklearn.linear_model import LinearRegression
+from sklearn.utils import Bunch
+from sklearn.utils._param_validation import Interval
+from sklearn.utils.metaestimators import _BaseComposition
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from skthermal.datasets._runtable import (
+    driver_columns,
+    sensor_columns,
+    target_columns,
+)
+from skthermal.utils._runs import changes_since_start, extract_runs, run_slices
+
+
+class ModularRegressor(RegressorMixin, _BaseComposition):
+    """Sum of regressors ("modules"), each on its own inputs.
+
+    ``predict(X) = sum_k module_k.predict(X[:, columns_k])``. Each module
+    stands for one heat source (the spindle, a feed axis, the environment)
+    and reads the sensors that see it. Modules are trained either on their
+    own single-source tests (``fit(X, y, source=...)`` or
+    :meth:`fit_modules`), as in 001 §5.4.1.3, or together on one data set by
+    backfitting (``fit(X, y)``), which fits every module in turn to what the
+    others leave unexplained.
+
+    Parameters
+    ----------
+    modules : list of (str, estimator, columns) tuples or None, default=None
+        The modules: a name, a regressor (cloned) and the columns of ``X`` it
+        reads: column names (``X`` a DataFrame), integer positions, or
+        ``None`` / ``"all"`` for every column. None: one ``LinearRegression``
+        on every column.
+    relative : bool, default=True
+        Work on changes since the start of each run (inputs and targets in
+        ``fit``, inputs in ``predict``), the papers' "temperature change" and
+        "thermal drift": the prediction is then the displacement *change*
+        since the start of the run. Runs come from ``groups``, a ``run``
+        column or a ``run`` index level (:func:`skthermal.datasets.split_runs`);
+        without them all rows are one run.
+    max_iter : int, default=20
+        Backfitting sweeps when training without ``source``.
+    tol : float, default=1e-6
+        Backfitting stops when no module's fitted values change by more than
+        ``tol`` times the standard deviation of the target.
+
+    Attributes
+    ----------
+    estimators_ : list of estimator
+        The fitted modules, in order.
+    named_estimators_ : Bunch
+        The fitted modules by name.
+    module_columns_ : list of ndarray of int
+        Positions of the columns each module reads.
+    n_iter_ : int
+        Backfitting sweeps run (0 when trained by ``source``).
+    n_features_in_ : int
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+
+    See Also
+    --------
+    skthermal.fuzzy.ANFISRegressor : a module for nonlinear sources.
+
+    Notes
+    -----
+    001 §5.4.1.3 (Z-axis and C-axis heating tests superposed to predict the
+    helical test, ±9 µm of 95 µm). Superposition holds as long as the
+    network is linear: a source that changes the heat transfer (a faster
+    spindle stirring the air) breaks it a little. A module trained on a test
+    of its own source only has seen its sensors move and the others stay
+    still; its coefficients on sensors that did not move are undetermined,
+    which is why each module should read only the sensors of its source.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from skthermal.ensemble import ModularRegressor
+    >>> heat = np.linspace(0, 5, 50)
+    >>> quiet = np.zeros(50)
+    >>> X = np.r_[np.c_[heat, quiet], np.c_[quiet, heat]]   # two tests
+    >>> y = np.r_[2.0 * heat, -1.0 * heat]
+    >>> source = np.repeat(["spindle", "axis"], 50)
+    >>> model = ModularRegressor([("spindle", LinearRegression(), [0]),
+    ...                           ("axis", LinearRegression(), [1])],
+    ...                          relative=False)
+    >>> model.fit(X, y, source=source).predict([[1.0, 1.0], [2.0, 4.0]]).round(6)
+    array([1., 0.])
+    """
+
+    _parameter_constraints: dict = {
+        "modules": [list, None],
+        "relative": ["boolean"],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "tol": [Interval(Real, 0, None, closed="left")],
+    }
+
+    def __init__(self, modules=None, *, relative=True, max_iter=20, tol=1e-6):
+        self.modules = modules
+        self.relative = relative
+        self.max_iter = max_iter
+        self.tol = tol
+
+    # --- nested parameters (``spindle__alpha``), as ColumnTransformer ------
+
+    @property
+    def _modules(self):
+        try:
+            return [(name, est) for name, est, _ in self.modules or []]
+        except (TypeError, ValueError):
+            return []
+
+    @_modules.setter
+    def _modules(self, value):
+        self.modules = [
+            (name, est, cols)
+            for (name, est), (_, _, cols) in zip(value, self.modules, strict=True)
+        ]
+
+    def get_params(self, deep=True):
+        """Parameters, with those of the modules as ``<name>__<param>``."""
+        return self._get_params("_modules", deep=deep)
+
+    def set_params(self, **params):
+        """Set parameters, also of modules (``<name>__<param>``) or whole
+        modules by name."""
+        self._set_params("_modules", **params)
+        return self
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        return tags
+
+    # --- validation ---------------------------------------------------------
+
+    def _resolve_modules(self):
+        modules = (
+            [("linear", LinearRegression(), None)]
+            if self.modules is None
+            else self.modules
+        )
+        if not modules:
+            raise ValueError("modules is empty: give at least one module.")
+        out, names = [], []
+        for i, item in enumerate(modules):
+            if not isinstance(item, tuple | list) or len(item) != 3:
+                raise ValueError(
+                    f"Module {i} must be a (name, estimator, columns) tuple, got "
+                    f"{item!r}."
+                )
+            name, est, cols = item
+            if not isinstance(name, str) or not name or "__" in name:
+                raise ValueError(
+                    f"Module {i} needs a non-empty string name without '__', got "
+                    f"{name!r}."
+                )
+            if name in names:
+                raise ValueError(f"Two modules are named {name!r}.")
+            if name in ("modules", "relative", "max_iter", "tol"):
+                raise ValueError(f"Module name {name!r} clashes with a parameter.")
+            if not (hasattr(est, "fit") and hasattr(est, "predict")):
+                raise ValueError(
+                    f"Module {name!r}: {est!r} is not a regressor (no fit/predict)."
+                )
+            names.append(name)
+            out.append((name, est, self._columns(name, cols)))
+        return out
+
+    def _columns(self, name, cols):
+        n = self.n_features_in_
+        if cols is None or (isinstance(cols, str) and cols == "all"):
+            return np.arange(n)
+        if isinstance(cols, str | Integral):
+            cols = [cols]
+        cols = list(cols)
+        if not cols:
+            raise ValueError(f"Module {name!r} reads no column.")
+        if all(isinstance(c, str) for c in cols):
+            names = getattr(self, "feature_names_in_", None)
+            if names is None:
+                raise ValueError(
+                    f"Module {name!r} names its columns, but X has no column "
+                    "names; pass a DataFrame or give integer positions."
+                )
+            where = {c: i for i, c in enumerate(names)}
+            missing = [c for c in cols if c not in where]
+            if missing:
+                raise ValueError(
+                    f"Module {name!r}: column(s) {missing} are not in X; it has "
+                    f"{list(names)}."
+                )
+            idx = np.array([where[c] for c in cols])
+        elif all(isinstance(c, Integral) and not isinstance(c, bool) for c in cols):
+            idx = np.asarray(cols, dtype=int)
+            bad = idx[(idx < -n) | (idx >= n)]
+            if bad.size:
+                raise ValueError(
+                    f"Module {name!r}: column position {int(bad[0])} is out of range "
+                    f"for X with {n} column(s)."
+                )
+            idx = idx % n
+        else:
+            raise ValueError(
+                f"Module {name!r}: columns must be names, integer positions, None "
+                f"or 'all', got {cols!r}."
+            )
+        if len(set(idx.tolist())) != idx.size:
+            raise ValueError(f"Module {name!r} lists a column twice.")
+        return idx
+
+    def _relative(self, A, groups):
+        if not self.relative:
+            return A
+        slices, _ = run_slices(groups, A.shape[0])
+        return changes_since_start(A, slices)
+
+    # --- fit / predict ------------------------------------------------------
+
+    @_fit_context(prefer_skip_nested_validation=False)
+    def fit(self, X, y, *, source=None, groups=None):
+        """Train the modules.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+            Sensor readings of every module (a ``run`` column or index level
+            holds run labels and is not a feature).
+        y : array-like of shape (n_samples,) or (n_samples, n_targets)
+            Displacement(s).
+        source : array-like of shape (n_samples,), optional
+            The module whose single-source test every row comes from: each
+            module is trained on its rows only. None: all modules are trained
+            on all rows together by backfitting.
+        groups : array-like of shape (n_samples,), optional
+            Run labels (for ``relative=True``); override a ``run`` column.
+
+        Returns
+        -------
+        self : ModularRegressor
+        """
+        X, groups = extract_runs(X, groups)
+        X, y = validate_data(
+            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+        )
+        modules = self._resolve_modules()
+        X = self._relative(X, groups)
+        y = self._relative(np.asarray(y, dtype=float), groups)
+        self._fit(X, y, modules, source)
+        return self
+
+    def _fit(self, X, y, modules, source):
+        names = [m[0] for m in modules]
+        fitted = [clone(est) for _, est, _ in modules]
+        self.module_columns_ = [cols for _, _, cols in modules]
+        if source is not None:
+            source = np.asarray(source)
+            if source.shape != (X.shape[0],):
+                raise ValueError(
+                    f"source must hold one module name per row ({X.shape[0]}), got "
+                    f"shape {source.shape}."
+                )
+            unknown = sorted(set(source.tolist()) - set(names), key=str)
+            if unknown:
+                raise ValueError(
+                    f"source names {unknown!r}, which are not modules; modules: "
+                    f"{names}."
+                )
+            for name, est, cols in zip(
+                names, fitted, self.module_columns_, strict=True
+            ):
+                rows = source == name
+                if not rows.any():
+                    raise ValueError(f"Module {name!r} has no training rows in source.")
+                est.fit(X[rows][:, cols], y[rows])
+            self.n_iter_ = 0
+        else:
+            parts = np.zeros((len(fitted), *y.shape))
+            scale = float(np.std(y)) or 1.0
+            for it in range(1, self.max_iter + 1):
+                change = 0.0
+                for k, (est, cols) in enumerate(
+                    zip(fitted, self.module_columns_, strict=True)
+                ):
+                    rest = y - (parts.sum(axis=0) - parts[k])
+                    est.fit(X[:, cols], rest)
+                    new = np.asarray(est.predict(X[:, cols]), dtype=float)
+                    new = new.reshape(y.shape)
+                    change = max(change, float(np.max(np.abs(new - parts[k]))))
+                    parts[k] = new
+                if len(fitted) == 1 or change <= self.tol * scale:
+                    break
+            self.n_iter_ = it
+        self.estimators_ = fitted
+        self.named_estimators_ = Bunch(**dict(zip(names, fitted, strict=True)))
+        self._y_shape = y.shape[1:]
+        return self
+
+    def fit_modules(self, data, *, target=None):
+        """Train every module on its own test(s).
+
+        Parameters
+        ----------
+        data : dict
+            ``{module name: run table}`` (DataFrames with ``run``, ``time_s``,
+            sensors and targets) or ``{module name: (X, y)}``. Every module
+            needs an entry; all entries need the same feature columns.
+        target : str or list of str, optional
+            Target column(s) of run tables; default: their only
+            ``disp_<axis>_um`` column.
+
+        Returns
+        -------
+        self : ModularRegressor
+        """
+        if not isinstance(data, dict) or not data:
+            raise ValueError("data must be a non-empty dict {module name: data}.")
+        Xs, ys, src, grp = [], [], [], []
+        for name, item in data.items():
+            if isinstance(item, pd.DataFrame):
+                targets = target_columns(item) if target is None else target
+                if isinstance(targets, list) and len(targets) == 1:
+                    targets = targets[0]
+                if isinstance(targets, list) and not targets:
+                    raise ValueError(f"The run table of {name!r} has no target.")
+                if target is None and isinstance(targets, list):
+                    raise ValueError(
+                        f"The run table of {name!r} has several targets "
+                        f"{targets}; choose with target=."
+                    )
+                missing = [
+                    t
+                    for t in ([targets] if isinstance(targets, str) else targets)
+                    if t not in item.columns
+                ]
+                if missing:
+                    raise ValueError(f"The run table of {name!r} has no {missing}.")
+                features = sensor_columns(item) + driver_columns(item)
+                X_i, y_i = item[features], item[targets]
+                runs = item["run"] if "run" in item.columns else np.zeros(len(item))
+                g = np.array([f"{name}/{r}" for r in np.asarray(runs).tolist()])
+            else:
+                try:
+                    X_i, y_i = item
+                except (TypeError, ValueError):
+                    raise ValueError(
+                        f"data[{name!r}] must be a run table or an (X, y) pair."
+                    ) from None
+                X_i, g_i = extract_runs(X_i)
+                g_i = np.zeros(len(X_i), dtype=int) if g_i is None else g_i
+                g = np.array([f"{name}/{r}" for r in np.asarray(g_i).tolist()])
+            Xs.append(X_i)
+            ys.append(np.asarray(y_i, dtype=float))
+            src.append(np.full(len(g), name, dtype=object))
+            grp.append(g)
+        if all(isinstance(x, pd.DataFrame) for x in Xs):
+            columns = list(Xs[0].columns)
+            for name, x in zip(data, Xs, strict=True):
+                if list(x.columns) != columns:
+                    raise ValueError(
+                        f"The features of {name!r} differ from those of "
+                        f"{next(iter(data))!r}; every test needs the same columns."
+                    )
+            X = pd.concat([x.reset_index(drop=True) for x in Xs], ignore_index=True)
+        else:
+            X = np.concatenate([np.asarray(x, dtype=float) for x in Xs])
+        ndims = {y_.ndim for y_ in ys}
+        if len(ndims) != 1:
+            raise ValueError("Every module's target must have the same shape.")
+        y = np.concatenate(ys)
+        return self.fit(X, y, source=np.concatenate(src), groups=np.concatenate(grp))
+
+    def _module_outputs(self, X, groups):
+        check_is_fitted(self)
+        X, groups = extract_runs(X, groups)
+        X = validate_data(self, X, reset=False, dtype=np.float64)
+        X = self._relative(X, groups)
+        return np.stack(
+            [
+                np.asarray(est.predict(X[:, cols]), dtype=float).reshape(
+                    X.shape[0], *self._y_shape
+                )
+                for est, cols in zip(
+                    self.estimators_, self.module_columns_, strict=True
+                )
+            ],
+            axis=1,
+        )
+
+    def predict_modules(self, X, *, groups=None):
+        """Contribution of every module.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+        groups : array-like of shape (n_samples,), optional
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_modules) or (n_samples, n_modules, n_targets)
+            Their sum over axis 1 is :meth:`predict`.
+        """
+        return self._module_outputs(X, groups)
+
+    def predict(self, X, *, groups=None):
+        """Sum of the module predictions.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+        groups : array-like of shape (n_samples,), optional
+            Run labels (for ``relative=True``); override a ``run`` column.
+
+        Returns
+        -------
+        ndarray of shape (n_samples,) or (n_samples, n_targets)
+            With ``relative=True``, the displacement change since the start of
+            each run.
+        """
+        return self._module_outputs(X, groups).sum(axis=1)

@@ -1,0 +1,102 @@
+"""Shared helpers of the Display objects: lazy matplotlib import, time axes.
+
+matplotlib is an optional dependency (the ``plot`` extra): it is imported only
+when something is drawn, with an error that says how to install it.
+"""
+
+import numpy as np
+
+_TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
+
+
+def check_matplotlib_support(caller_name):
+    """Import ``matplotlib.pyplot``, or raise an ImportError naming the extra.
+
+    Parameters
+    ----------
+    caller_name : str
+        Name of the function or class that needs matplotlib, used in the
+        error message.
+
+    Returns
+    -------
+    module
+        ``matplotlib.pyplot``.
+
+    Raises
+    ------
+    ImportError
+        If matplotlib is not installed.
+    """
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as exc:
+        raise ImportError(
+            f"{caller_name} requires matplotlib. Install it with "
+            'pip install "skthermal[plot]".'
+        ) from exc
+    return plt
+
+
+def _time_scale(time, time_unit):
+    """Time converted from seconds to ``time_unit`` and the axis label.
+
+    ``time_unit="auto"`` picks hours for spans over three hours, minutes for
+    spans over three minutes, seconds otherwise. ``None`` leaves the values
+    (and datetimes) untouched.
+    """
+    if time_unit is None:
+        return time, "time"
+    if time_unit != "auto" and time_unit not in _TIME_UNITS:
+        raise ValueError(
+            f"time_unit must be 'auto', 's', 'min', 'h' or None, got {time_unit!r}."
+        )
+    if not np.issubdtype(np.asarray(time).dtype, np.number):
+        return time, "time"
+    t = np.asarray(time, dtype=float)
+    if time_unit == "auto":
+        span = float(np.nanmax(t) - np.nanmin(t)) if t.size else 0.0
+        time_unit = "h" if span > 3 * 3600 else "min" if span > 180 else "s"
+    return t / _TIME_UNITS[time_unit], f"time ({time_unit})"
+
+
+def _index_level(obj, name):
+    """Values of index level ``name`` of a pandas object, or None."""
+    index = getattr(obj, "index", None)
+    names = getattr(index, "names", None)
+    if names is None or name not in names:
+        return None
+    return np.asarray(index.get_level_values(name))
+
+
+def _as_1d(values, name):
+    """A 1-D float array; a single-column DataFrame or (n, 1) array is squeezed."""
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric: {exc}") from exc
+    if arr.ndim == 2 and arr.shape[1] == 1:
+        arr = arr[:, 0]
+    if arr.ndim != 1:
+        raise ValueError(
+            f"{name} must be one-dimensional (one target), got shape {arr.shape}; "
+            "select one column, e.g. y['disp_y_um']."
+        )
+    if arr.size == 0:
+        raise ValueError(f"{name} is empty.")
+    return arr
+
+
+def _new_figure_or_axes(plt, ax, shape, caller, **subplots_kw):
+    """Axes of the requested shape: new ones, or ``ax`` checked and reshaped."""
+    if ax is None:
+        fig, axes = plt.subplots(*shape, squeeze=False, **subplots_kw)
+        return fig, axes
+    axes = np.asarray(ax, dtype=object)
+    if axes.size != int(np.prod(shape)):
+        raise ValueError(
+            f"{caller} needs {int(np.prod(shape))} Axes (shape {shape}) for this "
+            f"data, got {axes.size}."
+        )
+    axes = axes.reshape(shape)
+    return axes.flat[0].figure, axes

@@ -1,0 +1,413 @@
+"""Stable temperature-sensitive-point selection and its fuzzy-clustering baseline.
+
+Liu et al. (2022, 004 §3.1) rank temperature sensors by an
+*uncertainty-correlation coefficient* ``rho^U = rho / (1 + U_rho)``: the
+Pearson correlation of a sensor with the thermal error, discounted by the
+uncertainty of that correlation, obtained by propagating the displacement
+sensor's uncertainty and the temperature's (three times the RMSE of a
+regression of the temperature on the error) through the derivatives of
+Pearson's r. The baseline it replaces (004 §2.1) groups the sensors by
+fuzzy-equivalence clustering of their correlation matrix and keeps the sensor
+most correlated with the error in every group.
+"""
+
+from numbers import Integral, Real
+
+import numpy as np
+from sklearn.utils._param_validation import Interval, StrOptions
+
+from skthermal.selection._base import RunAwareSelector, ScoreSelector
+from skthermal.utils._runs import changes_since_start, run_slices
+
+
+def _centred(A):
+    return A - A.mean(axis=0)
+
+
+def pearson_gradients(x, e):
+    """Pearson's r of every sensor with the error, and its derivatives.
+
+    With centred ``x~ = x - mean(x)``, ``e~ = e - mean(e)``, ``Sxx = sum
+    x~^2``, ``See = sum e~^2`` and ``r = sum x~ e~ / sqrt(Sxx See)``::
+
+        d r / d x_k = e~_k / sqrt(Sxx See) - r x~_k / Sxx
+        d r / d e_k = x~_k / sqrt(Sxx See) - r e~_k / See
+
+    (the terms from the means vanish because centred values sum to zero).
+    These are 004 eq. 7-8 written without the ``1 - 1/N`` factors of the
+    extracted text, which cancel in the same way.
+
+    Parameters
+    ----------
+    x : ndarray of shape (n_samples, n_sensors)
+        Temperatures.
+    e : ndarray of shape (n_samples,)
+        Thermal error.
+
+    Returns
+    -------
+    r : ndarray of shape (n_sensors,)
+    dr_dx : ndarray of shape (n_samples, n_sensors)
+        ``dr_dx[k, i] = d r_i / d x_{k,i}``.
+    dr_de : ndarray of shape (n_samples, n_sensors)
+        ``dr_de[k, i] = d r_i / d e_k``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.selection._stable import pearson_gradients
+    >>> x = np.array([[0.0], [1.0], [3.0]])
+    >>> r, dx, de = pearson_gradients(x, np.array([0.0, 2.0, 2.0]))
+    >>> round(float(r[0]), 4), dx[:, 0].round(4).tolist()
+    (0.7559, [-0.162, 0.243, -0.081])
+    """
+    x = np.asarray(x, dtype=float)
+    e = np.asarray(e, dtype=float).reshape(-1)
+    xc, ec = _centred(x), _centred(e)
+    sxx = np.einsum("ki,ki->i", xc, xc)
+    see = float(ec @ ec)
+    norm = np.sqrt(sxx * see)
+    r = (ec @ xc) / norm
+    dr_dx = ec[:, None] / norm - r * xc / sxx
+    dr_de = xc / norm - r * ec[:, None] / see
+    return r, dr_dx, dr_de
+
+
+def uncertainty_correlation(x, e, *, displacement_uncertainty=1.0, temperature=None):
+    """Uncertainty-correlation coefficients ``rho / (1 + U_rho)`` (004 eq. 6-10).
+
+    Parameters
+    ----------
+    x : ndarray of shape (n_samples, n_sensors)
+        Temperatures (changes since the start of the run).
+    e : ndarray of shape (n_samples,)
+        Thermal error.
+    displacement_uncertainty : float, default=1.0
+        ``U_E``, uncertainty of the displacement measurement (units of ``e``).
+    temperature : ndarray of shape (n_sensors,) or float, optional
+        ``U_Ti``; default ``3 * RMSE`` of the least-squares line of ``T_i`` on
+        ``E``, ``RMSE = sqrt(sum residual^2 / (N - 1))`` (004 eq. 9).
+
+    Returns
+    -------
+    rho : ndarray of shape (n_sensors,)
+        Pearson correlations.
+    u_rho : ndarray of shape (n_sensors,)
+        ``U_rho = sqrt(U_E^2 sum_k (dr/de_k)^2 + U_Ti^2 sum_k (dr/dt_ik)^2)``.
+    u_t : ndarray of shape (n_sensors,)
+        ``U_Ti``.
+    rho_u : ndarray of shape (n_sensors,)
+        ``rho / (1 + U_rho)``, signed like ``rho``.
+    """
+    x = np.asarray(x, dtype=float)
+    e = np.asarray(e, dtype=float).reshape(-1)
+    n = x.shape[0]
+    rho, dr_dx, dr_de = pearson_gradients(x, e)
+    if temperature is None:
+        # Residual of the line T_i = a + b E: sum = Sxx (1 - r^2), computed
+        # directly to avoid cancellation when r is close to 1.
+        xc, ec = _centred(x), _centred(e)
+        slope = (ec @ xc) / (ec @ ec)
+        resid = xc - np.outer(ec, slope)
+        u_t = 3.0 * np.sqrt(np.einsum("ki,ki->i", resid, resid) / (n - 1))
+    else:
+        u_t = np.broadcast_to(np.asarray(temperature, dtype=float), rho.shape)
+    u_rho = np.sqrt(
+        displacement_uncertainty**2 * np.einsum("ki,ki->i", dr_de, dr_de)
+        + u_t**2 * np.einsum("ki,ki->i", dr_dx, dr_dx)
+    )
+    return rho, u_rho, u_t, rho / (1.0 + u_rho)
+
+
+def _check_target_changes(selector, Yc):
+    flat = ~np.any(Yc != Yc[0], axis=0)
+    if flat.any():
+        k = int(np.flatnonzero(flat)[0])
+        raise ValueError(
+            f"Target {k} does not change within any run: the correlation of a "
+            f"sensor with it is undefined. {type(selector).__name__} needs a "
+            "varying thermal error."
+        )
+
+
+class StableTSPSelector(ScoreSelector):
+    """Keep the sensors with the largest uncertainty-correlation coefficient.
+
+    The *stability TSP selection* of Liu et al. (2022): every temperature
+    sensor is scored by its Pearson correlation with the thermal error,
+    discounted by the uncertainty of that correlation,
+    ``rho^U = rho / (1 + U_rho)``, and the ``n_features_to_select`` best
+    sensors are the temperature-sensitive points (TSPs). No grouping: the
+    sensors kept may be collinear, which ridge regression
+    (:class:`~skthermal.linear_model.UpdateRegressor`) tolerates, but they are
+    the most, and most stably, correlated ones.
+
+    Parameters
+    ----------
+    n_features_to_select : int, float or None, default=2
+        Number of TSPs (an int; 004 uses two) or a fraction of the sensors (a
+        float in (0, 1]).
+    displacement_uncertainty : float, default=1.0
+        ``U_E``, the uncertainty of the displacement measurement, in the
+        units of ``y`` (µm).
+    temperature_uncertainty : "regression" or float, default="regression"
+        ``U_Ti``. ``"regression"``: three times the RMSE of the regression of
+        each sensor on the thermal error (004 eq. 9), the part of the
+        sensor's signal unrelated to the error. A float: one known
+        uncertainty for all sensors (units of ``X``).
+    threshold : float, {"mean", "median"} or None, default=None
+        Keep sensors whose score is at least this (combined with
+        ``n_features_to_select`` when both are given).
+
+    Attributes
+    ----------
+    scores_ : ndarray of shape (n_features_in_,)
+        ``|rho^U|`` of every sensor (with several targets, the mean over
+        targets of the scores scaled to a maximum of one per target).
+    ranking_ : ndarray of shape (n_features_in_,)
+        Rank of every sensor, 1 = best.
+    correlation_ : ndarray of shape (n_targets, n_features_in_)
+        Pearson's ``rho``, signed.
+    uncertainty_ : ndarray of shape (n_targets, n_features_in_)
+        ``U_rho``.
+    temperature_uncertainty_ : ndarray of shape (n_targets, n_features_in_)
+        ``U_Ti`` used.
+    uncertainty_correlation_ : ndarray of shape (n_targets, n_features_in_)
+        ``rho^U``, signed.
+    support_ : ndarray of bool of shape (n_features_in_,)
+        Mask of the TSPs.
+    n_features_in_ : int
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+
+    See Also
+    --------
+    FuzzyEquivalenceSelector : the clustering baseline of 004.
+    skthermal.linear_model.UpdateRegressor : the model 004 builds on the TSPs.
+
+    Notes
+    -----
+    004 eq. 5-10; METHODS §10. Sensors and error are taken as changes since
+    the start of each run (as 004 subtracts the first measurement), stacked
+    over the runs, and the samples of those changes are the ``t_ik`` and
+    ``e_k`` of the error propagation. The derivatives of Pearson's r are
+    analytic (:func:`pearson_gradients`); their sums of squares reduce to
+    ``(1 - rho^2) / S_TT`` and ``(1 - rho^2) / S_EE``.
+
+    Sign: a negatively correlated sensor is as useful to a linear model as a
+    positively correlated one, so sensors are ranked by ``|rho^U|``;
+    ``uncertainty_correlation_`` keeps the sign.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.selection import StableTSPSelector
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.linspace(0, 4, 60)
+    >>> E = 20 * (1 - np.exp(-t))
+    >>> X = np.c_[E / 5 + rng.normal(0, 0.5, 60), E / 4 + rng.normal(0, 0.05, 60),
+    ...           -E / 6 + rng.normal(0, 0.1, 60), rng.normal(0, 1, 60)]
+    >>> sel = StableTSPSelector(n_features_to_select=2).fit(X, E)
+    >>> sel.get_support().tolist()
+    [False, True, True, False]
+    >>> sel.correlation_.round(2).tolist()
+    [[0.93, 1.0, -0.99, -0.05]]
+    """
+
+    _parameter_constraints: dict = {
+        **ScoreSelector._parameter_constraints,
+        "displacement_uncertainty": [Interval(Real, 0, None, closed="left")],
+        "temperature_uncertainty": [
+            StrOptions({"regression"}),
+            Interval(Real, 0, None, closed="left"),
+        ],
+    }
+
+    def __init__(
+        self,
+        n_features_to_select=2,
+        *,
+        displacement_uncertainty=1.0,
+        temperature_uncertainty="regression",
+        threshold=None,
+    ):
+        self.n_features_to_select = n_features_to_select
+        self.displacement_uncertainty = displacement_uncertainty
+        self.temperature_uncertainty = temperature_uncertainty
+        self.threshold = threshold
+
+    def _scores_per_target(self, X, Y, groups):
+        slices, _ = run_slices(groups, X.shape[0])
+        Xc = changes_since_start(X, slices)
+        Yc = changes_since_start(Y, slices)
+        _check_target_changes(self, Yc)
+        known = self.temperature_uncertainty
+        out = [
+            uncertainty_correlation(
+                Xc,
+                Yc[:, k],
+                displacement_uncertainty=self.displacement_uncertainty,
+                temperature=None if known == "regression" else known,
+            )
+            for k in range(Y.shape[1])
+        ]
+        rho, u_rho, u_t, rho_u = (np.array(a) for a in zip(*out, strict=True))
+        self.correlation_ = rho
+        self.uncertainty_ = u_rho
+        self.temperature_uncertainty_ = u_t
+        self.uncertainty_correlation_ = rho_u
+        return np.abs(rho_u)
+
+
+def fuzzy_equivalence_closure(R, *, max_iter=64):
+    """Max-min transitive closure of a fuzzy similarity matrix (004 eq. 2-4).
+
+    Squares ``R`` by max-min composition, ``(R o R)_ij = max_k min(R_ik,
+    R_kj)``, until ``R^(2v) = R^(2(v+1))``; the result is a fuzzy equivalence
+    matrix, whose lambda-cuts are equivalence relations.
+
+    Parameters
+    ----------
+    R : array-like of shape (n, n)
+        Symmetric, values in [0, 1], ones on the diagonal.
+    max_iter : int, default=64
+        Most squarings (log2(n) always suffice).
+
+    Returns
+    -------
+    closure : ndarray of shape (n, n)
+    n_iter : int
+        Squarings done.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.selection._stable import fuzzy_equivalence_closure
+    >>> R = np.array([[1.0, 0.8, 0.1], [0.8, 1.0, 0.6], [0.1, 0.6, 1.0]])
+    >>> fuzzy_equivalence_closure(R)[0].tolist()
+    [[1.0, 0.8, 0.6], [0.8, 1.0, 0.6], [0.6, 0.6, 1.0]]
+    """
+    R = np.asarray(R, dtype=float)
+    if R.ndim != 2 or R.shape[0] != R.shape[1]:
+        raise ValueError(f"R must be a square matrix, got shape {R.shape}.")
+    for it in range(1, max_iter + 1):
+        R2 = np.minimum(R[:, :, None], R[None, :, :]).max(axis=1)
+        if np.array_equal(R2, R):
+            return R, it
+        R = R2
+    return R, max_iter
+
+
+def _cut_labels(closure, threshold):
+    """Groups of the lambda-cut ``closure >= threshold``, numbered by first
+    member."""
+    cut = closure >= threshold
+    # Rows of an equivalence relation are identical within a group.
+    _, first, labels = np.unique(cut, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(np.argsort(first))
+    return order[labels.reshape(-1)]
+
+
+class FuzzyEquivalenceSelector(RunAwareSelector):
+    """Group sensors by fuzzy-equivalence clustering; keep the best of each.
+
+    The baseline TSP selection of 004 §2.1: the matrix of absolute Pearson
+    correlations between sensors is made a fuzzy equivalence matrix by
+    repeated max-min squaring (its transitive closure); sensors whose closure
+    similarity is at least ``threshold`` (lambda) form a group, and the
+    sensor of each group most correlated with the thermal error is kept.
+
+    Parameters
+    ----------
+    threshold : float in [0, 1], default=0.9
+        Lambda: sensors ``i``, ``j`` share a group when their closure
+        similarity ``>= threshold``. Higher means more, smaller groups.
+    n_groups : int or None, default=None
+        If given, lambda is chosen instead as the highest level of the
+        closure giving at most ``n_groups`` groups (004 uses two groups);
+        ``threshold`` is then ignored.
+
+    Attributes
+    ----------
+    similarity_ : ndarray of shape (n_features_in_, n_features_in_)
+        The fuzzy equivalence matrix (closure of ``|corr|``).
+    threshold_ : float
+        Lambda used.
+    labels_ : ndarray of shape (n_features_in_,)
+        Group of every sensor, numbered by first member.
+    representatives_ : ndarray of shape (n_groups,)
+        Index of the kept sensor of every group, in group order.
+    scores_ : ndarray of shape (n_features_in_,)
+        ``|rho|`` of every sensor with the error (mean over targets).
+    support_ : ndarray of bool of shape (n_features_in_,)
+    n_iter_ : int
+        Max-min squarings until the closure was stable.
+    n_features_in_ : int
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+
+    See Also
+    --------
+    StableTSPSelector : the selection 004 proposes instead.
+    FCMClusterPicker : fuzzy c-means grouping of sensors.
+
+    Notes
+    -----
+    004 eq. 2-5; METHODS §10. Correlations use changes since the start of
+    each run, stacked over runs. The paper writes ``F > lambda``; here ``>=``,
+    so ``threshold=0`` is one group and ``threshold=1`` groups only
+    perfectly (transitively) correlated sensors.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.selection import FuzzyEquivalenceSelector
+    >>> t = np.linspace(0, 1, 50)
+    >>> X = np.c_[t, t ** 1.1, np.sin(9 * t), np.sin(9 * t) + 0.01 * t]
+    >>> sel = FuzzyEquivalenceSelector(threshold=0.95).fit(X, t)
+    >>> sel.labels_.tolist(), sel.representatives_.tolist()
+    ([0, 0, 1, 1], [0, 3])
+    """
+
+    _parameter_constraints: dict = {
+        "threshold": [Interval(Real, 0, 1, closed="both")],
+        "n_groups": [Interval(Integral, 1, None, closed="left"), None],
+    }
+
+    def __init__(self, threshold=0.9, *, n_groups=None):
+        self.threshold = threshold
+        self.n_groups = n_groups
+
+    def _fit_runs(self, X, Y, groups, slices):
+        Xc = changes_since_start(X, slices)
+        Yc = changes_since_start(Y, slices)
+        _check_target_changes(self, Yc)
+        xc, yc = _centred(Xc), _centred(Yc)
+        xn = xc / np.linalg.norm(xc, axis=0)
+        yn = yc / np.linalg.norm(yc, axis=0)
+        R = np.abs(xn.T @ xn)
+        # Exact symmetry, so that every lambda-cut is an equivalence relation.
+        R = np.clip((R + R.T) / 2.0, 0.0, 1.0)
+        np.fill_diagonal(R, 1.0)
+        closure, self.n_iter_ = fuzzy_equivalence_closure(R)
+        self.similarity_ = closure
+        self.scores_ = np.abs(yn.T @ xn).mean(axis=0)
+        if self.n_groups is None:
+            lam = float(self.threshold)
+        else:
+            levels = np.unique(closure)[::-1]  # high to low: groups merge
+            # A lambda-cut is an equivalence relation, so its number of groups
+            # is sum_i 1 / |group of i|: all levels at once.
+            sizes = (closure[None, :, :] >= levels[:, None, None]).sum(axis=2)
+            counts = np.rint((1.0 / sizes).sum(axis=1))
+            ok = np.flatnonzero(counts <= self.n_groups)
+            lam = float(levels[ok[0]])
+        self.threshold_ = lam
+        labels = _cut_labels(closure, lam)
+        n_groups = labels.max() + 1
+        # Best sensor per group, vectorised: mask other groups' scores out.
+        member = labels[None, :] == np.arange(n_groups)[:, None]
+        reps = np.argmax(np.where(member, self.scores_[None, :], -np.inf), axis=1)
+        self.labels_ = labels
+        self.representatives_ = reps
+        support = np.zeros(X.shape[1], dtype=bool)
+        support[reps] = True
+        self.support_ = support

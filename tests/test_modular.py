@@ -1,0 +1,223 @@
+"""ModularRegressor: modules trained on single-source tests, superposed."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.base import clone
+from sklearn.linear_model import LinearRegression, Ridge
+
+from skthermal.datasets import changes_since_start
+from skthermal.ensemble import ModularRegressor
+from skthermal.simulate import DutyCycle, ThermalMachine
+
+
+def _two_tests(n=40):
+    heat = np.linspace(0.0, 4.0, n)
+    quiet = np.zeros(n)
+    X = np.r_[np.c_[heat, quiet, 10 + heat], np.c_[quiet, heat, 10 + quiet]]
+    y = np.r_[3.0 * heat, -2.0 * heat]
+    return X, y, np.repeat(["spindle", "axis"], n)
+
+
+def test_sum_of_modules_by_hand():
+    X, y, source = _two_tests()
+    model = ModularRegressor(
+        [("spindle", LinearRegression(), [0]), ("axis", LinearRegression(), [1])],
+        relative=False,
+    ).fit(X, y, source=source)
+    Xq = np.array([[1.0, 2.0, 0.0], [0.5, 0.0, 0.0]])
+    np.testing.assert_allclose(model.predict(Xq), [3.0 - 4.0, 1.5], atol=1e-10)
+    parts = model.predict_modules(Xq)
+    np.testing.assert_allclose(parts, [[3.0, -4.0], [1.5, 0.0]], atol=1e-10)
+    assert model.n_iter_ == 0
+    np.testing.assert_allclose(model.named_estimators_["spindle"].coef_, [3.0])
+    assert [c.tolist() for c in model.module_columns_] == [[0], [1]]
+
+
+def test_relative_works_on_changes_since_each_run_start():
+    X, y, source = _two_tests()
+    offset = np.r_[np.full(40, 20.0), np.full(40, 23.0)]
+    Xa = X + offset[:, None]
+    ya = y + 5.0
+    groups = source  # one run per test
+    model = ModularRegressor(
+        [("spindle", LinearRegression(), [0]), ("axis", LinearRegression(), [1])]
+    ).fit(Xa, ya, source=source, groups=groups)
+    combined = np.c_[np.linspace(0, 2, 5), np.linspace(0, 1, 5), np.zeros(5)] + 21.0
+    pred = model.predict(combined)
+    np.testing.assert_allclose(
+        pred, 3.0 * np.linspace(0, 2, 5) - 2.0 * np.linspace(0, 1, 5), atol=1e-9
+    )
+    # A run column of a DataFrame splits the runs at predict time too.
+    frame = pd.DataFrame(np.r_[combined, combined + 1.0], columns=["a", "b", "c"])
+    frame.insert(0, "run", ["p"] * 5 + ["q"] * 5)
+    model.fit(
+        pd.DataFrame(Xa, columns=["a", "b", "c"]), ya, source=source, groups=groups
+    )
+    out = model.predict(frame)
+    np.testing.assert_allclose(out[:5], out[5:], atol=1e-9)
+
+
+def test_backfitting_recovers_an_additive_truth(rng):
+    X = rng.normal(size=(300, 4))
+    y = 2.0 * X[:, 0] - X[:, 1] + 0.5 * X[:, 2] + 3.0
+    model = ModularRegressor(
+        [("a", LinearRegression(), [0, 1]), ("b", LinearRegression(), [2, 3])],
+        relative=False,
+    ).fit(X, y)
+    np.testing.assert_allclose(model.predict(X), y, atol=1e-6)
+    assert 1 <= model.n_iter_ <= 20
+    np.testing.assert_allclose(model.named_estimators_["a"].coef_, [2.0, -1.0])
+    np.testing.assert_allclose(
+        model.named_estimators_["b"].coef_, [0.5, 0.0], atol=1e-9
+    )
+
+
+def test_default_is_one_linear_model_and_multioutput(rng):
+    X = rng.normal(size=(50, 3))
+    Y = np.c_[X @ [1.0, 2.0, 3.0], X @ [-1.0, 0.0, 1.0]]
+    model = ModularRegressor(relative=False).fit(X, Y)
+    np.testing.assert_allclose(model.predict(X), Y, atol=1e-9)
+    assert model.predict_modules(X).shape == (50, 1, 2)
+
+
+def test_named_columns_and_nested_params():
+    X, y, source = _two_tests()
+    df = pd.DataFrame(X, columns=["Tboss_C", "Tnut_C", "Tother_C"])
+    model = ModularRegressor(
+        [("spindle", Ridge(alpha=1.0), ["Tboss_C"]), ("axis", Ridge(), "Tnut_C")],
+        relative=False,
+    )
+    params = model.get_params()
+    assert params["spindle__alpha"] == 1.0 and "axis" in params
+    model.set_params(spindle__alpha=1e-9, axis=LinearRegression())
+    assert model.modules[0][1].alpha == 1e-9
+    assert isinstance(model.modules[1][1], LinearRegression)
+    assert model.modules[1][2] == "Tnut_C"
+    model.fit(df, y, source=source)
+    np.testing.assert_allclose(model.predict(df.iloc[:3]), y[:3], atol=1e-6)
+    # The given modules are not fitted in place.
+    assert not hasattr(model.modules[1][1], "coef_")
+    clone(model)
+
+
+def test_fit_modules_from_tables_and_pairs():
+    X, y, _ = _two_tests()
+    pairs = {"spindle": (X[:40], y[:40]), "axis": (X[40:], y[40:])}
+    model = ModularRegressor(
+        [("spindle", LinearRegression(), [0]), ("axis", LinearRegression(), [1])]
+    ).fit_modules(pairs)
+    np.testing.assert_allclose(
+        model.predict([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]]), [0.0, 1.0], atol=1e-9
+    )
+    tables = {
+        name: pd.DataFrame(
+            {
+                "run": name,
+                "time_s": np.arange(40.0),
+                "T1_C": Xi[:, 0],
+                "T2_C": Xi[:, 1],
+                "disp_y_um": yi,
+            }
+        )
+        for name, (Xi, yi) in pairs.items()
+    }
+    model = ModularRegressor(
+        [
+            ("spindle", LinearRegression(), ["T1_C"]),
+            ("axis", LinearRegression(), ["T2_C"]),
+        ]
+    ).fit_modules(tables)
+    np.testing.assert_allclose(model.named_estimators_["axis"].coef_, [-2.0])
+    with pytest.raises(ValueError, match="several targets"):
+        model.fit_modules({k: v.assign(disp_z_um=0.0) for k, v in tables.items()})
+    with pytest.raises(ValueError, match="differ"):
+        model.fit_modules(
+            {"spindle": tables["spindle"], "axis": tables["axis"].assign(T3_C=1.0)}
+        )
+    with pytest.raises(ValueError, match="non-empty dict"):
+        model.fit_modules({})
+
+
+@pytest.mark.parametrize(
+    "modules, message",
+    [
+        ([], "empty"),
+        ([("a", LinearRegression())], "tuple"),
+        (
+            [("a", LinearRegression(), [0]), ("a", LinearRegression(), [1])],
+            "Two modules",
+        ),
+        ([("a__b", LinearRegression(), [0])], "without '__'"),
+        ([("tol", LinearRegression(), [0])], "clashes"),
+        ([("a", "estimator", [0])], "not a regressor"),
+        ([("a", LinearRegression(), [5])], "out of range"),
+        ([("a", LinearRegression(), ["T1_C"])], "no column names"),
+        ([("a", LinearRegression(), [0, 0])], "twice"),
+        ([("a", LinearRegression(), [])], "reads no column"),
+        ([("a", LinearRegression(), [0.5])], "integer positions"),
+    ],
+)
+def test_module_errors(modules, message):
+    X, y, _ = _two_tests()
+    with pytest.raises(ValueError, match=message):
+        ModularRegressor(modules).fit(X, y)
+
+
+def test_source_errors():
+    X, y, source = _two_tests()
+    model = ModularRegressor(
+        [("spindle", LinearRegression(), [0]), ("axis", LinearRegression(), [1])]
+    )
+    with pytest.raises(ValueError, match="not modules"):
+        model.fit(X, y, source=np.where(source == "axis", "feed", source))
+    with pytest.raises(ValueError, match="no training rows"):
+        model.fit(X, y, source=np.full(80, "spindle"))
+    with pytest.raises(ValueError, match="one module name per row"):
+        model.fit(X, y, source=source[:3])
+    df = pd.DataFrame(X, columns=["a", "b", "c"])
+    with pytest.raises(ValueError, match=r"\['zz'\] are not in X"):
+        ModularRegressor([("m", LinearRegression(), ["zz"])]).fit(df, y)
+
+
+def test_simulated_spindle_and_feed_tests_predict_the_combined_test():
+    """001 §5.4.1.3 on simulated runs: modules beat a model of one test."""
+    machine = ThermalMachine.from_preset(
+        "vmc-b", params={"feed_heating.W_per_m_min": 15.0}
+    )
+    kw = {"sample_period_s": 120}
+    spindle = machine.simulate(
+        DutyCycle.heat_cool(8000, heat_h=2, cool_h=2),
+        20.0,
+        run="spindle",
+        random_state=0,
+        **kw,
+    )
+    feed = machine.simulate(
+        DutyCycle.heat_cool(0, heat_h=2, cool_h=2, feed_mm_min=10000),
+        20.0,
+        run="feed",
+        random_state=1,
+        **kw,
+    )
+    both = machine.simulate(
+        DutyCycle([(3 * 3600, 6000, 8000), (3600, 0, 0)]),
+        20.5,
+        run="combined",
+        random_state=2,
+        **kw,
+    )
+    head = ["T63_C", "T12_C", "T40_C", "T25_C"]
+    axis = ["T68_C", "T69_C", "T74_C"]
+    model = ModularRegressor(
+        [("spindle", LinearRegression(), head), ("axis", LinearRegression(), axis)]
+    ).fit_modules({"spindle": spindle, "axis": feed}, target="disp_y_um")
+    truth = changes_since_start(both, "disp_y_um")["disp_y_um"].to_numpy()
+    modular = model.predict(both[["run", *model.feature_names_in_]])
+    rmse = np.sqrt(np.mean((modular - truth) ** 2))
+    one = changes_since_start(spindle, head + axis + ["disp_y_um"])
+    single = LinearRegression().fit(one[head + axis], one["disp_y_um"])
+    rel = changes_since_start(both, head + axis)
+    rmse_single = np.sqrt(np.mean((single.predict(rel[head + axis]) - truth) ** 2))
+    assert rmse < 0.05 * np.abs(truth).max()
+    assert rmse < 0.5 * rmse_single

@@ -1,0 +1,374 @@
+"""Tests of skthermal.plotting: artists, labels, shading, ax reuse, errors."""
+
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+pytest.importorskip("matplotlib")
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from sklearn.linear_model import LinearRegression  # noqa: E402
+
+from skthermal import ANFISRegressor, FCMClusterPicker, GreyInfluenceSelector  # noqa: E402
+from skthermal.datasets import make_sensor_groups, split_runs  # noqa: E402
+from skthermal.metrics import nash_sutcliffe, residual_band, rmse  # noqa: E402
+from skthermal.plotting import (  # noqa: E402
+    GapTimelineDisplay,
+    MembershipFunctionDisplay,
+    PredictionDisplay,
+    SensorScoreDisplay,
+)
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
+
+
+@pytest.fixture(scope="module")
+def run_data():
+    """Three runs indexed by (run, time_s), a fitted linear model."""
+    rng = np.random.default_rng(0)
+    frames = []
+    for k, run in enumerate(["a", "b", "c"]):
+        t = np.arange(0.0, 3600.0 * (k + 1), 60.0)
+        heat = 1 - np.exp(-t / 1500.0)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": run,
+                    "time_s": t,
+                    "T1_C": 20 + 5 * heat + rng.normal(0, 0.05, t.size),
+                    "T2_C": 20 + 2 * heat**2 + rng.normal(0, 0.05, t.size),
+                    "disp_y_um": 10 * heat + rng.normal(0, 0.2, t.size),
+                }
+            )
+        )
+    df = pd.concat(frames, ignore_index=True)
+    X, y, groups = split_runs(df)
+    model = LinearRegression().fit(X, y)
+    return X, y, groups, model
+
+
+# ----------------------------------------------------------- PredictionDisplay
+
+
+def test_prediction_from_estimator_one_run(run_data):
+    X, y, groups, model = run_data
+    disp = PredictionDisplay.from_estimator(model, X, y, run="b")
+    assert disp.axes_.shape == (2, 1)
+    assert disp.ax_ is disp.axes_[0, 0] and disp.ax_residual_ is disp.axes_[1, 0]
+    assert disp.figure_ is disp.ax_.figure
+    mask = groups == "b"
+    t_min = y.index.get_level_values("time_s")[mask] / 60
+    np.testing.assert_allclose(disp.line_measured_.get_xdata(), t_min)
+    np.testing.assert_allclose(disp.line_measured_.get_ydata(), y[mask])
+    np.testing.assert_allclose(disp.line_predicted_.get_ydata(), model.predict(X)[mask])
+    np.testing.assert_allclose(
+        disp.line_residual_.get_ydata(), y[mask] - model.predict(X)[mask]
+    )
+    assert disp.line_predicted_.get_label() == "LinearRegression"
+    assert disp.ax_.get_ylabel() == "Y displacement (µm)"
+    assert disp.ax_residual_.get_xlabel() == "time (min)"
+    assert list(disp.metrics_.index) == ["b"]
+    band = residual_band(y[mask], model.predict(X)[mask])
+    assert disp.metrics_.loc["b", "band"] == pytest.approx(band)
+    assert disp.metrics_.loc["b", "rmse"] == pytest.approx(
+        rmse(y[mask], model.predict(X)[mask])
+    )
+    title = disp.ax_.get_title()
+    assert "run b" in title and "RMSE" in title and "NSE" in title
+    assert f"±{band:.3g}" in title
+    assert len(disp.bands_) == 1
+    lo, hi = (
+        disp.bands_[0]
+        .get_path()
+        .get_extents(disp.bands_[0].get_transform() - disp.ax_residual_.transData)
+        .intervaly
+    )
+    assert lo == pytest.approx(-band) and hi == pytest.approx(band)
+
+
+def test_prediction_facets_per_run(run_data):
+    X, y, groups, model = run_data
+    disp = PredictionDisplay.from_estimator(model, X, y)
+    assert disp.axes_.shape == (2, 3)
+    assert len(disp.lines_measured_) == 3 and len(disp.bands_) == 3
+    assert list(disp.metrics_.index) == ["a", "b", "c"]
+    # Run "c" lasts 3 h: the auto unit is hours only beyond 3 h, so minutes.
+    assert disp.axes_[1, 2].get_xlabel() == "time (min)"
+    sub = PredictionDisplay.from_estimator(model, X, y, run=["a", "c"])
+    assert sub.axes_.shape == (2, 2)
+    # Runs and times come from X's index when y is a plain array.
+    plain = PredictionDisplay.from_estimator(model, X, y.to_numpy(), run="c")
+    assert list(plain.metrics_.index) == ["c"]
+    assert plain.line_measured_.get_xdata()[-1] == pytest.approx(
+        y.index.get_level_values("time_s")[-1] / 60
+    )
+
+
+def test_prediction_from_predictions_plain_arrays():
+    y = np.linspace(0, 10, 50)
+    pred = y + 0.1
+    disp = PredictionDisplay.from_predictions(
+        y, pred, band=False, show_metrics=False, estimator_name="model"
+    )
+    assert disp.bands_ == []
+    assert disp.ax_.get_title() == ""
+    assert disp.ax_residual_.get_xlabel() == "sample"
+    assert disp.line_predicted_.get_label() == "model"
+    assert disp.metrics_["nse"].iloc[0] == pytest.approx(nash_sutcliffe(y, pred))
+    np.testing.assert_allclose(disp.line_residual_.get_ydata(), -0.1)
+
+
+def test_prediction_reuses_axes(run_data):
+    X, y, groups, model = run_data
+    fig, axes = plt.subplots(2, 1)
+    disp = PredictionDisplay.from_estimator(
+        model, X, y, run="a", ax=axes, time_unit="h"
+    )
+    assert disp.figure_ is fig
+    assert disp.ax_ is axes[0] and disp.ax_residual_ is axes[1]
+    assert disp.ax_residual_.get_xlabel() == "time (h)"
+    # Drawing again on other Axes keeps the data.
+    fig2, axes2 = plt.subplots(2, 1)
+    disp.plot(ax=axes2)
+    assert disp.figure_ is fig2 and len(axes2[0].lines) == 2
+
+
+def test_prediction_errors(run_data):
+    X, y, groups, model = run_data
+    with pytest.raises(ValueError, match=r"Run\(s\) \['z'\] not found"):
+        PredictionDisplay.from_estimator(model, X, y, run="z")
+    with pytest.raises(ValueError, match="no run labels"):
+        PredictionDisplay.from_predictions(np.ones(3), np.ones(3), run="a")
+    with pytest.raises(ValueError, match="3 samples but y_pred has 4"):
+        PredictionDisplay.from_predictions(np.ones(3), np.ones(4))
+    with pytest.raises(ValueError, match="one-dimensional"):
+        PredictionDisplay.from_predictions(np.ones((3, 2)), np.ones((3, 2)))
+    with pytest.raises(ValueError, match="needs 2 Axes"):
+        _, ax = plt.subplots()
+        PredictionDisplay.from_predictions(np.ones(3), np.ones(3), ax=ax)
+    with pytest.raises(ValueError, match="time_unit"):
+        PredictionDisplay.from_predictions(
+            np.ones(3), np.ones(3), time=[0, 1, 2], time_unit="days"
+        )
+    with pytest.raises(ValueError, match="time must hold one value"):
+        PredictionDisplay.from_predictions(np.ones(3), np.ones(3), time=[0, 1])
+
+
+# ---------------------------------------------------- MembershipFunctionDisplay
+
+
+@pytest.fixture(scope="module")
+def anfis():
+    rng = np.random.default_rng(0)
+    X = pd.DataFrame(rng.uniform(-1, 1, size=(120, 3)), columns=["T1", "T2", "T3"])
+    y = X["T1"] - X["T2"] ** 2 + 0.5 * X["T3"]
+    return ANFISRegressor(n_clusters=2, epochs=5, random_state=0).fit(X, y)
+
+
+@pytest.mark.parametrize(
+    "which, n_initial, n_trained",
+    [("both", 2, 2), ("initial", 2, 0), ("trained", 0, 2)],
+)
+def test_membership_functions(anfis, which, n_initial, n_trained):
+    disp = MembershipFunctionDisplay.from_estimator(anfis, which=which)
+    assert disp.axes_.shape == (3,)
+    assert [a.get_xlabel() for a in disp.axes_] == ["T1", "T2", "T3"]
+    assert disp.ax_.get_ylabel() == "membership"
+    assert all(len(lines) == n_initial for lines in disp.lines_initial_)
+    assert all(len(lines) == n_trained for lines in disp.lines_trained_)
+    if n_trained:
+        line = disp.lines_trained_[1][0]
+        assert line.get_linestyle() == "-"
+        assert line.get_label() == "in2mf1 (trained)"
+        assert 0 <= line.get_ydata().min() and line.get_ydata().max() <= 1
+    if n_initial:
+        assert disp.lines_initial_[0][0].get_linestyle() == "--"
+
+
+def test_membership_trained_differs_from_initial(anfis):
+    disp = MembershipFunctionDisplay.from_estimator(anfis)
+    y0 = disp.lines_initial_[0][0].get_ydata()
+    y1 = disp.lines_trained_[0][0].get_ydata()
+    assert not np.allclose(y0, y1)
+
+
+def test_membership_axes_reuse_and_errors(anfis):
+    fig, axes = plt.subplots(1, 3)
+    disp = MembershipFunctionDisplay.from_estimator(anfis, ax=axes)
+    assert disp.figure_ is fig and disp.ax_ is axes[0]
+    with pytest.raises(ValueError, match="needs 3 Axes"):
+        MembershipFunctionDisplay.from_estimator(anfis, ax=axes[:2])
+    with pytest.raises(ValueError, match="which must be"):
+        MembershipFunctionDisplay.from_estimator(anfis, which="before")
+    with pytest.raises(TypeError, match="needs a fitted ANFISRegressor"):
+        lr = LinearRegression().fit([[0.0], [1.0]], [0.0, 1.0])
+        lr.mf_params_ = np.ones((1, 1, 2))
+        MembershipFunctionDisplay.from_estimator(lr)
+    from sklearn.exceptions import NotFittedError
+
+    with pytest.raises(NotFittedError):
+        MembershipFunctionDisplay.from_estimator(ANFISRegressor())
+
+
+def test_membership_grid_many_inputs_hides_spare_axes():
+    rng = np.random.default_rng(1)
+    X = rng.uniform(size=(60, 5))
+    model = ANFISRegressor(init="grid", n_mfs=2, epochs=2).fit(X, X.sum(axis=1))
+    disp = MembershipFunctionDisplay.from_estimator(model, which="trained")
+    assert disp.axes_.shape == (5,)
+    visible = [a for a in disp.figure_.axes if a.get_visible()]
+    assert len(visible) == 5 and len(disp.figure_.axes) == 8
+    assert disp.lines_trained_[4][1].get_label() == "in5mf2 (trained)"
+
+
+# ----------------------------------------------------------- SensorScoreDisplay
+
+
+@pytest.fixture(scope="module")
+def sensor_data():
+    runs, truth = make_sensor_groups(n_groups=3, random_state=0)
+    return runs[truth.index], runs["disp_y_um"], runs["run"], truth
+
+
+def test_sensor_scores_fcm_groups(sensor_data):
+    X, y, groups, _ = sensor_data
+    picker = FCMClusterPicker(n_clusters=3, random_state=0).fit(X, y, groups=groups)
+    disp = SensorScoreDisplay.from_estimator(picker)
+    n = X.shape[1]
+    assert len(disp.bars_) == n
+    np.testing.assert_allclose([b.get_height() for b in disp.bars_], picker.scores_)
+    labels = [t.get_text() for t in disp.ax_.get_xticklabels()]
+    assert labels == list(X.columns)
+    kept = picker.get_support()
+    alphas = np.array([b.get_facecolor()[3] for b in disp.bars_])
+    np.testing.assert_allclose(alphas[kept], 1.0)
+    np.testing.assert_allclose(alphas[~kept], 0.35)
+    # Bars of one group share a colour, groups differ.
+    rgb = [tuple(b.get_facecolor()[:3]) for b in disp.bars_]
+    for g in np.unique(picker.labels_):
+        assert len({rgb[j] for j in np.flatnonzero(picker.labels_ == g)}) == 1
+    assert len(set(rgb)) == 3
+    texts = [t.get_text() for t in disp.legend_.get_texts()]
+    assert texts == ["group 0", "group 1", "group 2", "kept", "dropped"]
+    assert disp.ax_.get_ylabel() == "score (FCMClusterPicker)"
+
+
+def test_sensor_scores_sorted_mapping_and_no_groups(sensor_data):
+    X, y, groups, truth = sensor_data
+    sel = GreyInfluenceSelector(n_features_to_select=3).fit(X, y, groups=groups)
+    disp = SensorScoreDisplay.from_estimator(sel, sort=True)
+    heights = [b.get_height() for b in disp.bars_]
+    assert heights == sorted(heights, reverse=True)
+    np.testing.assert_array_equal(disp.order_, np.argsort(-sel.scores_, kind="stable"))
+    assert [t.get_text() for t in disp.legend_.get_texts()] == ["kept", "dropped"]
+    mapping = {name: f"g{g}" for name, g in truth.items() if g != 0}
+    disp = SensorScoreDisplay.from_estimator(sel, groups=mapping)
+    texts = [t.get_text() for t in disp.legend_.get_texts()]
+    assert "group ungrouped" in texts and "group g1" in texts
+    _, ax = plt.subplots()
+    disp = SensorScoreDisplay.from_estimator(sel, groups=None, ax=ax)
+    assert disp.ax_ is ax and disp.figure_ is ax.figure
+
+
+def test_sensor_scores_errors(sensor_data):
+    with pytest.raises(TypeError, match="has no scores_"):
+        SensorScoreDisplay.from_estimator(LinearRegression().fit([[0], [1]], [0, 1]))
+    with pytest.raises(ValueError, match="groups must be 'auto'"):
+        X, y, groups, _ = sensor_data
+        sel = GreyInfluenceSelector().fit(X, y, groups=groups)
+        SensorScoreDisplay.from_estimator(sel, groups="fcm")
+    with pytest.raises(ValueError, match="boolean mask"):
+        SensorScoreDisplay(scores=[1.0, 2.0], support=[1, 0]).plot()
+    with pytest.raises(ValueError, match="feature_names must hold 2"):
+        SensorScoreDisplay(scores=[1.0, 2.0], feature_names=["a"]).plot()
+    with pytest.raises(ValueError, match="non-empty 1-D"):
+        SensorScoreDisplay(scores=[]).plot()
+
+
+# ----------------------------------------------------------- GapTimelineDisplay
+
+
+def test_gap_timeline_spans_per_regime():
+    t = np.arange(12) * 600.0
+    regimes = ["heating"] * 3 + ["cooling"] * 2 + ["heating"] * 2
+    regimes += ["dwell", "ambient event", "ambient event", None, "dwell"]
+    residual = np.linspace(-1, 1, 12)
+    disp = GapTimelineDisplay.from_arrays(t, residual, regimes)
+    counts = {k: len(v) for k, v in disp.spans_.items()}
+    assert counts == {"heating": 2, "cooling": 1, "dwell": 2, "ambient event": 1}
+    assert disp.colors_["heating"] == "tab:red"
+    assert disp.colors_["ambient event"] == "tab:purple"
+    texts = [t.get_text() for t in disp.legend_.get_texts()]
+    assert texts == ["heating", "cooling", "dwell", "ambient event", "residual"]
+    # A span reaches the first sample of the next block (times in minutes).
+    x = disp.spans_["cooling"][0].get_x()
+    assert x == pytest.approx(30.0)
+    assert disp.spans_["cooling"][0].get_width() == pytest.approx(20.0)
+    np.testing.assert_allclose(disp.line_.get_ydata(), residual)
+    assert disp.ax_.get_xlabel() == "time (min)"
+
+
+def test_gap_timeline_colors_other_regimes_and_ax():
+    t = np.arange(6.0)
+    regimes = np.array(["warm-up", "warm-up", "heating", "cut", "cut", np.nan], object)
+    _, ax = plt.subplots()
+    disp = GapTimelineDisplay.from_arrays(
+        t,
+        np.zeros(6),
+        regimes,
+        ax=ax,
+        time_unit=None,
+        colors={"heating": "k"},
+        residual_name="gap (µm)",
+    )
+    assert disp.ax_ is ax
+    assert disp.colors_["heating"] == "k"
+    assert disp.colors_["warm-up"] != disp.colors_["cut"]
+    assert set(disp.spans_) == {"warm-up", "heating", "cut"}
+    assert disp.ax_.get_ylabel() == "gap (µm)" and disp.ax_.get_xlabel() == "time"
+
+
+def test_gap_timeline_errors():
+    with pytest.raises(ValueError, match="regimes must hold one value"):
+        GapTimelineDisplay.from_arrays([0, 1, 2], [0, 0, 0], ["a", "b"])
+    with pytest.raises(ValueError, match="time must increase strictly"):
+        GapTimelineDisplay.from_arrays([0, 2, 1], [0, 0, 0], ["a"] * 3)
+    with pytest.raises(ValueError, match="non-empty 1-D"):
+        GapTimelineDisplay.from_arrays([], [], [])
+
+
+# ------------------------------------------------------ missing matplotlib
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: PredictionDisplay.from_predictions([1.0, 2.0], [1.0, 2.0]),
+        lambda: GapTimelineDisplay.from_arrays([0, 1], [0, 0], ["a", "a"]),
+        lambda: SensorScoreDisplay(scores=[1.0]).plot(),
+        lambda: MembershipFunctionDisplay(x=[], input_names=[]).plot(),
+    ],
+)
+def test_import_error_names_the_extra(monkeypatch, call):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r'pip install "skthermal\[plot\]"'):
+        call()
+
+
+def test_package_imports_without_matplotlib(monkeypatch):
+    for name in list(sys.modules):
+        if name == "matplotlib" or name.startswith(("matplotlib.", "skthermal.plot")):
+            monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    import skthermal.plotting as plotting
+
+    assert "PredictionDisplay" in plotting.__all__

@@ -1,0 +1,318 @@
+"""Ridge and update regression, adaptive compensation, the batch campaign and
+the three-level RMSE."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.utils._param_validation import InvalidParameterError
+
+from skthermal.datasets import changes_since_start
+from skthermal.linear_model import (
+    UpdateRegressor,
+    adaptive_compensation,
+    first_stable_update,
+    make_batch_campaign,
+    ridge_coef,
+    update_coef,
+    update_is_stable,
+    update_path,
+)
+from skthermal.metrics._levels import cross_batch_rmse, rmse_levels
+from skthermal.selection._stable import StableTSPSelector
+
+
+@pytest.fixture
+def data(rng):
+    X = rng.uniform(0, 5, size=(40, 3))
+    y = 1.5 + X @ [4.0, -2.0, 0.5] + rng.normal(0, 0.1, 40)
+    return X, y
+
+
+# --- array functions -------------------------------------------------------
+
+
+def test_ridge_coef_hand_and_sklearn(data):
+    X, y = data
+    A = np.c_[np.ones(len(X)), X]
+    hand = np.linalg.solve(A.T @ A + 25 * np.eye(4), A.T @ y)
+    np.testing.assert_allclose(ridge_coef(X, y), hand)
+    # Penalised intercept = sklearn's Ridge on [1, X] without its own intercept.
+    sk = Ridge(alpha=25.0, fit_intercept=False).fit(A, y).coef_
+    np.testing.assert_allclose(ridge_coef(X, y), sk, rtol=1e-8)
+    # Free intercept = the usual ridge.
+    free = ridge_coef(X, y, alpha=25.0, penalize_intercept=False)
+    sk = Ridge(alpha=25.0).fit(X, y)
+    np.testing.assert_allclose(free, np.r_[sk.intercept_, sk.coef_], rtol=1e-8)
+    ols = LinearRegression().fit(X, y)
+    np.testing.assert_allclose(
+        ridge_coef(X, y, alpha=0.0), np.r_[ols.intercept_, ols.coef_], rtol=1e-8
+    )
+
+
+def test_update_coef_is_the_minimiser(data, rng):
+    X, y = data
+    X, y = X[:6], y[:6]
+    old = rng.normal(size=4)
+    eta = 0.1
+    beta = update_coef(X, y, old, eta=eta)
+    A = np.c_[np.ones(6), X]
+    hand = np.linalg.solve(
+        eta * A.T @ A + (1 - eta) * np.eye(4), eta * A.T @ y + (1 - eta) * old
+    )
+    np.testing.assert_allclose(beta, hand)
+    # Gradient of eta ||E - A b||^2 + (1 - eta) ||b - b_old||^2 vanishes.
+    grad = -2 * eta * A.T @ (y - A @ beta) + 2 * (1 - eta) * (beta - old)
+    np.testing.assert_allclose(grad, 0, atol=1e-9)
+    # beta_old = 0: ridge with p = (1 - eta) / eta (004 §3.2).
+    np.testing.assert_allclose(
+        update_coef(X, y, np.zeros(4), eta=0.2), ridge_coef(X, y, alpha=0.8 / 0.2)
+    )
+    # A free intercept is not pulled towards the old one.
+    free = update_coef(X, y, old, eta=eta, penalize_intercept=False)
+    d = np.r_[0.0, np.full(3, 1 - eta)]
+    hand = np.linalg.solve(eta * A.T @ A + np.diag(d), eta * A.T @ y + d * old)
+    np.testing.assert_allclose(free, hand)
+
+
+def test_update_path_matches_loop(data, rng):
+    X, y = data
+    Y = np.c_[y, 2 * y]
+    old = rng.normal(size=(4, 2))
+    path = update_path(X[:8], Y[:8], old)
+    assert path.shape == (8, 4, 2)
+    for n in range(1, 9):
+        np.testing.assert_allclose(path[n - 1], update_coef(X[:n], Y[:n], old))
+
+
+def test_update_is_stable_by_hand():
+    assert update_is_stable([[10.0, 5.0], [10.9, 5.4], [10.2, 5.1]])
+    assert not update_is_stable([[10.0, 5.0], [11.2, 5.4], [10.2, 5.1]])
+    # Intercept near zero needs atol.
+    coefs = [[0.01, 5.0], [0.03, 5.1], [0.02, 5.05]]
+    assert not update_is_stable(coefs)
+    assert update_is_stable(coefs, atol=0.05)
+    with pytest.raises(ValueError, match="at least two"):
+        update_is_stable([[1.0, 2.0]])
+    with pytest.raises(ValueError, match="NaN"):
+        update_is_stable([[1.0, np.nan], [1.0, 2.0]])
+    path = np.array([[0, 1], [1, 2], [1.9, 4], [2, 4.1], [2.05, 4.2]], dtype=float)
+    assert first_stable_update(path) == 3
+    assert first_stable_update(path[:4]) is None
+    assert first_stable_update(path[:2]) is None
+
+
+# --- the estimator ---------------------------------------------------------
+
+
+def test_regressor_fit_partial_fit(data):
+    X, y = data
+    model = UpdateRegressor().fit(X[:30], y[:30])
+    beta = ridge_coef(X[:30], y[:30])
+    assert model.intercept_ == pytest.approx(beta[0])
+    np.testing.assert_allclose(model.coef_, beta[1:])
+    np.testing.assert_allclose(model.predict(X), np.c_[np.ones(40), X] @ beta)
+    path = model.update_path(X[30:], y[30:])
+    assert path.shape == (10, 4)
+    model.partial_fit(X[30:36], y[30:36])
+    new = update_coef(X[30:36], y[30:36], beta)
+    np.testing.assert_allclose(np.r_[model.intercept_, model.coef_], new)
+    np.testing.assert_allclose(path[5], new)
+    assert model.n_updates_ == 1
+    model.fit(X, y)
+    assert model.n_updates_ == 0
+
+
+def test_regressor_partial_fit_from_scratch_is_ridge(data):
+    X, y = data
+    model = UpdateRegressor(eta=0.5).partial_fit(X, y)
+    np.testing.assert_allclose(
+        np.r_[model.intercept_, model.coef_], ridge_coef(X, y, alpha=1.0)
+    )
+    assert model.n_updates_ == 1
+
+
+def test_regressor_multi_output(data):
+    X, y = data
+    Y = np.c_[y, -y + 3]
+    model = UpdateRegressor(alpha=1.0).fit(X, Y)
+    assert model.coef_.shape == (2, 3)
+    assert model.intercept_.shape == (2,)
+    assert model.predict(X).shape == (40, 2)
+    single = UpdateRegressor(alpha=1.0).fit(X, Y[:, 1])
+    np.testing.assert_allclose(model.coef_[1], single.coef_)
+    model.partial_fit(X[:5], Y[:5])
+    assert model.update_path(X[:5], Y[:5]).shape == (5, 2, 4)
+    with pytest.raises(ValueError, match="1 target"):
+        model.partial_fit(X[:5], y[:5])
+
+
+def test_regressor_errors(data):
+    X, y = data
+    with pytest.raises(InvalidParameterError):
+        UpdateRegressor(alpha=-1).fit(X, y)
+    with pytest.raises(InvalidParameterError):
+        UpdateRegressor(eta=0.0).fit(X, y)
+    model = UpdateRegressor().fit(X, y)
+    with pytest.raises(ValueError, match="features"):
+        model.partial_fit(X[:, :2], y)
+    with pytest.raises(ValueError, match="NaN"):
+        model.partial_fit(np.full((2, 3), np.nan), y[:2])
+
+
+# --- adaptive compensation --------------------------------------------------
+
+
+def _drift_table():
+    # One sensor; the error's gain changes from 2 to 3 at row 20.
+    T = np.arange(60, dtype=float) / 10
+    E = np.where(np.arange(60) < 20, 2 * T, 3 * T - 2.0)
+    return pd.DataFrame(
+        {"run": "a", "time_s": 60.0 * np.arange(60), "T1_C": T, "disp_y_um": E}
+    )
+
+
+def test_adaptive_compensation_by_hand():
+    runs = _drift_table()
+    model = UpdateRegressor(alpha=0.0, penalize_intercept=False)
+    model.fit(runs[["T1_C"]][:20], runs["disp_y_um"][:20])
+    res = adaptive_compensation(model, runs, threshold_um=0.5, n_update=4)
+    r = runs["disp_y_um"] - 2 * runs["T1_C"]  # residual of the initial model
+    first = int(np.argmax(np.abs(r.to_numpy()) > 0.5))
+    assert res.updates["row"].iloc[0] == first
+    assert res.updates["n_samples"].iloc[0] == 4
+    assert res.measuring.iloc[first + 1 : first + 5].all()
+    assert not res.measuring.iloc[: first + 1].any()
+    np.testing.assert_allclose(
+        res.residual.iloc[: first + 5], r.iloc[: first + 5], atol=1e-9
+    )
+    assert res.samples_used == res.updates["n_samples"].sum()
+    assert res.sample_period_s == 60.0
+    assert res.downtime_s == 60.0 * res.samples_used
+    assert res.downtime_fraction == pytest.approx(res.samples_used / 60)
+    assert res.max_residual_um < np.abs(r).max()
+    # The input model is untouched.
+    assert model.n_updates_ == 0
+    base = adaptive_compensation(model, runs, threshold_um=0.5, update=False)
+    assert base.n_updates == 0
+    np.testing.assert_allclose(base.residual, r, atol=1e-9)
+
+
+def test_adaptive_compensation_auto(data):
+    runs = _drift_table()
+    model = UpdateRegressor().fit(runs[["T1_C"]][:20], runs["disp_y_um"][:20])
+    res = adaptive_compensation(model, runs, threshold_um=0.5, n_update="auto")
+    assert res.n_updates >= 1
+    assert res.updates["n_samples"].between(1, 12).all()
+    assert set(res.summary()) >= {"n_updates", "samples_used", "max_residual_um"}
+
+
+def test_adaptive_compensation_errors():
+    runs = _drift_table()
+    model = UpdateRegressor().fit(runs[["T1_C"]], runs["disp_y_um"])
+    with pytest.raises(ValueError, match="not in the run table"):
+        adaptive_compensation(model, runs, target="disp_z_um")
+    with pytest.raises(ValueError, match="threshold_um"):
+        adaptive_compensation(model, runs, threshold_um=-1.0)
+    with pytest.raises(ValueError, match="n_update"):
+        adaptive_compensation(model, runs, n_update="some")
+    with pytest.raises(TypeError, match="run table"):
+        adaptive_compensation(model, runs.to_numpy())
+    bad = runs.copy()
+    bad.loc[3, "T1_C"] = np.nan
+    with pytest.raises(ValueError, match="'T1_C'.*row 3"):
+        adaptive_compensation(model, bad)
+    unnamed = UpdateRegressor().fit(runs[["T1_C"]].to_numpy(), runs["disp_y_um"])
+    with pytest.raises(ValueError, match="sensors="):
+        adaptive_compensation(unnamed, runs)
+    res = adaptive_compensation(unnamed, runs, sensors=["T1_C"], update=False)
+    assert res.n_updates == 0
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return make_batch_campaign(n_batches=20, random_state=0)
+
+
+def test_campaign_shape_and_metadata(campaign):
+    sizes = campaign.groupby("run", sort=False).size()
+    assert list(sizes.index) == [f"B{i}" for i in range(1, 21)]
+    assert (sizes == 61).all()
+    meta = pd.DataFrame(campaign.attrs["metadata"])
+    assert len(meta) == 20
+    assert meta["spindle_rpm"].nunique() > 1
+    assert (meta["rest_before_h"] > 0).all()
+    assert (campaign.groupby("run")["time_s"].first() == 0).all()
+    with pytest.raises(ValueError, match="n_batches"):
+        make_batch_campaign(n_batches=0)
+    with pytest.raises(ValueError, match="cut_fraction"):
+        make_batch_campaign(n_batches=1, cut_fraction=(0.5, 1.5))
+
+
+def test_adaptive_campaign_keeps_residual_bounded(campaign):
+    # 004 §4.3.1: model from B1, stream B2..B20 (76 h), update above 7 µm with
+    # six new samples; goal 10 µm.
+    first = changes_since_start(campaign[campaign["run"] == "B1"])
+    sensors = [c for c in campaign if c.startswith("T")]
+    sel = StableTSPSelector(n_features_to_select=2).fit(
+        first[sensors], first["disp_y_um"]
+    )
+    tsp = list(sel.get_feature_names_out())
+    model = UpdateRegressor().fit(first[tsp], first["disp_y_um"])
+    rest = campaign[campaign["run"] != "B1"]
+    adaptive = adaptive_compensation(model, rest, threshold_um=7.0, n_update=6)
+    fixed = adaptive_compensation(model, rest, update=False)
+    # Measured with random_state=0: 12 updates, 72 samples (6.2 % of the
+    # time), 8.3 µm with updates against 15.8 µm without.
+    assert adaptive.max_residual_um < 10.0
+    assert 1 <= adaptive.n_updates <= 20
+    assert adaptive.downtime_fraction < 0.1
+    assert fixed.max_residual_um > 1.5 * adaptive.max_residual_um
+    assert adaptive.rmse_um < fixed.rmse_um
+
+
+# --- three-level RMSE ---------------------------------------------------------
+
+
+def test_rmse_levels_by_hand():
+    y = np.array([1.0, 2.0, 3.0, 5.0])
+    groups = np.array(["B1", "B1", "B2", "B2"])
+    preds = {
+        "a": {"B1": [1.0, 2.0, 4.0, 4.0], "B2": [2.0, 2.0, 3.0, 5.0]},
+        "b": pd.DataFrame({"B1": [0.0, 0.0, 0.0, 0.0]}),
+    }
+    lv = rmse_levels(y, preds, groups)
+    r_a1 = [0.0, 1.0]
+    r_a2 = [np.sqrt(0.5), 0.0]
+    r_b1 = [np.sqrt((1 + 4) / 2), np.sqrt((9 + 25) / 2)]
+    np.testing.assert_allclose(lv.per_batch.to_numpy(), [r_a1, r_a2, r_b1])
+    assert lv.per_model.loc["a", "B1"] == pytest.approx(0.5)
+    assert np.isnan(lv.per_model.loc["b", "B2"])
+    assert lv.per_method.loc["a", "rmse"] == pytest.approx((0.5 + np.sqrt(0.5) / 2) / 2)
+    assert lv.per_method.loc["b", "rmse"] == pytest.approx(np.mean(r_b1))
+    no_self = rmse_levels(y, preds, groups, include_self=False)
+    assert no_self.per_model.loc["a", "B1"] == pytest.approx(1.0)
+    assert no_self.per_model.loc["a", "B2"] == pytest.approx(np.sqrt(0.5))
+
+
+def test_rmse_levels_errors():
+    y = np.arange(4.0)
+    g = ["a", "a", "b", "b"]
+    with pytest.raises(ValueError, match="expected 4"):
+        rmse_levels(y, {"m": {"a": [1.0, 2.0]}}, g)
+    with pytest.raises(TypeError, match="non-empty mapping"):
+        rmse_levels(y, {}, g)
+    with pytest.raises(ValueError, match="one batch label per row"):
+        rmse_levels(y, {"m": {"a": y}}, ["a"])
+    with pytest.raises(ValueError, match="NaN"):
+        rmse_levels(y, {"m": {"a": [np.nan, 1, 1, 1]}}, g)
+
+
+def test_cross_batch_rmse(data):
+    X, y = data
+    groups = np.repeat(["B1", "B2"], 20)
+    lv = cross_batch_rmse({"ridge": UpdateRegressor(alpha=1.0)}, X, y, groups)
+    m1 = UpdateRegressor(alpha=1.0).fit(X[:20], y[:20])
+    r12 = np.sqrt(np.mean((m1.predict(X[20:]) - y[20:]) ** 2))
+    assert lv.per_batch.loc[("ridge", "B1"), "B2"] == pytest.approx(r12)
+    assert lv.per_method.shape == (1, 1)
