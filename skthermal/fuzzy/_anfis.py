@@ -17,6 +17,7 @@ from skthermal.fuzzy._anfis_core import (
     _HALF,
     _SINGLE_THREAD_COLUMNS,
     _CheckingSet,
+    _rmse,
     anfis_predict,
     anfis_train,
     fcm_mf_params,
@@ -64,6 +65,58 @@ def _tail_split(slices, n, fraction):
             "use a larger fraction or pass X_val and y_val."
         )
     return val
+
+
+class _EpochHook:
+    """Stand-in for the checking set that calls ``epoch_callback`` every epoch.
+
+    ``anfis_train`` scores its checking set exactly once per epoch, after the
+    training error and before the early-stopping logic, so wrapping the
+    checking set gives a per-epoch hook without touching the training loop.
+    It returns the monitored error unchanged (the checking RMSE, or the
+    training RMSE when there is no checking set), or NaN once the callback
+    asks to stop, which ends the loop. Because that epoch is then not a
+    candidate for the kept parameters inside ``anfis_train``, the hook keeps
+    its own record of the best epoch.
+    """
+
+    def __init__(self, callback, checking, X_train, Y_train):
+        self.callback = callback
+        self.checking = checking
+        self.X = X_train
+        self.Y = Y_train
+        self.monitored = []
+        self.best = None
+        self.stopped = False
+
+    def rmse(self, mf_params, rules, consequents, mf):
+        epoch = len(self.monitored) + 1
+        pred = anfis_predict(self.X, mf_params, rules, consequents, mf)
+        train = float(_rmse(pred - self.Y))
+        check = None
+        if self.checking is not None:
+            check = float(self.checking.rmse(mf_params, rules, consequents, mf))
+        monitored = train if check is None else check
+        self.monitored.append(monitored)
+        if np.isfinite(monitored) and (self.best is None or monitored < self.best[0]):
+            self.best = (monitored, mf_params.copy(), consequents.copy(), epoch)
+        if self.callback(epoch, train, check):
+            self.stopped = True
+            return np.nan
+        return monitored
+
+    def fix_result(self, result):
+        """Undo the traces of the hook in the result of ``anfis_train``."""
+        history = result["history"]
+        if self.checking is None:
+            history.pop("val_rmse", None)
+        elif self.stopped:
+            history["val_rmse"][-1] = self.monitored[-1]
+        if self.stopped and self.best is not None:
+            _, result["mf_params"], result["consequents"], result["best_epoch"] = (
+                self.best
+            )
+        return result
 
 
 class ANFISRegressor(RegressorMixin, BaseEstimator):
@@ -144,6 +197,15 @@ default="fcm"
         Seeds the fuzzy c-means initialisation.
     verbose : int, default=0
         1 prints progress ten times during training, 2 every epoch.
+    epoch_callback : callable or None, default=None
+        Called after every epoch as ``epoch_callback(epoch, train_rmse,
+        check_rmse)`` (``epoch`` 1-based; ``check_rmse`` None without a
+        checking set); returning True stops training after that epoch,
+        keeping the parameters of the best epoch so far. Used for pruning
+        hyperparameter searches (:func:`skthermal.model_selection.run_search`).
+        It is a training-time hook only: it is not pickled (a pickled or
+        saved estimator has ``epoch_callback=None``). Setting it costs one
+        extra pass over the training data per epoch.
 
     Attributes
     ----------
@@ -226,6 +288,7 @@ default="fcm"
         "max_rules": [Interval(numbers.Integral, 1, None, closed="left")],
         "random_state": ["random_state"],
         "verbose": ["verbose"],
+        "epoch_callback": [callable, None],
     }
 
     def __init__(
@@ -248,6 +311,7 @@ default="fcm"
         max_rules=4096,
         random_state=None,
         verbose=0,
+        epoch_callback=None,
     ):
         self.init = init
         self.n_clusters = n_clusters
@@ -266,6 +330,15 @@ default="fcm"
         self.max_rules = max_rules
         self.random_state = random_state
         self.verbose = verbose
+        self.epoch_callback = epoch_callback
+
+    def __getstate__(self):
+        # The callback usually closes over live objects (an Optuna trial, a
+        # database connection): it is a training-time hook, never saved.
+        state = super().__getstate__()
+        if state.get("epoch_callback") is not None:
+            state = {**state, "epoch_callback": None}
+        return state
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -341,6 +414,11 @@ default="fcm"
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
 
+        hook = None
+        if self.epoch_callback is not None:
+            hook = _EpochHook(self.epoch_callback, checking, X_train, Y_train)
+            checking = hook
+
         n_columns = rules.shape[0] * (d + 1)
         small = n_columns <= _SINGLE_THREAD_COLUMNS
         with single_threaded_blas() if small else contextlib.nullcontext():
@@ -361,6 +439,8 @@ default="fcm"
                 n_iter_no_change=self.n_iter_no_change,
                 verbose=self.verbose,
             )
+        if hook is not None:
+            result = hook.fix_result(result)
         self.initial_mf_params_ = mf_params
         self.mf_params_ = result["mf_params"]
         self.rules_ = rules

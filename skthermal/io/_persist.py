@@ -1,0 +1,271 @@
+"""Safe deployment files: fitted models saved with skops, loaded without pickle.
+
+A pickle (or joblib) file runs whatever code it names when it is loaded, so it
+must only be opened when its origin is trusted. :func:`save` writes the model
+with :mod:`skops.io` instead, whose loader rebuilds objects from a schema and
+refuses every type it was not told to trust. :func:`load` trusts exactly the
+skops defaults (builtins, numpy, scipy, scikit-learn) plus the classes that
+skthermal itself defines, so skthermal models load without listing their
+types; anything else in the file has to be named by the caller. The file also
+records the versions it was written with, and :func:`load` warns when they
+differ from the installed ones.
+"""
+
+import json
+import os
+import sys
+import warnings
+import zipfile
+
+_METADATA_NAME = "skthermal_metadata.json"
+_FORMAT = 1
+
+
+class SkthermalVersionWarning(UserWarning):
+    """A model file was written by other skthermal or scikit-learn versions.
+
+    The model may still load and predict identically, but nothing guarantees
+    it: refit it with the installed versions, or compare its predictions on
+    known data before using it.
+    """
+
+
+class UntrustedTypesError(ValueError):
+    """A model file holds types that :func:`load` does not trust by default.
+
+    Attributes
+    ----------
+    types : list of str
+        The fully qualified names of the untrusted types.
+    """
+
+    def __init__(self, message, types):
+        super().__init__(message)
+        self.types = list(types)
+
+
+def _skops_io():
+    try:
+        import skops.io as sio
+    except ImportError as exc:
+        raise ImportError(
+            'skthermal.io needs skops; install it with pip install "skthermal[deploy]".'
+        ) from exc
+    return sio
+
+
+def _versions():
+    import numpy
+    import scipy
+    import sklearn
+    import skops
+
+    import skthermal
+
+    return {
+        "skthermal": skthermal.__version__,
+        "scikit-learn": sklearn.__version__,
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "skops": skops.__version__,
+        "python": ".".join(str(v) for v in sys.version_info[:3]),
+    }
+
+
+def _type_name(t):
+    if isinstance(t, str):
+        return t
+    if isinstance(t, type):
+        return f"{t.__module__}.{t.__qualname__}"
+    raise TypeError(
+        f"trusted must hold type names (str) or classes, got {type(t).__name__}."
+    )
+
+
+def _is_skthermal_class(name):
+    """Whether ``name`` is a class defined by an imported skthermal module.
+
+    Only modules already imported are looked at: importing a module named by a
+    file could run code (``skthermal.__main__`` runs the command line).
+    """
+    import skthermal  # noqa: F401 - imports the estimator modules
+
+    module, _, attr = name.rpartition(".")
+    if not (module == "skthermal" or module.startswith("skthermal.")):
+        return False
+    mod = sys.modules.get(module)
+    obj = getattr(mod, attr, None) if mod is not None else None
+    return isinstance(obj, type) and obj.__module__ == module
+
+
+def save(model, path, *, compress=True):
+    """Save a fitted model to a skops file that loads without running code.
+
+    Parameters
+    ----------
+    model : object
+        Usually a fitted skthermal estimator or a pipeline holding them.
+    path : str or path-like
+        File to write (conventionally ``*.skops``); overwritten if present.
+    compress : bool, default=True
+        Deflate the archive members.
+
+    Returns
+    -------
+    path : str
+        The path written.
+
+    Raises
+    ------
+    ImportError
+        If skops is not installed (``pip install "skthermal[deploy]"``).
+
+    See Also
+    --------
+    load : Read the file back.
+    read_metadata : The versions a file was written with.
+
+    Notes
+    -----
+    The file is a skops archive (readable by ``skops.io.load``) with one extra
+    member, ``skthermal_metadata.json``, holding the versions of skthermal,
+    scikit-learn, numpy, scipy, skops and Python that wrote it. An
+    ``ANFISRegressor.epoch_callback`` is not saved.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from skthermal.fuzzy import ANFISRegressor
+    >>> from skthermal.io import load, save
+    >>> X = np.linspace(0, 1, 40).reshape(-1, 1)
+    >>> model = ANFISRegressor(n_clusters=2, epochs=5, random_state=0)
+    >>> model = model.fit(X, 2 * X[:, 0])
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = save(model, os.path.join(folder, "model.skops"))
+    ...     reloaded = load(path)
+    >>> bool(np.array_equal(reloaded.predict(X), model.predict(X)))
+    True
+    """
+    sio = _skops_io()
+    path = os.fspath(path)
+    compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    sio.dump(model, path, compression=compression)
+    metadata = {"format": _FORMAT, "versions": _versions()}
+    with zipfile.ZipFile(path, "a", compression=compression) as archive:
+        archive.writestr(_METADATA_NAME, json.dumps(metadata, indent=2))
+    return path
+
+
+def read_metadata(path):
+    """The metadata that :func:`save` recorded in a model file.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    dict or None
+        ``{"format": 1, "versions": {"skthermal": ..., "scikit-learn": ...,
+        ...}}``, or None for a skops file not written by :func:`save`.
+    """
+    with zipfile.ZipFile(os.fspath(path)) as archive:
+        if _METADATA_NAME not in archive.namelist():
+            return None
+        return json.loads(archive.read(_METADATA_NAME).decode("utf-8"))
+
+
+def _check_versions(path, metadata):
+    if metadata is None:
+        return
+    saved = metadata.get("versions", {})
+    installed = _versions()
+    differ = [
+        f"{name} {saved.get(name)} (installed: {installed[name]})"
+        for name in ("skthermal", "scikit-learn")
+        if saved.get(name) != installed[name]
+    ]
+    if differ:
+        warnings.warn(
+            f"The model file {path} was written with {', '.join(differ)}. It may "
+            "not load or predict as it did; refit it with the installed "
+            "versions, or check its predictions on known data before use.",
+            SkthermalVersionWarning,
+            stacklevel=3,
+        )
+
+
+def load(path, *, trusted=None):
+    """Load a model saved by :func:`save`, running no code from the file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A file written by :func:`save` (or any skops file).
+    trusted : sequence of str or type, optional
+        Further types to trust, by fully qualified name (as listed by the
+        error) or as classes. Trusted by default: skops' own defaults
+        (builtins, numpy, scipy and scikit-learn types) and the classes
+        defined by skthermal.
+
+    Returns
+    -------
+    object
+        The model.
+
+    Raises
+    ------
+    UntrustedTypesError
+        If the file holds types outside the default set and ``trusted``;
+        the error lists them (``.types``).
+    ImportError
+        If skops is not installed (``pip install "skthermal[deploy]"``).
+
+    Warns
+    -----
+    SkthermalVersionWarning
+        When the file was written with another skthermal or scikit-learn
+        version than the installed one; the message names both.
+
+    See Also
+    --------
+    save : Write the file.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from sklearn.preprocessing import StandardScaler
+    >>> from skthermal.fuzzy import ANFISRegressor
+    >>> from skthermal.io import load, read_metadata, save
+    >>> X = np.linspace(0, 1, 40).reshape(-1, 1)
+    >>> pipe = make_pipeline(StandardScaler(), ANFISRegressor(epochs=5))
+    >>> pipe = pipe.fit(X, X[:, 0] ** 2)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = save(pipe, os.path.join(folder, "pipe.skops"))
+    ...     reloaded = load(path)
+    ...     versions = read_metadata(path)["versions"]
+    >>> reloaded.steps[-1][0]
+    'anfisregressor'
+    >>> sorted(versions)[:3]
+    ['numpy', 'python', 'scikit-learn']
+    """
+    sio = _skops_io()
+    path = os.fspath(path)
+    metadata = read_metadata(path)
+    extra = {_type_name(t) for t in (trusted or ())}
+    untrusted = sio.get_untrusted_types(file=path)
+    ours = [t for t in untrusted if _is_skthermal_class(t)]
+    refused = sorted(t for t in untrusted if t not in extra and t not in ours)
+    if refused:
+        raise UntrustedTypesError(
+            f"The model file {path} contains types that are not trusted by "
+            f"default: {refused}. Loading them could run their code. Only if "
+            "you trust where the file comes from, pass them to load(..., "
+            "trusted=[...]).",
+            refused,
+        )
+    _check_versions(path, metadata)
+    return sio.load(path, trusted=list(untrusted))

@@ -1,0 +1,755 @@
+"""Optuna structure searches of skthermal models, scored by run-wise CV.
+
+:func:`run_search` draws parameters from a search space, scores each draw by
+cross-validation over whole runs (``GroupKFold`` on the run labels) and lets
+Optuna steer the draws. The study can live in memory, in a SQLite file, in a
+journal file shared by processes on one machine, or in any database that
+SQLAlchemy reaches (PostgreSQL, MySQL) shared by workers on many machines:
+every worker runs the same call against the same storage and study name.
+"""
+
+import contextlib
+import math
+import numbers
+import os
+import socket
+import time
+import warnings
+
+import numpy as np
+from sklearn.base import clone
+from sklearn.model_selection import GroupKFold
+from sklearn.pipeline import Pipeline
+
+from skthermal.metrics import get_scorer
+from skthermal.model_selection._spaces import (
+    _default_space_name,
+    combine_spaces,
+    search_space,
+)
+
+_SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
+_JOURNAL_SUFFIXES = (".log", ".journal", ".jsonl")
+_DEFAULT_HEARTBEAT = 60  # seconds; a dead worker's trial fails after 2 minutes
+_CREATE_ATTEMPTS = 5
+
+# Trial user attributes identifying the worker process that ran the trial.
+ATTR_HOST = "worker_host"
+ATTR_PID = "worker_pid"
+ATTR_START = "worker_start"
+
+
+def _import_optuna():
+    try:
+        import optuna
+    except ImportError as exc:
+        raise ImportError(
+            "skthermal.model_selection searches need optuna; install it with "
+            'pip install "skthermal[optuna]".'
+        ) from exc
+    return optuna
+
+
+@contextlib.contextmanager
+def _no_experimental_warning():
+    """Hide Optuna's ExperimentalWarning (its heartbeat API is experimental)."""
+    optuna = _import_optuna()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        yield
+
+
+# --------------------------------------------------------------------------
+# Storage
+# --------------------------------------------------------------------------
+
+
+def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retry=None):
+    """An Optuna storage from a path or URL.
+
+    Parameters
+    ----------
+    spec : None, str, path-like or optuna storage
+        ``None``: in memory (one process). A path ending in ``.db``,
+        ``.sqlite`` or ``.sqlite3``, or a ``sqlite:///`` URL: a SQLite file
+        (processes on one machine, local disk). A path ending in ``.log``,
+        ``.journal`` or ``.jsonl``: an Optuna journal file
+        (``JournalStorage`` with a ``JournalFileBackend``; processes on one
+        machine, also on file systems where SQLite locking is unreliable).
+        Any other URL, e.g. ``postgresql://user:password@host/db``: that
+        database through SQLAlchemy (workers on several machines; needs the
+        database driver, e.g. ``psycopg2``). An Optuna storage object is
+        returned unchanged.
+    heartbeat_interval : int, "auto" or None, default="auto"
+        Database storages only: seconds between the heartbeats a running
+        trial records. A trial whose heartbeat is older than ``grace_period``
+        (its worker was killed or lost) is marked failed by the next worker
+        that starts a trial. ``"auto"``: 60 s. None disables heartbeats.
+    grace_period : int, optional
+        Seconds without heartbeat before a trial counts as stale; default
+        twice ``heartbeat_interval``.
+    max_retry : int, optional
+        With heartbeats, re-queue a stale trial's parameters up to this many
+        times (Optuna's ``RetryHeartbeatStaleTrialCallback``).
+
+    Returns
+    -------
+    optuna.storages.BaseStorage or None
+
+    Notes
+    -----
+    The journal storage has no heartbeat; :func:`fail_stale_trials` fails
+    its trials whose worker process on this machine has died instead, and
+    :func:`run_search` calls it before searching.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from skthermal.model_selection import make_storage
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     sqlite = make_storage(os.path.join(folder, "study.db"))
+    ...     journal = make_storage(os.path.join(folder, "study.log"))
+    >>> type(sqlite).__name__, sqlite.heartbeat_interval
+    ('RDBStorage', 60)
+    >>> type(journal).__name__
+    'JournalStorage'
+    >>> make_storage(None) is None
+    True
+    """
+    optuna = _import_optuna()
+    if spec is None or isinstance(spec, optuna.storages.BaseStorage):
+        return spec
+    if not isinstance(spec, str | os.PathLike):
+        raise TypeError(
+            f"storage must be None, a path, a URL or an Optuna storage, got "
+            f"{type(spec).__name__}."
+        )
+    text = os.fspath(spec)
+    lower = text.lower()
+    if "://" not in text:
+        if lower.endswith(_JOURNAL_SUFFIXES):
+            return _journal_storage(optuna, text)
+        if not lower.endswith(_SQLITE_SUFFIXES):
+            raise ValueError(
+                f"Cannot tell the storage kind of {text!r}: use a path ending in "
+                f"{' / '.join(_SQLITE_SUFFIXES)} (SQLite) or "
+                f"{' / '.join(_JOURNAL_SUFFIXES)} (journal file), or a database "
+                "URL such as sqlite:///study.db or postgresql://user@host/db."
+            )
+        text = "sqlite:///" + os.path.abspath(text)
+    return _rdb_storage(optuna, text, heartbeat_interval, grace_period, max_retry)
+
+
+def _journal_storage(optuna, path):
+    try:
+        from optuna.storages.journal import JournalFileBackend as backend
+    except ImportError:  # pragma: no cover - optuna < 4
+        backend = optuna.storages.JournalFileStorage
+    return optuna.storages.JournalStorage(backend(os.path.abspath(path)))
+
+
+def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
+    if heartbeat_interval == "auto":
+        heartbeat_interval = _DEFAULT_HEARTBEAT
+    kwargs = {}
+    if heartbeat_interval is not None:
+        kwargs["heartbeat_interval"] = int(heartbeat_interval)
+        if grace_period is not None:
+            kwargs["grace_period"] = int(grace_period)
+        if max_retry is not None:
+            retry = getattr(
+                optuna.storages,
+                "RetryHeartbeatStaleTrialCallback",
+                optuna.storages.RetryFailedTrialCallback,
+            )
+            name = (
+                "heartbeat_stale_trial_callback"
+                if hasattr(optuna.storages, "RetryHeartbeatStaleTrialCallback")
+                else "failed_trial_callback"
+            )
+            with _no_experimental_warning():
+                kwargs[name] = retry(max_retry=max_retry)
+    engine_kwargs = None
+    if url.startswith("sqlite"):
+        # Several processes share the file: wait for its lock rather than fail.
+        engine_kwargs = {"connect_args": {"timeout": 60}}
+    # Workers that start together on an empty database race to create Optuna's
+    # tables; the losers see an integrity error and succeed on a retry.
+    from sqlalchemy.exc import IntegrityError, OperationalError
+
+    for attempt in range(_CREATE_ATTEMPTS):
+        try:
+            with _no_experimental_warning():
+                return optuna.storages.RDBStorage(
+                    url, engine_kwargs=engine_kwargs, **kwargs
+                )
+        except (IntegrityError, OperationalError):
+            if attempt == _CREATE_ATTEMPTS - 1:
+                raise
+            time.sleep(0.2 * (attempt + 1))
+
+
+# --------------------------------------------------------------------------
+# Workers and stale trials
+# --------------------------------------------------------------------------
+
+
+def _process_start(pid):
+    """(start time in clock ticks, state) of a process from /proc, or None."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return int(fields[19]), fields[0]
+
+
+def _worker_identity():
+    pid = os.getpid()
+    start = _process_start(pid)
+    return {
+        ATTR_HOST: socket.gethostname(),
+        ATTR_PID: pid,
+        ATTR_START: None if start is None else start[0],
+    }
+
+
+def _is_alive(pid, start):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    except OSError:  # pragma: no cover - e.g. Windows without the process
+        return False
+    now = _process_start(pid)
+    if now is None:
+        return True  # no /proc: trust the signal test
+    if now[1] == "Z":  # killed, waiting for its parent to collect it
+        return False
+    return start is None or now[0] == start
+
+
+def fail_stale_trials(study, *, heartbeat=True, local_processes=True):
+    """Mark failed the running trials whose worker is gone.
+
+    Parameters
+    ----------
+    study : optuna.Study
+    heartbeat : bool, default=True
+        Fail the trials whose heartbeat is older than the grace period
+        (database storages made with a ``heartbeat_interval``; Optuna's own
+        ``optuna.storages.fail_stale_trials``, which every worker also runs
+        before each trial).
+    local_processes : bool, default=True
+        Fail the trials that a worker process on this machine started (as
+        recorded by :func:`run_search` in the trial's user attributes
+        ``worker_host``, ``worker_pid``, ``worker_start``) and that process
+        no longer exists. This covers storages without heartbeat, such as
+        the journal file. A restarted process that reused the id is told
+        apart by its start time on Linux.
+
+    Returns
+    -------
+    list of int
+        Numbers of the trials marked failed by this call.
+    """
+    optuna = _import_optuna()
+    running = (optuna.trial.TrialState.RUNNING,)
+    before = {t.number for t in study.get_trials(deepcopy=False, states=running)}
+    if heartbeat and before:
+        with _no_experimental_warning():
+            optuna.storages.fail_stale_trials(study)
+    if local_processes and before:
+        host = socket.gethostname()
+        for trial in study.get_trials(deepcopy=False, states=running):
+            attrs = trial.user_attrs
+            if attrs.get(ATTR_HOST) != host or ATTR_PID not in attrs:
+                continue
+            if attrs[ATTR_PID] == os.getpid() or _is_alive(
+                attrs[ATTR_PID], attrs.get(ATTR_START)
+            ):
+                continue
+            study.tell(
+                trial.number, state=optuna.trial.TrialState.FAIL, skip_if_finished=True
+            )
+    after = {t.number for t in study.get_trials(deepcopy=False, states=running)}
+    failed = {
+        t.number
+        for t in study.get_trials(
+            deepcopy=False, states=(optuna.trial.TrialState.FAIL,)
+        )
+    }
+    return sorted((before - after) & failed)
+
+
+# --------------------------------------------------------------------------
+# The search
+# --------------------------------------------------------------------------
+
+
+def _final_step(estimator, prefix=""):
+    """The last estimator of (nested) pipelines and its parameter prefix."""
+    if isinstance(estimator, Pipeline):
+        name, step = estimator.steps[-1]
+        return _final_step(step, f"{prefix}{name}__")
+    return estimator, prefix
+
+
+def _infer_space(estimator):
+    """The built-in spaces of an estimator or of the steps of a pipeline."""
+    if isinstance(estimator, Pipeline):
+        spaces = []
+        for name, step in estimator.steps:
+            inner = _infer_space(step)
+            if inner is not None:
+                spaces.append(_PrefixedSpace(name, inner))
+        return combine_spaces(*spaces) if spaces else None
+    name = _default_space_name(estimator)
+    return None if name is None else search_space(name)
+
+
+class _PrefixedSpace:
+    def __init__(self, prefix, space):
+        self.prefix = prefix
+        self.space = space
+
+    def __call__(self, trial):
+        return {f"{self.prefix}__{k}": v for k, v in self.space(trial).items()}
+
+    def __repr__(self):
+        return f"{self.space!r} for step {self.prefix!r}"
+
+
+def _resolve_space(space, estimator):
+    if callable(space):
+        return space
+    if space is None:
+        inferred = _infer_space(estimator)
+        if inferred is None:
+            raise ValueError(
+                f"No built-in search space for {type(estimator).__name__}; pass "
+                "space= (a name, a callable space(trial) -> dict, or a dict "
+                "mapping pipeline step names to those)."
+            )
+        return inferred
+    if isinstance(space, str):
+        return search_space(space)
+    if isinstance(space, dict):
+        parts = []
+        for prefix, inner in space.items():
+            inner = search_space(inner) if isinstance(inner, str) else inner
+            if not callable(inner):
+                raise TypeError(f"space[{prefix!r}] must be a name or a callable.")
+            parts.append(_PrefixedSpace(prefix, inner))
+        return combine_spaces(*parts)
+    raise TypeError(
+        "space must be None, a built-in name, a callable space(trial) -> dict or a "
+        f"dict of those by pipeline step, got {type(space).__name__}."
+    )
+
+
+def _take(data, rows):
+    return data.iloc[rows] if hasattr(data, "iloc") else np.asarray(data)[rows]
+
+
+def _run_groups(X, groups):
+    if groups is not None:
+        return np.asarray(groups)
+    names = getattr(getattr(X, "index", None), "names", None) or []
+    if "run" in names:
+        return np.asarray(X.index.get_level_values("run"))
+    return None
+
+
+def _resolve_cv(cv, groups):
+    if cv is None or isinstance(cv, numbers.Integral):
+        if groups is None:
+            raise ValueError(
+                "Run-wise cross-validation needs the run labels: pass groups, or X "
+                "with a 'run' index level (skthermal.datasets.split_runs), or an "
+                "explicit cv."
+            )
+        n_runs = len(np.unique(groups))
+        n_splits = min(5, n_runs) if cv is None else int(cv)
+        if n_splits < 2:
+            raise ValueError(
+                f"GroupKFold needs at least 2 runs to score on unseen runs, got "
+                f"{n_runs}."
+            )
+        return GroupKFold(n_splits=n_splits)
+    return cv
+
+
+class _PruningCallback:
+    """ANFIS ``epoch_callback`` reporting the monitored error to the trial."""
+
+    def __init__(self, trial, sign):
+        self.trial = trial
+        self.sign = sign
+        self.pruned_at = None
+
+    def __call__(self, epoch, train_rmse, check_rmse):
+        error = train_rmse if check_rmse is None else check_rmse
+        if not math.isfinite(error):
+            return False
+        self.trial.report(self.sign * error, epoch)
+        if self.trial.should_prune():
+            self.pruned_at = epoch
+            return True
+        return False
+
+
+class _Objective:
+    def __init__(self, estimator, space, X, y, splits, scorer, pruning, sign):
+        self.estimator = estimator
+        self.space = space
+        self.X = X
+        self.y = y
+        self.splits = splits
+        self.scorer = scorer
+        self.pruning = pruning
+        self.sign = sign
+
+    def __call__(self, trial):
+        optuna = _import_optuna()
+        for key, value in _worker_identity().items():
+            trial.set_user_attr(key, value)
+        params = self.space(trial)
+        try:
+            base = clone(self.estimator).set_params(**params)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"The search space drew parameters the estimator does not take: {exc}"
+            ) from exc
+        scores = []
+        for fold, (train, test) in enumerate(self.splits):
+            model = clone(base)
+            hook = None
+            if self.pruning == "epochs" and fold == 0:
+                hook = _PruningCallback(trial, self.sign)
+                _, prefix = _final_step(model)
+                model.set_params(**{f"{prefix}epoch_callback": hook})
+            try:
+                model.fit(_take(self.X, train), _take(self.y, train))
+                if hook is not None and hook.pruned_at is not None:
+                    raise optuna.TrialPruned(
+                        f"pruned at epoch {hook.pruned_at} of the first fold"
+                    )
+                score = float(
+                    self.scorer(model, _take(self.X, test), _take(self.y, test))
+                )
+            except optuna.TrialPruned:
+                raise
+            except Exception as exc:  # a bad draw fails the trial, not the study
+                trial.set_user_attr("error", f"{type(exc).__name__}: {exc}")
+                trial.set_user_attr("error_fold", fold)
+                return float("nan")
+            scores.append(score)
+            if self.pruning == "folds":
+                trial.report(float(np.mean(scores)), fold + 1)
+                if trial.should_prune():
+                    raise optuna.TrialPruned(f"pruned after fold {fold + 1}")
+        trial.set_user_attr("fold_scores", scores)
+        return float(np.mean(scores))
+
+
+class SearchResult:
+    """Outcome of :func:`run_search`.
+
+    Attributes
+    ----------
+    study : optuna.Study
+        The study (all trials, of every worker).
+    best_params_ : dict or None
+        Estimator parameters of the best trial, ready for ``set_params``
+        (replayed through the search space, so e.g. tuples come back as
+        tuples); None if no trial completed.
+    best_score_ : float or None
+        Its mean cross-validation score.
+    best_trial_ : optuna.trial.FrozenTrial or None
+    best_estimator_ : estimator or None
+        The estimator with ``best_params_`` refitted on all the data
+        (``refit=True``).
+    scoring : str or callable
+        The scoring used.
+    """
+
+    def __init__(self, study, best_params, best_trial, best_estimator, scoring):
+        self.study = study
+        self.best_params_ = best_params
+        self.best_trial_ = best_trial
+        self.best_score_ = None if best_trial is None else best_trial.value
+        self.best_estimator_ = best_estimator
+        self.scoring = scoring
+
+    def trials_dataframe(self, **kwargs):
+        """All trials as a DataFrame (``optuna.Study.trials_dataframe``).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        return self.study.trials_dataframe(**kwargs)
+
+    def __repr__(self):
+        n = len(self.study.trials)
+        return (
+            f"SearchResult(study={self.study.study_name!r}, n_trials={n}, "
+            f"best_score_={self.best_score_!r}, best_params_={self.best_params_!r})"
+        )
+
+
+def _resolve_pruning(pruning, study, estimator):
+    optuna = _import_optuna()
+    last, _ = _final_step(estimator)
+    is_anfis = type(last).__name__ == "ANFISRegressor" and hasattr(
+        last, "epoch_callback"
+    )
+    if pruning == "auto":
+        if isinstance(study.pruner, optuna.pruners.NopPruner):
+            return None
+        return "epochs" if is_anfis else "folds"
+    if pruning in (None, False):
+        return None
+    if pruning == "epochs" and not is_anfis:
+        raise ValueError(
+            "pruning='epochs' needs an ANFISRegressor as the estimator or the "
+            f"last pipeline step, got {type(last).__name__}."
+        )
+    if pruning not in ("epochs", "folds"):
+        raise ValueError(
+            f"pruning must be 'auto', 'epochs', 'folds' or None, got {pruning!r}."
+        )
+    return pruning
+
+
+def run_search(
+    estimator,
+    X,
+    y,
+    groups=None,
+    *,
+    space=None,
+    n_trials=20,
+    cv=None,
+    scoring="neg_rmse",
+    storage=None,
+    study_name=None,
+    direction="maximize",
+    sampler=None,
+    pruner=None,
+    pruning="auto",
+    timeout=None,
+    total_trials=None,
+    n_jobs=1,
+    random_state=None,
+    load_if_exists=True,
+    heartbeat_interval="auto",
+    grace_period=None,
+    max_retry=None,
+    fail_stale=True,
+    refit=True,
+    callbacks=None,
+):
+    """Search the structure of a model with Optuna, scoring by run-wise CV.
+
+    Every trial draws parameters from ``space``, sets them on a clone of
+    ``estimator`` and scores it by cross-validation over whole runs; the
+    objective is the mean test score. Several processes or machines can run
+    the same call against one ``storage`` and ``study_name``: they share the
+    trials and each adds ``n_trials``.
+
+    Parameters
+    ----------
+    estimator : estimator
+        A skthermal estimator or a pipeline. Run-aware estimators read the run
+        boundaries from a ``run`` level of X's index, so pass X as returned by
+        :func:`skthermal.datasets.split_runs`.
+    X : DataFrame or array-like of shape (n_samples, n_features)
+    y : Series, DataFrame or array-like
+    groups : array-like of shape (n_samples,), optional
+        Run labels for the splitter; default: the ``run`` level of X's index.
+    space : None, str, callable or dict, default=None
+        The parameters to search: a callable ``space(trial) -> dict`` of
+        ``set_params`` keywords; a built-in name (:func:`search_space`); a
+        dict mapping pipeline step names to names or callables (e.g.
+        ``{"fcmclusterpicker": "fcm_picker", "anfisregressor": "anfis"}``);
+        or None for the built-in spaces of the estimator or of every pipeline
+        step that has one.
+    n_trials : int or None, default=20
+        Trials run by this call (this worker). None: until ``timeout`` or
+        ``total_trials``.
+    cv : int, cross-validation generator or iterable, optional
+        Default ``GroupKFold(n_splits=min(5, n_runs))`` over the runs; an int
+        sets the number of folds. The folds must be the same for every
+        trial (and every worker), so do not shuffle without a fixed seed.
+    scoring : str or callable, default="neg_rmse"
+        A :func:`skthermal.metrics.get_scorer` name (thermal or scikit-learn)
+        or a scorer ``scorer(estimator, X, y)``; greater is better.
+    storage : None, str, path-like or optuna storage, optional
+        Where the study lives, see :func:`make_storage`: None (memory), a
+        ``.db``/``.sqlite`` path or ``sqlite:///`` URL, a ``.log``/``.journal``
+        journal file, or a database URL (``postgresql://...``).
+    study_name : str, optional
+        Required with a storage: the name every worker uses.
+    direction : {"maximize", "minimize"}, default="maximize"
+        "maximize" suits every scorer name (errors are negated).
+    sampler : optuna sampler, optional
+        Default ``TPESampler(seed=random_state)``. Give each worker of a
+        distributed search its own seed (or None), or they draw the same
+        first trials.
+    pruner : optuna pruner, optional
+        Default: no pruning. E.g. ``optuna.pruners.MedianPruner()``.
+    pruning : {"auto", "epochs", "folds"} or None, default="auto"
+        What is reported to the pruner. ``"epochs"``: per training epoch of
+        the first fold, the ANFIS monitored error (checking RMSE with
+        ``validation_fraction``, else training RMSE), negated when
+        maximizing; ``"folds"``: after each fold, the mean test score so far.
+        ``"auto"``: ``"epochs"`` when the estimator or the last pipeline step
+        is an :class:`~skthermal.fuzzy.ANFISRegressor`, else ``"folds"``;
+        nothing when there is no pruner.
+    timeout : float, optional
+        Stop starting trials after this many seconds.
+    total_trials : int, optional
+        Stop when the study holds this many complete or pruned trials (over
+        all workers), Optuna's ``MaxTrialsCallback``.
+    n_jobs : int, default=1
+        Trials run in parallel threads of this process (Optuna's
+        ``n_jobs``); for more throughput start more processes instead.
+    random_state : int or None, default=None
+        Seed of the default sampler.
+    load_if_exists : bool, default=True
+        Join the study if it exists (how workers share it).
+    heartbeat_interval, grace_period, max_retry
+        Passed to :func:`make_storage` when ``storage`` is a path or URL.
+    fail_stale : bool, default=True
+        Before searching, mark failed the trials left running by dead workers
+        (:func:`fail_stale_trials`).
+    refit : bool, default=True
+        Refit the best parameters on all of X, y (``best_estimator_``).
+    callbacks : list of callable, optional
+        Passed to ``Study.optimize``.
+
+    Returns
+    -------
+    SearchResult
+        ``study``, ``best_params_``, ``best_score_``, ``best_trial_``,
+        ``best_estimator_`` and ``trials_dataframe()``.
+
+    See Also
+    --------
+    search_space : The built-in spaces.
+    make_storage : Storages from paths and URLs.
+
+    Notes
+    -----
+    A draw the estimator rejects (e.g. more clusters than sensors) fails its
+    trial, with the error in the trial's user attribute ``"error"``; the
+    search goes on. Every trial records the worker's host name and process
+    id (user attributes ``worker_host``, ``worker_pid``) and its fold scores
+    (``fold_scores``).
+
+    Per-epoch pruning only watches the first fold: the pruner compares the
+    trials at equal epochs of the same training data, which is sound, while
+    reports from later folds would mix folds of different difficulty at one
+    step. The other folds run in full once the first survives.
+
+    Examples
+    --------
+    >>> import optuna
+    >>> from skthermal.datasets import make_sensor_groups, split_runs
+    >>> from skthermal.fuzzy import ANFISRegressor
+    >>> from skthermal.model_selection import run_search, search_space
+    >>> optuna.logging.set_verbosity(optuna.logging.WARNING)
+    >>> runs, _ = make_sensor_groups(n_groups=2, sensors_per_group=2, n_noise=1,
+    ...                              n_runs=3, n_samples=60, random_state=0)
+    >>> X, y, groups = split_runs(runs)
+    >>> space = search_space("anfis", init="fcm", n_clusters=(2, 3), epochs=(3, 6))
+    >>> result = run_search(ANFISRegressor(random_state=0), X, y, groups,
+    ...                     space=space, n_trials=3, random_state=0)
+    >>> len(result.study.trials), sorted(result.best_params_)
+    (3, ['epochs', 'init', 'mf', 'n_clusters', 'step_size'])
+    >>> bool(result.best_score_ < 0)  # negated RMSE
+    True
+    """
+    optuna = _import_optuna()
+    space = _resolve_space(space, estimator)
+    groups = _run_groups(X, groups)
+    cv = _resolve_cv(cv, groups)
+    splits = list(
+        cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
+    )
+    scorer = get_scorer(scoring)
+    if direction not in ("maximize", "minimize"):
+        raise ValueError(
+            f"direction must be 'maximize' or 'minimize', got {direction!r}."
+        )
+
+    store = make_storage(
+        storage,
+        heartbeat_interval=heartbeat_interval,
+        grace_period=grace_period,
+        max_retry=max_retry,
+    )
+    if store is not None and study_name is None:
+        raise ValueError(
+            "Give study_name with a storage: it is how other workers, and later "
+            "sessions, find the study."
+        )
+    if sampler is None:
+        sampler = optuna.samplers.TPESampler(seed=random_state)
+    if pruner is None:
+        pruner = optuna.pruners.NopPruner()
+    study = optuna.create_study(
+        storage=store,
+        study_name=study_name,
+        direction=direction,
+        sampler=sampler,
+        pruner=pruner,
+        load_if_exists=load_if_exists,
+    )
+    if fail_stale and store is not None:
+        fail_stale_trials(study)
+
+    mode = _resolve_pruning(pruning, study, estimator)
+    sign = -1.0 if direction == "maximize" else 1.0
+    objective = _Objective(estimator, space, X, y, splits, scorer, mode, sign)
+    all_callbacks = list(callbacks or [])
+    if total_trials is not None:
+        counted = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+        all_callbacks.append(
+            optuna.study.MaxTrialsCallback(total_trials, states=counted)
+        )
+        if len(study.get_trials(deepcopy=False, states=counted)) >= total_trials:
+            n_trials = 0
+    if n_trials is None or n_trials > 0:
+        study.optimize(
+            objective,
+            n_trials=n_trials,
+            timeout=timeout,
+            n_jobs=n_jobs,
+            callbacks=all_callbacks,
+        )
+
+    best_trial = best_params = best_estimator = None
+    try:
+        best_trial = study.best_trial
+    except ValueError:
+        warnings.warn(
+            "No trial of the study completed; see the trials' 'error' user attributes.",
+            UserWarning,
+            stacklevel=2,
+        )
+    if best_trial is not None:
+        try:
+            best_params = space(optuna.trial.FixedTrial(best_trial.params))
+        except Exception as exc:  # e.g. a shared study searched another space
+            raise ValueError(
+                f"The best trial (number {best_trial.number}) has parameters "
+                f"{best_trial.params} that this search space cannot replay: {exc}"
+            ) from exc
+        if refit:
+            best_estimator = clone(estimator).set_params(**best_params).fit(X, y)
+    return SearchResult(study, best_params, best_trial, best_estimator, scoring)

@@ -1,0 +1,325 @@
+"""Optuna search spaces of the skthermal estimators.
+
+A search space is a callable ``space(trial) -> dict`` of estimator parameters,
+drawn with the ``trial.suggest_*`` methods (the define-by-run style of Optuna,
+so a parameter can depend on another, e.g. ``n_clusters`` only for
+``init="fcm"``). :func:`search_space` builds the built-in ones, with the ranges
+of the thermal-error literature and optional overrides; :func:`combine_spaces`
+joins spaces of several pipeline steps.
+"""
+
+import numbers
+
+_PREFIX_SEP = "__"
+
+
+def _cat(trial, name, spec):
+    if isinstance(spec, list | tuple):
+        return trial.suggest_categorical(name, list(spec))
+    return spec
+
+
+def _int(trial, name, spec, log=False):
+    if isinstance(spec, tuple):
+        low, high = spec
+        return trial.suggest_int(name, int(low), int(high), log=log)
+    return spec
+
+
+def _float(trial, name, spec, log=False):
+    if isinstance(spec, tuple):
+        low, high = spec
+        return trial.suggest_float(name, float(low), float(high), log=log)
+    return spec
+
+
+def _anfis(trial, key, r):
+    init = _cat(trial, key("init"), r["init"])
+    params = {"init": init, "mf": _cat(trial, key("mf"), r["mf"])}
+    if init == "fcm":
+        params["n_clusters"] = _int(trial, key("n_clusters"), r["n_clusters"])
+    else:
+        params["n_mfs"] = _int(trial, key("n_mfs"), r["n_mfs"])
+    params["epochs"] = _int(trial, key("epochs"), r["epochs"], log=True)
+    params["step_size"] = _float(trial, key("step_size"), r["step_size"], log=True)
+    return params
+
+
+def _pso(trial, key, r):
+    start = _float(trial, key("inertia_start"), r["inertia_start"])
+    end = _float(trial, key("inertia_end"), r["inertia_end"])
+    return {
+        "n_particles": _int(trial, key("n_particles"), r["n_particles"], log=True),
+        "epochs": _int(trial, key("epochs"), r["epochs"], log=True),
+        "c1": _float(trial, key("c1"), r["c1"]),
+        "c2": _float(trial, key("c2"), r["c2"]),
+        "inertia": (start, end),
+    }
+
+
+def _grey_pso(trial, key, r):
+    calibration = _cat(trial, key("calibration"), r["calibration"])
+    params = {"calibration": calibration}
+    if calibration == "pso":
+        params.update(_pso(trial, key, r))
+    return params
+
+
+def _gnnmci(trial, key, r):
+    params = _pso(trial, key, r)
+    params["velocity_clamp"] = _float(
+        trial, key("velocity_clamp"), r["velocity_clamp"], log=True
+    )
+    return params
+
+
+def _fcm_picker(trial, key, r):
+    return {
+        "n_clusters": _int(trial, key("n_clusters"), r["n_clusters"]),
+        "scorer": _cat(trial, key("scorer"), r["scorer"]),
+    }
+
+
+_PSO_RANGES = {
+    "n_particles": (10, 100),
+    "epochs": (10, 200),
+    "c1": (0.5, 2.5),
+    "c2": (0.5, 2.5),
+    "inertia_start": (0.6, 1.0),
+    "inertia_end": (0.1, 0.6),
+}
+
+# name -> (function, default ranges, estimator class name). A tuple is a
+# (low, high) range, a list the categorical choices, anything else a fixed
+# value that is set but not searched.
+_REGISTRY = {
+    "anfis": (
+        _anfis,
+        {
+            "init": ["fcm", "grid"],
+            "mf": ["gaussian", "gbell"],
+            "n_clusters": (2, 8),
+            "n_mfs": (2, 3),
+            "epochs": (10, 200),
+            "step_size": (0.01, 1.0),
+        },
+        "ANFISRegressor",
+    ),
+    "grey_pso": (
+        _grey_pso,
+        {"calibration": ["pso", "ls"], **_PSO_RANGES},
+        "GreyPSORegressor",
+    ),
+    "gnnmci": (
+        _gnnmci,
+        {**_PSO_RANGES, "velocity_clamp": (0.1, 3.0)},
+        "GNNMCIRegressor",
+    ),
+    "fcm_picker": (
+        _fcm_picker,
+        {"n_clusters": (2, 8), "scorer": ["gm1n", "gm0n", "gra", "pearson"]},
+        "FCMClusterPicker",
+    ),
+}
+
+
+def search_space_names():
+    """Names of the built-in search spaces.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> from skthermal.model_selection import search_space_names
+    >>> search_space_names()
+    ['anfis', 'fcm_picker', 'gnnmci', 'grey_pso']
+    """
+    return sorted(_REGISTRY)
+
+
+def _default_space_name(estimator):
+    """The built-in space for an estimator's class, or None."""
+    cls = type(estimator).__name__
+    for name, (_, _, owner) in _REGISTRY.items():
+        if owner == cls:
+            return name
+    return None
+
+
+def _check_spec(key, spec, default):
+    if isinstance(default, list):
+        if isinstance(spec, list | tuple) and len(spec) == 0:
+            raise ValueError(f"{key}: give at least one choice.")
+        return list(spec) if isinstance(spec, tuple) else spec
+    if isinstance(spec, list):
+        raise ValueError(
+            f"{key} is numeric: give a (low, high) tuple or a fixed number, got "
+            f"the list {spec!r}."
+        )
+    if isinstance(spec, tuple):
+        if len(spec) != 2 or not all(isinstance(v, numbers.Real) for v in spec):
+            raise ValueError(f"{key}: a range is a (low, high) tuple, got {spec!r}.")
+        if spec[0] > spec[1]:
+            raise ValueError(f"{key}: low must not exceed high, got {spec!r}.")
+    return spec
+
+
+class SearchSpace:
+    """A built-in search space; call it with an Optuna trial.
+
+    Create it with :func:`search_space`. Calling ``space(trial)`` draws the
+    parameters and returns them keyed for ``set_params`` (with the prefix,
+    e.g. ``"anfisregressor__epochs"``); the Optuna parameter names carry the
+    same prefix, so several steps of a pipeline can be searched together.
+
+    Parameters
+    ----------
+    name : str
+        Built-in space name (:func:`search_space_names`).
+    prefix : str or None
+        Pipeline step name; None for a bare estimator.
+    ranges : dict
+        Ranges per searched parameter, after overrides.
+    """
+
+    def __init__(self, name, prefix, ranges):
+        self.name = name
+        self.prefix = prefix
+        self.ranges = ranges
+
+    def _key(self, param):
+        return param if not self.prefix else f"{self.prefix}{_PREFIX_SEP}{param}"
+
+    def __call__(self, trial):
+        function = _REGISTRY[self.name][0]
+        params = function(trial, self._key, self.ranges)
+        return {self._key(k): v for k, v in params.items()}
+
+    def __repr__(self):
+        prefix = f", prefix={self.prefix!r}" if self.prefix else ""
+        return f"search_space({self.name!r}{prefix})"
+
+
+def search_space(name, *, prefix=None, **ranges):
+    """A built-in Optuna search space of a skthermal estimator.
+
+    Parameters
+    ----------
+    name : {"anfis", "grey_pso", "gnnmci", "fcm_picker"}
+        ``"anfis"`` (:class:`~skthermal.fuzzy.ANFISRegressor`): ``init``
+        in {"fcm", "grid"}; ``n_clusters`` 2-8 with FCM, ``n_mfs`` 2-3 with a
+        grid; ``mf`` in {"gaussian", "gbell"}; ``epochs`` 10-200 (log);
+        ``step_size`` 0.01-1 (log). A grid has ``n_mfs ** n_features``
+        rules: with more than about four inputs fix ``init="fcm"``.
+        ``"grey_pso"`` (:class:`~skthermal.grey.GreyPSORegressor`):
+        ``calibration`` in {"pso", "ls"}, and with PSO ``n_particles``
+        10-100, ``epochs`` 10-200, ``c1``, ``c2`` 0.5-2.5 and a linearly
+        decreasing ``inertia`` from ``inertia_start`` (0.6-1.0) to
+        ``inertia_end`` (0.1-0.6).
+        ``"gnnmci"`` (:class:`~skthermal.grey.GNNMCIRegressor`): the PSO
+        settings and ``velocity_clamp`` 0.1-3 (log).
+        ``"fcm_picker"`` (:class:`~skthermal.selection.FCMClusterPicker`):
+        ``n_clusters`` 2-8 and ``scorer`` in {"gm1n", "gm0n", "gra",
+        "pearson"}.
+    prefix : str, optional
+        Pipeline step name, e.g. ``"anfisregressor"``: the parameters come
+        out as ``"anfisregressor__epochs"``.
+    **ranges
+        Overrides: a ``(low, high)`` tuple for a numeric range, a list of
+        choices for a categorical one, or a single value to fix the parameter
+        without searching it (e.g. ``epochs=20``, ``init="fcm"``).
+
+    Returns
+    -------
+    SearchSpace
+        A callable ``space(trial) -> dict`` of parameters.
+
+    See Also
+    --------
+    combine_spaces : Join spaces of several pipeline steps.
+    run_search : Run the search.
+
+    Examples
+    --------
+    >>> import optuna
+    >>> from skthermal.model_selection import search_space
+    >>> space = search_space("anfis", init="fcm", epochs=(10, 50))
+    >>> params = space(optuna.trial.FixedTrial(
+    ...     {"mf": "gbell", "n_clusters": 3, "epochs": 20, "step_size": 0.1}))
+    >>> params
+    {'init': 'fcm', 'mf': 'gbell', 'n_clusters': 3, 'epochs': 20, 'step_size': 0.1}
+    >>> search_space("fcm_picker", prefix="fcmclusterpicker", scorer="gm1n")(
+    ...     optuna.trial.FixedTrial({"fcmclusterpicker__n_clusters": 4}))
+    {'fcmclusterpicker__n_clusters': 4, 'fcmclusterpicker__scorer': 'gm1n'}
+    """
+    if name not in _REGISTRY:
+        raise ValueError(
+            f"Unknown search space {name!r}; use one of {search_space_names()} or "
+            "pass your own callable space(trial) -> dict."
+        )
+    defaults = _REGISTRY[name][1]
+    unknown = sorted(set(ranges) - set(defaults))
+    if unknown:
+        raise ValueError(
+            f"Search space {name!r} has no parameter(s) {unknown}; it has "
+            f"{sorted(defaults)}."
+        )
+    merged = dict(defaults)
+    for key, spec in ranges.items():
+        merged[key] = _check_spec(key, spec, defaults[key])
+    if prefix is not None and (not isinstance(prefix, str) or not prefix):
+        raise ValueError(f"prefix must be a non-empty string, got {prefix!r}.")
+    return SearchSpace(name, prefix, merged)
+
+
+def combine_spaces(*spaces):
+    """One space drawing from several (e.g. one per pipeline step).
+
+    Parameters
+    ----------
+    *spaces : callable
+        Each ``space(trial) -> dict``; their parameter names must not clash.
+
+    Returns
+    -------
+    callable
+        ``space(trial) -> dict``, the union of the dictionaries.
+
+    Examples
+    --------
+    >>> import optuna
+    >>> from skthermal.model_selection import combine_spaces, search_space
+    >>> space = combine_spaces(
+    ...     search_space("fcm_picker", prefix="fcmclusterpicker"),
+    ...     search_space("anfis", prefix="anfisregressor", init="fcm"),
+    ... )
+    >>> study = optuna.create_study(direction="maximize")
+    >>> sorted(space(study.ask()))
+    ['anfisregressor__epochs', 'anfisregressor__init', 'anfisregressor__mf', \
+'anfisregressor__n_clusters', 'anfisregressor__step_size', \
+'fcmclusterpicker__n_clusters', 'fcmclusterpicker__scorer']
+    """
+    for space in spaces:
+        if not callable(space):
+            raise TypeError(f"Every space must be callable, got {space!r}.")
+    return _CombinedSpace(spaces)
+
+
+class _CombinedSpace:
+    def __init__(self, spaces):
+        self.spaces = tuple(spaces)
+
+    def __call__(self, trial):
+        params = {}
+        for space in self.spaces:
+            drawn = space(trial)
+            clash = sorted(set(drawn) & set(params))
+            if clash:
+                raise ValueError(f"Search spaces clash on parameter(s) {clash}.")
+            params.update(drawn)
+        return params
+
+    def __repr__(self):
+        return f"combine_spaces({', '.join(map(repr, self.spaces))})"

@@ -1,0 +1,206 @@
+"""Tests of skthermal.io: safe deployment files (skops) and version warnings."""
+
+import json
+import warnings
+import zipfile
+
+import joblib
+import numpy as np
+import pytest
+from numpy.testing import assert_array_equal
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+
+pytest.importorskip("skops")
+
+from skthermal import (  # noqa: E402
+    ANFISRegressor,
+    FCMClusterPicker,
+    GNNMCIRegressor,
+    GRASelector,
+    GreyInfluenceSelector,
+    GreyPSORegressor,
+)
+from skthermal.datasets import make_sensor_groups, split_runs  # noqa: E402
+from skthermal.io import (  # noqa: E402
+    SkthermalVersionWarning,
+    UntrustedTypesError,
+    load,
+    read_metadata,
+    save,
+)
+
+ESTIMATORS = [
+    ANFISRegressor(n_clusters=2, epochs=5, random_state=0),
+    ANFISRegressor(init="grid", mf="gbell", epochs=3, grey=True),
+    GNNMCIRegressor(n_particles=6, epochs=3, random_state=0),
+    GreyPSORegressor(n_particles=6, epochs=3, random_state=0),
+    GreyInfluenceSelector(n_features_to_select=2),
+    GRASelector(n_features_to_select=2),
+    FCMClusterPicker(n_clusters=2, n_init=2, random_state=0),
+    make_pipeline(
+        GreyInfluenceSelector(n_features_to_select=2),
+        StandardScaler(),
+        ANFISRegressor(n_clusters=2, epochs=5, random_state=0),
+    ),
+]
+
+
+def _name(est):
+    steps = getattr(est, "steps", None)
+    if steps:
+        return "Pipeline(" + "+".join(type(s).__name__ for _, s in steps) + ")"
+    return type(est).__name__
+
+
+@pytest.fixture(scope="module")
+def runs_data():
+    runs, _ = make_sensor_groups(
+        n_groups=2,
+        sensors_per_group=2,
+        n_noise=1,
+        n_runs=3,
+        n_samples=40,
+        random_state=0,
+    )
+    X, y, _ = split_runs(runs)
+    return X, y
+
+
+def _output(model, X):
+    return model.predict(X) if hasattr(model, "predict") else model.transform(X)
+
+
+@pytest.fixture(scope="module")
+def fitted(runs_data):
+    X, y = runs_data
+    return [clone(est).fit(X, y) for est in ESTIMATORS]
+
+
+@pytest.mark.parametrize("index", range(len(ESTIMATORS)), ids=map(_name, ESTIMATORS))
+def test_save_load_round_trip(index, fitted, runs_data, tmp_path):
+    X, _ = runs_data
+    model = fitted[index]
+    path = save(model, tmp_path / "model.skops")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # same versions: no warning at all
+        loaded = load(path)
+    assert type(loaded) is type(model)
+    assert_array_equal(_output(loaded, X), _output(model, X))
+    assert loaded.get_params(deep=False).keys() == model.get_params(deep=False).keys()
+
+
+@pytest.mark.parametrize("index", range(len(ESTIMATORS)), ids=map(_name, ESTIMATORS))
+def test_joblib_round_trip(index, fitted, runs_data, tmp_path):
+    X, _ = runs_data
+    model = fitted[index]
+    joblib.dump(model, tmp_path / "model.joblib")
+    assert_array_equal(
+        _output(joblib.load(tmp_path / "model.joblib"), X), _output(model, X)
+    )
+
+
+def test_metadata_records_versions(fitted, tmp_path):
+    import sklearn
+
+    import skthermal
+
+    path = save(fitted[0], tmp_path / "model.skops")
+    versions = read_metadata(path)["versions"]
+    assert versions["skthermal"] == skthermal.__version__
+    assert versions["scikit-learn"] == sklearn.__version__
+
+
+def _rewrite_metadata(path, change):
+    with zipfile.ZipFile(path) as archive:
+        members = {name: archive.read(name) for name in archive.namelist()}
+    metadata = json.loads(members["skthermal_metadata.json"])
+    change(metadata["versions"])
+    members["skthermal_metadata.json"] = json.dumps(metadata).encode()
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+
+
+def test_tampered_versions_warn(fitted, runs_data, tmp_path):
+    import sklearn
+
+    import skthermal
+
+    X, _ = runs_data
+    path = save(fitted[0], tmp_path / "model.skops")
+
+    def older(versions):
+        versions["skthermal"] = "0.0.1"
+        versions["scikit-learn"] = "1.0"
+
+    _rewrite_metadata(path, older)
+    with pytest.warns(SkthermalVersionWarning) as record:
+        loaded = load(path)
+    message = str(record[0].message)
+    assert "skthermal 0.0.1" in message
+    assert f"installed: {skthermal.__version__}" in message
+    assert "scikit-learn 1.0" in message
+    assert f"installed: {sklearn.__version__}" in message
+    assert_array_equal(loaded.predict(X), fitted[0].predict(X))
+
+
+class _Custom(RegressorMixin, BaseEstimator):
+    """A class skthermal does not know: not trusted by default."""
+
+    def fit(self, X, y):
+        self.mean_ = float(np.mean(y))
+        return self
+
+    def predict(self, X):
+        return np.full(len(X), self.mean_)
+
+
+def test_untrusted_type_refused(runs_data, tmp_path):
+    X, y = runs_data
+    model = make_pipeline(GRASelector(n_features_to_select=2), _Custom()).fit(X, y)
+    path = save(model, tmp_path / "custom.skops")
+    name = f"{__name__}._Custom"
+    with pytest.raises(UntrustedTypesError, match="not trusted by default") as info:
+        load(path)
+    assert info.value.types == [name]
+    assert name in str(info.value) and "trusted=" in str(info.value)
+    # Trusting it explicitly, by name or class, loads it.
+    assert_array_equal(load(path, trusted=[name]).predict(X), model.predict(X))
+    assert_array_equal(load(path, trusted=[_Custom]).predict(X), model.predict(X))
+
+
+def test_skthermal_trust_needs_a_real_class(tmp_path):
+    from skthermal.io._persist import _is_skthermal_class
+
+    assert _is_skthermal_class("skthermal.fuzzy._anfis.ANFISRegressor")
+    # Re-exported names, functions and modules are not classes defined there.
+    assert not _is_skthermal_class("skthermal.fuzzy.ANFISRegressor")
+    assert not _is_skthermal_class("skthermal.fuzzy._anfis.np")
+    assert not _is_skthermal_class("skthermal.grey._ago.ago")
+    # Modules are never imported on behalf of a file.
+    assert not _is_skthermal_class("skthermal.__main__.Anything")
+    assert not _is_skthermal_class("skthermalx.Evil")
+
+
+def test_epoch_callback_is_not_saved(runs_data, tmp_path):
+    X, y = runs_data
+    seen = []
+    model = ANFISRegressor(
+        n_clusters=2, epochs=3, epoch_callback=lambda *a: seen.append(a)
+    ).fit(X, y)
+    assert len(seen) == 3
+    loaded = load(save(model, tmp_path / "cb.skops"))
+    assert loaded.epoch_callback is None
+    assert model.epoch_callback is not None
+    assert_array_equal(loaded.predict(X), model.predict(X))
+
+
+def test_missing_skops_names_the_extra(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "skops.io", None)
+    monkeypatch.setitem(sys.modules, "skops", None)
+    with pytest.raises(ImportError, match=r"skthermal\[deploy\]"):
+        save(ANFISRegressor(), "unused.skops")

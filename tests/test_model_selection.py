@@ -1,0 +1,557 @@
+"""Tests of skthermal.model_selection: search spaces, run_search, storages and
+searches shared by several worker processes (SQLite, journal file and, when
+SKTHERMAL_TEST_POSTGRES_URL is set, PostgreSQL)."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from sklearn.base import clone
+from sklearn.model_selection import GroupKFold
+from sklearn.pipeline import make_pipeline
+
+optuna = pytest.importorskip("optuna")
+
+from skthermal import (  # noqa: E402
+    ANFISRegressor,
+    FCMClusterPicker,
+    GNNMCIRegressor,
+    GreyPSORegressor,
+)
+from skthermal.datasets import make_sensor_groups, split_runs  # noqa: E402
+from skthermal.model_selection import (  # noqa: E402
+    SearchResult,
+    combine_spaces,
+    fail_stale_trials,
+    make_storage,
+    run_search,
+    search_space,
+    search_space_names,
+)
+
+WORKER = Path(__file__).with_name("_optuna_worker.py")
+POSTGRES_URL = os.environ.get("SKTHERMAL_TEST_POSTGRES_URL")
+COMPLETE = optuna.trial.TrialState.COMPLETE
+FAIL = optuna.trial.TrialState.FAIL
+PRUNED = optuna.trial.TrialState.PRUNED
+
+
+@pytest.fixture(autouse=True)
+def _quiet_optuna():
+    level = optuna.logging.get_verbosity()
+    optuna.logging.set_verbosity(optuna.logging.ERROR)
+    yield
+    optuna.logging.set_verbosity(level)
+
+
+@pytest.fixture(scope="module")
+def runs_data():
+    runs, _ = make_sensor_groups(
+        n_groups=2,
+        sensors_per_group=2,
+        n_noise=1,
+        n_runs=3,
+        n_samples=50,
+        random_state=0,
+    )
+    return split_runs(runs)
+
+
+def _small_anfis_space(**overrides):
+    ranges = {"init": "fcm", "n_clusters": (2, 3), "epochs": (3, 6), **overrides}
+    return search_space("anfis", **ranges)
+
+
+# --------------------------------------------------------------- spaces
+
+
+def test_search_space_names_and_errors():
+    assert search_space_names() == ["anfis", "fcm_picker", "gnnmci", "grey_pso"]
+    with pytest.raises(ValueError, match="Unknown search space 'svm'"):
+        search_space("svm")
+    with pytest.raises(ValueError, match=r"no parameter\(s\) \['depth'\]"):
+        search_space("anfis", depth=(1, 2))
+    with pytest.raises(ValueError, match="numeric"):
+        search_space("anfis", epochs=[10, 20])
+    with pytest.raises(ValueError, match="low must not exceed high"):
+        search_space("anfis", epochs=(20, 10))
+    with pytest.raises(ValueError, match="prefix"):
+        search_space("anfis", prefix="")
+
+
+@pytest.mark.parametrize(
+    "name, estimator",
+    [
+        ("anfis", ANFISRegressor()),
+        ("grey_pso", GreyPSORegressor()),
+        ("gnnmci", GNNMCIRegressor()),
+        ("fcm_picker", FCMClusterPicker()),
+    ],
+)
+def test_builtin_spaces_draw_valid_parameters(name, estimator):
+    space = search_space(name)
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    for _ in range(20):
+        trial = study.ask()
+        params = space(trial)
+        est = clone(estimator).set_params(**params)
+        est._validate_params()  # every draw satisfies the constraints
+        # Replaying the trial's Optuna parameters gives the same estimator params.
+        assert space(optuna.trial.FixedTrial(trial.params)) == params
+        study.tell(trial, 0.0)
+
+
+def test_space_conditional_and_fixed_parameters():
+    grid = search_space("anfis", init="grid")(
+        optuna.trial.FixedTrial(
+            {"mf": "gbell", "n_mfs": 3, "epochs": 12, "step_size": 0.1}
+        )
+    )
+    assert grid == {
+        "init": "grid",
+        "mf": "gbell",
+        "n_mfs": 3,
+        "epochs": 12,
+        "step_size": 0.1,
+    }
+    ls = search_space("grey_pso")(optuna.trial.FixedTrial({"calibration": "ls"}))
+    assert ls == {"calibration": "ls"}
+    pso = search_space("grey_pso", calibration="pso", n_particles=20)(
+        optuna.trial.FixedTrial(
+            {
+                "epochs": 50,
+                "c1": 1.0,
+                "c2": 2.0,
+                "inertia_start": 0.9,
+                "inertia_end": 0.4,
+            }
+        )
+    )
+    assert pso["inertia"] == (0.9, 0.4) and pso["n_particles"] == 20
+
+
+def test_prefixed_and_combined_spaces():
+    space = combine_spaces(
+        search_space("fcm_picker", prefix="fcmclusterpicker", scorer="pearson"),
+        search_space("anfis", prefix="anfisregressor", init="fcm"),
+    )
+    params = space(optuna.create_study().ask())
+    assert set(params) == {
+        "fcmclusterpicker__n_clusters",
+        "fcmclusterpicker__scorer",
+        "anfisregressor__init",
+        "anfisregressor__mf",
+        "anfisregressor__n_clusters",
+        "anfisregressor__epochs",
+        "anfisregressor__step_size",
+    }
+    make_pipeline(FCMClusterPicker(), ANFISRegressor()).set_params(**params)
+    clash = combine_spaces(search_space("anfis"), search_space("anfis"))
+    with pytest.raises(ValueError, match="clash"):
+        clash(optuna.create_study().ask())
+
+
+# ------------------------------------------------- ANFIS epoch callback
+
+
+@pytest.mark.parametrize(
+    "params",
+    [{}, {"validation_fraction": 0.25}, {"grey": True}, {"learning": "backprop"}],
+)
+def test_anfis_epoch_callback(params):
+    import pickle
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, size=(120, 2))
+    y = np.sin(2 * X[:, 0]) + X[:, 1] ** 2
+    plain = ANFISRegressor(epochs=12, random_state=0, **params).fit(X, y)
+    calls = []
+    watched = ANFISRegressor(
+        epochs=12, random_state=0, epoch_callback=lambda *a: calls.append(a), **params
+    ).fit(X, y)
+    # A callback that never stops changes nothing.
+    assert np.array_equal(watched.predict(X), plain.predict(X))
+    assert watched.best_epoch_ == plain.best_epoch_
+    assert watched.history_.keys() == plain.history_.keys()
+    assert [c[0] for c in calls] == list(range(1, 13))
+    assert_allclose([c[1] for c in calls], plain.history_["train_rmse"], rtol=1e-10)
+    checks = [c[2] for c in calls]
+    if "val_rmse" in plain.history_:
+        assert_allclose(checks, plain.history_["val_rmse"], rtol=1e-10)
+    else:
+        assert checks == [None] * 12
+    # Returning True stops after that epoch, keeping the best epoch so far.
+    stopped = ANFISRegressor(
+        epochs=12, random_state=0, epoch_callback=lambda e, t, c: e == 5, **params
+    ).fit(X, y)
+    assert stopped.n_iter_ == 5
+    for key, values in stopped.history_.items():
+        assert_allclose(values, plain.history_[key][:5], rtol=1e-10)
+    monitored = plain.history_.get("val_rmse", plain.history_["train_rmse"])[:5]
+    assert stopped.best_epoch_ == 1 + int(np.argmin(monitored))
+    # clone keeps the callback; pickling drops it.
+    assert clone(watched).epoch_callback is watched.epoch_callback
+    restored = pickle.loads(pickle.dumps(watched))
+    assert restored.epoch_callback is None
+    assert np.array_equal(restored.predict(X), watched.predict(X))
+
+
+# ----------------------------------------------------------- run_search
+
+
+def test_run_search_in_memory(runs_data):
+    X, y, groups = runs_data
+    result = run_search(
+        ANFISRegressor(random_state=0),
+        X,
+        y,
+        groups,
+        space=_small_anfis_space(),
+        n_trials=4,
+        cv=GroupKFold(n_splits=3),
+        random_state=0,
+    )
+    assert isinstance(result, SearchResult)
+    study = result.study
+    assert [t.state for t in study.trials] == [COMPLETE] * 4
+    best = result.best_trial_
+    assert result.best_score_ == study.best_value == best.value
+    assert result.best_params_["init"] == "fcm"
+    assert (
+        result.best_estimator_.get_params()["epochs"] == result.best_params_["epochs"]
+    )
+    assert len(best.user_attrs["fold_scores"]) == 3
+    assert best.user_attrs["worker_pid"] == os.getpid()
+    assert_allclose(np.mean(best.user_attrs["fold_scores"]), best.value)
+    # The objective is the mean over run-wise folds of the scorer, as cross_validate.
+    from sklearn.model_selection import cross_validate
+
+    from skthermal.metrics import get_scorer
+
+    est = ANFISRegressor(random_state=0).set_params(**result.best_params_)
+    cv = cross_validate(
+        est, X, y, groups=groups, cv=GroupKFold(3), scoring=get_scorer("neg_rmse")
+    )
+    assert_allclose(cv["test_score"].mean(), best.value)
+    frame = result.trials_dataframe()
+    assert len(frame) == 4 and "user_attrs_worker_pid" in frame
+    assert "n_trials=4" in repr(result)
+
+
+def test_run_search_groups_from_index_and_scorer_names(runs_data):
+    X, y, _ = runs_data
+    for scoring in ("nse", "r2"):
+        result = run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            n_trials=2,
+            scoring=scoring,
+            refit=False,
+            random_state=0,
+        )
+        assert result.best_estimator_ is None
+        # groups from the run level of the index: 3 runs -> 3 folds
+        assert len(result.best_trial_.user_attrs["fold_scores"]) == 3
+
+
+def test_run_search_pipeline_spaces(runs_data):
+    X, y, groups = runs_data
+    pipe = make_pipeline(
+        FCMClusterPicker(n_init=2, random_state=0), ANFISRegressor(random_state=0)
+    )
+    result = run_search(
+        pipe,
+        X,
+        y,
+        groups,
+        space={
+            "fcmclusterpicker": search_space(
+                "fcm_picker", n_clusters=(2, 3), scorer="pearson"
+            ),
+            "anfisregressor": _small_anfis_space(),
+        },
+        n_trials=2,
+        random_state=0,
+    )
+    assert set(result.best_params_) == {
+        "fcmclusterpicker__n_clusters",
+        "fcmclusterpicker__scorer",
+        "anfisregressor__init",
+        "anfisregressor__mf",
+        "anfisregressor__n_clusters",
+        "anfisregressor__epochs",
+        "anfisregressor__step_size",
+    }
+    fitted = result.best_estimator_.named_steps["fcmclusterpicker"]
+    assert fitted.n_clusters == result.best_params_["fcmclusterpicker__n_clusters"]
+
+
+def test_default_space_is_inferred_for_pipelines():
+    from skthermal.model_selection._search import _resolve_space
+
+    space = _resolve_space(None, make_pipeline(FCMClusterPicker(), ANFISRegressor()))
+    params = space(optuna.create_study().ask())
+    assert {k.split("__")[0] for k in params} == {"fcmclusterpicker", "anfisregressor"}
+    from sklearn.linear_model import Ridge
+
+    with pytest.raises(ValueError, match="No built-in search space for Ridge"):
+        _resolve_space(None, Ridge())
+
+
+class _PruneAfterStep:
+    """Prunes every trial but the first as soon as it reports step ``step``."""
+
+    def __init__(self, step):
+        self.step = step
+
+    def prune(self, study, trial):
+        return trial.number > 0 and max(trial.intermediate_values) >= self.step
+
+
+def _pruner(step):
+    return type("P", (_PruneAfterStep, optuna.pruners.BasePruner), {})(step)
+
+
+@pytest.mark.parametrize("validation_fraction", [None, 0.25])
+def test_anfis_epoch_pruning(runs_data, validation_fraction):
+    X, y, groups = runs_data
+    est = make_pipeline(ANFISRegressor(random_state=0))
+    est.set_params(anfisregressor__validation_fraction=validation_fraction)
+    result = run_search(
+        est,
+        X,
+        y,
+        groups,
+        space={"anfisregressor": _small_anfis_space(epochs=5)},
+        n_trials=3,
+        pruner=_pruner(2),
+        random_state=0,
+    )
+    first, *others = result.study.trials
+    assert first.state == COMPLETE
+    assert sorted(first.intermediate_values) == [1, 2, 3, 4, 5]
+    for trial in others:
+        assert trial.state == PRUNED
+        assert sorted(trial.intermediate_values) == [1, 2]
+    # The reports are the negated monitored error of the first fold's model.
+    train, _ = next(GroupKFold(n_splits=3).split(X, y, groups))
+    model = clone(est).set_params(**result.best_params_)
+    model.fit(X.iloc[train], y.iloc[train])
+    history = model[-1].history_
+    errors = history["train_rmse" if validation_fraction is None else "val_rmse"]
+    reported = [first.intermediate_values[e] for e in range(1, 6)]
+    assert_allclose(reported, -errors, rtol=1e-10)
+    # The refitted model carries no callback.
+    assert result.best_estimator_[-1].epoch_callback is None
+
+
+def test_fold_pruning_for_other_estimators(runs_data):
+    X, y, groups = runs_data
+    result = run_search(
+        GreyPSORegressor(calibration="ls"),
+        X,
+        y,
+        groups,
+        space=lambda trial: {"delay": trial.suggest_int("delay", 0, 2)},
+        n_trials=3,
+        pruner=_pruner(1),
+        random_state=0,
+    )
+    states = [t.state for t in result.study.trials]
+    assert states == [COMPLETE, PRUNED, PRUNED]
+    assert sorted(result.study.trials[0].intermediate_values) == [1, 2, 3]
+    assert sorted(result.study.trials[1].intermediate_values) == [1]
+    with pytest.raises(ValueError, match="pruning='epochs' needs an ANFISRegressor"):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups,
+            space=lambda trial: {},
+            n_trials=1,
+            pruning="epochs",
+            pruner=optuna.pruners.MedianPruner(),
+        )
+
+
+def test_bad_draws_fail_trials_not_the_search(runs_data):
+    X, y, groups = runs_data
+    with pytest.warns(UserWarning, match="No trial of the study completed"):
+        result = run_search(
+            ANFISRegressor(),
+            X,
+            y,
+            groups,
+            # more rules than the folds' training rows
+            space=search_space("anfis", init="fcm", n_clusters=10_000, epochs=2),
+            n_trials=2,
+        )
+    assert [t.state for t in result.study.trials] == [FAIL, FAIL]
+    assert "n_clusters=10000" in result.study.trials[0].user_attrs["error"]
+    assert result.best_params_ is None and result.best_estimator_ is None
+
+
+def test_total_trials_counts_every_worker(runs_data, tmp_path):
+    X, y, groups = runs_data
+    kwargs = {
+        "space": lambda trial: {"delay": trial.suggest_int("delay", 0, 2)},
+        "storage": tmp_path / "total.db",
+        "study_name": "total",
+        "total_trials": 3,
+        "refit": False,
+    }
+    est = GreyPSORegressor(calibration="ls")
+    run_search(est, X, y, groups, n_trials=2, **kwargs)
+    result = run_search(est, X, y, groups, n_trials=10, **kwargs)
+    assert len(result.study.trials) == 3
+
+
+# -------------------------------------------------------------- storages
+
+
+def test_make_storage_kinds(tmp_path):
+    from optuna.storages import JournalStorage, RDBStorage
+
+    assert make_storage(None) is None
+    db = make_storage(tmp_path / "a.sqlite")
+    assert isinstance(db, RDBStorage) and db.heartbeat_interval == 60
+    db = make_storage(f"sqlite:///{tmp_path / 'b.db'}", heartbeat_interval=None)
+    assert db.heartbeat_interval is None
+    db = make_storage(
+        tmp_path / "c.db", heartbeat_interval=5, grace_period=7, max_retry=2
+    )
+    assert (db.heartbeat_interval, db.grace_period) == (5, 7)
+    assert db.get_heartbeat_stale_trial_callback() is not None
+    assert isinstance(make_storage(tmp_path / "d.journal"), JournalStorage)
+    assert make_storage(db) is db
+    with pytest.raises(ValueError, match="Cannot tell the storage kind"):
+        make_storage(tmp_path / "study.txt")
+    with pytest.raises(TypeError, match="storage must be"):
+        make_storage(3)
+
+
+def test_storage_needs_a_study_name(runs_data, tmp_path):
+    X, y, groups = runs_data
+    with pytest.raises(ValueError, match="study_name"):
+        run_search(
+            ANFISRegressor(), X, y, groups, space="anfis", storage=tmp_path / "x.db"
+        )
+
+
+def test_missing_optuna_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "optuna", None)
+    with pytest.raises(ImportError, match=r"skthermal\[optuna\]"):
+        make_storage("study.db")
+
+
+# ------------------------------------------------- distributed workers
+
+
+def _storages(tmp_path):
+    return {
+        "sqlite": str(tmp_path / "study.db"),
+        "journal": str(tmp_path / "study.log"),
+        "postgres": POSTGRES_URL,
+    }
+
+
+_KINDS = [
+    "sqlite",
+    "journal",
+    pytest.param(
+        "postgres",
+        marks=pytest.mark.skipif(
+            POSTGRES_URL is None, reason="SKTHERMAL_TEST_POSTGRES_URL is not set"
+        ),
+    ),
+]
+
+
+def _worker(storage, study, *args):
+    return subprocess.Popen(
+        [sys.executable, str(WORKER), storage, study, *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _finish(proc, timeout=60):
+    out, err = proc.communicate(timeout=timeout)
+    assert proc.returncode == 0, f"worker failed:\n{err}"
+    return out
+
+
+@pytest.mark.parametrize("kind", _KINDS)
+def test_two_workers_share_one_study(kind, tmp_path):
+    storage = _storages(tmp_path)[kind]
+    study_name = f"shared-{uuid.uuid4().hex[:8]}"
+    workers = [_worker(storage, study_name, "--n-trials", 3) for _ in range(2)]
+    for proc in workers:
+        _finish(proc)
+    study = optuna.load_study(study_name=study_name, storage=make_storage(storage))
+    trials = study.trials
+    assert len(trials) == 6
+    assert all(t.state == COMPLETE for t in trials)
+    pids = {t.user_attrs["worker_pid"] for t in trials}
+    assert pids == {proc.pid for proc in workers}
+    assert sorted(t.number for t in trials) == list(range(6))
+
+
+def _wait_for(path, proc, timeout=45):
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        if proc.poll() is not None:
+            raise AssertionError(f"worker exited early:\n{proc.stderr.read()}")
+        if time.monotonic() > deadline:
+            proc.kill()
+            raise AssertionError("the worker never started a trial")
+        time.sleep(0.1)
+
+
+@pytest.mark.parametrize("kind", _KINDS)
+def test_killed_worker_leaves_a_consistent_study(kind, tmp_path):
+    storage = _storages(tmp_path)[kind]
+    study_name = f"killed-{uuid.uuid4().hex[:8]}"
+    beat = ("--heartbeat", 1, "--grace", 2)
+    marker = tmp_path / "started"
+    sleeper = _worker(
+        storage, study_name, "--n-trials", 1, "--sleep", 120, "--marker", marker, *beat
+    )
+    _wait_for(marker, sleeper)
+    sleeper.send_signal(signal.SIGKILL)
+    sleeper.communicate(timeout=30)
+    assert sleeper.returncode == -signal.SIGKILL
+
+    store = make_storage(storage, heartbeat_interval=1, grace_period=2)
+    study = optuna.load_study(study_name=study_name, storage=store)
+    (dead,) = study.trials
+    assert dead.state == optuna.trial.TrialState.RUNNING
+    assert dead.user_attrs["worker_pid"] == sleeper.pid
+    if kind != "journal":
+        # Database storages: the heartbeat alone finds the stale trial, once
+        # the grace period after its last heartbeat has passed.
+        deadline = time.monotonic() + 15
+        failed = []
+        while not failed and time.monotonic() < deadline:
+            time.sleep(0.25)
+            failed = fail_stale_trials(study, local_processes=False)
+        assert failed == [dead.number]
+    # The journal has no heartbeat: the next worker fails the trial of the
+    # dead local process itself; with a database there is nothing left to do.
+    _finish(_worker(storage, study_name, "--n-trials", 2, *beat))
+
+    study = optuna.load_study(study_name=study_name, storage=make_storage(storage))
+    states = [t.state for t in study.trials]
+    assert states == [FAIL, COMPLETE, COMPLETE]
+    assert study.best_trial.number in (1, 2)
+    assert fail_stale_trials(study) == []
