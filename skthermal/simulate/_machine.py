@@ -415,21 +415,27 @@ class ThermalMachine:
 
     # --- heat and displacement ----------------------------------------------
 
-    def _heat(self, rpm, feed):
-        """Heat inputs (W), shape (n_steps, n_heated), and the heated nodes."""
+    def _heat(self, rpm, feed, sources=("spindle", "feed")):
+        """Heat inputs (W), shape (n_steps, n_heated), and the heated nodes.
+
+        ``sources`` selects the spindle losses (bearings, motor, belt,
+        cutting) and/or the feed losses (ball screw, nut, axis motor).
+        """
         p, spec = self._params, self.spec
         krpm = np.asarray(rpm, dtype=float) / 1000.0
         running = (krpm > 0).astype(float)
-        cols = {
-            spec.bearing: p["q.bearing_W"] * krpm ** p["q.alpha"],
-            spec.motor: p["q.motor_idle_W"] * running + p["q.motor_W_per_krpm"] * krpm,
-        }
-        cols[spec.belt] = cols.get(spec.belt, 0.0) + p["q.belt_W_per_krpm"] * krpm
-        if p.get("q.cutting_W", 0.0):
-            cols[spec.cutting] = (
-                cols.get(spec.cutting, 0.0) + p["q.cutting_W"] * running
+        cols = {}
+        if "spindle" in sources:
+            cols[spec.bearing] = p["q.bearing_W"] * krpm ** p["q.alpha"]
+            cols[spec.motor] = (
+                p["q.motor_idle_W"] * running + p["q.motor_W_per_krpm"] * krpm
             )
-        if self._on("feed_heating") and spec.screw_nodes:
+            cols[spec.belt] = cols.get(spec.belt, 0.0) + p["q.belt_W_per_krpm"] * krpm
+            if p.get("q.cutting_W", 0.0):
+                cols[spec.cutting] = (
+                    cols.get(spec.cutting, 0.0) + p["q.cutting_W"] * running
+                )
+        if "feed" in sources and self._on("feed_heating") and spec.screw_nodes:
             power = (
                 p["feed_heating.W_per_m_min"] * np.abs(np.asarray(feed, float)) / 1000.0
             )
@@ -449,6 +455,8 @@ class ThermalMachine:
                 )
         nodes = list(cols)
         n = np.shape(rpm)[0]
+        if not nodes:
+            return np.zeros((n, 0)), []
         Q = np.column_stack([np.broadcast_to(cols[k], (n,)) for k in nodes])
         return Q, [self._index[k] for k in nodes]
 
@@ -461,23 +469,38 @@ class ThermalMachine:
         position-dependent term. The tool's growth counts only with the
         ``tool_growth`` effect.
         """
+        return pd.DataFrame(
+            self._displacement_array().copy(),
+            index=list(self.spec.axes),
+            columns=list(self.spec.nodes),
+        )
+
+    def _displacement_array(self):
+        """The thermo-elastic map as an array (axes x nodes), cached."""
         if "displacement" in self._cache:
-            return self._cache["displacement"].copy()
+            return self._cache["displacement"]
         p, spec = self._params, self.spec
-        M = pd.DataFrame(0.0, index=list(spec.axes), columns=list(spec.nodes))
+        axis_index = {a: i for i, a in enumerate(spec.axes)}
+        M = np.zeros((len(spec.axes), len(spec.nodes)))
         for key, value in p.items():
-            parts = key.split(".")
-            if parts[0] == "k" and len(parts) == 3 and parts[2] in self._index:
-                M.loc[parts[1], parts[2]] = value
+            if value and key.startswith("k."):
+                parts = key.split(".")
+                if (
+                    len(parts) == 3
+                    and parts[2] in self._index
+                    and parts[1] in axis_index
+                ):
+                    M[axis_index[parts[1]], self._index[parts[2]]] = value
         screw_total = p.get(f"k.{spec.feed_axis}.screw", 0.0)
         if spec.screw_nodes and screw_total:
             m = len(spec.screw_nodes)
             reach = np.clip(p["feed_heating.measure_at"] * m - np.arange(m), 0.0, 1.0)
-            M.loc[spec.feed_axis, list(spec.screw_nodes)] += screw_total / m * reach
+            cols = [self._index[n] for n in spec.screw_nodes]
+            M[axis_index[spec.feed_axis], cols] += screw_total / m * reach
         if not self._on("tool_growth"):
-            M[spec.tool] = 0.0
+            M[:, self._index[spec.tool]] = 0.0
         self._cache["displacement"] = M
-        return M.copy()
+        return M
 
     def calibrate(
         self,
@@ -631,7 +654,7 @@ class ThermalMachine:
                 self._initial_state(initial, rpm[0], feed[0], air[0]),
             )
             readings = self._read_sensors(T, air, t, dt, noise, rng)
-            disp = (T - T[0]) @ self.displacement_matrix().to_numpy().T
+            disp = (T - T[0]) @ self._displacement_array().T
         p = self._params
         if noise:
             disp = disp + rng.normal(0.0, p["disp.noise_um"], disp.shape)
@@ -766,11 +789,9 @@ class ThermalMachine:
                 f"{steps.max():g} s); resample it to a constant period first."
             )
 
-    def _integrate(self, rpm, feed, air, dt, T0, heat=True):
+    def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed")):
         n_steps = rpm.shape[0] - 1
-        Q, cols = self._heat(rpm[:-1], feed[:-1])
-        if not heat:
-            Q = np.zeros_like(Q)
+        Q, cols = self._heat(rpm[:-1], feed[:-1], sources)
         T = np.empty((n_steps + 1, len(self.spec.nodes)))
         T[0] = T0
         change = np.flatnonzero(np.diff(rpm[:-1]) != 0) + 1

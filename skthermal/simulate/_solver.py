@@ -155,6 +155,14 @@ class ModalSystem:
             state_to_modal=V.T * d[None, :],
         )
 
+    def _gains(self, dt):
+        """Per-mode decay and hold gains for a step ``dt``, cached."""
+        cache = self.__dict__.setdefault("_gain_cache", {})
+        if dt not in cache:
+            phi0, phi1 = _hold_gains(self.rates, dt)
+            cache[dt] = (np.exp(-self.rates * dt), phi0, phi1)
+        return cache[dt]
+
     @property
     def time_constants(self):
         """Time constants ``1 / s`` of the modes, in seconds (slowest last)."""
@@ -181,8 +189,7 @@ class ModalSystem:
         -------
         T : ndarray of shape (n + 1, n_nodes)
         """
-        lam = np.exp(-self.rates * dt)
-        phi0, phi1 = _hold_gains(self.rates, dt)
+        lam, phi0, phi1 = self._gains(dt)
         p_air = self.to_modal @ air_conductance  # (n_modes,)
         P = self.to_modal if heat_nodes is None else self.to_modal[:, heat_nodes]
         g = heat @ (P.T * phi0[None, :])
