@@ -1,7 +1,9 @@
 """Tests of the ``skthermal`` command."""
 
+import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -42,3 +44,371 @@ def test_unknown_command_exits_nonzero(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["nope"])
     assert exc.value.code == 2
+
+
+# --------------------------------------------------------------------------
+# The workflow subcommands on small simulated data
+# --------------------------------------------------------------------------
+
+SUBCOMMANDS = [
+    "reproduce",
+    "simulate",
+    "select",
+    "fit",
+    "predict",
+    "evaluate",
+    "search",
+    "gap",
+    "gap-check",
+    "demo",
+]
+
+
+def _run(capsys, *argv):
+    """``main(argv)``: (status, stdout, stderr)."""
+    status = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    """Tests I, IV, V of Machine B (4-minute sampling) and one extra run."""
+    folder = tmp_path_factory.mktemp("cli")
+    runs = folder / "tests.csv"
+    argv = ["simulate", "--tests", "I,IV,V", "--sample-period", "240"]
+    assert main([*argv, "--out", str(runs)]) == 0
+    extra = ["simulate", "--segment", "6000:1h:1500,0:30min", "--run", "extra"]
+    extra += ["--ambient-trend", "0.5", "--sample-period", "240", "--append"]
+    assert main([*extra, "--out", str(runs)]) == 0
+    return folder
+
+
+def test_simulate_writes_a_valid_run_table(workdir):
+    from skthermal.datasets import read_runs
+
+    runs, meta = read_runs(workdir / "tests.csv", metadata=True)
+    assert list(pd.unique(runs["run"])) == ["I", "IV", "V", "extra"]
+    assert meta["run"].tolist() == ["I", "IV", "V", "extra"]
+    extra = runs[runs["run"] == "extra"]
+    assert extra["feed_mm_min"].max() == 1500
+    assert extra["spindle_rpm"].max() == 6000
+
+
+def test_simulate_segments_effects_and_list(capsys, tmp_path):
+    out = tmp_path / "one.csv.gz"
+    status, text, _ = _run(
+        capsys,
+        "simulate",
+        "--preset",
+        "vmc-a",
+        "--segment",
+        "3000:20min",
+        "--segment",
+        "0:600s",
+        "--effects",
+        "none",
+        "--no-noise",
+        "--sample-period",
+        "60",
+        "--out",
+        out,
+    )
+    assert status == 0 and "1 run(s) (run1), 31 rows" in text
+    status, text, _ = _run(capsys, "simulate", "--list-effects")
+    assert status == 0 and "tool_growth" in text
+
+
+def test_select_fit_predict_evaluate_chain(capsys, workdir):
+    runs, sensors = workdir / "tests.csv", workdir / "sensors.json"
+    status, text, _ = _run(
+        capsys, "select", "--runs", runs, "--train-runs", "IV", "--out", sensors
+    )
+    assert status == 0 and "fcm: kept 5 of 77 sensors for disp_y_um" in text
+    doc = json.loads(sensors.read_text())
+    assert len(doc["sensors"]) == 5 and doc["train_runs"] == ["IV"]
+
+    model = workdir / "anfis.joblib"
+    status, text, _ = _run(
+        capsys,
+        "fit",
+        "--runs",
+        runs,
+        "--train-runs",
+        "IV",
+        "--model",
+        "anfis-fcm",
+        "--sensors",
+        sensors,
+        "--out",
+        model,
+    )
+    assert status == 0 and "Fitted ANFIS-FCM on 5 sensor(s)" in text
+
+    pred = workdir / "pred.csv"
+    status, _, _ = _run(
+        capsys, "predict", "--model", model, "--runs", runs, "--out", pred
+    )
+    assert status == 0
+    table = pd.read_csv(pred)
+    assert "pred_disp_y_um" in table.columns
+    assert (table.groupby("run")["pred_disp_y_um"].first() == 0).all()
+
+    status, text, _ = _run(
+        capsys, "evaluate", "--runs", pred, "--out", workdir / "s.md"
+    )
+    assert status == 0 and "mean" in text
+    assert (workdir / "s.md").read_text().startswith("| run | n_samples | R |")
+    status, _, _ = _run(
+        capsys,
+        "evaluate",
+        "--runs",
+        runs,
+        "--predictions",
+        pred,
+        "--out",
+        workdir / "s.csv",
+    )
+    scores = pd.read_csv(workdir / "s.csv").set_index("run")
+    assert status == 0 and list(scores.index) == ["I", "IV", "V", "extra", "mean"]
+    assert scores.loc["I", "RMSE_um"] < 5.0
+    status, _, _ = _run(
+        capsys,
+        "evaluate",
+        "--runs",
+        runs,
+        "--model",
+        model,
+        "--out",
+        workdir / "s2.csv",
+    )
+    again = pd.read_csv(workdir / "s2.csv").set_index("run")
+    pd.testing.assert_frame_equal(again, scores)
+
+
+@pytest.mark.parametrize("name", ["anfis-grid", "gnnmci", "grey-pso", "mlp"])
+def test_fit_every_model_with_a_selector(capsys, workdir, name):
+    out = workdir / f"{name}.joblib"
+    status, text, err = _run(
+        capsys,
+        "fit",
+        "--runs",
+        workdir / "tests.csv",
+        "--train-runs",
+        "IV",
+        "--model",
+        name,
+        "--selector",
+        "grey",
+        "--n-sensors",
+        "3",
+        "--quick",
+        "--out",
+        out,
+    )
+    assert status == 0, err
+    assert "grey selected" in text and out.is_file()
+
+
+def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):
+    pytest.importorskip("skops")
+    pytest.importorskip("skthermal.io")
+    model = workdir / "safe.skops"
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "grey-pso"]
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C", "--out", model)
+    assert status == 0, err
+    pred = workdir / "safe.csv"
+    argv = ["predict", "--model", model, "--runs", workdir / "tests.csv"]
+    status, _, err = _run(capsys, *argv, "--out", pred)
+    assert status == 0, err
+    assert "pred_disp_y_um" in pd.read_csv(pred).columns
+
+
+def test_fit_set_parameters(capsys, workdir):
+    status, _, _ = _run(
+        capsys,
+        "fit",
+        "--runs",
+        workdir / "tests.csv",
+        "--model",
+        "anfis-fcm",
+        "--sensors",
+        "T05_C,T40_C",
+        "--set",
+        "n_clusters=2",
+        "--set",
+        "epochs=5",
+        "--out",
+        workdir / "small.joblib",
+    )
+    assert status == 0
+    import joblib
+
+    bundle = joblib.load(workdir / "small.joblib")
+    assert bundle["estimator"].estimator_.n_rules_ == 2
+    assert bundle["sensors"] == ["T05_C", "T40_C"]
+
+
+def test_search_runs_a_small_study(capsys, workdir):
+    pytest.importorskip("optuna")
+    pytest.importorskip("skthermal.model_selection")
+    best = workdir / "best.json"
+    status, text, err = _run(
+        capsys,
+        "search",
+        "--runs",
+        workdir / "tests.csv",
+        "--model",
+        "grey-pso",
+        "--sensors",
+        "T05_C,T40_C,T70_C",
+        "--trials",
+        "2",
+        "--storage",
+        workdir / "study.db",
+        "--out",
+        best,
+    )
+    assert status == 0, err
+    assert "2 of 2 trial(s) complete" in text
+    doc = json.loads(best.read_text())
+    assert doc["study_name"] == "skthermal-grey-pso" and doc["best_rmse_um"] > 0
+
+
+class _FakeGapReport:
+    ranking = pd.DataFrame(
+        {"effect": ["tool_growth"], "shrink": [0.9], "explains": [True]}
+    )
+
+    def verdict(self):
+        return "tool_growth explains the gap"
+
+    def save(self, folder):
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        (Path(folder) / "report.md").write_text("# gap\n")
+
+
+def test_gap_passes_runs_and_machine(capsys, workdir, monkeypatch, tmp_path):
+    gap = pytest.importorskip("skthermal.gap")
+    seen = {}
+
+    def fake(machine, runs, candidates=None):
+        seen.update(effects=list(machine.effects), runs=len(runs), cands=candidates)
+        return _FakeGapReport()
+
+    monkeypatch.setattr(gap, "diagnose", fake)
+    status, text, _ = _run(
+        capsys,
+        "gap",
+        "--runs",
+        workdir / "tests.csv",
+        "--candidates",
+        "tool_growth,sensor_lag",
+        "--report",
+        tmp_path / "gap",
+    )
+    assert status == 0 and "tool_growth explains the gap" in text
+    assert seen["effects"] == [] and seen["cands"] == ["tool_growth", "sensor_lag"]
+    assert (tmp_path / "gap" / "report.md").is_file()
+
+
+def test_gap_check_exit_status_follows_targets(capsys, monkeypatch, tmp_path):
+    gap = pytest.importorskip("skthermal.gap")
+
+    class Fake:
+        rates = {"detection": 1.0}
+        targets = {"detection >= 90%": False}
+        cases = pd.DataFrame({"case": [1]})
+        confusion = pd.DataFrame({"none": [1]})
+
+        def meets_targets(self):
+            return False
+
+        def to_markdown(self):
+            return "# validation\n"
+
+    monkeypatch.setattr(gap, "validate", lambda *a, **k: Fake())
+    status, text, _ = _run(
+        capsys, "gap-check", "--seeds", "1", "--report", tmp_path / "check"
+    )
+    assert status == 1 and "NOT met" in text
+    assert (tmp_path / "check" / "validation.md").is_file()
+
+
+@pytest.mark.parametrize("command", ["search", "gap", "gap-check"])
+def test_missing_optional_module_is_one_line(capsys, monkeypatch, workdir, command):
+    for module in ("skthermal.model_selection", "skthermal.gap"):
+        monkeypatch.setitem(sys.modules, module, None)
+    argv = {
+        "search": ["search", "--runs", workdir / "tests.csv", "--model", "mlp"],
+        "gap": ["gap", "--runs", workdir / "tests.csv"],
+        "gap-check": ["gap-check"],
+    }[command]
+    status, _, err = _run(capsys, *argv)
+    assert status == 2 and err.count("\n") == 1
+    assert "this installation of skthermal does not have" in err
+
+
+@pytest.mark.parametrize("command", SUBCOMMANDS)
+def test_help_of_every_subcommand(capsys, command):
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert f"usage: skthermal {command}" in text
+    if command != "demo":
+        assert "examples:" in text and f"skthermal {command}" in text
+
+
+def test_top_level_help_lists_the_subcommands(capsys):
+    assert main([]) == 0
+    text = capsys.readouterr().out
+    for command in SUBCOMMANDS:
+        assert command in text
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["fit", "--runs", "{tmp}/nope.csv", "--model", "mlp"], "no such file"),
+        (["fit", "--runs", "{runs}", "--model", "svm"], "unknown model 'svm'"),
+        (["fit", "--runs", "{runs}", "--model", "mlp", "--sensors", "T99_C"], "T99_C"),
+        (
+            ["fit", "--runs", "{runs}", "--model", "mlp", "--set", "nope=1"],
+            "--set nope",
+        ),
+        (["fit", "--runs", "{runs}", "--model", "anfis-grid"], "max_rules"),
+        (["select", "--runs", "{runs}", "--target", "disp_q_um"], "disp_q_um"),
+        (["select", "--runs", "{runs}", "--n-sensors", "0"], "--n-sensors"),
+        (["select", "--runs", "{runs}", "--train-runs", "IX"], "'IX'"),
+        (["select", "--runs", "{runs}", "--out", "{tmp}/s.txt"], ".json or .csv"),
+        (["select", "--runs", "{bad}"], "'Temp3'"),
+        (["simulate", "--segment", "4000:x", "--out", "{tmp}/r.csv"], "--segment"),
+        (["simulate", "--effects", "magic", "--out", "{tmp}/r.csv"], "magic"),
+        (["simulate", "--tests", "VII", "--out", "{tmp}/r.csv"], "VII"),
+        (["reproduce", "--sample-period", "-5", "--out", "{tmp}/r"], "positive"),
+        (["reproduce", "--models", "nope", "--out", "{tmp}/r"], "nope"),
+        (["predict", "--model", "{runs}", "--runs", "{runs}"], "model file"),
+        (["evaluate", "--runs", "{runs}"], "no prediction column"),
+        (["search", "--runs", "{runs}", "--model", "svm"], "unknown model"),
+        (["gap", "--runs", "{tmp}/nope.csv"], "no such file"),
+    ],
+)
+def test_user_errors_are_one_line(capsys, workdir, tmp_path, argv, message):
+    bad = tmp_path / "bad.csv"
+    pd.DataFrame(
+        {"run": ["a", "a"], "time_s": [0, 60], "T1_C": [20, 21], "Temp3": [1, 2]}
+    ).to_csv(bad, index=False)
+    names = {"tmp": tmp_path, "runs": workdir / "tests.csv", "bad": bad}
+    status, _, err = _run(capsys, *[a.format(**names) for a in argv])
+    assert status == 2
+    assert err.count("\n") == 1 and err.startswith(f"skthermal {argv[0]}: error:")
+    assert message in err
+
+
+def test_bad_option_value_is_one_line(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["select", "--runs", "x.csv", "--seed", "abc"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "invalid int value: 'abc'" in err
