@@ -418,19 +418,23 @@ class ThermalMachine:
     def _heat(self, rpm, feed, sources=("spindle", "feed")):
         """Heat inputs (W), shape (n_steps, n_heated), and the heated nodes.
 
-        ``sources`` selects the spindle losses (bearings, motor, belt,
-        cutting) and/or the feed losses (ball screw, nut, axis motor).
+        ``sources`` selects the spindle losses (``"spindle"``: bearings,
+        motor, belt, cutting; or ``"bearing"`` and ``"drive"`` (motor and
+        belt) separately) and/or the feed losses (``"feed"``: ball screw,
+        nut, axis motor).
         """
         p, spec = self._params, self.spec
         krpm = np.asarray(rpm, dtype=float) / 1000.0
         running = (krpm > 0).astype(float)
         cols = {}
-        if "spindle" in sources:
+        if "spindle" in sources or "bearing" in sources:
             cols[spec.bearing] = p["q.bearing_W"] * krpm ** p["q.alpha"]
-            cols[spec.motor] = (
+        if "spindle" in sources or "drive" in sources:
+            cols[spec.motor] = cols.get(spec.motor, 0.0) + (
                 p["q.motor_idle_W"] * running + p["q.motor_W_per_krpm"] * krpm
             )
             cols[spec.belt] = cols.get(spec.belt, 0.0) + p["q.belt_W_per_krpm"] * krpm
+        if "spindle" in sources:
             if p.get("q.cutting_W", 0.0):
                 cols[spec.cutting] = (
                     cols.get(spec.cutting, 0.0) + p["q.cutting_W"] * running

@@ -1,0 +1,471 @@
+"""Where the simulation and the measurement disagree, which unmodelled effect
+explains it, and how far the gap shrinks once that effect is added."""
+
+import numpy as np
+import pandas as pd
+from joblib import Parallel, delayed
+from scipy import stats
+from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
+
+from skthermal.gap._problem import (
+    EFFECT_PARAMETER,
+    RESIDUAL_EFFECTS,
+    build_problem,
+    calibrate,
+    effect_parameters,
+    predict_run,
+    residuals,
+)
+from skthermal.gap._regimes import label_regimes
+from skthermal.simulate._effects import EFFECTS, check_effects
+
+BANDS_H = [
+    ("> 6 h", 6.0, np.inf),
+    ("1-6 h", 1.0, 6.0),
+    ("10 min-1 h", 1 / 6, 1.0),
+    ("< 10 min", 0.0, 1 / 6),
+]
+
+
+def _folds(n_runs, cv):
+    groups = np.arange(n_runs)
+    if cv is None:
+        cv = LeaveOneGroupOut() if n_runs <= 3 else GroupKFold(n_splits=3)
+    elif isinstance(cv, int):
+        cv = GroupKFold(n_splits=cv)
+    X = np.zeros((n_runs, 1))
+    return [(tr, te) for tr, te in cv.split(X, groups=groups)]
+
+
+def _run_ms(R):
+    """Mean over samples of the weighted squared normalised residual."""
+    return float(np.mean(np.sum(R * R, axis=1))) if R.size else 0.0
+
+
+def _gap(Rs):
+    n = np.array([R.shape[0] for R in Rs], dtype=float)
+    ms = np.array([_run_ms(R) for R in Rs])
+    return float(np.sqrt(np.sum(n * ms) / n.sum())), ms
+
+
+def _detrend_first_half(R, is_temp):
+    """Residual minus a per-channel linear trend fitted on the run's first half
+    and extrapolated (the sensor-drift model); temperature channels only."""
+    n = R.shape[0]
+    half = max(2, n // 2)
+    t = np.arange(n, dtype=float)
+    A = np.column_stack([np.ones(half), t[:half]])
+    coef, *_ = np.linalg.lstsq(A, R[:half][:, is_temp], rcond=None)
+    out = R.copy()
+    out[:, is_temp] -= np.column_stack([np.ones(n), t]) @ coef
+    return out
+
+
+def _second_half(R):
+    return R[R.shape[0] // 2 :]
+
+
+def _block_test(before, after, n_blocks=3):
+    """One-sided paired t-test of the squared-error reduction over time blocks.
+
+    Each held-out run is cut into ``n_blocks`` contiguous blocks (hours long,
+    so nearly independent); the test asks whether the candidate lowers the
+    mean squared residual across blocks more than block-to-block noise would.
+    """
+    d = []
+    for Rb, Ra in zip(before, after, strict=True):
+        edges = np.linspace(0, Rb.shape[0], n_blocks + 1).astype(int)
+        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+            if hi > lo:
+                d.append(_run_ms(Rb[lo:hi]) - _run_ms(Ra[lo:hi]))
+    d = np.asarray(d)
+    if d.size < 2 or np.std(d) == 0:
+        return 0.0 if d.size and np.all(d > 0) else 1.0
+    return float(stats.ttest_1samp(d, 0.0, alternative="greater").pvalue)
+
+
+def _xcorr(problem, Rs, max_lag=10):
+    """Largest |correlation| between the combined residual and a driver.
+
+    Drivers: spindle speed, air temperature change rate, feed, and time since
+    the last spindle stop, at lags 0..max_lag samples (residual after driver).
+    """
+    best = 0.0
+    drivers = {}
+    for run, R in zip(problem.runs, Rs, strict=True):
+        r = R.sum(axis=1)
+        rows = run.rows[run.rows.size - R.shape[0] :]  # residuals may be a tail
+        air = run.ambient_C[rows]
+        d = {
+            "spindle_rpm": run.spindle_rpm[rows],
+            "ambient_rate": np.gradient(air) if air.size > 1 else air * 0,
+            "feed": np.abs(run.feed_mm_min[rows]),
+        }
+        on = run.spindle_rpm[rows] > 0
+        since = np.zeros(rows.size)
+        for k in range(1, rows.size):  # cheap: rows are at most a few hundred
+            since[k] = 0.0 if on[k] else since[k - 1] + 1.0
+        d["since_stop"] = np.where(on, 0.0, np.exp(-since / 20.0))
+        for name, x in d.items():
+            drivers.setdefault(name, []).append((r, x))
+    for pairs in drivers.values():
+        for lag in range(max_lag + 1):
+            rs = np.concatenate([r[lag:] for r, _ in pairs])
+            xs = np.concatenate([x[: x.size - lag] for _, x in pairs])
+            if rs.size > 3 and np.std(xs) > 0 and np.std(rs) > 0:
+                best = max(best, abs(float(np.corrcoef(rs, xs)[0, 1])))
+    return best
+
+
+def _regimes_of(problem):
+    out = []
+    for run in problem.runs:
+        lab = label_regimes(run.time_s, run.spindle_rpm, run.ambient_C, run.feed_mm_min)
+        out.append(lab.iloc[run.rows].reset_index(drop=True))
+    return out
+
+
+def _regime_gaps(Rs, regimes):
+    """Gap per regime label (primary regime, ambient event, feed motion)."""
+    rows = []
+    for R, lab in zip(Rs, regimes, strict=True):
+        e = np.sum(R * R, axis=1)
+        keys = lab["regime"].to_numpy().astype(object)
+        rows.append(pd.DataFrame({"regime": keys, "e": e}))
+        if lab["ambient_event"].any():
+            rows.append(
+                pd.DataFrame(
+                    {"regime": "ambient event", "e": e[lab["ambient_event"].to_numpy()]}
+                )
+            )
+        if lab["feed_motion"].any():
+            rows.append(
+                pd.DataFrame(
+                    {"regime": "feed motion", "e": e[lab["feed_motion"].to_numpy()]}
+                )
+            )
+        for speed, idx in lab.groupby("speed").groups.items():
+            if speed != "0 rpm":
+                rows.append(pd.DataFrame({"regime": f"at {speed}", "e": e[idx]}))
+    frame = pd.concat(rows, ignore_index=True)
+    return frame.groupby("regime", sort=False)["e"].mean().pow(0.5)
+
+
+class _Context:
+    """Everything the candidate evaluations share (pickled to workers)."""
+
+    def __init__(self, problem, machine, reference, folds, max_nfev):
+        self.problem = problem
+        self.machine = machine
+        self.reference = reference
+        self.folds = folds
+        self.max_nfev = max_nfev
+
+    def heldout(self, effects, starts=None):
+        """Held-out residuals of every run with ``effects`` added, and fits."""
+        problem = self.problem
+        sim_effects = tuple(e for e in effects if e not in RESIDUAL_EFFECTS)
+        out = [None] * len(problem.runs)
+        fits = []
+        for k, (train, test) in enumerate(self.folds):
+            start = None if starts is None else starts[k]
+            fit = calibrate(
+                problem,
+                self.machine,
+                self.reference,
+                sim_effects,
+                train,
+                start=start,
+                max_nfev=self.max_nfev,
+            )
+            fits.append(fit)
+            preds = {
+                i: predict_run(fit.machine, problem, problem.runs[i], parts=True)
+                for i in test
+            }
+            for i, R in zip(
+                test, residuals(problem, preds, fit.gain, test), strict=True
+            ):
+                out[i] = R
+        if any(e in RESIDUAL_EFFECTS for e in effects):
+            is_temp = ~problem.is_disp
+            out = [_detrend_first_half(R, is_temp) for R in out]
+        return out, fits
+
+
+def _evaluate(
+    ctx,
+    before_effects,
+    before_R,
+    before_fits,
+    candidate,
+    regimes,
+    floor2,
+    min_shrink,
+    alpha,
+):
+    effects = tuple(before_effects) + (candidate,)
+    starts = [f.values for f in before_fits]
+    after_R, fits = ctx.heldout(effects, starts)
+    if candidate in RESIDUAL_EFFECTS:
+        # The drift model is judged on the second half of every run, where its
+        # trend, fitted on the first half, is a genuine prediction.
+        b = [_second_half(R) for R in before_R]
+        a = [_second_half(R) for R in after_R]
+    else:
+        b, a = before_R, after_R
+    gap_b, ms_b = _gap(b)
+    gap_a, ms_a = _gap(a)
+    ex_b = np.sqrt(max(gap_b**2 - floor2, 0.0))
+    ex_a = np.sqrt(max(gap_a**2 - floor2, 0.0))
+    shrink = 1.0 - ex_a / ex_b if ex_b > 0 else 0.0
+    d = ms_b - ms_a  # per held-out run
+    p = _block_test(b, a)
+    rb = _regime_gaps(
+        b,
+        regimes
+        if candidate not in RESIDUAL_EFFECTS
+        else [r.iloc[r.shape[0] // 2 :].reset_index(drop=True) for r in regimes],
+    )
+    ra = _regime_gaps(
+        a,
+        regimes
+        if candidate not in RESIDUAL_EFFECTS
+        else [r.iloc[r.shape[0] // 2 :].reset_index(drop=True) for r in regimes],
+    )
+    row = {
+        "effect": candidate,
+        "gap_before": gap_b,
+        "gap_after": gap_a,
+        "shrink": shrink,
+        "shrink_raw": 1.0 - gap_a / gap_b if gap_b > 0 else 0.0,
+        "p_value": p,
+        "runs_improved": int(np.sum(d > 0)),
+        "n_runs": int(d.size),
+        "extra_params": effect_parameters([candidate]),
+        "xcorr_before": _xcorr(ctx.problem, b),
+        "xcorr_after": _xcorr(ctx.problem, a),
+    }
+    row["explains"] = bool(shrink >= min_shrink and p < alpha)
+    param = EFFECT_PARAMETER.get(candidate)
+    if param is not None:
+        row["fitted"] = float(
+            np.median([f.values[param] for f in fits]) * ctx.reference[param]
+        )
+    else:
+        row["fitted"] = np.nan
+    regime_shrink = 1.0 - ra / rb.reindex(ra.index)
+    return row, regime_shrink.rename(candidate), after_R, fits
+
+
+def diagnose(
+    machine,
+    runs,
+    candidates=None,
+    cv=None,
+    *,
+    channels=None,
+    mapping=None,
+    min_shrink=0.5,
+    alpha=0.05,
+    greedy=True,
+    max_samples=600,
+    max_nfev=30,
+    n_jobs=None,
+):
+    """Diagnose the gap between a simulated machine and measured runs.
+
+    1. **Where**: the gap of the simulation as given and after calibrating its
+       base parameters, per run, regime, channel and frequency band, with each
+       regime's share of the squared error against its share of time, and the
+       times where the gap jumps.
+    2. **Which**: the base parameters (one multiplier each for all heat
+       capacities, all convection coefficients and all heat inputs, and a gain
+       per displacement axis) are calibrated on training runs so that an
+       offset is not mistaken for missing physics. Then every candidate
+       effect is added, its parameter calibrated with them, and the gap scored
+       on held-out runs. An effect *explains* the gap when it removes at least
+       ``min_shrink`` of the held-out gap above the noise floor and the
+       improvement is significant (one-sided paired t-test over blocks of the
+       held-out runs at ``alpha``).
+    3. **How far**: the held-out gap per regime before and after the best
+       effect; then greedily the next effect on top while one still explains
+       what remains.
+
+    Parameters
+    ----------
+    machine : ThermalMachine
+        The simulation. Its effects that are on stay on; candidates are added.
+    runs : DataFrame
+        Measured run table(s) with ``time_s``, ``spindle_rpm``, ``ambient_C``
+        (and ``feed_mm_min`` if the axis moved), and channels the simulation
+        predicts (displacements ``disp_*_um`` and/or its sensors).
+    candidates : sequence of str, optional
+        Effects to test; default: every effect of the vocabulary that the
+        machine does not already have.
+    cv : int or splitter, optional
+        Held-out scheme over runs: default leave-one-run-out for up to 3
+        runs, else 3-fold GroupKFold.
+    channels : sequence of str, optional
+        Measured columns to compare (default: every one the simulation
+        predicts).
+    mapping : dict, optional
+        ``{measured column: simulated column}`` when the names differ (e.g.
+        ``{"disp_ch1_um": "disp_z_um"}``).
+    min_shrink : float, default=0.5
+        Share of the excess held-out gap an effect must remove to explain it.
+    alpha : float, default=0.05
+        Significance level of the improvement across held-out runs.
+    greedy : bool, default=True
+        After the best effect, add further effects while they explain more.
+    max_samples : int, default=600
+        Samples per run compared (runs are simulated at their own rate).
+    max_nfev : int, default=30
+        Model evaluations per calibration.
+    n_jobs : int, optional
+        Candidates evaluated in parallel (joblib).
+
+    Returns
+    -------
+    GapReport
+
+    Examples
+    --------
+    >>> from skthermal.gap import diagnose, make_gap_campaign
+    >>> case = make_gap_campaign("tool_growth", random_state=0)
+    >>> report = diagnose(case.simulation, case.runs,
+    ...                   candidates=["tool_growth", "speed_convection"],
+    ...                   greedy=False)
+    >>> report.best_effect
+    'tool_growth'
+    """
+    from skthermal.gap._report import GapReport
+
+    base_effects = tuple(machine.effects)
+    if candidates is None:
+        candidates = [e for e in EFFECTS if e not in base_effects]
+    candidates = list(check_effects(candidates))
+    already = [c for c in candidates if c in base_effects]
+    if already:
+        raise ValueError(
+            f"The simulation already has {already}; they cannot be candidates."
+        )
+    problem = build_problem(
+        machine, runs, channels=channels, mapping=mapping, max_samples=max_samples
+    )
+    if len(problem.runs) < 2:
+        raise ValueError(
+            "The diagnosis scores effects on held-out runs: give at least 2 runs "
+            f"(got {len(problem.runs)})."
+        )
+    reference = machine.params
+    folds = _folds(len(problem.runs), cv)
+    ctx = _Context(problem, machine, reference, folds, max_nfev)
+    regimes = _regimes_of(problem)
+    floor2 = float(np.sum(problem.weight * (problem.noise / problem.scale) ** 2))
+
+    # Where: as given, and with the base calibrated on all runs (in sample).
+    as_given = residuals(
+        problem,
+        {i: predict_run(machine, problem, r) for i, r in enumerate(problem.runs)},
+        None,
+        range(len(problem.runs)),
+    )
+    all_idx = np.arange(len(problem.runs))
+    base_all = calibrate(problem, machine, reference, (), all_idx, max_nfev=max_nfev)
+    calibrated = residuals(
+        problem,
+        {
+            i: predict_run(base_all.machine, problem, r, parts=True)
+            for i, r in enumerate(problem.runs)
+        },
+        base_all.gain,
+        all_idx,
+    )
+
+    # Which: held-out gap of the base, then of every candidate.
+    base_R, base_fits = ctx.heldout(())
+    jobs = Parallel(n_jobs=n_jobs)(
+        delayed(_evaluate)(
+            ctx, (), base_R, base_fits, c, regimes, floor2, min_shrink, alpha
+        )
+        for c in candidates
+    )
+    rows = [j[0] for j in jobs]
+    ranking = pd.DataFrame(rows)
+    ranking = ranking.sort_values(
+        ["explains", "shrink"], ascending=False, kind="stable"
+    )
+    ranking = ranking.reset_index(drop=True)
+    regime_shrink = pd.concat([j[1] for j in jobs], axis=1)
+    best = (
+        ranking.iloc[0]["effect"]
+        if len(ranking) and ranking.iloc[0]["explains"]
+        else None
+    )
+    after_R = {j[0]["effect"]: j[2] for j in jobs}
+    after_fits = {j[0]["effect"]: j[3] for j in jobs}
+
+    # How far: the best effect, then greedily more.
+    steps = []
+    if best is not None:
+        added = [best]
+        current_R, current_fits = after_R[best], after_fits[best]
+        steps.append(
+            {
+                "added": best,
+                "gap": _gap(current_R)[0],
+                "shrink": float(ranking.iloc[0]["shrink"]),
+            }
+        )
+        remaining = [c for c in candidates if c != best]
+        while greedy and remaining:
+            more = Parallel(n_jobs=n_jobs)(
+                delayed(_evaluate)(
+                    ctx,
+                    tuple(added),
+                    current_R,
+                    current_fits,
+                    c,
+                    regimes,
+                    floor2,
+                    min_shrink,
+                    alpha,
+                )
+                for c in remaining
+            )
+            more.sort(key=lambda j: (j[0]["explains"], j[0]["shrink"]), reverse=True)
+            top = more[0]
+            if not top[0]["explains"]:
+                break
+            added.append(top[0]["effect"])
+            current_R, current_fits = top[2], top[3]
+            steps.append(
+                {
+                    "added": top[0]["effect"],
+                    "gap": _gap(current_R)[0],
+                    "shrink": top[0]["shrink"],
+                }
+            )
+            remaining.remove(top[0]["effect"])
+    return GapReport._build(
+        problem=problem,
+        machine=machine,
+        candidates=candidates,
+        ranking=ranking,
+        regime_shrink=regime_shrink,
+        best_effect=best,
+        steps=steps,
+        base_R=base_R,
+        best_R=after_R.get(best) if best is not None else None,
+        as_given=as_given,
+        calibrated=calibrated,
+        regimes=regimes,
+        floor2=floor2,
+        settings={
+            "min_shrink": min_shrink,
+            "alpha": alpha,
+            "folds": len(folds),
+            "base_effects": list(base_effects),
+        },
+    )

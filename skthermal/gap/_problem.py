@@ -1,0 +1,400 @@
+"""The numerical core of the gap diagnosis: measured runs, predictions and
+calibration.
+
+Gaps are measured on changes since the start of each run (offsets of sensors
+and of the displacement zero are not physics; the start is the mean of the
+first few compared samples), channel by channel, each
+divided by the spread of its group's measurements (displacements in µm,
+temperatures in °C). Displacement channels and temperature channels weigh
+half each. The noise floor of every channel is
+estimated from second differences of its measurement.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from skthermal.simulate._effects import EFFECTS
+from skthermal.utils._threads import single_threaded_blas
+
+# Base calibration. The network's time scales are set by two multipliers (all
+# capacities, all convection coefficients), fitted by nonlinear least squares.
+# Every channel's response is split into its parts driven by the air, the
+# spindle bearings, the spindle drive and the feed (the model is linear in
+# its inputs), and each part gets
+# its own gain per channel, solved in closed form (variable projection): that
+# absorbs the amplitude offsets of heat inputs, thermo-elastic coefficients
+# and sensor couplings, but not the shapes that unmodelled effects leave.
+BASE_GROUPS = {
+    "scale.C": lambda key: key.startswith("C."),
+    "scale.hA": lambda key: key.startswith("hA."),
+}
+# "Change since the start of the run" is taken relative to the mean of the
+# first few compared samples, on both sides: relative to one sample, that
+# sample's noise would offset the whole run.
+START_SAMPLES = 5
+
+# The parameter each candidate effect brings to the calibration (None: the
+# effect is a structural switch without a free parameter).
+EFFECT_PARAMETER = {
+    "sensor_lag": "sensor_lag.tau_s",
+    "speed_convection": "speed_convection.gain",
+    "tool_growth": "tool_growth.hA_rotating",
+    "ambient_transient": None,
+    "feed_heating": "feed_heating.W_per_m_min",
+    "sensor_drift": None,
+}
+# Effects not simulated deterministically but modelled on the residual.
+RESIDUAL_EFFECTS = ("sensor_drift",)
+
+
+def noise_floor(y):
+    """White-noise standard deviation of each column, from second differences.
+
+    Smooth thermal signals have tiny second differences; white noise of
+    standard deviation s gives second differences of standard deviation
+    ``sqrt(6) s``. The largest 2% are trimmed so that steps and events do not
+    count as noise. (A median would read zero on quantised readings, whose
+    second differences are mostly exactly zero.)
+    """
+    d2 = np.diff(y, n=2, axis=0)
+    if d2.shape[0] == 0:
+        return np.zeros(y.shape[1])
+    a = np.sort(np.abs(d2), axis=0)
+    keep = max(1, int(np.ceil(0.98 * a.shape[0])))
+    return np.sqrt(np.mean(a[:keep] ** 2, axis=0) / 6.0)
+
+
+@dataclass
+class MeasuredRun:
+    """One measured run prepared for the diagnosis."""
+
+    name: object
+    time_s: np.ndarray
+    spindle_rpm: np.ndarray
+    ambient_C: np.ndarray
+    feed_mm_min: np.ndarray
+    rows: np.ndarray  # samples kept for the comparison
+    y: np.ndarray  # measured channels at ``rows``, change since start
+
+
+@dataclass
+class Problem:
+    """Measured runs, the channels compared, their scales and weights."""
+
+    runs: list
+    channels: list  # measured column names
+    sim_channels: list  # the simulated column each is compared with
+    is_disp: np.ndarray
+    scale: np.ndarray
+    weight: np.ndarray
+    noise: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def names(self):
+        return [r.name for r in self.runs]
+
+
+def build_problem(machine, runs, *, channels=None, mapping=None, max_samples=600):
+    """Prepare measured runs: drivers, compared channels, scales, weights."""
+    for col in ("run", "time_s", "spindle_rpm", "ambient_C"):
+        if col not in runs.columns:
+            raise ValueError(
+                f"The measured runs have no {col!r} column; the diagnosis "
+                "simulates each run from its drivers (time_s, spindle_rpm, "
+                "ambient_C and, if present, feed_mm_min)."
+            )
+    mapping = dict(mapping or {})
+    predicted = set(machine.targets) | set(machine.sensors)
+    if channels is None:
+        channels = [c for c in runs.columns if mapping.get(c, c) in predicted]
+    channels = list(channels)
+    bad = [c for c in channels if c not in runs.columns]
+    if bad:
+        raise ValueError(f"Channel(s) {bad} are not columns of the measured runs.")
+    bad = [c for c in channels if mapping.get(c, c) not in predicted]
+    if bad:
+        raise ValueError(
+            f"The simulation does not predict {bad}; map measured columns to "
+            "simulated ones with mapping={'measured': 'simulated'}."
+        )
+    if not channels:
+        raise ValueError(
+            "No measured column matches a channel the simulation predicts "
+            f"({machine.targets} and its {len(machine.sensors)} temperature "
+            "sensors); pass mapping= or channels=."
+        )
+    sim_channels = [mapping.get(c, c) for c in channels]
+    is_disp = np.array([c in machine.targets for c in sim_channels])
+    prepared = []
+    for name, frame in runs.groupby("run", sort=False):
+        t = frame["time_s"].to_numpy(float)
+        if t.size < 3:
+            raise ValueError(f"Run {name!r} has fewer than 3 samples.")
+        y = frame[channels].to_numpy(float, copy=True)
+        if not np.all(np.isfinite(y)):
+            raise ValueError(
+                f"Run {name!r} has missing values in the compared channels."
+            )
+        step = max(1, int(np.ceil(t.size / max_samples)))
+        rows = np.arange(0, t.size, step)
+        y = y[rows]
+        y = y - y[:START_SAMPLES].mean(axis=0)
+        feed = (
+            frame["feed_mm_min"].to_numpy(float)
+            if "feed_mm_min" in frame
+            else np.zeros_like(t)
+        )
+        prepared.append(
+            MeasuredRun(
+                name=name,
+                time_s=t - t[0],
+                spindle_rpm=frame["spindle_rpm"].to_numpy(float),
+                ambient_C=frame["ambient_C"].to_numpy(float),
+                feed_mm_min=feed,
+                rows=rows,
+                y=y,
+            )
+        )
+    Y = np.vstack([r.y for r in prepared])
+    # Noise from the full-rate measurement of every run.
+    noise = np.sqrt(
+        np.mean(
+            [
+                noise_floor(frame[channels].to_numpy(float)) ** 2
+                for _, frame in runs.groupby("run", sort=False)
+            ],
+            axis=0,
+        )
+    )
+    # One scale per group (µm for displacements, °C for temperatures): errors
+    # in the same unit count alike, so a nearly flat, noisy channel (a small
+    # X error) does not weigh as much as the axis that actually moves.
+    scale = np.empty(len(channels))
+    groups = [is_disp, ~is_disp]
+    for g in groups:
+        if g.any():
+            scale[g] = max(float(np.sqrt(np.mean(Y[:, g].var(axis=0)))), 1e-9)
+    weight = np.empty(len(channels))
+    n_groups = sum(g.any() for g in groups)
+    for g in groups:
+        if g.any():
+            weight[g] = 1.0 / n_groups / g.sum()
+    return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
+
+
+def with_scales(machine, reference, values):
+    """``machine`` with group scales and effect parameters applied.
+
+    ``values`` maps names to multipliers: ``scale.C`` etc. multiply a family
+    of ``reference`` parameters; an effect parameter name multiplies that
+    parameter's reference value.
+    """
+    new = {}
+    for name, factor in values.items():
+        if name in BASE_GROUPS:
+            match = BASE_GROUPS[name]
+            for key, value in reference.items():
+                if match(key):
+                    new[key] = value * factor
+        else:
+            new[name] = reference[name] * factor
+    return machine.with_params(new)
+
+
+def _sensor_weights(machine, names):
+    key = ("sensor_weights", tuple(names))
+    if key not in machine._cache:
+        spec = machine.spec
+        index = {n: i for i, n in enumerate(spec.nodes)}
+        room = len(spec.nodes)
+        by_name = {s.name: s for s in spec.sensors}
+        W = np.zeros((len(names), room + 1))
+        lagged = np.zeros(len(names), dtype=bool)
+        for i, name in enumerate(names):
+            sensor = by_name[name]
+            for node, w in sensor.weights.items():
+                W[i, room if node == "room" else index[node]] += w
+            lagged[i] = sensor.kind == "surface"
+        machine._cache[key] = (W, lagged)
+    return machine._cache[key]
+
+
+def _channels_of(machine, problem, run, T, air, dt):
+    """Compared channels from node temperatures ``T`` and the air ``air``
+    (pass zeros for a heat-driven part: the sensors' air term then drops)."""
+    out = np.empty((run.rows.size, len(problem.channels)))
+    disp_cols = np.flatnonzero(problem.is_disp)
+    if disp_cols.size:
+        M = machine._displacement_array()
+        axis_index = {a: i for i, a in enumerate(machine.spec.axes)}
+        axes = [axis_index[problem.sim_channels[i].split("_")[1]] for i in disp_cols]
+        Tr = T[run.rows]
+        out[:, disp_cols] = (Tr - Tr[:START_SAMPLES].mean(axis=0)) @ M[axes].T
+    temp_cols = np.flatnonzero(~problem.is_disp)
+    if temp_cols.size:
+        names = [problem.sim_channels[i] for i in temp_cols]
+        W, lagged = _sensor_weights(machine, names)
+        x = T @ W[:, :-1].T + np.outer(air, W[:, -1])
+        if machine._on("sensor_lag") and lagged.any():
+            from skthermal.simulate._solver import first_order_lag
+
+            x[:, lagged] = first_order_lag(
+                x[:, lagged], machine.params["sensor_lag.tau_s"], dt
+            )
+        r = x[run.rows]
+        out[:, temp_cols] = r - r[:START_SAMPLES].mean(axis=0)
+    return out
+
+
+PARTS = ("air", "bearing", "drive", "feed")
+
+
+def predict_run(machine, problem, run, parts=False):
+    """Simulated channels of one run (change since start, at ``run.rows``).
+
+    The network and the sensors (with their lag) run at the measurement's own
+    sample rate; the comparison keeps every ``rows`` sample. The model is
+    linear in its inputs, so with ``parts`` the prediction is returned as its
+    parts driven by the air, the spindle bearings, the spindle drive (motor
+    and belt) and the feed (shape ``(4, n, n_channels)``; their sum is the
+    prediction).
+    """
+    dt = float(run.time_s[1] - run.time_s[0])
+    n_nodes = len(machine.spec.nodes)
+    air = run.ambient_C
+    rpm, feed = run.spindle_rpm, run.feed_mm_min
+    with single_threaded_blas():
+        if not parts:
+            T = machine._integrate(rpm, feed, air, dt, np.full(n_nodes, air[0]))
+            return _channels_of(machine, problem, run, T, air, dt)
+        out = np.zeros((len(PARTS), run.rows.size, len(problem.channels)))
+        T = machine._integrate(rpm, feed, air, dt, np.full(n_nodes, air[0]), ())
+        out[0] = _channels_of(machine, problem, run, T, air, dt)
+        zero_air = np.zeros_like(air)
+        zero_T = np.zeros(n_nodes)
+        for k, source in enumerate(PARTS[1:], start=1):
+            if source == "feed" and not (
+                machine._on("feed_heating") and np.any(feed != 0)
+            ):
+                continue
+            T = machine._integrate(rpm, feed, zero_air, dt, zero_T, (source,))
+            out[k] = _channels_of(machine, problem, run, T, zero_air, dt)
+    return out
+
+
+def fit_gains(problem, predictions, runs_idx, spread=0.3):
+    """Closed-form gains of the parts of every channel, with a prior of one.
+
+    A Bayesian ridge: minimises ``||y - sum_a g_a P_a||^2 / s^2 +
+    sum_a (g_a - 1)^2 / spread^2`` over ``runs_idx``, ``s`` the channel's
+    noise. A part whose signal stands well above the noise moves its gain
+    freely (absorbing a calibration offset of the heat inputs, the
+    thermo-elastic coefficients or a sensor's coupling); a part buried in the
+    noise keeps the model's own amplitude instead of fitting the noise.
+    ``predictions[i]`` has shape (n_parts, n, n_channels); returns gains of
+    shape (n_parts, n_channels).
+    """
+    n_parts = next(iter(predictions.values())).shape[0]
+    n_ch = len(problem.channels)
+    G = np.zeros((n_ch, n_parts, n_parts))
+    b = np.zeros((n_ch, n_parts))
+    for i in runs_idx:
+        P, y = predictions[i], problem.runs[i].y
+        G += np.einsum("anc,bnc->cab", P, P)
+        b += np.einsum("anc,nc->ca", P, y)
+    noise = np.maximum(problem.noise, 1e-3 * problem.scale)
+    lam = (noise / spread) ** 2  # (n_channels,)
+    G = G + lam[:, None, None] * np.eye(n_parts)
+    b = b + lam[:, None]
+    return np.linalg.solve(G, b[..., None])[..., 0].T
+
+
+def apply_gains(prediction, gain):
+    """Parts ``(n_parts, n, n_channels)`` combined with gains
+    ``(n_parts, n_channels)``."""
+    return np.einsum("anc,ac->nc", prediction, gain)
+
+
+def residuals(problem, predictions, gain, runs_idx):
+    """Normalised, weighted residuals of the given runs (list of arrays).
+
+    ``predictions[i]`` is either a plain prediction (gain None) or the
+    heat/air parts combined with ``gain``.
+    """
+    w = np.sqrt(problem.weight) / problem.scale
+    out = []
+    for i in runs_idx:
+        p = predictions[i] if gain is None else apply_gains(predictions[i], gain)
+        out.append((p - problem.runs[i].y) * w)
+    return out
+
+
+@dataclass
+class Fit:
+    """A calibrated model: its parameters, displacement gains and machine."""
+
+    effects: tuple
+    values: dict
+    gain: np.ndarray
+    machine: object
+    cost: float
+    nfev: int
+
+
+def calibrate(
+    problem, machine, reference, effects, train_idx, *, start=None, max_nfev=40
+):
+    """Fit base scales (and the candidate effects' parameters) on training runs."""
+    names = list(BASE_GROUPS)
+    for e in effects:
+        p = EFFECT_PARAMETER.get(e)
+        if p is not None:
+            names.append(p)
+    start = dict(start or {})
+    x0 = np.log([start.get(n, 1.0) for n in names])
+    lo = np.array([np.log(0.25) if n in BASE_GROUPS else np.log(0.05) for n in names])
+    hi = -lo
+    x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
+    sim_effects = [e for e in effects if e not in RESIDUAL_EFFECTS]
+    base = machine.with_effects(add=sim_effects)
+
+    def model(x):
+        return with_scales(base, reference, dict(zip(names, np.exp(x), strict=True)))
+
+    def vector(x):
+        m = model(x)
+        preds = {
+            i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx
+        }
+        gain = fit_gains(problem, preds, train_idx)
+        return np.concatenate(
+            [r.ravel() for r in residuals(problem, preds, gain, train_idx)]
+        )
+
+    res = least_squares(
+        vector, x0, bounds=(lo, hi), max_nfev=max_nfev, diff_step=1e-3, x_scale=1.0
+    )
+    m = model(res.x)
+    preds = {i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx}
+    gain = fit_gains(problem, preds, train_idx)
+    return Fit(
+        tuple(effects),
+        dict(zip(names, np.exp(res.x), strict=True)),
+        gain,
+        m,
+        float(res.cost),
+        int(res.nfev),
+    )
+
+
+def effect_parameters(effects):
+    """Number of free parameters an effect set adds."""
+    return sum(EFFECT_PARAMETER.get(e) is not None for e in effects)
+
+
+def known_effects():
+    """Effects the diagnosis can test (the simulator's vocabulary)."""
+    return list(EFFECTS)

@@ -1,0 +1,448 @@
+"""The gap report: tables, verdict, plots and files."""
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from skthermal.gap._diagnose import BANDS_H, _gap, _regime_gaps
+
+
+def _units(problem, R):
+    """Residuals back in channel units (µm, °C)."""
+    return R / np.sqrt(problem.weight) * problem.scale
+
+
+def _where_tables(problem, Rs, regimes, label):
+    runs, chans, regs, bands, jumps = [], [], [], [], []
+    all_units = []
+    for run, R, lab in zip(problem.runs, Rs, regimes, strict=True):
+        U = _units(problem, R)
+        all_units.append(U)
+        runs.append(
+            {
+                "model": label,
+                "run": run.name,
+                "samples": R.shape[0],
+                "gap": float(np.sqrt(np.mean(np.sum(R * R, axis=1)))),
+            }
+        )
+        for j, ch in enumerate(problem.channels):
+            chans.append(
+                {
+                    "model": label,
+                    "run": run.name,
+                    "channel": ch,
+                    "rmse": float(np.sqrt(np.mean(U[:, j] ** 2))),
+                    "bias": float(np.mean(U[:, j])),
+                    "max_abs": float(np.max(np.abs(U[:, j]))),
+                }
+            )
+        e = np.sum(R * R, axis=1)
+        regs.append(pd.DataFrame({"regime": lab["regime"].to_numpy(), "e": e}))
+        # Frequency bands of the combined residual, from its spectrum.
+        r = R.sum(axis=1)
+        t = run.time_s[run.rows]
+        if r.size > 4:
+            dt_h = float(np.median(np.diff(t))) / 3600.0
+            spec = np.abs(np.fft.rfft(r - r.mean())) ** 2
+            freq = np.fft.rfftfreq(r.size, d=dt_h)
+            period = np.divide(
+                1.0, freq, out=np.full_like(freq, np.inf), where=freq > 0
+            )
+            for name, lo, hi in BANDS_H:
+                sel = (period > lo) & (period <= hi) & (freq > 0)
+                bands.append({"band": name, "power": float(spec[sel].sum())})
+        # Where the gap jumps: outliers of the residual's first difference.
+        dr = np.diff(r)
+        if dr.size > 2:
+            mad = np.median(np.abs(dr - np.median(dr))) / 0.6745
+            big = np.flatnonzero(np.abs(dr) > 6 * max(mad, 1e-12))
+            for k in big[:10]:
+                jumps.append(
+                    {
+                        "model": label,
+                        "run": run.name,
+                        "time_s": float(t[k + 1]),
+                        "jump": float(dr[k]),
+                    }
+                )
+    reg = pd.concat(regs, ignore_index=True)
+    total = reg["e"].sum()
+    reg_table = reg.groupby("regime").agg(samples=("e", "size"), sq=("e", "sum"))
+    reg_table["share_time"] = reg_table["samples"] / reg_table["samples"].sum()
+    reg_table["share_sq_error"] = reg_table["sq"] / total if total > 0 else 0.0
+    reg_table["gap"] = np.sqrt(reg_table["sq"] / reg_table["samples"])
+    reg_table = reg_table.drop(columns="sq").reset_index()
+    reg_table.insert(0, "model", label)
+    U = np.vstack(all_units)
+    chan_all = pd.DataFrame(
+        {
+            "model": label,
+            "channel": problem.channels,
+            "rmse": np.sqrt(np.mean(U**2, axis=0)),
+            "bias": U.mean(axis=0),
+            "max_abs": np.abs(U).max(axis=0),
+            "noise": problem.noise,
+        }
+    )
+    band_table = pd.DataFrame(bands)
+    if len(band_table):
+        band_table = band_table.groupby("band", sort=False)["power"].sum().reset_index()
+        band_table["share"] = band_table["power"] / band_table["power"].sum()
+        band_table.insert(0, "model", label)
+    return {
+        "runs": pd.DataFrame(runs),
+        "regimes": reg_table,
+        "channels": chan_all,
+        "channels_by_run": pd.DataFrame(chans),
+        "bands": band_table,
+        "jumps": pd.DataFrame(jumps, columns=["model", "run", "time_s", "jump"]),
+    }
+
+
+@dataclass
+class GapReport:
+    """Result of :func:`skthermal.gap.diagnose`.
+
+    Attributes
+    ----------
+    ranking : DataFrame
+        One row per candidate: ``effect``, ``gap_before``, ``gap_after`` (held
+        out, normalised), ``shrink`` (share of the gap above the noise floor
+        removed), ``shrink_raw``, ``p_value`` (paired test over held-out
+        runs), ``runs_improved``, ``extra_params``, ``xcorr_before`` /
+        ``xcorr_after`` (largest residual-driver correlation), ``explains``
+        and the ``fitted`` parameter value. Best first.
+    best_effect : str or None
+        The effect that explains the gap, or None when no candidate explains
+        it beyond noise.
+    where : dict of DataFrame
+        ``runs``, ``regimes``, ``channels``, ``channels_by_run``, ``bands``,
+        ``jumps``: the gap of the simulation as given and after calibrating
+        its base parameters (column ``model``).
+    regime_shrink : DataFrame
+        Shrink of the held-out gap per regime (rows) and candidate (columns).
+    how_far : DataFrame
+        Held-out gap per regime and overall before and after the best effect.
+    steps : DataFrame
+        Effects added greedily, with the held-out gap after each.
+    noise_floor : float
+        The gap that measurement noise alone would leave.
+    """
+
+    ranking: pd.DataFrame
+    best_effect: str | None
+    where: dict
+    regime_shrink: pd.DataFrame
+    how_far: pd.DataFrame
+    steps: pd.DataFrame
+    noise_floor: float
+    settings: dict = field(default_factory=dict)
+    timelines: dict = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def _build(
+        cls,
+        *,
+        problem,
+        machine,
+        candidates,
+        ranking,
+        regime_shrink,
+        best_effect,
+        steps,
+        base_R,
+        best_R,
+        as_given,
+        calibrated,
+        regimes,
+        floor2,
+        settings,
+    ):
+        where_a = _where_tables(problem, as_given, regimes, "as given")
+        where_c = _where_tables(problem, calibrated, regimes, "base calibrated")
+        where = {
+            k: pd.concat([where_a[k], where_c[k]], ignore_index=True) for k in where_a
+        }
+        if best_R is not None:
+            before = _regime_gaps(base_R, regimes)
+            after = _regime_gaps(best_R, regimes)
+            how_far = pd.DataFrame({"gap_before": before, "gap_after": after})
+            how_far.loc["overall"] = [_gap(base_R)[0], _gap(best_R)[0]]
+            how_far["shrink"] = 1 - how_far["gap_after"] / how_far["gap_before"]
+            how_far.index.name = "regime"
+            how_far = how_far.reset_index()
+        else:
+            how_far = pd.DataFrame(
+                columns=["regime", "gap_before", "gap_after", "shrink"]
+            )
+        timelines = {}
+        for i, run in enumerate(problem.runs):
+            cols = {
+                "time_s": run.time_s[run.rows],
+                "regime": regimes[i]["regime"].to_numpy(),
+            }
+            Ub = _units(problem, base_R[i])
+            Ua = _units(problem, best_R[i]) if best_R is not None else None
+            for j, ch in enumerate(problem.channels):
+                cols[f"measured:{ch}"] = run.y[:, j]
+                cols[f"residual_before:{ch}"] = Ub[:, j]
+                if Ua is not None:
+                    cols[f"residual_after:{ch}"] = Ua[:, j]
+            timelines[run.name] = pd.DataFrame(cols)
+        settings = dict(
+            settings,
+            machine=machine.name,
+            candidates=list(candidates),
+            channels=list(problem.channels),
+        )
+        return cls(
+            ranking=ranking,
+            best_effect=best_effect,
+            where=where,
+            regime_shrink=regime_shrink,
+            how_far=how_far,
+            steps=pd.DataFrame(steps, columns=["added", "gap", "shrink"]),
+            noise_floor=float(np.sqrt(floor2)),
+            settings=settings,
+            timelines=timelines,
+        )
+
+    # --- text ------------------------------------------------------------------
+
+    def verdict(self):
+        """One sentence: which effect explains the gap, or that none does."""
+        if self.best_effect is None:
+            top = self.ranking.iloc[0] if len(self.ranking) else None
+            extra = (
+                f" (best candidate {top['effect']!r} removes {top['shrink']:.0%} "
+                f"of the excess gap, p = {top['p_value']:.2g})"
+                if top is not None
+                else ""
+            )
+            return "No candidate effect explains the gap beyond noise" + extra + "."
+        row = self.ranking.iloc[0]
+        text = (
+            f"{self.best_effect!r} explains the gap: adding it removes "
+            f"{row['shrink']:.0%} of the held-out gap above the noise floor "
+            f"({row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
+            f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
+            f"p = {row['p_value']:.2g})."
+        )
+        if len(self.steps) > 1:
+            text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
+        return text
+
+    def __repr__(self):
+        return f"GapReport(best_effect={self.best_effect!r}): {self.verdict()}"
+
+    def to_dict(self):
+        """Plain-Python content (tables as lists of records)."""
+
+        def records(df):
+            return json.loads(df.to_json(orient="records"))
+
+        return {
+            "verdict": self.verdict(),
+            "best_effect": self.best_effect,
+            "noise_floor": self.noise_floor,
+            "settings": self.settings,
+            "ranking": records(self.ranking),
+            "how_far": records(self.how_far),
+            "steps": records(self.steps),
+            "regime_shrink": json.loads(self.regime_shrink.to_json(orient="index")),
+            "where": {k: records(v) for k, v in self.where.items()},
+        }
+
+    def to_json(self, path=None, **kwargs):
+        """The report as JSON (written to ``path`` when given)."""
+        text = json.dumps(self.to_dict(), indent=2, default=float, **kwargs)
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    def to_markdown(self):
+        """The report as Markdown."""
+
+        table = _markdown_table
+
+        where = self.where
+        parts = [
+            "# Sim-to-real gap report",
+            "",
+            f"**Verdict.** {self.verdict()}",
+            "",
+            f"Machine `{self.settings.get('machine')}`, candidates "
+            f"{', '.join(self.settings.get('candidates', []))}; noise floor "
+            f"{self.noise_floor:.3g} (normalised gap units).",
+            "",
+            "## Which effect",
+            table(self.ranking.drop(columns=[], errors="ignore")),
+            "",
+            "## How far",
+            table(self.how_far),
+            "",
+            table(self.steps),
+            "",
+            "## Where: runs",
+            table(where["runs"]),
+            "",
+            "## Where: regimes",
+            table(where["regimes"]),
+            "",
+            "## Where: channels",
+            table(where["channels"].sort_values("rmse", ascending=False).head(20)),
+            "",
+            "## Where: frequency bands",
+            table(where["bands"]),
+            "",
+            "## Where: jumps",
+            table(where["jumps"].head(20)),
+        ]
+        return "\n".join(parts) + "\n"
+
+    def to_html(self):
+        """The report as a self-contained HTML page."""
+        import html
+
+        body = [
+            f"<h1>Sim-to-real gap report</h1><p><b>Verdict.</b> "
+            f"{html.escape(self.verdict())}</p>"
+        ]
+        for title, df in [
+            ("Which effect", self.ranking),
+            ("How far", self.how_far),
+            ("Steps", self.steps),
+        ] + [(f"Where: {k}", v) for k, v in self.where.items()]:
+            body.append(f"<h2>{html.escape(title)}</h2>")
+            body.append(df.to_html(index=False, float_format=lambda x: f"{x:.3g}"))
+        return (
+            "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Gap report"
+            "</title></head><body>" + "\n".join(body) + "</body></html>"
+        )
+
+    # --- plots -----------------------------------------------------------------
+
+    def plot_timeline(self, run=None, channel=None, ax=None):
+        """Residual timeline of a run shaded by regime, before (and after) the
+        best effect. Returns the matplotlib Axes."""
+        plt = _pyplot()
+        run = next(iter(self.timelines)) if run is None else run
+        frame = self.timelines[run]
+        channel = channel or self.settings["channels"][0]
+        if ax is None:
+            _, ax = plt.subplots(figsize=(9, 3))
+        t = frame["time_s"].to_numpy() / 3600.0
+        colours = {"heating": "#f4cccc", "after stop": "#fff2cc", "dwell": "#d9ead3"}
+        regime = frame["regime"].to_numpy()
+        edges = np.flatnonzero(regime[1:] != regime[:-1]) + 1
+        starts = np.r_[0, edges]
+        stops = np.r_[edges, regime.size]
+        seen = set()
+        for a, b in zip(starts, stops, strict=True):
+            lab = regime[a]
+            ax.axvspan(
+                t[a],
+                t[min(b, t.size - 1)],
+                color=colours.get(lab, "#eeeeee"),
+                label=None if lab in seen else lab,
+                lw=0,
+            )
+            seen.add(lab)
+        ax.plot(t, frame[f"residual_before:{channel}"], color="C3", label="before")
+        col = f"residual_after:{channel}"
+        if col in frame:
+            ax.plot(t, frame[col], color="C0", label=f"with {self.best_effect}")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel("time (h)")
+        ax.set_ylabel(f"residual {channel}")
+        ax.set_title(f"Run {run}: measured - simulated")
+        ax.legend(fontsize=7, ncol=3)
+        return ax
+
+    def plot_overlay(self, run=None, channel=None, ax=None):
+        """Measured and simulated channel, before and after the best effect."""
+        plt = _pyplot()
+        run = next(iter(self.timelines)) if run is None else run
+        frame = self.timelines[run]
+        channel = channel or self.settings["channels"][0]
+        if ax is None:
+            _, ax = plt.subplots(figsize=(9, 3))
+        t = frame["time_s"].to_numpy() / 3600.0
+        measured = frame[f"measured:{channel}"]
+        ax.plot(t, measured, color="k", label="measured")
+        ax.plot(
+            t,
+            measured + frame[f"residual_before:{channel}"],
+            color="C3",
+            label="simulated",
+        )
+        col = f"residual_after:{channel}"
+        if col in frame:
+            ax.plot(
+                t,
+                measured + frame[col],
+                color="C0",
+                label=f"simulated + {self.best_effect}",
+            )
+        ax.set_xlabel("time (h)")
+        ax.set_ylabel(channel)
+        ax.legend(fontsize=7)
+        return ax
+
+    def save(self, folder):
+        """Write report.md, report.html, report.json, the tables as CSV and,
+        with matplotlib, timeline figures into ``folder``."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "report.md").write_text(self.to_markdown())
+        (folder / "report.html").write_text(self.to_html())
+        self.to_json(folder / "report.json")
+        self.ranking.to_csv(folder / "ranking.csv", index=False)
+        self.how_far.to_csv(folder / "how_far.csv", index=False)
+        for name, df in self.where.items():
+            df.to_csv(folder / f"where_{name}.csv", index=False)
+        try:
+            plt = _pyplot()
+        except ImportError:
+            return folder
+        for run in self.timelines:
+            fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+            self.plot_overlay(run, ax=axes[0])
+            self.plot_timeline(run, ax=axes[1])
+            fig.tight_layout()
+            fig.savefig(folder / f"timeline_{run}.png", dpi=90)
+            plt.close(fig)
+        return folder
+
+
+def _markdown_table(df):
+    """A DataFrame as a Markdown pipe table (no extra dependency)."""
+    if not len(df):
+        return "(none)"
+
+    def cell(v):
+        if isinstance(v, float | np.floating):
+            return f"{v:.3g}"
+        return str(v).replace("|", "/")
+
+    head = "| " + " | ".join(map(str, df.columns)) + " |"
+    rule = "|" + "|".join("---" for _ in df.columns) + "|"
+    rows = [
+        "| " + " | ".join(cell(v) for v in row) + " |"
+        for row in df.itertuples(index=False)
+    ]
+    return "\n".join([head, rule, *rows])
+
+
+def _pyplot():
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            'Plotting needs matplotlib: pip install "skthermal[plot]"'
+        ) from exc
+    return plt
