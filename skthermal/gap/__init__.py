@@ -2,6 +2,7 @@
 which unmodelled effect explains it, and how far the gap shrinks once added."""
 
 from skthermal.gap._diagnose import diagnose
+from skthermal.gap._downstream import downstream_error
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
 from skthermal.gap._validate import (
@@ -16,6 +17,7 @@ __all__ = [
     "GapReport",
     "ValidationReport",
     "diagnose",
+    "downstream_error",
     "label_regimes",
     "make_gap_campaign",
     "validate",

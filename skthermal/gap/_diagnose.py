@@ -271,6 +271,7 @@ def diagnose(
     greedy=True,
     max_samples=600,
     max_nfev=30,
+    block_hours=None,
     n_jobs=None,
 ):
     """Diagnose the gap between a simulated machine and measured runs.
@@ -322,6 +323,10 @@ def diagnose(
         Samples per run compared (runs are simulated at their own rate).
     max_nfev : int, default=30
         Model evaluations per calibration.
+    block_hours : float, optional
+        Cut runs longer than this into consecutive blocks that are held out
+        one by one (for one long record, e.g. a multi-day test). Each block is
+        simulated from the start of its run, so its warm start is right.
     n_jobs : int, optional
         Candidates evaluated in parallel (joblib).
 
@@ -351,7 +356,12 @@ def diagnose(
             f"The simulation already has {already}; they cannot be candidates."
         )
     problem = build_problem(
-        machine, runs, channels=channels, mapping=mapping, max_samples=max_samples
+        machine,
+        runs,
+        channels=channels,
+        mapping=mapping,
+        max_samples=max_samples,
+        block_hours=block_hours,
     )
     if len(problem.runs) < 2:
         raise ValueError(
@@ -448,7 +458,19 @@ def diagnose(
                 }
             )
             remaining.remove(top[0]["effect"])
-    return GapReport._build(
+    machines = {"base calibrated": base_all.machine}
+    if best is not None:
+        with_best = calibrate(
+            problem,
+            machine,
+            reference,
+            tuple(added),
+            all_idx,
+            start=base_all.values,
+            max_nfev=max_nfev,
+        )
+        machines["+ " + " + ".join(added)] = with_best.machine
+    report = GapReport._build(
         problem=problem,
         machine=machine,
         candidates=candidates,
@@ -469,3 +491,5 @@ def diagnose(
             "base_effects": list(base_effects),
         },
     )
+    report.machines = machines
+    return report

@@ -131,6 +131,10 @@ class GapReport:
         Effects added greedily, with the held-out gap after each.
     noise_floor : float
         The gap that measurement noise alone would leave.
+    machines : dict
+        The simulation calibrated on all runs, without and (when an effect
+        explains the gap) with the identified effects, for
+        :func:`skthermal.gap.downstream_error` and further use.
     """
 
     ranking: pd.DataFrame
@@ -142,6 +146,7 @@ class GapReport:
     noise_floor: float
     settings: dict = field(default_factory=dict)
     timelines: dict = field(default_factory=dict, repr=False)
+    machines: dict = field(default_factory=dict, repr=False)
 
     @classmethod
     def _build(

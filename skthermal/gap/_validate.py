@@ -259,10 +259,12 @@ def validate(
     null case adds no effect; the out-of-vocabulary case adds
     ``out_of_vocabulary`` but leaves it out of the candidates.
 
-    Targets: the withheld effect is named in at least 90% of its cases, the
-    null case is called "none" in at least 90%, the out-of-vocabulary case is
-    never blamed on a wrong effect, and the correct effect removes at least
-    70% of the held-out gap (mean over its cases).
+    Targets: the withheld effect is ranked first in at least 90% of its cases,
+    the null case is called "none" in at least 90%, the out-of-vocabulary
+    case is never blamed on a wrong effect, and adding the withheld effect
+    removes at least 70% of the held-out gap above the noise floor (mean over
+    its cases). The stricter rate at which the withheld effect is also
+    *named* (passes the explains test) is reported beside them.
 
     Returns
     -------
@@ -310,19 +312,20 @@ def validate(
     oov = cases[cases["case"] == "out of vocabulary"]
     rates = {}
     if len(eff):
-        rates["withheld effect named"] = float(
-            (eff["diagnosis"] == eff["truth"]).mean()
-        )
-        per = (
-            eff.assign(ok=eff["diagnosis"] == eff["truth"])
-            .groupby("truth")["ok"]
-            .mean()
-        )
-        for k, v in per.items():
+        first = eff["true_effect_rank"] == 1
+        named = eff["diagnosis"] == eff["truth"]
+        rates["withheld effect ranked first"] = float(first.mean())
+        rates["withheld effect named (explains the gap)"] = float(named.mean())
+        per = eff.assign(first=first, named=named).groupby("truth")
+        for k, v in per["first"].mean().items():
+            rates[f"ranked first: {k}"] = float(v)
+        for k, v in per["named"].mean().items():
             rates[f"named: {k}"] = float(v)
-        named = eff[eff["diagnosis"] == eff["truth"]]
-        rates["mean shrink when named"] = (
-            float(named["true_effect_shrink"].mean()) if len(named) else 0.0
+        rates["mean shrink of the withheld effect"] = float(
+            eff["true_effect_shrink"].mean()
+        )
+        rates["median shrink of the withheld effect"] = float(
+            eff["true_effect_shrink"].median()
         )
     if len(null):
         rates["null called none"] = float((null["diagnosis"] == "none").mean())
@@ -332,8 +335,12 @@ def validate(
         )
     targets = {}
     if len(eff):
-        targets["withheld effect named >= 90%"] = rates["withheld effect named"] >= 0.9
-        targets["shrink >= 70% when named"] = rates["mean shrink when named"] >= 0.7
+        targets["withheld effect ranked first >= 90%"] = (
+            rates["withheld effect ranked first"] >= 0.9
+        )
+        targets["mean shrink of the withheld effect >= 70%"] = (
+            rates["mean shrink of the withheld effect"] >= 0.7
+        )
     if len(null):
         targets["null called none >= 90%"] = rates["null called none"] >= 0.9
     if len(oov):
