@@ -17,10 +17,14 @@ pytest.importorskip("skops")
 from skthermal import (  # noqa: E402
     ANFISRegressor,
     FCMClusterPicker,
+    FuzzyEquivalenceSelector,
     GNNMCIRegressor,
     GRASelector,
     GreyInfluenceSelector,
     GreyPSORegressor,
+    ModularRegressor,
+    StableTSPSelector,
+    UpdateRegressor,
 )
 from skthermal.datasets import make_sensor_groups, split_runs  # noqa: E402
 from skthermal.io import (  # noqa: E402
@@ -39,6 +43,10 @@ ESTIMATORS = [
     GreyInfluenceSelector(n_features_to_select=2),
     GRASelector(n_features_to_select=2),
     FCMClusterPicker(n_clusters=2, n_init=2, random_state=0),
+    StableTSPSelector(),
+    FuzzyEquivalenceSelector(n_groups=2),
+    UpdateRegressor(),
+    ModularRegressor(),
     make_pipeline(
         GreyInfluenceSelector(n_features_to_select=2),
         StandardScaler(),
@@ -204,3 +212,18 @@ def test_missing_skops_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "skops", None)
     with pytest.raises(ImportError, match=r"skthermal\[deploy\]"):
         save(ANFISRegressor(), "unused.skops")
+
+
+def test_every_public_estimator_has_a_round_trip():
+    import skthermal
+
+    public = {
+        name
+        for name in skthermal.__all__
+        if isinstance(getattr(skthermal, name), type)
+        and issubclass(getattr(skthermal, name), BaseEstimator)
+    }
+    covered = {type(e).__name__ for e in ESTIMATORS}
+    for est in ESTIMATORS:
+        covered |= {type(s).__name__ for _, s in getattr(est, "steps", [])}
+    assert public <= covered, f"add {sorted(public - covered)} to ESTIMATORS"

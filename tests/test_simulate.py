@@ -406,3 +406,21 @@ def test_long_run_memory_is_linear_and_fast_enough(vmc_b):
     run = vmc_b.simulate(duty, AmbientProfile(day_amplitude_C=2.5), sample_period_s=60)
     assert run.shape == (168 * 60 + 1, 85)
     assert run.memory_usage(deep=False).sum() < 200 * run.shape[0] * 8
+
+
+def test_simulated_runs_can_carry_fbg_strain_channels(vmc_b):
+    from skthermal.datasets import validate_runs
+    from skthermal.sensors import FBGGauge, correct_strain_channels
+
+    gauges = {"carrier": FBGGauge({"carrier2": 0.5, "carrier3": 0.5}, sensor="T15_C")}
+    run = vmc_b.simulate(
+        DutyCycle.heat_cool(6000, heat_h=1, cool_h=0.5),
+        strain_gauges=gauges,
+        random_state=0,
+    )
+    assert "Scarrier_ue" in run.columns
+    validate_runs(run)
+    # The raw reading includes the grating's 8.64 µε/°C; corrected, it is the
+    # member's mechanical strain, smaller for a heating carrier.
+    corrected = correct_strain_channels(run)  # gauges recorded in run.attrs
+    assert abs(corrected["Scarrier_ue"].iloc[120]) < abs(run["Scarrier_ue"].iloc[120])

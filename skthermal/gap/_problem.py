@@ -42,7 +42,10 @@ EFFECT_PARAMETER = {
     "speed_convection": "speed_convection.gain",
     "tool_growth": "tool_growth.hA_rotating",
     "ambient_transient": None,
-    "feed_heating": "feed_heating.W_per_m_min",
+    # The feed-driven part has its own gain per channel, which sets the
+    # screw heating's amplitude; a power parameter on top would only be
+    # degenerate with those gains.
+    "feed_heating": None,
     "sensor_drift": None,
 }
 # Effects not simulated deterministically but modelled on the residual.

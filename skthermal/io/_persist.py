@@ -82,6 +82,12 @@ def _type_name(t):
     )
 
 
+# Plain containers from scikit-learn that skops does not list by default but
+# that run no code of their own (``Bunch`` is a dict with attribute access,
+# used by composite estimators such as ModularRegressor).
+_ALSO_TRUSTED = ("sklearn.utils._bunch.Bunch",)
+
+
 def _is_skthermal_class(name):
     """Whether ``name`` is a class defined by an imported skthermal module.
 
@@ -255,7 +261,7 @@ def load(path, *, trusted=None):
     sio = _skops_io()
     path = os.fspath(path)
     metadata = read_metadata(path)
-    extra = {_type_name(t) for t in (trusted or ())}
+    extra = {_type_name(t) for t in (trusted or ())} | set(_ALSO_TRUSTED)
     untrusted = sio.get_untrusted_types(file=path)
     ours = [t for t in untrusted if _is_skthermal_class(t)]
     refused = sorted(t for t in untrusted if t not in extra and t not in ours)

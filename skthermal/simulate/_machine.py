@@ -605,6 +605,7 @@ class ThermalMachine:
         noise=True,
         random_state=None,
         return_states=False,
+        strain_gauges=None,
     ):
         """Simulate given driver series (the drivers of a run table).
 
@@ -630,6 +631,11 @@ class ThermalMachine:
         random_state : int, RandomState instance or None
         return_states : bool, default=False
             Also return the node temperatures (DataFrame, one column a node).
+        strain_gauges : dict, optional
+            ``{name: skthermal.sensors.FBGGauge}``: add raw FBG strain
+            channels ``S<name>_ue`` (grating strain including its own
+            temperature sensitivity, with 0.5 µε noise when ``noise``), see
+            :func:`skthermal.sensors.add_strain_channels`.
 
         Returns
         -------
@@ -676,9 +682,20 @@ class ThermalMachine:
         data.update(zip(self.sensors, readings.T, strict=True))
         data.update(zip(self.targets, disp.T, strict=True))
         frame = pd.DataFrame(data)
+        states = pd.DataFrame(T, columns=list(self.spec.nodes))
+        if strain_gauges:
+            from skthermal.sensors import add_strain_channels
+
+            frame = add_strain_channels(
+                frame,
+                states,
+                strain_gauges,
+                noise_ue=0.5 if noise else 0.0,
+                random_state=rng,
+            )
         frame.attrs["metadata"] = [self.run_metadata(run)]
         if return_states:
-            return frame, pd.DataFrame(T, columns=list(self.spec.nodes))
+            return frame, states
         return frame
 
     def simulate(
@@ -692,6 +709,7 @@ class ThermalMachine:
         noise=True,
         random_state=None,
         return_states=False,
+        strain_gauges=None,
     ):
         """Simulate a test programme.
 
@@ -701,7 +719,7 @@ class ThermalMachine:
         ambient : AmbientProfile, float or None
             Workshop air; a float is a constant; None is 20 °C.
         sample_period_s : float, default=30.0
-        run, initial, noise, random_state, return_states
+        run, initial, noise, random_state, return_states, strain_gauges
             As in :meth:`simulate_drivers`.
 
         Returns
@@ -734,6 +752,7 @@ class ThermalMachine:
             noise=noise,
             random_state=rng,
             return_states=return_states,
+            strain_gauges=strain_gauges,
         )
 
     def run_metadata(self, run):
