@@ -78,3 +78,17 @@ def expected_failed_checks(estimator):
             "check_methods_sample_order_invariance": _RELATIVE,
         }
     return {}
+
+
+def public_estimator_names():
+    """Names of the estimator classes ``skthermal`` exports."""
+    from sklearn.base import BaseEstimator
+
+    import skthermal
+
+    return {
+        name
+        for name in skthermal.__all__
+        if isinstance(getattr(skthermal, name), type)
+        and issubclass(getattr(skthermal, name), BaseEstimator)
+    }

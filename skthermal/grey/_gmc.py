@@ -16,7 +16,7 @@ import numpy as np
 
 from skthermal.grey._ago import iago
 from skthermal.grey._models import _solve
-from skthermal.utils._runs import run_slices
+from skthermal.utils._runs import check_run_lengths, run_slices
 
 
 def _block_layout(n):
@@ -273,7 +273,7 @@ def _check_runs(y, X, groups, min_equations, model):
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(X))):
         raise ValueError(f"{model}: the data contain NaN or infinite values.")
     slices, labels = run_slices(groups, y.shape[0])
-    _check_run_lengths(slices, labels, model)
+    check_run_lengths(slices, labels, model)
     n_eq = y.shape[0] - len(slices)
     if n_eq < min_equations:
         raise ValueError(
@@ -283,17 +283,6 @@ def _check_runs(y, X, groups, min_equations, model):
             f"{len(slices)} run(s)."
         )
     return y, X, slices
-
-
-def _check_run_lengths(slices, labels, model):
-    """Raise when a run has fewer than two samples (a grey model needs a step)."""
-    for sl, lab in zip(slices, labels, strict=True):
-        if sl.stop - sl.start < 2:
-            where = "" if lab is None else f" {lab!r}"
-            raise ValueError(
-                f"{model}: run{where} has {sl.stop - sl.start} sample; every run "
-                "needs at least 2 samples (n_samples = 1 leaves no time step)."
-            )
 
 
 def gmc1n(y, X, *, groups=None, relative=True, delay=0, alpha=0.0):

@@ -17,7 +17,6 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.grey._ago import iago
 from skthermal.grey._gmc import (
-    _check_run_lengths,
     _GMCObjective,
     _gnnmci_sse,
     _model_runs,
@@ -26,7 +25,7 @@ from skthermal.grey._gmc import (
     gnnmci_time_response,
 )
 from skthermal.optimize._pso import particle_swarm
-from skthermal.utils._runs import extract_runs, run_slices
+from skthermal.utils._runs import check_run_lengths, extract_runs, run_slices
 from skthermal.utils._threads import single_threaded_blas
 
 
@@ -83,7 +82,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, dtype=float)
         slices, labels = run_slices(groups, X.shape[0])
-        _check_run_lengths(slices, labels, type(self).__name__)
+        check_run_lengths(slices, labels, type(self).__name__)
         return X, y, slices
 
     def _runs_for_predict(self, X, groups):
