@@ -331,13 +331,21 @@ class GapReport:
 
     # --- plots -----------------------------------------------------------------
 
+    def _default_channel(self, frame):
+        """The displacement channel with the largest residual (else any)."""
+        channels = self.settings["channels"]
+        disp = [c for c in channels if c.startswith("disp_")] or channels
+        return max(
+            disp, key=lambda c: float(np.mean(frame[f"residual_before:{c}"] ** 2))
+        )
+
     def plot_timeline(self, run=None, channel=None, ax=None):
         """Residual timeline of a run shaded by regime, before (and after) the
         best effect. Returns the matplotlib Axes."""
         plt = _pyplot()
         run = next(iter(self.timelines)) if run is None else run
         frame = self.timelines[run]
-        channel = channel or self.settings["channels"][0]
+        channel = channel or self._default_channel(frame)
         if ax is None:
             _, ax = plt.subplots(figsize=(9, 3))
         t = frame["time_s"].to_numpy() / 3600.0
@@ -373,7 +381,7 @@ class GapReport:
         plt = _pyplot()
         run = next(iter(self.timelines)) if run is None else run
         frame = self.timelines[run]
-        channel = channel or self.settings["channels"][0]
+        channel = channel or self._default_channel(frame)
         if ax is None:
             _, ax = plt.subplots(figsize=(9, 3))
         t = frame["time_s"].to_numpy() / 3600.0
