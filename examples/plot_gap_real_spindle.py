@@ -31,8 +31,13 @@ from skthermal.datasets import load_fl_thermal
 from skthermal.gap import diagnose
 from skthermal.simulate import ThermalMachine
 
-default = Path(__file__).resolve().parents[2] / "shared" / "data"
-path = Path(sys.argv[1]) if len(sys.argv) > 1 else default / "fl_thermal_spindle.csv.gz"
+try:
+    HERE = Path(__file__).resolve().parent
+except NameError:  # run by sphinx-gallery, from the examples folder
+    HERE = Path.cwd()
+default = HERE.parents[1] / "shared" / "data"
+given = len(sys.argv) > 1 and not sys.argv[1].startswith("-")
+path = Path(sys.argv[1]) if given else default / "fl_thermal_spindle.csv.gz"
 if not path.exists():
     print(f"{path} not found: pass the path of fl_thermal_spindle.csv.gz")
     raise SystemExit(0)
