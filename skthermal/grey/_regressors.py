@@ -113,6 +113,34 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         tags.regressor_tags.poor_score = True
         return tags
 
+    def fit(self, X, y, groups=None):
+        """Calibrate the model on one or more training runs.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+            Input series (e.g. temperatures), time-ordered within each run; a
+            DataFrame may carry the run labels in a ``run`` column or index
+            level.
+        y : array-like of shape (n_samples,)
+            Target series (e.g. a thermal displacement).
+        groups : array-like of shape (n_samples,), optional
+            Run label of every row.
+
+        Returns
+        -------
+        self : object
+            The fitted estimator.
+        """
+        self._validate_params()
+        X, y, slices = self._runs_for_fit(X, y, groups)
+        # The matrix products of training are small (n_samples x n_features,
+        # times n_particles per epoch): a multi-threaded BLAS only adds
+        # synchronisation, several times their cost on a busy machine. As
+        # scikit-learn's KMeans does, keep BLAS on one thread meanwhile.
+        with single_threaded_blas():
+            return self._fit(X, y, slices)
+
 
 class GreyPSORegressor(_GreyRunRegressor):
     """Grey model with convolution integral GMC(1,N), calibrated by PSO or LS.
@@ -264,33 +292,6 @@ class GreyPSORegressor(_GreyRunRegressor):
         self.bounds = bounds
         self.init = init
         self.random_state = random_state
-
-    def fit(self, X, y, groups=None):
-        """Calibrate the coefficients on one or more training runs.
-
-        Parameters
-        ----------
-        X : array-like or DataFrame of shape (n_samples, n_features)
-            Input series (e.g. temperatures), time-ordered within each run; a
-            DataFrame may carry the run labels in a ``run`` column or index
-            level.
-        y : array-like of shape (n_samples,)
-            Target series (e.g. a thermal displacement).
-        groups : array-like of shape (n_samples,), optional
-            Run label of every row.
-
-        Returns
-        -------
-        self : GreyPSORegressor
-        """
-        self._validate_params()
-        X, y, slices = self._runs_for_fit(X, y, groups)
-        # The matrix products of training are small (n_samples x n_features,
-        # times n_particles per epoch): a multi-threaded BLAS only adds
-        # synchronisation, several times their cost on a busy machine. As
-        # scikit-learn's KMeans does, keep BLAS on one thread meanwhile.
-        with single_threaded_blas():
-            return self._fit(X, y, slices)
 
     def _fit(self, X, y, slices):
         runs = _model_runs(y, X, slices, delay=self.delay)
@@ -485,32 +486,6 @@ class GNNMCIRegressor(_GreyRunRegressor):
         self.velocity_clamp = velocity_clamp
         self.bounds = bounds
         self.random_state = random_state
-
-    def fit(self, X, y, groups=None):
-        """Train the network weights on one or more training runs.
-
-        Parameters
-        ----------
-        X : array-like or DataFrame of shape (n_samples, n_features)
-            Input series, time-ordered within each run; a DataFrame may carry
-            the run labels in a ``run`` column or index level.
-        y : array-like of shape (n_samples,)
-            Target series.
-        groups : array-like of shape (n_samples,), optional
-            Run label of every row.
-
-        Returns
-        -------
-        self : GNNMCIRegressor
-        """
-        self._validate_params()
-        X, y, slices = self._runs_for_fit(X, y, groups)
-        # The matrix products of training are small (n_samples x n_features,
-        # times n_particles per epoch): a multi-threaded BLAS only adds
-        # synchronisation, several times their cost on a busy machine. As
-        # scikit-learn's KMeans does, keep BLAS on one thread meanwhile.
-        with single_threaded_blas():
-            return self._fit(X, y, slices)
 
     def _fit(self, X, y, slices):
         runs = _model_runs(y, X, slices)
