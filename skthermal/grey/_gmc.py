@@ -15,8 +15,8 @@ counted k = 1..n within the run. A model's output at the AGO level is
 import numpy as np
 
 from skthermal.grey._ago import iago
-from skthermal.grey._models import _solve
-from skthermal.utils._runs import check_run_lengths, run_slices
+from skthermal.grey._models import _solve, check_grey_data
+from skthermal.utils._runs import run_slices
 
 
 def _block_layout(n):
@@ -260,31 +260,6 @@ class _GMCObjective:
         return sse
 
 
-def _check_runs(y, X, groups, min_equations, model):
-    y = np.asarray(y, dtype=float)
-    X = np.asarray(X, dtype=float)
-    if X.ndim == 1:
-        X = X[:, None]
-    if y.ndim != 1 or X.shape[0] != y.shape[0]:
-        raise ValueError(
-            f"{model}: need a 1-D target with one value per row of the inputs; "
-            f"got shapes {y.shape} and {X.shape}."
-        )
-    if not (np.all(np.isfinite(y)) and np.all(np.isfinite(X))):
-        raise ValueError(f"{model}: the data contain NaN or infinite values.")
-    slices, labels = run_slices(groups, y.shape[0])
-    check_run_lengths(slices, labels, model)
-    n_eq = y.shape[0] - len(slices)
-    if n_eq < min_equations:
-        raise ValueError(
-            f"{model}: too few samples for {X.shape[1]} input series: least squares "
-            f"needs at least {min_equations} equations (one per sample after the "
-            f"first of each run), got {n_eq} from {y.shape[0]} samples in "
-            f"{len(slices)} run(s)."
-        )
-    return y, X, slices
-
-
 def gmc1n(y, X, *, groups=None, relative=True, delay=0, alpha=0.0):
     """Calibrate GMC(1,N) by Tien's least squares (METHODS §7).
 
@@ -350,7 +325,7 @@ def gmc1n(y, X, *, groups=None, relative=True, delay=0, alpha=0.0):
     (0.2, [0.5, -0.3], 0.1)
     """
     n_inputs = 1 if np.ndim(X) == 1 else np.shape(X)[1]
-    y, X, slices = _check_runs(y, X, groups, n_inputs + 2, "GMC(1,N)")
+    y, X, slices = check_grey_data(y, X, groups, n_inputs + 2, "GMC(1,N)")
     runs = _model_runs(y, X, slices, relative=relative, delay=int(delay))
     theta = _tien_ls(runs, alpha)
     return float(theta[0]), theta[1:-1], float(theta[-1])

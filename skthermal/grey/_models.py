@@ -34,27 +34,40 @@ def _solve(B, Y, alpha):
     return linalg.solve(G, Bs.T @ Y, assume_a="pos") / scale
 
 
-def _prepare(y, X, groups, relative, min_rows, model):
+def check_grey_data(y, X, groups, min_equations, model):
+    """Validate a target, its input series and their runs for a grey model.
+
+    Returns ``y`` (1-D float), ``X`` (2-D float) and the run slices. The
+    errors name the model and say what is missing: a 1-D target with one value
+    per input row, finite values, at least 2 samples per run, and at least
+    ``min_equations`` equations (one per sample after the first of each run).
+    """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
     if X.ndim == 1:
         X = X[:, None]
-    if y.ndim != 1:
-        raise ValueError(f"{model}: the target must be 1-D, got shape {y.shape}.")
-    if X.shape[0] != y.shape[0]:
+    if y.ndim != 1 or X.shape[0] != y.shape[0]:
         raise ValueError(
-            f"{model}: target has {y.shape[0]} samples but inputs have {X.shape[0]}."
+            f"{model}: need a 1-D target with one value per row of the inputs; "
+            f"got shapes {y.shape} and {X.shape}."
         )
+    if not (np.all(np.isfinite(y)) and np.all(np.isfinite(X))):
+        raise ValueError(f"{model}: the data contain NaN or infinite values.")
     slices, labels = run_slices(groups, y.shape[0])
     check_run_lengths(slices, labels, model)
-    n_rows = y.shape[0] - len(slices)
-    if n_rows < min_rows:
+    n_eq = y.shape[0] - len(slices)
+    if n_eq < min_equations:
         raise ValueError(
-            f"{model} needs more samples than unknowns: {X.shape[1]} input series "
-            f"need at least {min_rows + len(slices)} samples "
-            f"({min_rows} equations), got {y.shape[0]} samples in {len(slices)} "
-            "run(s)."
+            f"{model}: too few samples: {X.shape[1]} input series need at least "
+            f"{min_equations + len(slices)} samples ({min_equations} equations, one "
+            f"per sample after the first of each run), got {y.shape[0]} samples in "
+            f"{len(slices)} run(s)."
         )
+    return y, X, slices
+
+
+def _prepare(y, X, groups, relative, min_rows, model):
+    y, X, slices = check_grey_data(y, X, groups, min_rows, model)
     if relative:
         y = changes_since_start(y, slices)
         X = changes_since_start(X, slices)
