@@ -66,6 +66,24 @@ def _common_structure():
     return nodes, tuple(edges), carrier, screw
 
 
+def _structure_roles(nodes, edges, carrier, screw):
+    """MachineSpec fields shared by both presets: the network and node roles."""
+    return {
+        "nodes": nodes,
+        "edges": edges,
+        "head_nodes": ("bearings", "boss", *carrier, "motor"),
+        "exposed_nodes": ("boss", *carrier, "motor", "column_surface", "base", "tool"),
+        "screw_nodes": tuple(screw),
+        "nut": "nut",
+        "axis_motor": "axis_motor",
+    }
+
+
+def _sensor(number, weights, kind, location):
+    """A temperature sensor ``T<nn>_C``."""
+    return SensorSpec(f"T{number:02d}_C", weights, kind, location)
+
+
 def _common_params(carrier, screw):
     p = {
         "C.bearings": 1500.0,
@@ -129,8 +147,8 @@ def vmc_b():
     nodes, edges, carrier, screw = _common_structure()
     S = []
 
-    def add(number, weights, kind, location):
-        S.append(SensorSpec(f"T{number:02d}_C", weights, kind, location))
+    def add(*args):
+        S.append(_sensor(*args))
 
     for i, n in enumerate(range(1, 8)):  # outside the column, bottom to top
         h = i / 6
@@ -182,14 +200,8 @@ def vmc_b():
             "spindle carrier on a column, belt-driven spindle, 77 temperature "
             "sensors (001 Table 4-4), test bar measured in X, Y and Z."
         ),
-        nodes=nodes,
-        edges=edges,
         sensors=tuple(S),
-        head_nodes=("bearings", "boss", *carrier, "motor"),
-        exposed_nodes=("boss", *carrier, "motor", "column_surface", "base", "tool"),
-        screw_nodes=tuple(screw),
-        nut="nut",
-        axis_motor="axis_motor",
+        **_structure_roles(nodes, edges, carrier, screw),
         feed_axis="y",
         groups={
             "column": [f"T{n:02d}_C" for n in (*range(1, 8), 70, 71, 72)],
@@ -232,8 +244,8 @@ def vmc_a():
     nodes, edges, carrier, screw = _common_structure()
     S = []
 
-    def add(number, weights, kind, location):
-        S.append(SensorSpec(f"T{number:02d}_C", weights, kind, location))
+    def add(*args):
+        S.append(_sensor(*args))
 
     for i, n in enumerate(range(1, 8)):
         add(n, _carrier_point(i / 6), "surface", f"carrier strip 1 (B{i + 1})")
@@ -278,14 +290,8 @@ def vmc_a():
             "sensors (001 Table 6-1), ball-screw feed on X, test bar measured "
             "in X, Y and Z."
         ),
-        nodes=nodes,
-        edges=edges,
         sensors=tuple(S),
-        head_nodes=("bearings", "boss", *carrier, "motor"),
-        exposed_nodes=("boss", *carrier, "motor", "column_surface", "base", "tool"),
-        screw_nodes=tuple(screw),
-        nut="nut",
-        axis_motor="axis_motor",
+        **_structure_roles(nodes, edges, carrier, screw),
         feed_axis="x",
         groups={
             "carrier": [f"T{n:02d}_C" for n in range(1, 15)],
