@@ -13,6 +13,7 @@ from skthermal.gap._problem import (
     build_problem,
     calibrate,
     effect_parameters,
+    floor_squared,
     predict_run,
     residuals,
 )
@@ -164,7 +165,6 @@ class _Context:
     def heldout(self, effects, starts=None):
         """Held-out residuals of every run with ``effects`` added, and fits."""
         problem = self.problem
-        sim_effects = tuple(e for e in effects if e not in RESIDUAL_EFFECTS)
         out = [None] * len(problem.runs)
         fits = []
         for k, (train, test) in enumerate(self.folds):
@@ -173,7 +173,7 @@ class _Context:
                 problem,
                 self.machine,
                 self.reference,
-                sim_effects,
+                tuple(effects),
                 train,
                 start=start,
                 max_nfev=self.max_nfev,
@@ -372,7 +372,7 @@ def diagnose(
     folds = _folds(len(problem.runs), cv)
     ctx = _Context(problem, machine, reference, folds, max_nfev)
     regimes = _regimes_of(problem)
-    floor2 = float(np.sum(problem.weight * (problem.noise / problem.scale) ** 2))
+    floor2 = floor_squared(problem)
 
     # Where: as given, and with the base calibrated on all runs (in sample).
     as_given = residuals(

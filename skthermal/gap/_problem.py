@@ -13,6 +13,7 @@ estimated from second differences of its measurement.
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 from scipy.optimize import least_squares
 
 from skthermal.simulate._effects import EFFECTS
@@ -22,8 +23,8 @@ from skthermal.utils._threads import single_threaded_blas
 # capacities, all convection coefficients), fitted by nonlinear least squares.
 # Every channel's response is split into its parts driven by the air, the
 # spindle bearings, the spindle drive and the feed (the model is linear in
-# its inputs), and each part gets
-# its own gain per channel, solved in closed form (variable projection): that
+# its inputs), and each part gets its own gain per channel, solved in closed
+# form (variable projection) under a hierarchical prior (see fit_gains): that
 # absorbs the amplitude offsets of heat inputs, thermo-elastic coefficients
 # and sensor couplings, but not the shapes that unmodelled effects leave.
 BASE_GROUPS = {
@@ -58,15 +59,37 @@ def noise_floor(y):
     Smooth thermal signals have tiny second differences; white noise of
     standard deviation s gives second differences of standard deviation
     ``sqrt(6) s``. The largest 2% are trimmed so that steps and events do not
-    count as noise. (A median would read zero on quantised readings, whose
-    second differences are mostly exactly zero.)
+    count as noise, and the trimmed mean square is divided by the variance a
+    Gaussian keeps under the same trimming (0.87), so that Gaussian noise is
+    estimated without bias. (A median would read zero on quantised readings,
+    whose second differences are mostly exactly zero.)
     """
     d2 = np.diff(y, n=2, axis=0)
     if d2.shape[0] == 0:
         return np.zeros(y.shape[1])
     a = np.sort(np.abs(d2), axis=0)
     keep = max(1, int(np.ceil(0.98 * a.shape[0])))
-    return np.sqrt(np.mean(a[:keep] ** 2, axis=0) / 6.0)
+    return np.sqrt(
+        np.mean(a[:keep] ** 2, axis=0) / 6.0 / _kept_variance(keep / a.shape[0])
+    )
+
+
+def _kept_variance(fraction):
+    """Variance of a standard normal variable trimmed to its central
+    ``fraction`` (the ``1 - fraction`` largest absolute values dropped)."""
+    if fraction >= 1.0:
+        return 1.0
+    q = stats.norm.ppf(0.5 + fraction / 2.0)
+    return 1.0 - 2.0 * q * stats.norm.pdf(q) / fraction
+
+
+def floor_squared(problem):
+    """Squared gap a perfect model would leave: the measurement noise of
+    every channel, weighted, plus the noise of the run-start reference
+    (changes since start are taken against the mean of ``START_SAMPLES``
+    noisy samples, which offsets a whole run by noise / sqrt(START_SAMPLES))."""
+    white = float(np.sum(problem.weight * (problem.noise / problem.scale) ** 2))
+    return white * (1.0 + 1.0 / START_SAMPLES)
 
 
 @dataclass
@@ -313,17 +336,48 @@ def predict_run(machine, problem, run, parts=False):
     return out
 
 
-def fit_gains(problem, predictions, runs_idx, spread=0.3):
-    """Closed-form gains of the parts of every channel, with a prior of one.
+def _run_clock(run):
+    """Time since the run's start reference (hours), at the compared rows."""
+    t = (run.time_s[run.rows] - run.time_s[run.rows[0]]) / 3600.0
+    return t - t[:START_SAMPLES].mean()
 
-    A Bayesian ridge: minimises ``||y - sum_a g_a P_a||^2 / s^2 +
-    sum_a (g_a - 1)^2 / spread^2`` over ``runs_idx``, ``s`` the channel's
-    noise. A part whose signal stands well above the noise moves its gain
-    freely (absorbing a calibration offset of the heat inputs, the
+
+def _without_trend(x, run, mask):
+    """``x`` (``(..., n, n_channels)``) with the least-squares line through
+    the start reference (slope only: changes since start are zero there)
+    removed from the channels in ``mask``: the part of a residual that a
+    drifting sensor could produce."""
+    t = _run_clock(run)
+    out = np.array(x, dtype=float, copy=True)
+    slope = np.einsum("n,...nc->...c", t, out[..., mask]) / float(t @ t)
+    out[..., mask] -= t[:, None] * slope[..., None, :]
+    return out
+
+
+# Hyper-prior of the groups' mean gains: loose, a heat input may be off by
+# a factor of several.
+HYPER_SPREAD = 3.0
+
+
+def fit_gains(problem, predictions, runs_idx, spread=0.3, drift=None, effective=True):
+    """Closed-form gains of the parts of every channel, with a shared prior.
+
+    A hierarchical Bayesian ridge: minimises ``||y - sum_a g_a P_a||^2 / s^2
+    + sum_a (g_a - m_a)^2 / spread^2`` over ``runs_idx``, ``s`` the channel's
+    noise, where ``m_a`` is the part's mean gain over the channels of the
+    same group (displacements, temperatures), itself fitted (with a loose
+    prior of one). A part whose signal stands well above the noise moves its
+    gain freely (absorbing a calibration offset of the heat inputs, the
     thermo-elastic coefficients or a sensor's coupling); a part buried in the
-    noise keeps the model's own amplitude instead of fitting the noise.
+    noise, or nearly collinear with another part, takes the amplitude the
+    other channels found for it (a heat input that is twice the model's
+    raises every channel) instead of fitting the noise.
     ``predictions[i]`` has shape (n_parts, n, n_channels); returns gains of
     shape (n_parts, n_channels).
+
+    With ``drift`` (a channel mask), every run of those channels may carry
+    its own linear drift: it is partialled out of both sides, so a drifting
+    sensor does not bend the gains.
     """
     n_parts = next(iter(predictions.values())).shape[0]
     n_ch = len(problem.channels)
@@ -331,13 +385,56 @@ def fit_gains(problem, predictions, runs_idx, spread=0.3):
     b = np.zeros((n_ch, n_parts))
     for i in runs_idx:
         P, y = predictions[i], problem.runs[i].y
+        if drift is not None:
+            P = _without_trend(P, problem.runs[i], drift)
+            y = _without_trend(y, problem.runs[i], drift)
         G += np.einsum("anc,bnc->cab", P, P)
         b += np.einsum("anc,nc->ca", P, y)
     noise = np.maximum(problem.noise, 1e-3 * problem.scale)
-    lam = (noise / spread) ** 2  # (n_channels,)
-    G = G + lam[:, None, None] * np.eye(n_parts)
-    b = b + lam[:, None]
-    return np.linalg.solve(G, b[..., None])[..., 0].T
+    gain = _hierarchical_gains(problem, G, b, (noise / spread) ** 2, spread)
+    if not effective:
+        return gain.T
+    # The data term above treats every sample as independent; slow
+    # model-error residuals are not. Second pass: weigh the data by their
+    # effective number of independent samples (the residual's variance times
+    # its AR(1) correlation time in samples), per channel.
+    ss = np.zeros(n_ch)
+    lag1 = np.zeros(n_ch)
+    count = 0
+    for i in runs_idx:
+        P, y = predictions[i], problem.runs[i].y
+        if drift is not None:
+            P = _without_trend(P, problem.runs[i], drift)
+            y = _without_trend(y, problem.runs[i], drift)
+        r = y - np.einsum("anc,ca->nc", P, gain)
+        ss += np.sum(r * r, axis=0)
+        lag1 += np.sum(r[1:] * r[:-1], axis=0)
+        count += r.shape[0]
+    var = np.maximum(ss / count, noise**2)
+    rho = np.clip(lag1 / np.maximum(ss, 1e-300), 0.0, 0.99)
+    lam = var * (1 + rho) / (1 - rho) / spread**2
+    return _hierarchical_gains(problem, G, b, lam, spread).T
+
+
+def _hierarchical_gains(problem, G, b, lam, spread):
+    n_ch, n_parts = b.shape
+    eye = np.eye(n_parts)
+    A_inv = np.linalg.inv(G + lam[:, None, None] * eye)
+    # gains = u + V @ mean: linear in the prior mean of the channel's group.
+    u = np.einsum("cab,cb->ca", A_inv, b)
+    V = lam[:, None, None] * A_inv
+    gain = np.empty((n_ch, n_parts))
+    for group in (problem.is_disp, ~problem.is_disp):
+        if not group.any():
+            continue
+        # The group's prior mean is the mean of its gains (empirical Bayes),
+        # held near one by a loose hyper-prior (spread HYPER_SPREAD).
+        eps = (spread / HYPER_SPREAD) ** 2 / group.sum()
+        mean = np.linalg.solve(
+            (1 + eps) * eye - V[group].mean(axis=0), u[group].mean(axis=0) + eps
+        )
+        gain[group] = u[group] + V[group] @ mean
+    return gain
 
 
 def apply_gains(prediction, gain):
@@ -346,18 +443,29 @@ def apply_gains(prediction, gain):
     return np.einsum("anc,ac->nc", prediction, gain)
 
 
-def residuals(problem, predictions, gain, runs_idx):
+def residuals(problem, predictions, gain, runs_idx, drift=None):
     """Normalised, weighted residuals of the given runs (list of arrays).
 
     ``predictions[i]`` is either a plain prediction (gain None) or the
-    heat/air parts combined with ``gain``.
+    heat/air parts combined with ``gain``. With ``drift`` (a channel mask),
+    each run's linear drift of those channels is removed (for calibration).
     """
     w = np.sqrt(problem.weight) / problem.scale
     out = []
     for i in runs_idx:
         p = predictions[i] if gain is None else apply_gains(predictions[i], gain)
-        out.append((p - problem.runs[i].y) * w)
+        r = p - problem.runs[i].y
+        if drift is not None:
+            r = _without_trend(r, problem.runs[i], drift)
+        out.append(r * w)
     return out
+
+
+def drift_mask(problem, effects):
+    """Channels whose readings may drift under ``effects`` (None if none)."""
+    if "sensor_drift" in effects and (~problem.is_disp).any():
+        return ~problem.is_disp
+    return None
 
 
 @dataclass
@@ -388,6 +496,7 @@ def calibrate(
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     sim_effects = [e for e in effects if e not in RESIDUAL_EFFECTS]
     base = machine.with_effects(add=sim_effects)
+    drift = drift_mask(problem, effects)
 
     def model(x):
         return with_scales(base, reference, dict(zip(names, np.exp(x), strict=True)))
@@ -397,9 +506,9 @@ def calibrate(
         preds = {
             i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx
         }
-        gain = fit_gains(problem, preds, train_idx)
+        gain = fit_gains(problem, preds, train_idx, drift=drift)
         return np.concatenate(
-            [r.ravel() for r in residuals(problem, preds, gain, train_idx)]
+            [r.ravel() for r in residuals(problem, preds, gain, train_idx, drift)]
         )
 
     res = least_squares(
@@ -407,7 +516,7 @@ def calibrate(
     )
     m = model(res.x)
     preds = {i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx}
-    gain = fit_gains(problem, preds, train_idx)
+    gain = fit_gains(problem, preds, train_idx, drift=drift)
     return Fit(
         tuple(effects),
         dict(zip(names, np.exp(res.x), strict=True)),
