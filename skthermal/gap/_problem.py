@@ -359,7 +359,7 @@ def _without_trend(x, run, mask):
 HYPER_SPREAD = 3.0
 
 
-def fit_gains(problem, predictions, runs_idx, spread=0.3, drift=None, effective=True):
+def fit_gains(problem, predictions, runs_idx, spread=0.3, drift=None):
     """Closed-form gains of the parts of every channel, with a shared prior.
 
     A hierarchical Bayesian ridge: minimises ``||y - sum_a g_a P_a||^2 / s^2
@@ -379,38 +379,25 @@ def fit_gains(problem, predictions, runs_idx, spread=0.3, drift=None, effective=
     its own linear drift: it is partialled out of both sides, so a drifting
     sensor does not bend the gains.
     """
-    n_parts = next(iter(predictions.values())).shape[0]
-    n_ch = len(problem.channels)
-    G = np.zeros((n_ch, n_parts, n_parts))
-    b = np.zeros((n_ch, n_parts))
+    data = []
     for i in runs_idx:
         P, y = predictions[i], problem.runs[i].y
         if drift is not None:
             P = _without_trend(P, problem.runs[i], drift)
             y = _without_trend(y, problem.runs[i], drift)
-        G += np.einsum("anc,bnc->cab", P, P)
-        b += np.einsum("anc,nc->ca", P, y)
+        data.append((P, y))
+    G = sum(np.einsum("anc,bnc->cab", P, P) for P, _ in data)
+    b = sum(np.einsum("anc,nc->ca", P, y) for P, y in data)
     noise = np.maximum(problem.noise, 1e-3 * problem.scale)
     gain = _hierarchical_gains(problem, G, b, (noise / spread) ** 2, spread)
-    if not effective:
-        return gain.T
     # The data term above treats every sample as independent; slow
     # model-error residuals are not. Second pass: weigh the data by their
     # effective number of independent samples (the residual's variance times
     # its AR(1) correlation time in samples), per channel.
-    ss = np.zeros(n_ch)
-    lag1 = np.zeros(n_ch)
-    count = 0
-    for i in runs_idx:
-        P, y = predictions[i], problem.runs[i].y
-        if drift is not None:
-            P = _without_trend(P, problem.runs[i], drift)
-            y = _without_trend(y, problem.runs[i], drift)
-        r = y - np.einsum("anc,ca->nc", P, gain)
-        ss += np.sum(r * r, axis=0)
-        lag1 += np.sum(r[1:] * r[:-1], axis=0)
-        count += r.shape[0]
-    var = np.maximum(ss / count, noise**2)
+    r = [y - np.einsum("anc,ca->nc", P, gain) for P, y in data]
+    ss = sum(np.sum(x * x, axis=0) for x in r)
+    lag1 = sum(np.sum(x[1:] * x[:-1], axis=0) for x in r)
+    var = np.maximum(ss / sum(x.shape[0] for x in r), noise**2)
     rho = np.clip(lag1 / np.maximum(ss, 1e-300), 0.0, 0.99)
     lam = var * (1 + rho) / (1 - rho) / spread**2
     return _hierarchical_gains(problem, G, b, lam, spread).T
