@@ -13,9 +13,11 @@ from skthermal.gap import (
     make_gap_campaign,
     validate,
 )
+from skthermal.gap._diagnose import _Context, _folds, _gap
 from skthermal.gap._problem import (
     Problem,
     build_problem,
+    fine_keys,
     fit_gains,
     floor_squared,
     noise_floor,
@@ -97,6 +99,54 @@ def test_gains_of_a_buried_part_follow_the_other_channels(rng):
     assert gain[1, 4] == pytest.approx(3.0, rel=0.1)
 
 
+def test_fine_calibration_recovers_the_spindle_heads_dynamics():
+    # The truth differs from the simulation only in the spindle head's
+    # capacities, convection and conductances, by 25% either way. The
+    # screening calibration (family-wide multipliers and gains) cannot follow
+    # them node by node; the fine calibration must predict held-out runs
+    # better and move the multipliers the way the truth lies.
+    rng = np.random.RandomState(7)
+    case = make_gap_campaign(
+        None, n_runs=3, hours=5, perturbation=(0, 0), random_state=5
+    )
+    sim = case.simulation
+    keys = fine_keys(sim)
+    assert {"C.bearings", "hA.boss", "G.bearings-boss", "C.tool"} <= set(keys)
+    assert not any("screw" in k or "column" in k.split("-")[0] for k in keys)
+    factor = dict(zip(keys, np.exp(rng.choice([-1, 1], len(keys)) * 0.25), strict=True))
+    truth = sim.with_params({k: sim.params[k] * f for k, f in factor.items()})
+    frames = []
+    for name, frame in case.runs.groupby("run", sort=False):
+        frames.append(
+            truth.simulate_drivers(
+                frame["time_s"].to_numpy(),
+                frame["spindle_rpm"].to_numpy(),
+                frame["ambient_C"].to_numpy(),
+                frame["feed_mm_min"].to_numpy(),
+                run=name,
+                random_state=rng,
+            )
+        )
+    runs = pd.concat(frames, ignore_index=True)
+    problem = build_problem(sim, runs)
+    ctx = _Context(problem, sim, sim.params, _folds(len(problem.runs), None), 30)
+    screening = [ctx.fold(k, ()) for k in range(len(ctx.folds))]
+    fine = [ctx.fold(k, (), fine=True) for k in range(len(ctx.folds))]
+    gap_screening = _gap(ctx.assemble((), screening)[0])[0]
+    gap_fine = _gap(ctx.assemble((), fine)[0])[0]
+    assert gap_fine < 0.8 * gap_screening
+    # The calibrated multipliers (family scales times fine ones) follow the
+    # truth's.
+    truth_log = np.log([factor[k] for k in keys])
+    corr = [
+        np.corrcoef(
+            np.log([fit.machine.params[k] / sim.params[k] for k in keys]), truth_log
+        )[0, 1]
+        for _, fit in fine
+    ]
+    assert np.mean(corr) > 0.3
+
+
 @pytest.fixture(scope="module")
 def tool_case():
     return make_gap_campaign("tool_growth", random_state=0)
@@ -137,8 +187,15 @@ def test_diagnose_names_the_withheld_effect(tool_report):
     others = report.ranking.iloc[1:]
     assert not others["explains"].any()
     assert "tool_growth" in report.verdict()
-    # How far: per regime, after stop is where the tool grows.
+    # How far, with the fine calibration: per regime, after stop is where
+    # the tool grows.
+    evidence = report.how_far_evidence
+    assert evidence["effect"] == "tool_growth" and evidence["calibration"] == "fine"
+    assert evidence["explains"] and evidence["shrink"] > 0.5
+    assert report.steps.iloc[0]["added"] == "tool_growth"
+    assert report.steps.iloc[0]["shrink"] == pytest.approx(evidence["shrink"])
     how_far = report.how_far.set_index("regime")
+    assert how_far.loc["overall", "shrink"] == pytest.approx(evidence["shrink"])
     assert how_far.loc["overall", "gap_after"] < how_far.loc["overall", "gap_before"]
     assert how_far.loc["after stop", "shrink"] > 0.3
 
@@ -185,7 +242,12 @@ def test_null_case_is_not_blamed_on_an_effect():
     )
     assert report.best_effect is None
     assert "No candidate effect explains the gap" in report.verdict()
-    assert report.how_far.empty
+    # The how-far step still measures the top candidate, finely, and finds
+    # that it does not explain the gap either.
+    evidence = report.how_far_evidence
+    assert evidence["effect"] == report.ranking.iloc[0]["effect"]
+    assert evidence["calibration"] == "fine" and not evidence["explains"]
+    assert set(report.how_far["effect"]) == {evidence["effect"]}
 
 
 def test_vmc_a_campaign_and_another_strength():

@@ -465,6 +465,7 @@ class Fit:
     machine: object
     cost: float
     nfev: int
+    fine: dict = field(default_factory=dict)
 
 
 def calibrate(
@@ -511,6 +512,123 @@ def calibrate(
         m,
         float(res.cost),
         int(res.nfev),
+    )
+
+
+# Fine calibration (the "how far" step). The screening calibration above
+# moves whole families of the network together; the shapes of a machine's
+# responses are set node by node, and most by the nodes around the spindle,
+# its main heat source. The fine calibration gives every capacity, convection
+# and conductance of those nodes its own multiplier, held near one by a prior
+# (log spread FINE_SPREAD), fitted jointly with the effect and the gains.
+FINE_SPREAD = 0.4
+FINE_NFEV = 8
+
+
+def fine_keys(machine):
+    """Parameters the fine calibration frees: capacity, convection and
+    conductances of the spindle head's nodes and the tool (without declared
+    head nodes: the spindle's heated nodes and their neighbours)."""
+    spec = machine.spec
+    region = set(spec.head_nodes)
+    if region:
+        region.add(spec.tool)
+    else:
+        heated = {spec.bearing, spec.motor, spec.belt, spec.cutting}
+        region = set(heated)
+        for a, b in spec.edges:
+            if a in heated or b in heated:
+                region |= {a, b}
+    p = machine.params
+    keys = [
+        f"{fam}.{n}"
+        for n in spec.nodes
+        if n in region
+        for fam in ("C", "hA")
+        if p.get(f"{fam}.{n}", 0.0) > 0
+    ]
+    keys += [
+        f"G.{a}-{b}"
+        for a, b in spec.edges
+        if (a in region or b in region) and p.get(f"G.{a}-{b}", 0.0) > 0
+    ]
+    return keys
+
+
+def _effective_samples(R):
+    """Independent samples in weighted residuals ``R`` (list of (n, ch)): the
+    sample count, shortened by the AR(1) correlation time of the combined
+    residual, times the participation ratio of the channels (channels that
+    move together count once)."""
+    X = np.vstack(R)
+    if X.shape[0] < 3:
+        return float(max(X.size, 1))
+    lam = np.clip(np.linalg.eigvalsh(np.atleast_2d(np.cov(X, rowvar=False))), 0.0, None)
+    ratio = lam.sum() ** 2 / max(float(np.sum(lam**2)), 1e-300)
+    s = np.concatenate([r.sum(axis=1) for r in R])
+    ss = float(s @ s)
+    rho = float(np.clip(s[1:] @ s[:-1] / ss, 0.0, 0.99)) if ss > 0 else 0.0
+    return max(X.shape[0] * (1 - rho) / (1 + rho) * max(ratio, 1.0), 1.0)
+
+
+def refine(
+    problem, fit, train_idx, *, spread=FINE_SPREAD, max_nfev=FINE_NFEV, keys=None
+):
+    """Fine calibration on top of a screening :func:`calibrate` fit.
+
+    Frees the node parameters of :func:`fine_keys` (log multipliers with a
+    Gaussian prior of spread ``spread``), fitted with the gains by nonlinear
+    least squares on the training runs. The data are weighted by their
+    effective number of independent samples, so that slow, correlated model
+    errors do not overrule the prior. Returns a new :class:`Fit`.
+    """
+    base = fit.machine
+    keys = fine_keys(base) if keys is None else list(keys)
+    if not keys:
+        return fit
+    ref = base.params
+    drift = drift_mask(problem, fit.effects)
+
+    def model(x):
+        return base.with_params(
+            {k: ref[k] * v for k, v in zip(keys, np.exp(x), strict=True)}
+        )
+
+    def data(x):
+        m = model(x)
+        preds = {
+            i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx
+        }
+        gain = fit_gains(problem, preds, train_idx, drift=drift)
+        return residuals(problem, preds, gain, train_idx, drift), gain, m
+
+    R0 = data(np.zeros(len(keys)))[0]
+    scale = np.sqrt(sum(float(np.sum(r * r)) for r in R0) / _effective_samples(R0))
+    scale = max(scale, 1e-12)
+
+    def vector(x):
+        R = data(x)[0]
+        return np.concatenate(
+            [np.concatenate([r.ravel() for r in R]) / scale, x / spread]
+        )
+
+    bound = np.log(4.0)
+    res = least_squares(
+        vector,
+        np.zeros(len(keys)),
+        bounds=(-bound, bound),
+        max_nfev=max_nfev,
+        diff_step=1e-3,
+    )
+    _, gain, m = data(res.x)
+    return Fit(
+        fit.effects,
+        dict(fit.values),
+        gain,
+        m,
+        float(res.cost),
+        fit.nfev + int(res.nfev),
+        dict(zip(keys, np.exp(res.x), strict=True)),
     )
 
 

@@ -7,7 +7,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from skthermal.gap._diagnose import BANDS_H, _gap, _regime_gaps
+from skthermal.gap._diagnose import (
+    BANDS_H,
+    _excess_shrink,
+    _regime_gaps,
+    _second_half,
+)
+from skthermal.gap._problem import RESIDUAL_EFFECTS
 
 
 def _units(problem, R):
@@ -126,7 +132,14 @@ class GapReport:
     regime_shrink : DataFrame
         Shrink of the held-out gap per regime (rows) and candidate (columns).
     how_far : DataFrame
-        Held-out gap per regime and overall before and after the best effect.
+        Held-out gap per regime and overall (columns ``effect``, ``regime``,
+        ``gap_before``, ``gap_after``, ``shrink`` above the noise floor and
+        ``shrink_raw``) before and after the best effect, or the best
+        candidate when none explains the gap, both with the fine
+        calibration.
+    how_far_evidence : dict
+        The overall evidence of that comparison (the ranking's columns, and
+        ``calibration``: ``"fine"`` or ``"screening"``).
     steps : DataFrame
         Effects added greedily, with the held-out gap after each.
     noise_floor : float
@@ -144,6 +157,7 @@ class GapReport:
     how_far: pd.DataFrame
     steps: pd.DataFrame
     noise_floor: float
+    how_far_evidence: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     timelines: dict = field(default_factory=dict, repr=False)
     machines: dict = field(default_factory=dict, repr=False)
@@ -161,6 +175,9 @@ class GapReport:
         steps,
         base_R,
         best_R,
+        fine_row,
+        fine_before_R,
+        fine_after_R,
         as_given,
         calibrated,
         regimes,
@@ -172,18 +189,46 @@ class GapReport:
         where = {
             k: pd.concat([where_a[k], where_c[k]], ignore_index=True) for k in where_a
         }
-        if best_R is not None:
-            before = _regime_gaps(base_R, regimes)
-            after = _regime_gaps(best_R, regimes)
-            how_far = pd.DataFrame({"gap_before": before, "gap_after": after})
-            how_far.loc["overall"] = [_gap(base_R)[0], _gap(best_R)[0]]
-            how_far["shrink"] = 1 - how_far["gap_after"] / how_far["gap_before"]
+        if fine_row is not None:
+            effect = fine_row["effect"]
+            b, a, labels = fine_before_R, fine_after_R, regimes
+            if effect in RESIDUAL_EFFECTS:
+                b = [_second_half(R) for R in b]
+                a = [_second_half(R) for R in a]
+                labels = [
+                    r.iloc[r.shape[0] // 2 :].reset_index(drop=True) for r in labels
+                ]
+            how_far = pd.DataFrame(
+                {
+                    "gap_before": _regime_gaps(b, labels),
+                    "gap_after": _regime_gaps(a, labels),
+                }
+            )
+            how_far.loc["overall"] = [fine_row["gap_before"], fine_row["gap_after"]]
+            how_far["shrink"] = [
+                _excess_shrink(gb, ga, floor2)
+                for gb, ga in zip(
+                    how_far["gap_before"], how_far["gap_after"], strict=True
+                )
+            ]
+            how_far["shrink_raw"] = 1 - how_far["gap_after"] / how_far["gap_before"]
             how_far.index.name = "regime"
             how_far = how_far.reset_index()
+            how_far.insert(0, "effect", effect)
         else:
             how_far = pd.DataFrame(
-                columns=["regime", "gap_before", "gap_after", "shrink"]
+                columns=[
+                    "effect",
+                    "regime",
+                    "gap_before",
+                    "gap_after",
+                    "shrink",
+                    "shrink_raw",
+                ]
             )
+        if best_R is not None and fine_row is not None:
+            # The timelines show the how-far comparison.
+            base_R, best_R = fine_before_R, fine_after_R
         timelines = {}
         for i, run in enumerate(problem.runs):
             cols = {
@@ -210,8 +255,11 @@ class GapReport:
             where=where,
             regime_shrink=regime_shrink,
             how_far=how_far,
-            steps=pd.DataFrame(steps, columns=["added", "gap", "shrink"]),
+            steps=pd.DataFrame(
+                steps, columns=["added", "gap", "shrink", "calibration"]
+            ),
             noise_floor=float(np.sqrt(floor2)),
+            how_far_evidence=dict(fine_row or {}),
             settings=settings,
             timelines=timelines,
         )
@@ -220,23 +268,34 @@ class GapReport:
 
     def verdict(self):
         """One sentence: which effect explains the gap, or that none does."""
+        fine = self.how_far_evidence
+        if not fine:
+            return "No candidate effect was tested."
+        how = (
+            "once the spindle head is calibrated finely"
+            if fine.get("calibration") == "fine"
+            else "with the screening calibration"
+        )
+        evidence = (
+            f"{fine['gap_before']:.3g} -> {fine['gap_after']:.3g}, "
+            f"{fine['runs_improved']}/{fine['n_runs']} held-out runs better, "
+            f"p = {fine['p_value']:.2g}"
+        )
+        screening = self.ranking.set_index("effect").loc[fine["effect"], "shrink"]
         if self.best_effect is None:
-            top = self.ranking.iloc[0] if len(self.ranking) else None
-            extra = (
-                f" (best candidate {top['effect']!r} removes {top['shrink']:.0%} "
-                f"of the excess gap, p = {top['p_value']:.2g})"
-                if top is not None
-                else ""
+            return (
+                "No candidate effect explains the gap beyond noise (best "
+                f"candidate {fine['effect']!r} removes {fine['shrink']:.0%} of "
+                f"the excess held-out gap {how}: {evidence})."
             )
-            return "No candidate effect explains the gap beyond noise" + extra + "."
-        row = self.ranking.iloc[0]
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
-            f"{row['shrink']:.0%} of the held-out gap above the noise floor "
-            f"({row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
-            f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
-            f"p = {row['p_value']:.2g})."
+            f"{fine['shrink']:.0%} of the held-out gap above the noise floor "
+            f"{how} ({evidence})"
         )
+        if fine.get("calibration") == "fine":
+            text += f"; {screening:.0%} with the screening calibration"
+        text += "."
         if len(self.steps) > 1:
             text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
         return text
@@ -254,6 +313,7 @@ class GapReport:
             "verdict": self.verdict(),
             "best_effect": self.best_effect,
             "noise_floor": self.noise_floor,
+            "how_far_evidence": self.how_far_evidence,
             "settings": self.settings,
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
