@@ -220,9 +220,10 @@ def _evaluate(
     effects = tuple(before_effects) + (candidate,)
     starts = [f.values for f in before_fits]
     after_R, fits = ctx.heldout(effects, starts)
-    row, regime_shrink = _score(
+    row, (rb, ra) = _score(
         ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
     )
+    regime_shrink = (1.0 - ra / rb.reindex(ra.index)).rename(candidate)
     param = EFFECT_PARAMETER.get(candidate)
     if param is not None:
         row["fitted"] = float(
@@ -241,7 +242,8 @@ def _excess_shrink(gap_b, gap_a, floor2):
 
 def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha):
     """Evidence that adding ``candidate`` turned ``before_R`` into ``after_R``
-    (held-out residuals): the ranking row and the shrink per regime."""
+    (held-out residuals): the ranking row, and the gap per regime before and
+    after."""
     if candidate in RESIDUAL_EFFECTS:
         # The drift model is judged on the second half of every run, where its
         # trend, fitted on the first half, is a genuine prediction.
@@ -271,8 +273,7 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         "xcorr_after": _xcorr(ctx.problem, a),
     }
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
-    regime_shrink = 1.0 - ra / rb.reindex(ra.index)
-    return row, regime_shrink.rename(candidate)
+    return row, (rb, ra)
 
 
 def diagnose(
@@ -444,7 +445,7 @@ def diagnose(
     # spindle head's nodes freed. This comparison decides whether the top
     # candidate explains the gap (the screening only ranks).
     focus = ranking.iloc[0]["effect"] if len(ranking) else None
-    fine_row = fine_before_R = fine_after_R = None
+    fine_row = fine_regimes = fine_before_R = fine_after_R = None
     if focus is not None:
         n_folds = len(folds)
         if fine:
@@ -460,7 +461,7 @@ def diagnose(
             fine_after_R, _ = ctx.assemble((focus,), results[n_folds:])
         else:
             fine_before_R, fine_after_R = base_R, after_R[focus]
-        fine_row, _ = _score(
+        fine_row, fine_regimes = _score(
             ctx,
             fine_before_R,
             fine_after_R,
@@ -540,6 +541,7 @@ def diagnose(
         base_R=base_R,
         best_R=after_R.get(best) if best is not None else None,
         fine_row=fine_row,
+        fine_regimes=fine_regimes,
         fine_before_R=fine_before_R,
         fine_after_R=fine_after_R,
         as_given=as_given,

@@ -398,9 +398,16 @@ def fit_gains(problem, predictions, runs_idx, spread=0.3, drift=None):
     ss = sum(np.sum(x * x, axis=0) for x in r)
     lag1 = sum(np.sum(x[1:] * x[:-1], axis=0) for x in r)
     var = np.maximum(ss / sum(x.shape[0] for x in r), noise**2)
-    rho = np.clip(lag1 / np.maximum(ss, 1e-300), 0.0, 0.99)
-    lam = var * (1 + rho) / (1 - rho) / spread**2
+    lam = var * _correlation_time(ss, lag1) / spread**2
     return _hierarchical_gains(problem, G, b, lam, spread).T
+
+
+def _correlation_time(ss, lag1):
+    """Samples per independent sample of an AR(1) residual, ``(1 + rho) /
+    (1 - rho)``, from its sum of squares and lag-1 sum of products
+    (``rho`` clipped to [0, 0.99])."""
+    rho = np.clip(lag1 / np.maximum(ss, 1e-300), 0.0, 0.99)
+    return (1 + rho) / (1 - rho)
 
 
 def _hierarchical_gains(problem, G, b, lam, spread):
@@ -567,8 +574,10 @@ def _effective_samples(R):
     ratio = lam.sum() ** 2 / max(float(np.sum(lam**2)), 1e-300)
     s = np.concatenate([r.sum(axis=1) for r in R])
     ss = float(s @ s)
-    rho = float(np.clip(s[1:] @ s[:-1] / ss, 0.0, 0.99)) if ss > 0 else 0.0
-    return max(X.shape[0] * (1 - rho) / (1 + rho) * max(ratio, 1.0), 1.0)
+    return max(
+        X.shape[0] / float(_correlation_time(ss, s[1:] @ s[:-1])) * max(ratio, 1.0),
+        1.0,
+    )
 
 
 def refine(

@@ -10,10 +10,7 @@ import pandas as pd
 from skthermal.gap._diagnose import (
     BANDS_H,
     _excess_shrink,
-    _regime_gaps,
-    _second_half,
 )
-from skthermal.gap._problem import RESIDUAL_EFFECTS
 
 
 def _units(problem, R):
@@ -176,6 +173,7 @@ class GapReport:
         base_R,
         best_R,
         fine_row,
+        fine_regimes,
         fine_before_R,
         fine_after_R,
         as_given,
@@ -190,20 +188,8 @@ class GapReport:
             k: pd.concat([where_a[k], where_c[k]], ignore_index=True) for k in where_a
         }
         if fine_row is not None:
-            effect = fine_row["effect"]
-            b, a, labels = fine_before_R, fine_after_R, regimes
-            if effect in RESIDUAL_EFFECTS:
-                b = [_second_half(R) for R in b]
-                a = [_second_half(R) for R in a]
-                labels = [
-                    r.iloc[r.shape[0] // 2 :].reset_index(drop=True) for r in labels
-                ]
-            how_far = pd.DataFrame(
-                {
-                    "gap_before": _regime_gaps(b, labels),
-                    "gap_after": _regime_gaps(a, labels),
-                }
-            )
+            before, after = fine_regimes
+            how_far = pd.DataFrame({"gap_before": before, "gap_after": after})
             how_far.loc["overall"] = [fine_row["gap_before"], fine_row["gap_after"]]
             how_far["shrink"] = [
                 _excess_shrink(gb, ga, floor2)
@@ -214,7 +200,7 @@ class GapReport:
             how_far["shrink_raw"] = 1 - how_far["gap_after"] / how_far["gap_before"]
             how_far.index.name = "regime"
             how_far = how_far.reset_index()
-            how_far.insert(0, "effect", effect)
+            how_far.insert(0, "effect", fine_row["effect"])
         else:
             how_far = pd.DataFrame(
                 columns=[
@@ -281,7 +267,6 @@ class GapReport:
             f"{fine['runs_improved']}/{fine['n_runs']} held-out runs better, "
             f"p = {fine['p_value']:.2g}"
         )
-        screening = self.ranking.set_index("effect").loc[fine["effect"], "shrink"]
         if self.best_effect is None:
             return (
                 "No candidate effect explains the gap beyond noise (best "
@@ -294,6 +279,7 @@ class GapReport:
             f"{how} ({evidence})"
         )
         if fine.get("calibration") == "fine":
+            screening = self.ranking.set_index("effect").loc[fine["effect"], "shrink"]
             text += f"; {screening:.0%} with the screening calibration"
         text += "."
         if len(self.steps) > 1:
