@@ -1,5 +1,6 @@
 """Tests of skthermal.datasets: run-table validation, I/O, splitting, loaders."""
 
+import gzip
 import json
 import re
 
@@ -13,6 +14,7 @@ from sklearn.preprocessing import FunctionTransformer
 
 from skthermal.datasets import (
     changes_since_start,
+    concat_runs,
     driver_columns,
     load_fl_thermal,
     read_runs,
@@ -297,6 +299,47 @@ def test_infinite_values(runs, column):
         validate_runs(df, allow_missing_sensors=True)
 
 
+def test_negative_spindle_speed_names_column_run_row_and_value(runs):
+    df = with_value(runs, "spindle_rpm", 5, -500.0)
+    df = with_value(df, "spindle_rpm", 9, -1.0)
+    with pytest.raises(
+        ValueError,
+        match=r"Column 'spindle_rpm' must hold a spindle speed in rpm, 0 or more: "
+        r"run 'r1', time_s 60.0 \(row 5\) holds -500 \(2 such rows in all\)",
+    ):
+        validate_runs(df)
+
+
+def test_zero_speed_and_negative_feed_are_valid(runs):
+    df = runs.assign(spindle_rpm=0.0, feed_mm_min=-1500.0)
+    assert validate_runs(df, require_drivers=True) is df
+
+
+@pytest.mark.parametrize("column", ["ambient_C", "Tcarrier3_C"])
+def test_temperature_below_absolute_zero(runs, column):
+    df = with_value(runs, column, 10, -999.0)
+    with pytest.raises(
+        ValueError,
+        match=rf"Column '{column}' must hold a temperature in °C, above -273.15: "
+        r"run 'r2', time_s 120.0 \(row 10\) holds -999\.",
+    ):
+        validate_runs(df)
+
+
+def test_valid_drivers_can_be_simulated(runs):
+    """A table whose drivers validate is accepted by the simulator."""
+    from skthermal.simulate import ThermalMachine
+
+    df = runs.assign(spindle_rpm=np.tile([0.0, 0.0, 4000.0, 4000.0], 3))
+    validate_runs(df, require_drivers=True)
+    machine = ThermalMachine.from_preset("vmc-b")
+    for _, run in df.groupby("run", sort=False):
+        sim = machine.simulate_drivers(
+            run["time_s"], run["spindle_rpm"], run["ambient_C"], noise=False
+        )
+        assert np.isfinite(sim[target_columns(sim)].to_numpy()).all()
+
+
 # --- split_runs --------------------------------------------------------------
 
 
@@ -507,6 +550,202 @@ def test_write_validates(tmp_path, runs):
 def test_read_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.csv"):
         read_runs(tmp_path / "nope.csv")
+
+
+# --- read_runs: empty, cut and damaged files ----------------------------------
+
+
+@pytest.mark.parametrize("name", ["runs.csv", "runs.csv.gz", "runs.parquet"])
+def test_read_empty_file(tmp_path, name):
+    path = tmp_path / name
+    path.write_bytes(b"")
+    with pytest.raises(ValueError, match=rf"{re.escape(str(path))}: empty file"):
+        read_runs(path)
+
+
+def test_read_compressed_empty_table(tmp_path):
+    path = tmp_path / "runs.csv.gz"
+    with gzip.open(path, "wb") as fh:
+        fh.write(b"\n")
+    with pytest.raises(ValueError, match=rf"{re.escape(str(path))}: empty file"):
+        read_runs(path)
+
+
+@pytest.mark.parametrize("keep", [0.5, 0.9, 20])
+def test_read_truncated_csv_gz(tmp_path, runs, keep):
+    path = tmp_path / "runs.csv.gz"
+    write_runs(runs, path)
+    data = path.read_bytes()
+    path.write_bytes(data[: int(keep * len(data)) if keep < 1 else keep])
+    with pytest.raises(
+        ValueError, match=rf"{re.escape(str(path))}: the file is cut off"
+    ):
+        read_runs(path)
+
+
+def test_read_not_gzip(tmp_path, runs):
+    path = tmp_path / "runs.csv.gz"
+    runs.to_csv(path, index=False, compression=None)
+    with pytest.raises(
+        ValueError, match=rf"{re.escape(str(path))}: the file is cut off or damaged"
+    ):
+        read_runs(path)
+
+
+@pytest.mark.parametrize("newline", [True, False])
+def test_read_csv_cut_mid_line(tmp_path, runs, newline):
+    path = tmp_path / "runs.csv"
+    text = runs.to_csv(index=False)
+    cut = text[: text.rstrip("\n").rfind(",")]  # last row loses its last field
+    path.write_text(cut + ("\n" if newline else ""))
+    end = "" if newline else " and no line end"
+    with pytest.raises(
+        ValueError,
+        match=rf"{re.escape(str(path))}: the file is cut off: its last line "
+        rf"\(line 13\) has 9 of the 10 fields of the header{end}",
+    ):
+        read_runs(path)
+    # Also without validation: the cut is not read as a missing value.
+    with pytest.raises(ValueError, match="the file is cut off"):
+        read_runs(path, validate=False)
+
+
+def test_read_csv_cut_in_compressed_file(tmp_path, runs):
+    path = tmp_path / "runs.csv.gz"
+    text = runs.to_csv(index=False)
+    with gzip.open(path, "wt") as fh:
+        fh.write(text[: text.rfind(",", 0, -30)])
+    with pytest.raises(ValueError, match="runs.csv.gz: the file is cut off"):
+        read_runs(path)
+
+
+def test_read_csv_empty_trailing_field_is_not_a_cut(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    runs.assign(note="").to_csv(path, index=False)  # every row ends with ","
+    assert path.read_text().splitlines()[-1].endswith(",")
+    assert len(read_runs(path)) == len(runs)
+
+
+def test_read_damaged_parquet(tmp_path, runs):
+    pytest.importorskip("pyarrow")
+    path = tmp_path / "runs.parquet"
+    write_runs(runs, path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(
+        ValueError,
+        match=rf"{re.escape(str(path))}: not a readable Parquet file: the file is "
+        "cut off or damaged",
+    ):
+        read_runs(path)
+
+
+def test_read_binary_csv(tmp_path):
+    path = tmp_path / "runs.csv"
+    path.write_bytes(b"run,time_s\n\xff\xfe\x00\x01,0\n")
+    with pytest.raises(ValueError, match=rf"{re.escape(str(path))}: not a UTF-8"):
+        read_runs(path)
+
+
+def test_read_folder(tmp_path):
+    with pytest.raises(FileNotFoundError, match="a folder, not a file"):
+        read_runs(tmp_path)
+
+
+def test_read_validation_error_names_file(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    with_value(runs, "spindle_rpm", 2, -10.0).to_csv(path, index=False)
+    with pytest.raises(
+        ValueError, match=rf"^{re.escape(str(path))}: Column 'spindle_rpm' must"
+    ):
+        read_runs(path)
+
+
+def test_empty_or_cut_sidecar(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    write_runs(runs, path, metadata={"r0": {"machine": "B"}})
+    sidecar = tmp_path / "runs.csv.json"
+    text = sidecar.read_text()
+    sidecar.write_text(text[: len(text) // 2])
+    with pytest.raises(
+        ValueError,
+        match=rf"{re.escape(str(sidecar))} is not valid JSON \(the file is cut off\)",
+    ):
+        read_runs(path, metadata=True)
+    sidecar.write_text('{"runs": [{"run": "r0"}}')  # mistyped, not cut
+    with pytest.raises(ValueError, match="not valid JSON: ") as info:
+        read_runs(path, metadata=True)
+    assert "cut off" not in str(info.value)
+    sidecar.write_text("")
+    with pytest.raises(ValueError, match=rf"{re.escape(str(sidecar))}: empty file"):
+        read_runs(path, metadata=True)
+
+
+def test_load_fl_thermal_cut_file(tmp_path):
+    path = tmp_path / "fl_thermal_spindle.csv.gz"
+    with gzip.open(path, "wt") as fh:
+        fh.write("time_s,spindle_rpm,T1_C\n0,0,20.0\n15,0")
+    with pytest.raises(ValueError, match="fl_thermal_spindle.csv.gz: the file is cut"):
+        load_fl_thermal(tmp_path)
+
+
+# --- concat_runs --------------------------------------------------------------
+
+
+def _simulated(run, rpm):
+    from skthermal.simulate import ThermalMachine
+
+    machine = ThermalMachine.from_preset("vmc-b")
+    return machine.simulate([(300, rpm)], run=run, sample_period_s=60, noise=False)
+
+
+def test_concat_runs_keeps_simulated_metadata(tmp_path):
+    a, b = _simulated("a", 2000), _simulated("b", 0)
+    assert "metadata" not in pd.concat([a, b]).attrs  # what pandas does
+    runs = concat_runs([a, b])
+    pd.testing.assert_frame_equal(runs, pd.concat([a, b], ignore_index=True))
+    assert runs.attrs["metadata"] == a.attrs["metadata"] + b.attrs["metadata"]
+    assert [m["run"] for m in runs.attrs["metadata"]] == ["a", "b"]
+    # The inputs keep their own metadata.
+    assert [m["run"] for m in a.attrs["metadata"]] == ["a"]
+    path = tmp_path / "runs.csv"
+    write_runs(runs, path, metadata=runs.attrs["metadata"])
+    assert read_runs(path, metadata=True)[1]["run"].tolist() == ["a", "b"]
+
+
+def test_concat_runs_duplicate_run(runs):
+    with pytest.raises(
+        ValueError, match=r"Run 'r1' is in run table 0 and in run table 1"
+    ):
+        concat_runs([runs, runs[runs["run"] == "r1"]])
+
+
+def test_concat_runs_columns_differ(runs):
+    other = runs.assign(run=runs["run"] + "b").drop(columns="T1_C").assign(x=1)
+    with pytest.raises(
+        ValueError,
+        match=r"columns of run table 1 differ .*missing \['T1_C'\], extra \['x'\]",
+    ):
+        concat_runs([runs, other])
+
+
+def test_concat_runs_metadata_argument_and_errors(runs):
+    a, b = runs.iloc[:4], runs.iloc[4:]
+    out = concat_runs([a, b], metadata={"r0": {"m": 1}, "r2": {"m": 2}})
+    assert out.attrs["metadata"] == [{"run": "r0", "m": 1}, {"run": "r2", "m": 2}]
+    assert "metadata" not in concat_runs([a, b]).attrs
+    with pytest.raises(ValueError, match=r"run\(s\) \['r9'\] that are in none"):
+        concat_runs([a, b], metadata={"r9": {"m": 1}})
+    with pytest.raises(ValueError, match="a list of run tables"):
+        concat_runs(runs)
+    with pytest.raises(ValueError, match="Run table 1 has no 'run' column"):
+        concat_runs([a, b.drop(columns="run")])
+    with pytest.raises(ValueError, match="at least one"):
+        concat_runs([])
+    bad = b.copy()
+    bad.loc[5, "spindle_rpm"] = -1.0
+    with pytest.raises(ValueError, match="'spindle_rpm' must hold"):
+        concat_runs([a, bad])
 
 
 # --- load_fl_thermal ---------------------------------------------------------

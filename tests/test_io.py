@@ -1,6 +1,8 @@
 """Tests of skthermal.io: safe deployment files (skops) and version warnings."""
 
 import json
+import pickle
+import re
 import warnings
 import zipfile
 
@@ -222,3 +224,78 @@ def test_every_public_estimator_has_a_round_trip():
         covered |= {type(s).__name__ for _, s in getattr(est, "steps", [])}
     missing = public_estimator_names() - covered
     assert not missing, f"add {sorted(missing)} to ESTIMATORS"
+
+
+# --- files that are not skops files -------------------------------------------
+
+
+@pytest.fixture
+def small_model():
+    from sklearn.linear_model import LinearRegression
+
+    X = np.arange(6.0).reshape(-1, 1)
+    return LinearRegression().fit(X, 2 * X[:, 0])
+
+
+def _write_foreign(kind, path, model):
+    if kind == "empty":
+        path.write_bytes(b"")
+    elif kind == "text":  # starts with "x", the first byte of a zlib stream
+        path.write_text("xrun,time_s,T1_C\na,0,20\n")
+    elif kind == "pickle":
+        path.write_bytes(pickle.dumps(model))
+    elif kind == "joblib":
+        joblib.dump(model, path)
+    elif kind == "joblib-compressed":
+        joblib.dump(model, path, compress=3)
+    elif kind == "truncated":
+        save(model, path)
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+    elif kind == "other-zip":
+        with zipfile.ZipFile(path, "w") as archive:
+            archive.writestr("notes.txt", "hello")
+
+
+FOREIGN = {
+    "empty": "empty file \\(0 bytes\\)",
+    "text": "a text file starting with 'xrun,time_s",
+    "pickle": "a pickle \\(or joblib\\) file",
+    "joblib": "a pickle \\(or joblib\\) file",
+    "joblib-compressed": "compressed data, such as a compressed joblib file",
+    "truncated": "the file is cut off",
+    "other-zip": "a zip archive without skops' schema.json",
+}
+
+
+@pytest.mark.parametrize("reader", [load, read_metadata])
+@pytest.mark.parametrize("kind", list(FOREIGN))
+def test_not_a_skops_file(kind, reader, small_model, tmp_path):
+    path = tmp_path / "model.skops"
+    _write_foreign(kind, path, small_model)
+    with pytest.raises(ValueError) as info:
+        reader(path)
+    message = str(info.value)
+    assert message.startswith(f"{path} is not a skops model file: ")
+    assert re.search(FOREIGN[kind], message), message
+    assert "expected a .skops file written by skthermal.io.save" in message
+    trusted_hint = "only if you trust where it comes from, load it with joblib.load"
+    assert (trusted_hint in message) == kind.startswith(("pickle", "joblib"))
+
+
+@pytest.mark.parametrize("reader", [load, read_metadata])
+def test_missing_model_file(reader, tmp_path):
+    path = tmp_path / "nope.skops"
+    with pytest.raises(FileNotFoundError, match=re.escape(f"No model file at {path}")):
+        reader(path)
+    with pytest.raises(FileNotFoundError, match="a folder"):
+        reader(tmp_path)
+
+
+def test_skops_file_without_metadata_still_loads(small_model, tmp_path):
+    import skops.io as sio
+
+    path = tmp_path / "plain.skops"
+    sio.dump(small_model, path)
+    assert read_metadata(path) is None
+    assert_array_equal(load(path).coef_, small_model.coef_)

@@ -12,6 +12,7 @@ from skthermal.datasets._campaigns import (
     make_machine_b_tests,
     make_multipart_test,
 )
+from skthermal.datasets._combine import concat_runs
 from skthermal.datasets._generators import make_sensor_groups
 from skthermal.datasets._loaders import load_fl_thermal, read_runs, write_runs
 from skthermal.datasets._runtable import (
@@ -26,6 +27,7 @@ from skthermal.linear_model._adaptive import make_batch_campaign
 
 __all__ = [
     "changes_since_start",
+    "concat_runs",
     "driver_columns",
     "load_fl_thermal",
     "make_batch_campaign",

@@ -6,8 +6,15 @@ On disk a run table is a CSV file (compressed when its name ends in ``.gz``,
 whole file name plus ``.json``: ``runs.csv.gz`` -> ``runs.csv.gz.json``.
 """
 
+import bz2
+import csv
+import gzip
+import io
 import json
+import lzma
 import math
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -38,13 +45,136 @@ def _parquet_error(exc):
     ).with_traceback(exc.__traceback__)
 
 
+def _unzip(path):
+    with zipfile.ZipFile(path) as archive:
+        names = [n for n in archive.namelist() if not n.endswith("/")]
+        if len(names) != 1:
+            raise ValueError(
+                f"{path}: a zipped run table must hold exactly one file, found "
+                f"{len(names)}: {names[:5]}."
+            )
+        return archive.read(names[0])
+
+
+def _unzstd(path):
+    try:
+        import zstandard
+    except ImportError as exc:
+        raise ImportError(
+            f"Reading {path} (Zstandard-compressed) needs zstandard: "
+            "pip install zstandard."
+        ) from exc
+    with zstandard.open(path, "rb") as fh:
+        return fh.read()
+
+
+def _read_with(opener):
+    def read(path):
+        with opener(path, "rb") as fh:
+            return fh.read()
+
+    return read
+
+
+_DECOMPRESS = {
+    ".gz": _read_with(gzip.open),
+    ".bz2": _read_with(bz2.open),
+    ".xz": _read_with(lzma.open),
+    ".zip": _unzip,
+    ".zst": _unzstd,
+}
+# What a cut or damaged compressed file raises while being decompressed.
+_DAMAGED = (EOFError, zlib.error, gzip.BadGzipFile, lzma.LZMAError, zipfile.BadZipFile)
+
+
+def _raw_bytes(path):
+    """The CSV bytes of ``path``, decompressed, with plain errors."""
+    decompress = _DECOMPRESS.get(path.suffix.lower())
+    if decompress is None:
+        return path.read_bytes()
+    try:
+        return decompress(path)
+    except EOFError as exc:
+        raise ValueError(
+            f"{path}: the file is cut off: its compressed data end without the "
+            "end-of-stream marker. It was probably not written or copied "
+            "completely; write or copy it again."
+        ) from exc
+    except (*_DAMAGED, OSError) as exc:
+        raise ValueError(
+            f"{path}: the file is cut off or damaged: it is not valid "
+            f"{path.suffix.lower()[1:]}-compressed data ({exc}). Write or copy it "
+            "again, or rename it if it is not compressed."
+        ) from exc
+
+
+def _csv_fields(line):
+    return next(csv.reader([line]), [])
+
+
+def _check_complete(path, data):
+    """Raise if the CSV bytes ``data`` end in a line that was cut short.
+
+    A file cut mid-line ends with a row holding fewer fields than the header,
+    which pandas would read as missing values.
+    """
+    body = data.rstrip(b"\r\n")
+    first_end = body.find(b"\n")
+    if first_end < 0:
+        return  # a single line: nothing to compare with the header
+    header = body[:first_end].decode("utf-8", errors="replace").lstrip("\ufeff")
+    line_no = body.count(b"\n") + 1
+    last = body[body.rfind(b"\n") + 1 :].decode("utf-8", errors="replace")
+    n_header, n_last = len(_csv_fields(header)), len(_csv_fields(last))
+    if not last.strip() or n_last >= n_header:
+        return
+    newline = "" if data.endswith(b"\n") else " and no line end"
+    shown = last if len(last) <= 60 else last[:57] + "..."
+    raise ValueError(
+        f"{path}: the file is cut off: its last line (line {line_no}) has "
+        f"{n_last} of the {n_header} fields of the header{newline}: {shown!r}. "
+        "It was probably not written or copied completely; write or copy it "
+        "again, or delete that line."
+    )
+
+
+def _read_csv(path):
+    data = _raw_bytes(path)
+    if not data.strip():
+        raise ValueError(
+            f"{path}: empty file: it holds no run table (expected a CSV header "
+            "line and rows)."
+        )
+    _check_complete(path, data)
+    try:
+        return pd.read_csv(io.BytesIO(data), **_CSV_OPTIONS)
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{path}: not a UTF-8 text CSV run table ({exc}); use .csv, .csv.gz "
+            "or .parquet."
+        ) from exc
+    except pd.errors.ParserError as exc:
+        raise ValueError(f"{path}: not a well-formed CSV file: {exc}") from exc
+
+
 def _read_table(path):
-    if _is_parquet(path):
-        try:
-            return pd.read_parquet(path)
-        except ImportError as exc:
-            raise _parquet_error(exc) from exc
-    return pd.read_csv(path, **_CSV_OPTIONS)
+    """Read the run table at ``path``, naming the file in every error."""
+    if not path.is_file():
+        what = "a folder, not a file" if path.is_dir() else "no such file"
+        raise FileNotFoundError(f"No run table file at {path} ({what}).")
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path}: empty file (0 bytes): it holds no run table.")
+    if not _is_parquet(path):
+        return _read_csv(path)
+    try:
+        return pd.read_parquet(path)
+    except ImportError as exc:
+        raise _parquet_error(exc) from exc
+    except (ValueError, OSError) as exc:  # pyarrow's ArrowInvalid is a ValueError
+        raise ValueError(
+            f"{path}: not a readable Parquet file: the file is cut off or damaged "
+            f"({exc}). Write or copy it again."
+        ) from exc
 
 
 def _meta_records(meta):
@@ -110,11 +240,29 @@ def _read_sidecar(path):
     sidecar = _sidecar_path(path)
     if not sidecar.exists():
         return pd.DataFrame({RUN: []})
-    with open(sidecar, encoding="utf-8") as fh:
-        try:
-            document = json.load(fh)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"Metadata sidecar {sidecar} is not valid JSON: {exc}")
+    data = sidecar.read_bytes()
+    if not data.strip():
+        raise ValueError(
+            f"Metadata sidecar {sidecar}: empty file; expected a JSON object "
+            '{"runs": [{"run": ..., ...}, ...]} (delete the file if the runs have '
+            "no metadata)."
+        )
+    try:
+        document = json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"Metadata sidecar {sidecar} is not UTF-8 JSON text ({exc})."
+        ) from exc
+    except json.JSONDecodeError as exc:
+        # A document that ends inside a string or before its closing brackets
+        # was cut off rather than mistyped.
+        ends_early = exc.pos >= len(exc.doc.rstrip()) or exc.msg.startswith(
+            "Unterminated string"
+        )
+        cut = " (the file is cut off)" if ends_early and exc.pos > 0 else ""
+        raise ValueError(
+            f"Metadata sidecar {sidecar} is not valid JSON{cut}: {exc}."
+        ) from exc
     attrs = {}
     if isinstance(document, dict):
         if "runs" not in document:
@@ -165,10 +313,14 @@ def read_runs(path, *, validate=True, metadata=False):
     Raises
     ------
     FileNotFoundError
-        If ``path`` does not exist.
+        If ``path`` does not exist or is a folder.
     ValueError
-        If the table breaks the run-table rules (see :func:`validate_runs`)
-        or the sidecar is malformed.
+        If the file cannot be read as a run table: an empty file, a file that
+        is cut off (a compressed stream that ends early, a last CSV line with
+        fewer fields than the header, a damaged Parquet file), a CSV that is
+        not UTF-8 text or not well formed; if the table breaks the run-table
+        rules (see :func:`validate_runs`); or if the sidecar is malformed.
+        Every message starts with the file's path.
 
     See Also
     --------
@@ -201,11 +353,12 @@ def read_runs(path, *, validate=True, metadata=False):
     0   a       B
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"No run table file at {path}.")
     df = _read_table(path)
     if validate:
-        validate_runs(df)
+        try:
+            validate_runs(df)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from exc
     if metadata:
         return df, _read_sidecar(path)
     return df
@@ -331,7 +484,7 @@ def load_fl_thermal(path):
             f"{FL_THERMAL_FILE} or the folder holding it (skthermal does not ship "
             "it; it comes from GitHub CAIVIAC/FL_THERMAL, converted to CSV)."
         )
-    df = pd.read_csv(file, **_CSV_OPTIONS)
+    df = _read_table(file)
     expected = [
         "time_s",
         "spindle_rpm",

@@ -18,6 +18,7 @@ RUN = "run"
 TIME = "time_s"
 DRIVERS = ("spindle_rpm", "feed_mm_min", "ambient_C")
 REQUIRED_DRIVERS = ("spindle_rpm", "ambient_C")
+ABSOLUTE_ZERO_C = -273.15
 
 # <name> of a sensor or an axis: ASCII letters and digits, inner underscores.
 _NAME = r"[A-Za-z0-9]+(?:_[A-Za-z0-9]+)*"
@@ -301,10 +302,13 @@ def validate_runs(
     The rules are those of DATA_FORMAT: a ``run`` label and a ``time_s``
     column, at least one temperature sensor ``T<name>_C``, numeric sensors,
     targets and drivers, runs that are contiguous blocks of at least two rows
-    with strictly increasing ``time_s``, and no missing or infinite values in
-    drivers, targets and (unless allowed) sensors. Extra columns are kept and
-    ignored, but a column that looks like a sensor, a displacement or a
-    required column while breaking its naming rule is an error.
+    with strictly increasing ``time_s``, no missing or infinite values in
+    drivers, targets and (unless allowed) sensors, and physical ranges: a
+    ``spindle_rpm`` of 0 or more (as the simulator requires) and
+    temperatures (``ambient_C``, ``T<name>_C``) above absolute zero. Extra
+    columns are kept and ignored, but a column that looks like a sensor, a
+    displacement or a required column while breaking its naming rule is an
+    error.
 
     Parameters
     ----------
@@ -339,7 +343,7 @@ def validate_runs(
     Notes
     -----
     Regular sampling within a run is not checked here: a method that needs it
-    checks it itself.
+    (such as the simulator) checks it itself.
 
     Examples
     --------
@@ -418,9 +422,42 @@ def validate_runs(
     everything = [*strict, *sensors]
     values = np.concatenate([values, _as_float(df, sensors)], axis=1)
     _report_nonfinite(df, everything, np.isinf(values), "infinite")
+    _check_ranges(df, everything, values)
     if not allow_missing_sensors:
         _check_missing_sensors(df, sensors, values[:, len(strict) :])
     return df
+
+
+def _range_rules(columns):
+    """``(column, lowest, strict, expected)`` for the columns with a range.
+
+    The drivers' ranges are those the simulator enforces, so that a valid
+    table can be simulated and diagnosed; no temperature lies below absolute
+    zero. ``feed_mm_min`` may have either sign (the direction of travel).
+    """
+    rules = []
+    for j, name in enumerate(columns):
+        if name == "spindle_rpm":
+            rules.append((j, 0.0, False, "a spindle speed in rpm, 0 or more"))
+        elif name == "ambient_C" or _is_temperature(name):
+            rules.append(
+                (j, ABSOLUTE_ZERO_C, True, "a temperature in °C, above -273.15")
+            )
+    return rules
+
+
+def _check_ranges(df, columns, values):
+    """Raise naming the first column, run and row outside its physical range."""
+    for j, lowest, strict, expected in _range_rules(columns):
+        col = values[:, j]
+        bad = np.flatnonzero(col <= lowest if strict else col < lowest)
+        if bad.size:
+            raise ValueError(
+                f"Column {columns[j]!r} must hold {expected}: "
+                f"{_where(df, bad[0])} holds {col[bad[0]]:g}"
+                + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
+                + "."
+            )
 
 
 def _check_missing_sensors(df, sensors, values=None):

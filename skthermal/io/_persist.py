@@ -104,6 +104,73 @@ def _is_skthermal_class(name):
     return isinstance(obj, type) and obj.__module__ == module
 
 
+_EXPECTED = "expected a .skops file written by skthermal.io.save (a zip archive)"
+_PICKLE_HINT = (
+    "loading a pickle or joblib file runs any code it names: only if you trust "
+    "where it comes from, load it with joblib.load (or pickle.load) and save it "
+    "again with skthermal.io.save."
+)
+# Leading bytes of the compressed streams joblib writes with compress=...:
+# zlib (four header variants), gzip, xz and lzma; bz2 is checked apart.
+_COMPRESSED = (
+    b"\x78\x01",
+    b"\x78\x5e",
+    b"\x78\x9c",
+    b"\x78\xda",
+    b"\x1f\x8b",
+    b"\xfd7zXZ\x00",
+    b"\x5d\x00\x00",
+)
+
+
+def _is_compressed(head):
+    is_bz2 = head.startswith(b"BZh") and head[4:10] == b"1AY&SY"
+    return is_bz2 or head.startswith(_COMPRESSED)
+
+
+def _not_skops(path, what, hint=""):
+    return ValueError(f"{path} is not a skops model file: {what}; {_EXPECTED}.{hint}")
+
+
+def _check_file(path):
+    """Raise a plain error naming ``path`` unless it is a skops zip archive.
+
+    Tells an empty, cut-off or foreign file (a pickle, a joblib dump, text)
+    apart from a model file before any zip or skops code sees it.
+    """
+    if not os.path.isfile(path):
+        what = "a folder" if os.path.isdir(path) else "no such file"
+        raise FileNotFoundError(f"No model file at {path} ({what}); {_EXPECTED}.")
+    if os.path.getsize(path) == 0:
+        raise _not_skops(path, "empty file (0 bytes)")
+    with open(path, "rb") as fh:
+        head = fh.read(512)
+    if zipfile.is_zipfile(path):
+        try:
+            with zipfile.ZipFile(path) as archive:
+                names = archive.namelist()
+        except (zipfile.BadZipFile, OSError) as exc:
+            raise _not_skops(path, f"it is a damaged zip archive ({exc})") from exc
+        if "schema.json" not in names:
+            raise _not_skops(path, "it is a zip archive without skops' schema.json")
+        return
+    if head.startswith(b"PK\x03\x04"):
+        what = "the file is cut off (a zip archive whose end is missing)"
+        hint = " Write or copy it again."
+    elif head[:1] == b"\x80" and head[1:2] in (b"\x02", b"\x03", b"\x04", b"\x05"):
+        what, hint = "it is a pickle (or joblib) file", " Note: " + _PICKLE_HINT
+    elif _is_compressed(head):
+        what = "it holds compressed data, such as a compressed joblib file"
+        hint = " If it is a joblib file, note: " + _PICKLE_HINT
+    elif b"\x00" not in head:
+        text = head.decode("utf-8", errors="replace").strip()
+        shown = text if len(text) <= 40 else text[:37] + "..."
+        what, hint = f"it is a text file starting with {shown!r}", ""
+    else:
+        what, hint = "it is not a zip archive", ""
+    raise _not_skops(path, what, hint)
+
+
 def save(model, path, *, compress=True):
     """Save a fitted model to a skops file that loads without running code.
 
@@ -175,8 +242,18 @@ def read_metadata(path):
     dict or None
         ``{"format": 1, "versions": {"skthermal": ..., "scikit-learn": ...,
         ...}}``, or None for a skops file not written by :func:`save`.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no file at ``path``.
+    ValueError
+        If the file is not a skops file (empty, cut off, a pickle or joblib
+        file, text, ...); the message names the path and what it expected.
     """
-    with zipfile.ZipFile(os.fspath(path)) as archive:
+    path = os.fspath(path)
+    _check_file(path)
+    with zipfile.ZipFile(path) as archive:
         if _METADATA_NAME not in archive.namelist():
             return None
         return json.loads(archive.read(_METADATA_NAME).decode("utf-8"))
@@ -222,6 +299,12 @@ def load(path, *, trusted=None):
 
     Raises
     ------
+    FileNotFoundError
+        If there is no file at ``path``.
+    ValueError
+        If the file is not a skops file: empty, cut off, a pickle or joblib
+        file (the message says how to load one you trust), text, or another
+        zip archive. The message names the path and what it expected.
     UntrustedTypesError
         If the file holds types outside the default set and ``trusted``;
         the error lists them (``.types``).
@@ -260,7 +343,7 @@ def load(path, *, trusted=None):
     """
     sio = _skops_io()
     path = os.fspath(path)
-    metadata = read_metadata(path)
+    metadata = read_metadata(path)  # checks that the file is a skops archive
     extra = {_type_name(t) for t in (trusted or ())} | set(_ALSO_TRUSTED)
     untrusted = sio.get_untrusted_types(file=path)
     ours = [t for t in untrusted if _is_skthermal_class(t)]
