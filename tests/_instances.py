@@ -19,6 +19,7 @@ from skthermal import (
     StableTSPSelector,
     UpdateRegressor,
 )
+from skthermal.compose import GuardedRegressor
 
 INSTANCES = [
     GreyInfluenceSelector(),
@@ -40,8 +41,19 @@ INSTANCES = [
     ANFISRegressor(learning="backprop", validation_fraction=0.2, epochs=5),
     GreyPSORegressor(n_particles=10, epochs=5, random_state=0),
     GreyPSORegressor(calibration="ls"),
-    GreyPSORegressor(n_particles=10, epochs=5, delay=2, init="random", random_state=0),
+    GreyPSORegressor(
+        calibration="pso",
+        n_particles=10,
+        epochs=5,
+        delay=2,
+        init="random",
+        random_state=0,
+    ),
+    GreyPSORegressor(
+        calibration="pso", alpha=0.0, n_particles=10, epochs=5, random_state=0
+    ),
     GNNMCIRegressor(n_particles=10, epochs=5, random_state=0),
+    GNNMCIRegressor(alpha=0.0, init="random", n_particles=10, epochs=5, random_state=0),
     UpdateRegressor(),
     UpdateRegressor(alpha=0.0, eta=0.5, penalize_intercept=False),
     ModularRegressor(relative=False),
@@ -49,6 +61,10 @@ INSTANCES = [
         [("a", LinearRegression(), [0]), ("b", Ridge(), None)], relative=False
     ),
     ModularRegressor(),
+    GuardedRegressor(LinearRegression()),
+    GuardedRegressor(Ridge(), mode="clip", flat=3, jump=2.0),
+    GuardedRegressor(LinearRegression(), mode="hold"),
+    GuardedRegressor(ANFISRegressor(epochs=5, random_state=0), jump=None, flat=None),
 ]
 
 _SEQUENCE = (
@@ -66,6 +82,13 @@ _RELATIVE = (
 def expected_failed_checks(estimator):
     """Checks that cannot apply to this instance, with the reason."""
     name = type(estimator).__name__
+    if name == "GuardedRegressor" and estimator.mode == "hold":
+        return {
+            "check_estimators_nan_inf": (
+                "mode='hold' treats a NaN or infinite reading as a sensor fault "
+                "and holds the last good compensation instead of raising"
+            )
+        }
     if name in ("GreyPSORegressor", "GNNMCIRegressor"):
         return {
             "check_methods_subset_invariance": _SEQUENCE,

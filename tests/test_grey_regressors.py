@@ -1,5 +1,7 @@
 """Tests of GMC(1,N) / GNNMCI(1,N): the array functions and the two regressors."""
 
+from pathlib import Path
+
 import joblib
 import numpy as np
 import pandas as pd
@@ -18,6 +20,7 @@ from skthermal.grey import (
     gnnmci_time_response,
 )
 from skthermal.grey._gmc import _GMCObjective, _model_runs
+from skthermal.grey._varpro import _ridge_path
 
 # ---------------------------------------------------------------- data helpers
 
@@ -173,7 +176,13 @@ def test_gnnmci_layers_equal_closed_form(rng):
 def test_pso_recovers_gmc_model_from_random_start(gmc_data):
     X, y = gmc_data
     model = GreyPSORegressor(
-        init="random", epochs=500, c1=1.5, c2=1.5, random_state=0
+        calibration="pso",
+        alpha=0.0,
+        init="random",
+        epochs=500,
+        c1=1.5,
+        c2=1.5,
+        random_state=0,
     ).fit(X, y)
     # LS loss is not ~0 here (Tien's discretisation differs from the time
     # response), so "within 1%" is measured against the signal's own scale.
@@ -187,7 +196,9 @@ def test_pso_seeded_with_ls_reaches_ls_loss_or_better(gmc_data, rng):
     X, y = gmc_data
     y = y + rng.normal(0, 0.3, len(y))
     ls = GreyPSORegressor(calibration="ls").fit(X, y)
-    pso = GreyPSORegressor(random_state=0).fit(X, y)
+    pso = GreyPSORegressor(calibration="pso", alpha=0.0, init="ls", random_state=0).fit(
+        X, y
+    )
     assert pso.loss_ <= ls.loss_
     assert pso.history_[0] <= ls.loss_ * (1 + 1e-12)
 
@@ -231,7 +242,10 @@ def test_pso_beats_ls_when_tien_discretisation_is_biased(rng):
 
 def test_same_random_state_same_model(gmc_data):
     X, y = gmc_data
-    for est in (GreyPSORegressor(epochs=20, init="random"), GNNMCIRegressor(epochs=20)):
+    for est in (
+        GreyPSORegressor(calibration="pso", epochs=20, init="random"),
+        GNNMCIRegressor(epochs=20, init="random"),
+    ):
         a = clone(est).set_params(random_state=3).fit(X, y)
         b = clone(est).set_params(random_state=3).fit(X, y)
         c = clone(est).set_params(random_state=4).fit(X, y)
@@ -325,8 +339,9 @@ def test_run_predicted_alone_equals_inside_table(est, run_table):
     for name in ("r1", "r2", "r3"):
         mask = (run_table["run"] == name).to_numpy()
         np.testing.assert_array_equal(model.predict(run_table[mask]), together[mask])
-        alone = run_table[mask].drop(columns="run")  # one run, no labels needed
-        np.testing.assert_array_equal(model.predict(alone), together[mask])
+        alone = run_table[mask].drop(columns="run")  # one run, labels dropped
+        with pytest.warns(UserWarning, match="carry no run labels"):
+            np.testing.assert_array_equal(model.predict(alone), together[mask])
 
 
 def test_training_does_not_cross_run_boundaries(run_table):
@@ -418,3 +433,152 @@ def test_too_few_samples_for_least_squares(rng):
     assert np.isfinite(GreyPSORegressor(epochs=5, random_state=0).fit(X, y).loss_)
     with pytest.raises(ValueError, match="calibration"):
         GreyPSORegressor(calibration="newton").fit(X, y)
+
+
+# ------------------------------------------- variable projection and ridge
+
+
+def test_varpro_recovers_gmc_coefficients(gmc_data):
+    X, y = gmc_data
+    model = GreyPSORegressor(calibration="varpro", alpha=0.0).fit(X, y)
+    np.testing.assert_allclose(model.coef_, np.r_[B1, B, U], rtol=1e-5, atol=1e-7)
+    assert model.loss_ < 1e-12 * np.sum((y - y[0]) ** 2)
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.05])
+@pytest.mark.parametrize("init", ["random", "ls", "varpro"])
+def test_swarm_cannot_beat_varpro(rng, init, alpha):
+    """Variable projection is the global optimum of the swarm's objective."""
+    X = thermal_inputs(120, 2, rng)
+    y = gmc_series(X, 0.2, np.array([0.4, -0.3]), 0.05) + rng.normal(0, 0.2, 120)
+    vp = GreyPSORegressor(calibration="varpro", alpha=alpha).fit(X, y)
+    pso = GreyPSORegressor(
+        calibration="pso",
+        alpha=alpha,
+        init=init,
+        n_particles=40,
+        epochs=150,
+        random_state=0,
+    ).fit(X, y)
+    # history_ holds the objective with the ridge term, the one minimised.
+    assert pso.history_[-1] >= vp.history_[-1] * (1 - 1e-9)
+    if init == "varpro":  # seeded with it, the swarm ends where it started
+        assert pso.history_[-1] <= vp.history_[-1] * (1 + 1e-12)
+
+
+def test_ridge_path_equals_direct_solves(rng):
+    Phi = rng.normal(size=(3, 50, 4))
+    Phi[:, :, 1] = Phi[:, :, 0] + 1e-6 * rng.normal(size=(3, 50))  # collinear
+    y = rng.normal(size=50)
+    w = rng.uniform(0.5, 2.0, (3, 3))
+    gram = np.einsum("gnp,gnq->gpq", Phi, Phi)
+    rhs = np.einsum("gnp,n->gp", Phi, y)
+    c = _ridge_path(gram, rhs, w, [0.1, 2.0], free_last=True)
+    for g in range(3):
+        for a, alpha in enumerate([0.1, 2.0]):
+            pen = np.diag(np.r_[alpha * w[g] ** 2, 0.0])  # the last column is free
+            direct = np.linalg.solve(gram[g] + pen, rhs[g])
+            np.testing.assert_allclose(c[g, a], direct, rtol=1e-6, atol=1e-8)
+
+
+def test_ridge_shrinks_collinear_inputs(rng):
+    base = thermal_inputs(200, 1, rng)
+    X = base + rng.normal(0, 1e-3, (200, 6))  # six copies of one sensor
+    y = gmc_series(base, B1, np.array([0.3]), 0.0) + rng.normal(0, 0.05, 200)
+    free = GreyPSORegressor(alpha=0.0).fit(X, y)
+    ridge = GreyPSORegressor(alpha=1e-2).fit(X, y)
+    assert np.abs(ridge.coef_[1:-1]).max() < 0.1 * np.abs(free.coef_[1:-1]).max()
+    assert ridge.alpha_ == 1e-2
+    auto = GNNMCIRegressor(epochs=0).fit(X, y)
+    assert auto.alpha_ > 0 and auto.loss_ >= 0
+
+
+# ------------------------------------------------------------ run handling
+
+
+@pytest.mark.parametrize(
+    "est",
+    [
+        GreyPSORegressor(alpha=1e-3, delay=2),
+        GNNMCIRegressor(alpha=1e-3, epochs=5, random_state=0),
+    ],
+)
+@pytest.mark.filterwarnings("ignore:X does not have valid feature names")
+def test_later_part_of_a_training_run_continues_it(est, rng, tmp_path):
+    X = thermal_inputs(300, 3, rng)
+    y = gmc_series(X, B1, B, U)
+    df = pd.DataFrame(X, columns=["a", "b", "c"])
+    df.index = pd.MultiIndex.from_arrays(
+        [["r"] * 300, 15.0 * np.arange(300)], names=["run", "time_s"]
+    )
+    model = clone(est).fit(df.iloc[:180], y[:180])
+    whole = model.predict(df)  # the run again from its start
+    tail = model.predict(df.iloc[180:])  # continues the training run
+    np.testing.assert_allclose(tail, whole[180:], rtol=1e-9, atol=1e-9)
+    groups = np.array(["r"] * 120)  # without time: the first row tells
+    np.testing.assert_allclose(
+        model.predict(X[180:], groups=groups), whole[180:], rtol=1e-9, atol=1e-9
+    )
+    with pytest.raises(ValueError, match="neither at the start"):
+        model.predict(df.iloc[100:])
+    new = df.iloc[180:].rename(index={"r": "other"}, level="run")
+    with pytest.warns(UserWarning, match="not 0"):
+        model.predict(new)
+    with pytest.warns(UserWarning, match="carry no run labels"):
+        model.predict(X)
+    joblib.dump(model, tmp_path / "model.joblib")  # the run states travel along
+    loaded = joblib.load(tmp_path / "model.joblib")
+    np.testing.assert_array_equal(loaded.predict(df.iloc[180:]), tail)
+
+
+@pytest.mark.parametrize("est", [GreyPSORegressor(), GNNMCIRegressor(epochs=2)])
+def test_time_backwards_and_string_columns_rejected(est, rng):
+    X = thermal_inputs(20, 2, rng)
+    df = pd.DataFrame(X, columns=["t1", "t2"])
+    df.index = pd.MultiIndex.from_arrays(
+        [["r"] * 20, np.r_[0.0, 30.0, 15.0, 45 + 15.0 * np.arange(17)]],
+        names=["run", "time_s"],
+    )
+    with pytest.raises(ValueError, match="time_s must increase"):
+        clone(est).fit(df, X[:, 0])
+    good = df.reset_index(level="time_s", drop=True)
+    model = clone(est).fit(good, X[:, 0])
+    with pytest.raises(ValueError, match="time_s must increase"):
+        model.predict(df)
+    bad = good.astype({"t2": object})
+    bad.iloc[3, 1] = "hot"
+    with pytest.raises(ValueError, match=r"Column 't2' is not numeric.*'hot'"):
+        model.predict(bad)
+
+
+# ------------------------------------------------------------ real data
+
+DATA = Path(__file__).parents[1].parent / "shared" / "data"
+
+
+@pytest.mark.skipif(
+    not (DATA / "fl_thermal_spindle.csv.gz").exists(),
+    reason="FL_THERMAL data not found in ../shared/data",
+)
+def test_fl_thermal_not_worse_than_linear_regression():
+    """Chronological 60/40 split of a real 46 h spindle test, 16 temperatures.
+
+    Each channel's held-out RMSE (the whole record predicted as one run, the
+    first training displacement added back) must not exceed that of linear
+    regression; ``alpha="auto"`` chooses the ridge term on the training part.
+    """
+    from sklearn.linear_model import LinearRegression
+
+    from skthermal.datasets import load_fl_thermal
+
+    df = load_fl_thermal(DATA)
+    T = df[[f"T{i}_C" for i in range(1, 17)]].to_numpy()
+    k = int(0.6 * len(T))
+    ratios = {}
+    for ch in range(1, 6):
+        y = df[f"disp_ch{ch}_um"].to_numpy()
+        base = rmse(LinearRegression().fit(T[:k], y[:k]).predict(T[k:]), y[k:])
+        for est in (GreyPSORegressor(), GNNMCIRegressor(epochs=5, random_state=0)):
+            pred = est.fit(T[:k], y[:k]).predict(T) + y[0]
+            ratios[ch, type(est).__name__] = rmse(pred[k:], y[k:]) / base
+    assert max(ratios.values()) <= 1.0, ratios

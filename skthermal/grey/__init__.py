@@ -13,6 +13,7 @@ from skthermal.grey._gmc import (
 from skthermal.grey._models import GM11, gm0n, gm1n, gm11
 from skthermal.grey._regressors import GNNMCIRegressor, GreyPSORegressor
 from skthermal.grey._relational import grey_relational_grade
+from skthermal.grey._varpro import gmc1n_varpro
 
 __all__ = [
     "GM11",
@@ -25,6 +26,7 @@ __all__ = [
     "gm1n",
     "gmc1n",
     "gmc1n_predict",
+    "gmc1n_varpro",
     "gmc_time_response",
     "gnnmci_layers",
     "gnnmci_predict",

@@ -208,12 +208,17 @@ class _GMCObjective:
     Called with ``theta`` of shape (n_sets, n_inputs + 2), rows
     ``(b1, b_2..b_N, u)``, it returns one sum of squared errors per row, with
     no Python loop over the rows. ``runs`` is a list of ``(X1, y0)`` with
-    ``y0[0] == 0`` (changes since the start, so ``x_1^(1)(1) = 0``); the inputs
+    ``y0[0] == 0`` (changes since the start, so ``x_1^(1)(1) = 0``); with
+    ``alpha > 0`` the ridge term of variable projection is added; the inputs
     are re-laid out once here in the blocked time order of
     :func:`_convolution_blocked`, so every call runs entirely in that layout.
     """
 
-    def __init__(self, runs):
+    def __init__(self, runs, alpha=0.0, scale=None):
+        # Ridge term alpha sum_j (w_j(b1) b_j)^2 of variable projection; scale is its
+        # (input norms, mean run length).
+        self.alpha = float(alpha)
+        self.scale = scale
         self.runs = []
         for X1, y0 in runs:
             L, nb, order, valid, _ = _block_layout(X1.shape[0])
@@ -257,6 +262,9 @@ class _GMCObjective:
                 R[pad] = 0.0
                 R = R.reshape(L * nb, p)
                 sse += np.einsum("ij,ij->j", R, R)
+            if self.alpha > 0:
+                w = _gmc_penalty_weights(b1, *self.scale)
+                sse += self.alpha * np.einsum("ij,ij->i", w * b, w * b)
         return sse
 
 
@@ -520,3 +528,36 @@ def gnnmci_predict(X, weights, *, groups=None, relative=True, x1_first=0.0):
     ):
         out[sl] = iago(gnnmci_time_response(X1, weights, x0))
     return out
+
+
+# ------------------------------------------------------------------------------
+# The ridge term of the output-error calibration, shared by the swarm objective
+# above and by variable projection (skthermal.grey._varpro).
+
+
+def _static_gain(b1, n_mean):
+    """Gain from a sustained input change to the restored series, per ``b1``.
+
+    ``0.5 (1 + a) / (1 - a)`` with ``a = e^{-b1}`` is the steady-state gain of
+    the discrete response; ``1 / n_mean`` in the denominator caps it at the run
+    length for a near-integrator (``b1 n << 1``), which never settles in a run.
+    """
+    a = np.exp(-np.asarray(b1, dtype=float))
+    return 0.5 * (1.0 + a) / (1.0 - a + 1.0 / n_mean)
+
+
+def _penalty_scale(runs):
+    """Norm of each input's change since the run start and the mean run length."""
+    dX = np.concatenate([np.diff(X1, axis=0, prepend=0.0) for X1, _ in runs])
+    return np.linalg.norm(dX, axis=0), dX.shape[0] / len(runs)
+
+
+def _gmc_penalty_weights(b1, xnorm, n_mean):
+    """Ridge weights ``w_j(b1) = g(b1) ||dx_j||`` of shape (len(b1), n_inputs).
+
+    The penalty ``alpha sum_j (w_j b_j)^2`` is that of a ridge on unit-norm
+    columns (as :func:`gm0n`) for the *static* response ``g(b1) dx_j b_j``:
+    it shrinks what each input contributes to the prediction, in the target's
+    units, whatever ``b1`` is, so it does not favour slow (integrating) models.
+    """
+    return _static_gain(np.atleast_1d(b1), n_mean)[:, None] * xnorm[None, :]

@@ -13,7 +13,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
 
 from skthermal.grey._ago import iago
 from skthermal.grey._gmc import (
@@ -24,8 +24,18 @@ from skthermal.grey._gmc import (
     gmc_time_response,
     gnnmci_time_response,
 )
+from skthermal.grey._varpro import _gmc_varpro, _gnnmci_ridge
 from skthermal.optimize._pso import particle_swarm
-from skthermal.utils._runs import check_run_lengths, extract_runs, run_slices
+from skthermal.utils._runs import (
+    check_run_lengths,
+    check_time_order,
+    continued_runs,
+    extract_runs,
+    run_memory,
+    run_slices,
+    run_times,
+    warn_unlabelled_runs,
+)
 from skthermal.utils._threads import single_threaded_blas
 
 
@@ -79,18 +89,28 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
 
     def _runs_for_fit(self, X, y, groups):
         X, groups = extract_runs(X, groups)
+        check_time_order(X, groups)
+        slices, labels = run_slices(groups, _num_samples(X))
+        times = run_times(X, slices)
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, dtype=float)
-        slices, labels = run_slices(groups, X.shape[0])
         check_run_lengths(slices, labels, type(self).__name__)
-        return X, y, slices
+        return X, y, slices, run_memory(X, slices, labels, times)
 
     def _runs_for_predict(self, X, groups):
+        """Validated inputs, the runs and, per run, the state it continues."""
         check_is_fitted(self)
         X, groups = extract_runs(X, groups)
+        check_time_order(X, groups)
+        n = _num_samples(X)
+        slices, labels = run_slices(groups, n)
+        times = run_times(X, slices)
         X = validate_data(self, X, reset=False, dtype=np.float64)
-        slices, _ = run_slices(groups, X.shape[0])
-        return X, slices
+        name = type(self).__name__
+        warn_unlabelled_runs(name, len(self.run_states_) or None, groups, n)
+        cont = continued_runs(name, X, slices, labels, times, self.run_states_)
+        states = [None if lab is None else self.run_states_[lab] for lab in cont]
+        return X, slices, states
 
     def _swarm(self, objective, box, init, rng):
         return particle_swarm(
@@ -133,17 +153,19 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
             The fitted estimator.
         """
         self._validate_params()
-        X, y, slices = self._runs_for_fit(X, y, groups)
+        X, y, slices, memory = self._runs_for_fit(X, y, groups)
         # The matrix products of training are small (n_samples x n_features,
         # times n_particles per epoch): a multi-threaded BLAS only adds
         # synchronisation, several times their cost on a busy machine. As
         # scikit-learn's KMeans does, keep BLAS on one thread meanwhile.
         with single_threaded_blas():
-            return self._fit(X, y, slices)
+            self._fit(X, y, slices)
+        self.run_states_ = self._end_states(X, slices, memory)
+        return self
 
 
 class GreyPSORegressor(_GreyRunRegressor):
-    """Grey model with convolution integral GMC(1,N), calibrated by PSO or LS.
+    """Grey model with convolution integral GMC(1,N), calibrated on its output.
 
     The model (METHODS §7, 001 §3.6, 002 eq. 1-2) is the grey differential
     equation ``dx_1^(1)/dt + b1 x_1^(1) = sum_j b_j x_j^(1) + u`` on the 1-AGO of
@@ -153,10 +175,34 @@ class GreyPSORegressor(_GreyRunRegressor):
 
     Parameters
     ----------
-    calibration : {"pso", "ls"}, default="pso"
-        "pso" minimises the sum of squared errors of the restored series (after
-        IAGO) over all training runs with a particle swarm; "ls" is Tien's
-        least squares on the discretised equation (see :func:`gmc1n`).
+    calibration : {"varpro", "pso", "ls"}, default="varpro"
+        How the coefficients are found. "varpro" and "pso" minimise the papers'
+        objective, the sum of squared errors of the restored series (after
+        IAGO) over all training runs, plus the ridge term of ``alpha``.
+        "varpro" (variable projection) finds its global minimum: for a fixed
+        ``b1`` the restored series is linear in ``(b_2..b_N, u)``, so a grid of
+        ``b1`` values, each with a linear least-squares solve (all in one
+        batch), followed by a bounded scalar refinement of ``b1``, leaves
+        nothing for a swarm to improve. "pso" runs the papers' particle swarm
+        on the same objective, one particle starting from the variable
+        projection solution by default (see ``init``). "ls" is Tien's least
+        squares on the discretised equation (see :func:`gmc1n`). The papers'
+        own set-up is ``calibration="pso", alpha=0.0``.
+    alpha : float >= 0 or "auto", default="auto"
+        Ridge term ``alpha sum_j (g(b1) ||dx_j|| b_j)^2`` on the driving
+        coefficients, ``dx_j`` being the changes of input j since the run start
+        and ``g(b1) = 0.5 (1 + e^{-b1}) / (1 - e^{-b1} + 1/n)`` the response's
+        static gain: it shrinks what each input contributes to the prediction,
+        as a ridge on unit-norm columns, whatever the time constant (so it
+        does not favour slow, integrating models). Many collinear sensors
+        (temperatures that all follow the same heat) otherwise receive large
+        opposite coefficients that cancel on the training runs and not beyond.
+        "auto" chooses it on the training data only, from 0 and 1e-6..1e2, by
+        cross-validation of the restored series: leave-runs-out with several
+        training runs, forward chaining over 5 contiguous blocks with one run,
+        with the one-standard-error rule (see Notes). With
+        ``calibration="ls"`` a float is the ridge of :func:`gmc1n` and "auto"
+        means Tien's plain least squares (0).
     n_particles : int, default=90
         Swarm size (001 used 90).
     epochs : int, default=100
@@ -173,20 +219,23 @@ class GreyPSORegressor(_GreyRunRegressor):
         taken equal to it (the machine at rest before the run).
     bounds : "auto" or array-like of shape (n_features + 2, 2), default="auto"
         Search box of ``(b1, b_2..b_N, u)``. "auto" centres it on the
-        least-squares solution: ``b1`` in ``[0, max(4 b1_LS, 10 / n)]``, each
-        ``b_j`` in ``b_j,LS ± (2 |b_j,LS| + (b1_max + 1/n) s_y / s_j)``, ``u`` in
-        ``u_LS ± (2 |u_LS| + s_y)``, with ``n`` the mean run length and ``s_y``,
+        variable-projection solution ``(b1*, b*, u*)``: ``b1`` in
+        ``[0, max(4 b1*, 10 / n)]``, each ``b_j`` in
+        ``b*_j ± (2 |b*_j| + (b1_max + 1/n) s_y / s_j)``, ``u`` in
+        ``u* ± (2 |u*| + s_y)``, with ``n`` the mean run length and ``s_y``,
         ``s_j`` the root-mean-square changes (since the run start) of the target
         and of input j. ``(b1 + 1/n) s_y / s_j`` is the size of a coefficient
         that moves the restored series by the target's own scale, both for a
         slow model (``b1 n << 1``, the response integrates ``f``) and a fast
         one (``b1 n >> 1``, the response follows ``f / b1``). The lower bound of
-        ``b1`` must be ``>= 0`` (stable models only). Ignored when
-        ``calibration="ls"``.
-    init : {"ls", "random"}, default="ls"
-        "ls" starts one particle at the least-squares solution (so the swarm's
-        training loss is never worse than that of least squares); "random"
-        starts every particle uniformly in the box.
+        ``b1`` must be ``>= 0`` (stable models only). With
+        ``calibration="varpro"`` only the range of ``b1`` is used (the search
+        grid spans it); ignored when ``calibration="ls"``.
+    init : {"varpro", "ls", "random"}, default="varpro"
+        Start of the swarm (``calibration="pso"``): one particle at the
+        variable-projection solution (the swarm's loss is then that of
+        "varpro", which it cannot improve), or at Tien's least-squares
+        solution, or every particle uniformly in the box ("random").
     random_state : int, RandomState instance or None, default=None
         Seeds the swarm; the same seed gives the same coefficients.
 
@@ -195,13 +244,21 @@ class GreyPSORegressor(_GreyRunRegressor):
     coef_ : ndarray of shape (n_features + 2,)
         ``(b1, b_2, ..., b_N, u)``: the development coefficient, one driving
         coefficient per input, the grey control parameter.
+    alpha_ : float
+        The ridge term used (chosen by cross-validation for ``alpha="auto"``).
     loss_ : float
-        Sum of squared errors of the restored series on the training runs.
+        Sum of squared errors of the restored series on the training runs
+        (without the ridge term).
     history_ : ndarray
-        Best loss after the initial swarm and after every epoch (one entry for
-        ``calibration="ls"``).
+        Best objective (with the ridge term) after the initial swarm and after
+        every epoch (one entry for "varpro" and "ls").
     n_iter_ : int
-        Epochs run (0 for least squares).
+        Epochs run (0 for "varpro" and "ls").
+    run_states_ : dict
+        Per run label seen in ``fit``: what continuing that run in ``predict``
+        needs (its length, first inputs, first and last ``time_s``, the
+        accumulated inputs and the convolution integral at its last row, its
+        last ``delay`` inputs). Empty when ``fit`` got no run labels.
     n_features_in_ : int
         Number of input series seen in ``fit``.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -211,6 +268,7 @@ class GreyPSORegressor(_GreyRunRegressor):
     --------
     GNNMCIRegressor : The grey neural network GNNMCI(1,N).
     skthermal.grey.gmc1n : Least-squares calibration as a plain function.
+    skthermal.grey.gmc1n_varpro : Variable projection as a plain function.
     skthermal.optimize.particle_swarm : The optimiser.
 
     Notes
@@ -233,13 +291,39 @@ class GreyPSORegressor(_GreyRunRegressor):
     ``run`` column or index level: ``groups`` passed to ``cross_validate`` reach
     the splitter, not ``predict``).
 
+    *Runs across fit and predict.* A run label seen in ``fit`` continues that
+    run in ``predict``: after a chronological split of a labelled table (e.g.
+    from :func:`skthermal.datasets.split_runs`), ``predict`` on the later rows
+    gives what predicting the whole run would give on them, from the state
+    kept in ``run_states_`` (the change since the run's first *training*
+    sample). A labelled run whose first row is the run's first training row
+    (same first ``time_s``; without a time index, same first inputs) is
+    predicted again from its start, so training rows can be re-predicted; one
+    whose first ``time_s`` is inside or before the span seen in ``fit`` is an
+    error. Without a time index, rows of a seen run that do not start with its
+    first training row are taken to follow its last one. A run not seen in
+    ``fit`` starts at its first row, with a warning if its ``time_s`` does not
+    start at 0. Rows without run labels given to a model fitted on labelled
+    runs are taken as one new run, with a warning (plain arrays fitted without
+    labels stay silent: one run each time). ``time_s`` must increase strictly
+    within a run, in ``fit`` and in ``predict``.
+
     Tien's least squares fits the trapezoidal (Tustin) discretisation of the
     equation, one step at a time (an equation error), while the prediction
     integrates it with ``e^{-b1}`` over the whole run (an output error). With
     noise on the target, or fast dynamics, the two optima differ and the swarm,
     which fits the prediction itself, is the better calibration (001 Table 6-4:
-    RMSE 3.16 versus 7.26 µm). The objective is evaluated for the whole swarm
-    in one call, vectorised over the particles.
+    RMSE 3.16 versus 7.26 µm). Variable projection minimises that same
+    objective exactly; the swarm remains to reproduce the papers, and its
+    objective is evaluated for the whole swarm in one call, vectorised over
+    the particles.
+
+    With ``alpha="auto"`` the cross-validation simulates the model through the
+    held-out rows from the inputs alone (an output-error model uses no target
+    value there) and scores it on them; with one training run each of its
+    later blocks is predicted by a model fitted on the blocks before it, as a
+    chronological split asks. Among the ``alpha`` values whose mean held-out
+    error is within one standard error of the best, the largest is taken.
 
     References: A. M. Abdulshahed, PhD thesis (2015), §3.6 and Table 6-4;
     Abdulshahed et al., GNNMCI(1,N) for environmental thermal error (2015).
@@ -251,25 +335,36 @@ class GreyPSORegressor(_GreyRunRegressor):
     >>> t = np.arange(300.0)
     >>> X = np.c_[20 + 6 * (1 - np.exp(-t / 60)), 21 + 3 * (1 - np.exp(-t / 150))]
     >>> y = 4.0 * (X[:, 0] - 20) + 2.5 * (X[:, 1] - 21)
-    >>> model = GreyPSORegressor(n_particles=30, epochs=40, random_state=0)
-    >>> model.fit(X[:100], y[:100]).coef_.shape
+    >>> model = GreyPSORegressor().fit(X[:100], y[:100])
+    >>> model.coef_.shape
     (4,)
     >>> pred = model.predict(X)  # change since the run's first sample
     >>> bool(np.sqrt(np.mean((pred - y) ** 2)) < 0.05 * np.ptp(y))
+    True
+
+    With run labels, ``predict`` continues a run seen in ``fit``:
+
+    >>> run = np.full(300, "test-1")
+    >>> model.fit(X[:100], y[:100], groups=run[:100])  # doctest: +ELLIPSIS
+    GreyPSORegressor(...)
+    >>> tail = model.predict(X[100:], groups=run[100:])
+    >>> bool(np.allclose(tail, model.predict(X, groups=run)[100:]))
     True
     """
 
     _parameter_constraints: dict = {
         **_GreyRunRegressor._parameter_constraints,
-        "calibration": [StrOptions({"pso", "ls"})],
+        "calibration": [StrOptions({"varpro", "pso", "ls"})],
+        "alpha": [Interval(Real, 0, None, closed="left"), StrOptions({"auto"})],
         "delay": [Interval(Integral, 0, None, closed="left")],
-        "init": [StrOptions({"ls", "random"})],
+        "init": [StrOptions({"varpro", "ls", "random"})],
     }
 
     def __init__(
         self,
         *,
-        calibration="pso",
+        calibration="varpro",
+        alpha="auto",
         n_particles=90,
         epochs=100,
         c1=2.0,
@@ -278,10 +373,11 @@ class GreyPSORegressor(_GreyRunRegressor):
         velocity_clamp=None,
         delay=0,
         bounds="auto",
-        init="ls",
+        init="varpro",
         random_state=None,
     ):
         self.calibration = calibration
+        self.alpha = alpha
         self.n_particles = n_particles
         self.epochs = epochs
         self.c1 = c1
@@ -302,42 +398,91 @@ class GreyPSORegressor(_GreyRunRegressor):
                 f"Too few samples for {X.shape[1]} input series: least squares has "
                 f"{n_coef} unknowns but only {n_eq} equations (one per sample after "
                 f"the first of each run; {X.shape[0]} samples in {len(slices)} "
-                "run(s)). Use more samples, fewer inputs or calibration='pso'."
+                "run(s)). Use more samples, fewer inputs or calibration='varpro'."
             )
-        theta_ls = _tien_ls(runs)
-        objective = _GMCObjective(runs)
+        user_box = (
+            None
+            if isinstance(self.bounds, str)
+            else _user_box(self.bounds, n_coef, "(b1, b_2..b_N, u)")
+        )
         if self.calibration == "ls":
-            theta = theta_ls
+            alpha = 0.0 if isinstance(self.alpha, str) else float(self.alpha)
+            theta = _tien_ls(runs, alpha)
+            self.alpha_ = alpha
+            objective = _GMCObjective(runs)
             self.n_iter_ = 0
             self.history_ = objective(theta[None, :])
         else:
-            box = (
-                self._auto_box(theta_ls, runs)
-                if isinstance(self.bounds, str)
-                else _user_box(self.bounds, n_coef, "(b1, b_2..b_N, u)")
+            b1_bounds = None if user_box is None else user_box[0]
+            theta_vp, self.alpha_, scale = _gmc_varpro(
+                runs, self.alpha, b1_bounds=b1_bounds
             )
-            init = theta_ls if self.init == "ls" else None
-            rng = check_random_state(self.random_state)
-            res = self._swarm(objective, box, init, rng)
-            theta = res.x
-            self.n_iter_ = res.nit
-            self.history_ = res.history
+            objective = _GMCObjective(runs, alpha=self.alpha_, scale=scale)
+            if self.calibration == "varpro":
+                theta = theta_vp
+                self.n_iter_ = 0
+                self.history_ = objective(theta[None, :])
+            else:
+                seed = {"varpro": theta_vp, "ls": _tien_ls(runs), "random": None}[
+                    self.init
+                ]
+                box = self._auto_box(theta_vp, runs) if user_box is None else user_box
+                rng = check_random_state(self.random_state)
+                res = self._swarm(objective, box, seed, rng)
+                theta = res.x
+                self.n_iter_ = res.nit
+                self.history_ = res.history
         self.coef_ = np.asarray(theta, dtype=float)
-        self.loss_ = float(objective(self.coef_[None, :])[0])
+        self.loss_ = float(_GMCObjective(runs)(self.coef_[None, :])[0])
         return self
 
     @staticmethod
-    def _auto_box(theta_ls, runs):
+    def _auto_box(theta, runs):
         n_mean, s_y, s_x = _run_stats(runs)
-        b1_max = max(4.0 * theta_ls[0], 10.0 / n_mean)
+        b1_max = max(4.0 * theta[0], 10.0 / n_mean)
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(s_x > 0, (b1_max + 1.0 / n_mean) * s_y / s_x, 1.0)
-        half = np.r_[2 * np.abs(theta_ls[1:-1]) + scale, 2 * abs(theta_ls[-1]) + s_y]
-        centre = theta_ls[1:]
+        half = np.r_[2 * np.abs(theta[1:-1]) + scale, 2 * abs(theta[-1]) + s_y]
+        centre = theta[1:]
         return np.vstack([[0.0, b1_max], np.c_[centre - half, centre + half]])
+
+    def _end_states(self, X, slices, memory):
+        """Per labelled run: what continuing it needs (see :meth:`predict`)."""
+        b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
+        d = self.delay
+        for sl, state in zip(slices, memory.values(), strict=False):
+            Xr = X[sl]
+            ((X1, _),) = _model_runs(None, Xr, [slice(0, Xr.shape[0])], delay=d)
+            ind = gmc_time_response(X1, b1, b, u)
+            idx = np.maximum(np.arange(Xr.shape[0] - d, Xr.shape[0]), 0)
+            state.update(
+                X1_end=X1[-1],
+                I_end=float(ind[-1]),
+                f_end=float(X1[-1] @ b + u),
+                tail=Xr[idx],
+            )
+        return memory
+
+    def _continue(self, X, state):
+        """Restored series of rows that follow the training rows of a run."""
+        b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
+        d = self.delay
+        Xd = np.vstack([state["tail"], X])[: X.shape[0]] if d else X
+        X1 = state["X1_end"] + np.cumsum(Xd - state["x_first"], axis=0)
+        J = gmc_time_response(X1, b1, b, u)  # convolution from zero at row 1
+        a = np.exp(-b1)
+        i1 = a * state["I_end"] + 0.5 * (a * state["f_end"] + X1[0] @ b + u)
+        with np.errstate(under="ignore"):
+            ind = J + i1 * a ** np.arange(X.shape[0], dtype=float)
+        return np.diff(ind, prepend=state["I_end"])
 
     def predict(self, X, groups=None):
         """Predicted change of the target since the first sample of each run.
+
+        A run whose label was seen in ``fit`` *continues* that run: rows that
+        come after its training rows are predicted from the state at the end of
+        them (change since the first training sample), so the later part of a
+        run can be predicted alone. See Notes for the rules.
 
         Parameters
         ----------
@@ -349,15 +494,19 @@ class GreyPSORegressor(_GreyRunRegressor):
         Returns
         -------
         y_pred : ndarray of shape (n_samples,)
-            Zero on the first sample of every run.
+            Zero on the first sample of every run predicted from its start.
         """
-        X, slices = self._runs_for_predict(X, groups)
+        X, slices, states = self._runs_for_predict(X, groups)
         b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
         out = np.empty(X.shape[0])
-        for (X1, _), sl in zip(
-            _model_runs(None, X, slices, delay=self.delay), slices, strict=True
-        ):
-            out[sl] = iago(gmc_time_response(X1, b1, b, u))
+        for sl, state in zip(slices, states, strict=True):
+            if state is None:
+                ((X1, _),) = _model_runs(
+                    None, X[sl], [slice(0, sl.stop - sl.start)], delay=self.delay
+                )
+                out[sl] = iago(gmc_time_response(X1, b1, b, u))
+            else:
+                out[sl] = self._continue(X[sl], state)
         return out
 
 
@@ -393,7 +542,19 @@ class GNNMCIRegressor(_GreyRunRegressor):
         the run start) of the target and of input j; ``s_y / s_j`` is the weight
         with which input j alone would reproduce the target's scale. Collinear
         inputs can need larger weights: if a weight ends on the wall of the
-        box, pass wider bounds. The lower bound of ``w11`` must be ``>= 0``.
+        box, pass wider bounds; the box always holds the ridge solution (see
+        ``init``). The lower bound of ``w11`` must be ``>= 0``.
+    alpha : float >= 0 or "auto", default="auto"
+        Ridge term ``alpha sum_j (||dx_j|| w2j)^2`` added to the swarm's
+        objective, ``dx_j`` being the changes of input j since the run start
+        (a ridge on unit-norm columns): it keeps collinear sensors from
+        receiving large opposite weights. "auto" chooses it on the training
+        data only by cross-validation, as :class:`GreyPSORegressor` does.
+        ``alpha=0.0`` is the papers' objective.
+    init : {"ridge", "random"}, default="ridge"
+        Start of the swarm: one particle at the exact minimiser of the
+        objective (a ridge regression, see Notes), the others uniformly in the
+        box; or every particle uniformly in the box ("random", as the papers).
     random_state : int, RandomState instance or None, default=None
         Seeds the swarm; the same seed gives the same weights.
 
@@ -402,12 +563,20 @@ class GNNMCIRegressor(_GreyRunRegressor):
     weights_ : ndarray of shape (n_features + 2,)
         ``(w11, w2_2, ..., w2_{N-1}, w2N)``: the development weight, one weight
         per input, the constant weight.
+    alpha_ : float
+        The ridge term used (chosen by cross-validation for ``alpha="auto"``).
     loss_ : float
-        Sum of squared errors of the restored series on the training runs.
+        Sum of squared errors of the restored series on the training runs
+        (without the ridge term).
     history_ : ndarray of shape (n_iter_ + 1,)
-        Best loss after the initial swarm and after every epoch.
+        Best objective (with the ridge term) after the initial swarm and after
+        every epoch.
     n_iter_ : int
         Epochs run.
+    run_states_ : dict
+        Per run label seen in ``fit``: what continuing that run in ``predict``
+        needs (its length, first inputs, first and last ``time_s``). Empty
+        when ``fit`` got no run labels.
     n_features_in_ : int
         Number of input series seen in ``fit``.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -437,14 +606,19 @@ class GNNMCIRegressor(_GreyRunRegressor):
     run is predicted alone or inside a table of several runs, and
     ``cross_validate`` with ``GroupKFold`` over runs is correct when the runs
     travel with the rows (a ``run`` column or index level: ``groups`` passed to
-    ``cross_validate`` reach the splitter, not ``predict``).
+    ``cross_validate`` reach the splitter, not ``predict``). A run label seen in
+    ``fit`` continues that run in ``predict``, with the rules and warnings
+    described in the Notes of :class:`GreyPSORegressor`.
 
     With the target taken as its change since the run start,
     ``x_1^(1)(1) = 0``: the ``e^{-w11 k}`` term vanishes, ``w11`` no longer
     affects the predictions, and after IAGO the network is the linear model
     ``xhat_1^(0)(k) = sum_j w2j (x_j(k) - x_j(1))`` for k >= 2 (``w2N`` only
     sets the first sample, where the target is 0). The swarm still trains
-    ``w11`` as in the papers. The seeds print the bias ``theta`` with
+    ``w11`` as in the papers. The objective, with the ridge term, is then a
+    ridge regression without intercept whose exact solution (``w2N = 0``)
+    seeds the swarm by default, so the swarm cannot end worse than it. The
+    seeds print the bias ``theta`` with
     ``x_1^(1)(k+1)``, the target itself; METHODS §8 reads it as the initial
     value, which is what is implemented.
 
@@ -466,6 +640,12 @@ class GNNMCIRegressor(_GreyRunRegressor):
     True
     """
 
+    _parameter_constraints: dict = {
+        **_GreyRunRegressor._parameter_constraints,
+        "alpha": [Interval(Real, 0, None, closed="left"), StrOptions({"auto"})],
+        "init": [StrOptions({"ridge", "random"})],
+    }
+
     def __init__(
         self,
         *,
@@ -476,8 +656,12 @@ class GNNMCIRegressor(_GreyRunRegressor):
         inertia=(0.9, 0.4),
         velocity_clamp=1.5,
         bounds="auto",
+        alpha="auto",
+        init="ridge",
         random_state=None,
     ):
+        self.alpha = alpha
+        self.init = init
         self.n_particles = n_particles
         self.epochs = epochs
         self.c1 = c1
@@ -490,25 +674,46 @@ class GNNMCIRegressor(_GreyRunRegressor):
     def _fit(self, X, y, slices):
         runs = _model_runs(y, X, slices)
         n_w = X.shape[1] + 2
+        seed, self.alpha_, xnorm = _gnnmci_ridge(runs, self.alpha)
         if isinstance(self.bounds, str):
             _, s_y, s_x = _run_stats(runs)
             with np.errstate(divide="ignore", invalid="ignore"):
                 half = np.where(s_x > 0, 3.0 * s_y / s_x, 1.0)
+            # Collinear inputs can need larger weights than one input alone:
+            # the box always holds the ridge solution with room around it.
+            half = np.maximum(half, 2.0 * np.abs(seed[1:-1]))
             box = np.vstack(
                 [[0.0, 1.0], np.column_stack([-half, half]), [-2 * s_y, 2 * s_y]]
             )
+            seed[0] = 0.5
         else:
             box = _user_box(self.bounds, n_w, "(w11, w2_2..w2_{N-1}, w2N)")
+        alpha = self.alpha_
+
+        def objective(W):
+            loss = _gnnmci_sse(W, runs)
+            if alpha > 0:
+                loss += alpha * np.sum((W[:, 1:-1] * xnorm) ** 2, axis=1)
+            return loss
+
         rng = check_random_state(self.random_state)
-        res = self._swarm(lambda W: _gnnmci_sse(W, runs), box, None, rng)
+        init = seed if self.init == "ridge" else None
+        res = self._swarm(objective, box, init, rng)
         self.weights_ = res.x
-        self.loss_ = res.fun
+        self.loss_ = float(_gnnmci_sse(res.x[None, :], runs)[0])
         self.history_ = res.history
         self.n_iter_ = res.nit
         return self
 
+    def _end_states(self, X, slices, memory):
+        # The restored series of a continued run needs only its first row.
+        return memory
+
     def predict(self, X, groups=None):
         """Predicted change of the target since the first sample of each run.
+
+        A run whose label was seen in ``fit`` *continues* that run (see the
+        Notes of :class:`GreyPSORegressor` for the rules).
 
         Parameters
         ----------
@@ -521,8 +726,12 @@ class GNNMCIRegressor(_GreyRunRegressor):
         -------
         y_pred : ndarray of shape (n_samples,)
         """
-        X, slices = self._runs_for_predict(X, groups)
+        X, slices, states = self._runs_for_predict(X, groups)
         out = np.empty(X.shape[0])
-        for (X1, _), sl in zip(_model_runs(None, X, slices), slices, strict=True):
-            out[sl] = iago(gnnmci_time_response(X1, self.weights_))
+        for sl, state in zip(slices, states, strict=True):
+            if state is None:
+                ((X1, _),) = _model_runs(None, X[sl], [slice(0, sl.stop - sl.start)])
+                out[sl] = iago(gnnmci_time_response(X1, self.weights_))
+            else:
+                out[sl] = (X[sl] - state["x_first"]) @ self.weights_[1:-1]
         return out

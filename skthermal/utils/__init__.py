@@ -2,9 +2,24 @@
 
 from skthermal.utils._runs import (
     changes_since_start,
+    check_numeric_columns,
     check_time_order,
+    continued_runs,
     extract_runs,
+    run_memory,
     run_slices,
+    run_times,
+    warn_unlabelled_runs,
 )
 
-__all__ = ["changes_since_start", "check_time_order", "extract_runs", "run_slices"]
+__all__ = [
+    "changes_since_start",
+    "check_numeric_columns",
+    "check_time_order",
+    "continued_runs",
+    "extract_runs",
+    "run_memory",
+    "run_slices",
+    "run_times",
+    "warn_unlabelled_runs",
+]

@@ -85,6 +85,12 @@ def extract_runs(X, groups=None):
     X : array-like
         ``X`` without a ``run`` column.
     groups : ndarray of shape (n_samples,) or None
+
+    Raises
+    ------
+    ValueError
+        If a feature column of a DataFrame is not numeric (naming the column
+        and an offending value).
     """
     columns = getattr(X, "columns", None)
     has_column = columns is not None and RUN_COLUMN in list(columns)
@@ -98,6 +104,7 @@ def extract_runs(X, groups=None):
         names = getattr(index, "names", None)
         if names is not None and RUN_COLUMN in names:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
+    check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
     return X, groups
@@ -168,3 +175,180 @@ def check_run_lengths(slices, labels, what, min_samples=2):
                 f"{run} has only {got} (rows {sl.start}-{sl.stop - 1}); {what} "
                 f"needs at least {min_samples} samples per run."
             )
+
+
+def warn_unlabelled_runs(name, n_fitted_runs, groups, n_samples):
+    """Warn when a model fitted on labelled runs gets rows without run labels.
+
+    A sequence model (its prediction for a row depends on the earlier rows of
+    the run) fitted on a ``split_runs`` DataFrame knows where each run starts;
+    given the same rows as a plain array it would treat them all as one run
+    starting at the first row, and predict something different without a word.
+
+    Parameters
+    ----------
+    name : str
+        The estimator's class name, for the message.
+    n_fitted_runs : int or None
+        Number of labelled runs seen in ``fit``; ``None`` when ``fit`` got no
+        run labels (then nothing is checked).
+    groups : array-like or None
+        The run labels found for the rows being predicted.
+    n_samples : int
+        Number of rows being predicted.
+    """
+    if n_fitted_runs is None or groups is not None:
+        return
+    import warnings
+
+    warnings.warn(
+        f"{name} was fitted on {n_fitted_runs} labelled run(s), but the {n_samples} "
+        "rows given now carry no run labels, so they are taken as ONE run that "
+        "starts at the first row. Pass the run labels: groups=..., a 'run' "
+        "column, or the (run, time_s) index that skthermal.datasets.split_runs "
+        "makes.",
+        UserWarning,
+        stacklevel=3,
+    )
+
+
+def check_numeric_columns(X):
+    """Raise a ValueError naming the first non-numeric column of a DataFrame.
+
+    Numeric and boolean columns pass, as do object columns whose every value
+    converts to a number; anything else (a sensor column holding ``"hot"``) is
+    reported with its column name, the row and the offending value, before
+    numpy would fail with a message that names neither. Plain arrays are left
+    to :func:`sklearn.utils.validation.validate_data`.
+    """
+    columns = getattr(X, "columns", None)
+    dtypes = getattr(X, "dtypes", None)
+    if columns is None or dtypes is None:
+        return
+    import pandas as pd
+
+    for name, dtype in zip(columns, dtypes, strict=True):
+        if pd.api.types.is_bool_dtype(dtype) or pd.api.types.is_numeric_dtype(dtype):
+            continue
+        col = X[name]
+        converted = pd.to_numeric(col, errors="coerce")
+        bad = converted.isna().to_numpy() & col.notna().to_numpy()
+        if not bad.any():
+            continue
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"Column {name!r} is not numeric: row {i} (index {col.index[i]!r}) "
+            f"holds {col.iloc[i]!r}. Every feature column must hold numbers; "
+            "convert or drop this column before fitting or predicting."
+        )
+
+
+def run_times(X, slices):
+    """First and last ``time_s`` of each run, or None without a time index level.
+
+    Returns
+    -------
+    ndarray of shape (n_runs, 2) or None
+    """
+    index = getattr(X, "index", None)
+    names = getattr(index, "names", None)
+    if names is None or TIME_COLUMN not in names:
+        return None
+    t = np.asarray(index.get_level_values(TIME_COLUMN), dtype=float)
+    return np.array([[t[sl.start], t[sl.stop - 1]] for sl in slices]).reshape(-1, 2)
+
+
+def run_memory(X, slices, labels, times):
+    """What a sequence model keeps of each labelled training run, to continue it.
+
+    Returns a dict ``label -> {"n", "x_first", "t_first", "t_last"}`` for every
+    labelled run (rows without labels are one anonymous run, never continued):
+    the number of rows, the first row of inputs and the first and last
+    ``time_s`` (NaN without a time index). A model adds its own end state.
+    """
+    memory = {}
+    for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
+        if lab is None:
+            continue
+        t0, t1 = (np.nan, np.nan) if times is None else times[r]
+        memory[lab] = {
+            "n": sl.stop - sl.start,
+            "x_first": np.array(X[sl.start], dtype=float),
+            "t_first": float(t0),
+            "t_last": float(t1),
+        }
+    return memory
+
+
+def continued_runs(name, X, slices, labels, times, memory):
+    """Which predicted runs continue a training run: its label, else None.
+
+    The rules, shared by the sequence models (documented in their
+    docstrings):
+
+    - a run whose label was seen in ``fit`` continues that run, so its rows
+      are predicted as the samples after the last training row, unless it
+      starts where the training run started (same first ``time_s``, or,
+      without a time index, the same first row of inputs): then the run is
+      predicted again from its start;
+    - a labelled run whose first ``time_s`` is neither the first one seen in
+      ``fit`` nor after the last one is an error: neither reading is right;
+    - a run that is not continued starts at its first row; if its ``time_s``
+      does not start at 0, a warning says so (the later part of a run given
+      without its start is otherwise predicted as a run of its own).
+
+    Parameters
+    ----------
+    name : str
+        The estimator's class name, for the messages.
+    X : ndarray of shape (n_samples, n_features)
+        The validated inputs.
+    slices, labels
+        The predicted runs, as from :func:`run_slices`.
+    times : ndarray of shape (n_runs, 2) or None
+        From :func:`run_times`.
+    memory : dict
+        From :func:`run_memory` at fit time.
+
+    Returns
+    -------
+    list of the label to continue (or None) per predicted run.
+    """
+    import warnings
+
+    out = []
+    for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
+        state = memory.get(lab) if lab is not None else None
+        t0 = None if times is None else float(times[r, 0])
+        if state is not None:
+            if t0 is not None and np.isfinite(state["t_first"]):
+                if t0 == state["t_first"]:
+                    out.append(None)
+                    continue
+                if t0 <= state["t_last"]:
+                    raise ValueError(
+                        f"Run {lab!r} starts at time_s={t0:g}, neither at the "
+                        f"start of the span {state['t_first']:g}-"
+                        f"{state['t_last']:g} seen in fit nor after it. "
+                        f"{name} predicts a run either from its start or after "
+                        "the end of its training rows: pass the run from its "
+                        "start, or only its rows after the training ones."
+                    )
+                out.append(lab)
+                continue
+            same_start = np.array_equal(X[sl.start], state["x_first"])
+            out.append(None if same_start else lab)
+            continue
+        out.append(None)
+        if t0 is not None and t0 != 0:
+            run = "The rows" if lab is None else f"Run {lab!r}"
+            warnings.warn(
+                f"{run} given to {name}.predict start(s) at time_s={t0:g}, not 0, "
+                "and continue(s) no run seen in fit, so they are predicted as a "
+                "run that starts at their first row. To predict the later part "
+                "of a training run, keep its run label (the model continues "
+                "it); otherwise pass the run from its start.",
+                UserWarning,
+                stacklevel=3,
+            )
+    return out

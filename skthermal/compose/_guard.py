@@ -1,0 +1,707 @@
+"""Input-range and sensor-fault guard for a deployed compensation model.
+
+A compensation model's output moves a machine axis, so a broken sensor must
+not turn into an absurd correction. :class:`GuardedRegressor` wraps any
+regressor, records during ``fit`` the range each input and the output took in
+training, how far each sensor moved from one sample to the next and how long
+it stayed unchanged, and checks every later prediction against them: readings
+outside the (widened) training range, sensors that jump or flat-line, and
+predictions outside a plausible band are reported with the sensor, the run and
+the time, and in a safe mode clipped or held.
+"""
+
+import inspect
+import warnings
+from numbers import Integral, Real
+
+import numpy as np
+import pandas as pd
+from sklearn.base import (
+    BaseEstimator,
+    MetaEstimatorMixin,
+    RegressorMixin,
+    _fit_context,
+    clone,
+)
+from sklearn.utils import get_tags
+from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from skthermal.utils._runs import RUN_COLUMN, TIME_COLUMN, extract_runs, run_slices
+
+
+class GuardWarning(UserWarning):
+    """Base class of the warnings of :class:`GuardedRegressor`.
+
+    ``warnings.simplefilter("error", GuardWarning)`` turns all of them into
+    errors.
+    """
+
+
+class SensorRangeWarning(GuardWarning):
+    """An input is outside the range it took in training (widened by ``span``)."""
+
+
+class SensorFaultWarning(GuardWarning):
+    """A sensor jumps, flat-lines or (``mode="hold"``) reads NaN or infinity."""
+
+
+class PredictionRangeWarning(GuardWarning):
+    """A prediction is outside the plausible band of the training output."""
+
+
+# Fault kinds, in the order they are reported.
+_KINDS = ("missing", "range", "jump", "flat")
+_MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
+
+
+def _run_starts(groups, n):
+    """The first row of the run of every row (all rows one run without groups)."""
+    slices, _ = run_slices(groups, n)
+    return np.repeat(
+        np.array([s.start for s in slices], dtype=int),
+        [s.stop - s.start for s in slices],
+    )
+
+
+def _steps(A, first):
+    """Change of every column since the previous row of the same run (0 at starts)."""
+    d = np.zeros_like(A)
+    d[1:] = A[1:] - A[:-1]
+    d[first] = 0.0
+    return d
+
+
+def _unchanged(A, first):
+    """How many earlier readings of the same run equal each reading, in a row."""
+    same = np.zeros(A.shape, dtype=bool)
+    same[1:] = A[1:] == A[:-1]
+    same[first] = False
+    count = np.cumsum(same, axis=0)
+    return count - np.maximum.accumulate(np.where(same, 0, count), axis=0)
+
+
+def _last_good(bad, start):
+    """Row of the last good entry at or before each row in its run, or -1.
+
+    ``bad`` is (n,) or (n, p); ``start`` the first row of every row's run.
+    """
+    rows = np.arange(bad.shape[0]).reshape(-1, *([1] * (bad.ndim - 1)))
+    last = np.maximum.accumulate(np.where(bad, -1, rows), axis=0)
+    start = start.reshape(rows.shape)
+    return np.where(last >= start, last, -1)
+
+
+def _limits(low, high, margin):
+    """``[low, high]`` widened by ``margin`` times its width (or its size if 0)."""
+    width = high - low
+    scale = np.where(width > 0, width, np.maximum(np.abs(high), 1.0))
+    return low - margin * scale, high + margin * scale
+
+
+def _accepts_groups(method):
+    try:
+        return "groups" in inspect.signature(method).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
+    """Regressor that checks its inputs and outputs against the training data.
+
+    The way to ship a compensation model: wrap the fitted pipeline (or any
+    regressor) so that a broken or drifting sensor is reported, with the
+    sensor, the run and the time, before its reading becomes an absurd
+    correction. ``fit`` fits a clone of ``estimator`` and records, for every
+    input (by feature name) and every output, its training range; for every
+    input also the largest change from one sample to the next and the
+    longest stretch of unchanged readings within a run. ``predict`` then
+    flags
+
+    - *out of range*: a reading beyond the training range by more than
+      ``span`` times its width (:class:`SensorRangeWarning`);
+    - *jump*: a change from the previous sample of the run larger than
+      ``jump`` times the largest change seen in training
+      (:class:`SensorFaultWarning`);
+    - *flat-line*: a sensor that moved in training but gives the same reading
+      for ``flat`` samples in a row (:class:`SensorFaultWarning`);
+    - *prediction out of band*: a prediction beyond the training output range
+      by more than ``output_span`` times its width
+      (:class:`PredictionRangeWarning`).
+
+    With ``mode="warn"`` (the default) predictions are those of the wrapped
+    model, unchanged. The safe modes bound them: ``"clip"`` clips the inputs
+    to their allowed range and the predictions to the band; ``"hold"``
+    replaces a faulty reading by the last good reading of that sensor in the
+    run and, on every row with a fault, repeats the last good prediction of
+    the run. :meth:`predict_checked` returns the predictions with, per row,
+    whether it was ``ok``, the ``action`` taken and the ``reason``.
+
+    Parameters
+    ----------
+    estimator : regressor
+        The model to guard (cloned by ``fit``), for example a pipeline of a
+        sensor selector and a skthermal regressor. Run-aware sequence models
+        get the input as given (a DataFrame keeps its ``(run, time_s)``
+        index) and ``groups`` when their ``fit``/``predict`` take it.
+    span : float, default=0.25
+        Allowed margin beyond the training range of every input, as a
+        fraction of that range: with training range ``[lo, hi]`` the allowed
+        range is ``[lo - span * (hi - lo), hi + span * (hi - lo)]`` (for an
+        input constant in training, ``span`` times its absolute value, at
+        least ``span``).
+    jump : float or None, default=4.0
+        A reading whose change since the previous sample of its run exceeds
+        ``jump`` times the largest change of that input in training is a
+        jump. None: no jump check. Assumes the sampling period of training.
+    flat : int, "auto" or None, default="auto"
+        Samples of unchanged reading after which a sensor that moved in
+        training counts as flat-lined. ``"auto"``: per input, three times
+        the longest stretch of unchanged readings in a training run, at
+        least 10.
+        None: no flat-line check.
+    output_span : float, default=0.25
+        Width of the plausible prediction band beyond the training output
+        range, as a fraction of that range (as ``span``).
+    inputs : list of str or int, optional
+        The inputs to check, by name (``X`` a DataFrame) or position: those
+        the model reads, when it selects sensors itself (a fault on a sensor
+        it ignores must not hold the compensation). The other inputs are
+        passed on unchecked, except that a NaN or infinite value is always
+        a fault. None: every input.
+    mode : {"warn", "clip", "hold"}, default="warn"
+        What to do about the findings. ``"warn"``: warn, predictions
+        unchanged; NaN or infinite inputs are an error. ``"clip"``: also clip
+        the inputs to their allowed range and the predictions to the band;
+        jumps and flat-lines inside the range are only reported; NaN is an
+        error. ``"hold"``: also replace faulty readings (out of range, jump,
+        flat-line, NaN or infinite) by the last good reading of the sensor
+        in the run, and on a row with any fault predict the last good
+        prediction of the run (the clipped prediction when the run has no
+        good row yet); predictions are clipped to the band.
+
+    Attributes
+    ----------
+    estimator_ : regressor
+        The fitted clone of ``estimator``.
+    input_min_ : ndarray of shape (n_features_in_,)
+        Smallest training value of every input.
+    input_max_ : ndarray of shape (n_features_in_,)
+        Largest training value of every input.
+    input_max_step_ : ndarray of shape (n_features_in_,)
+        Largest change of every input from one sample to the next within a
+        training run.
+    input_max_unchanged_ : ndarray of shape (n_features_in_,)
+        Longest stretch of identical consecutive readings within a training
+        run, in samples (1 when every reading differed from the last).
+    output_min_ : ndarray of shape (n_outputs,)
+        Smallest training target, per output.
+    output_max_ : ndarray of shape (n_outputs,)
+        Largest training target, per output.
+    checked_inputs_ : ndarray of shape (n_features_in_,) of bool
+        Which inputs are checked (all unless ``inputs`` is given).
+    n_features_in_ : int
+        Number of inputs seen in ``fit``.
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Names of the inputs seen in ``fit``, when ``X`` had string column
+        names; the warnings name the sensors by them.
+
+    See Also
+    --------
+    skthermal.io.save : Save the guarded model to a file that loads without
+        running code.
+
+    Notes
+    -----
+    All checks compare one batch of rows with the training statistics; no
+    state is kept between calls. A jump and a flat-line show only between
+    consecutive rows of one call, so on the machine's controller give
+    ``predict`` the rows of the current run so far (or a window of recent
+    rows, as sequence models need anyway) and use the last row. After a
+    one-sample spike both the spike and the next sample (the step back) are
+    flagged as jumps. Run boundaries come from ``groups``, a ``run`` column
+    or a ``run`` index level; steps and stretches never cross them. Times
+    in the messages come from a ``time_s`` index level (as produced by
+    :func:`skthermal.datasets.split_runs`), else rows are numbered from 0.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from skthermal.compose import GuardedRegressor, SensorRangeWarning
+    >>> X = np.linspace(20.0, 30.0, 50).reshape(-1, 1)
+    >>> y = 2.0 * (X[:, 0] - 20.0)
+    >>> guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    >>> X_new = np.array([[25.0], [25.2], [1e6], [25.4]])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     checked = guard.predict_checked(X_new)
+    >>> checked["prediction"].round(3).tolist()
+    [10.0, 10.4, 10.4, 10.4]
+    >>> checked["ok"].tolist(), checked["action"].tolist()
+    ([True, True, False, False], ['', '', 'held', 'held'])
+    >>> checked.loc[2, "reason"]
+    'out of range: x0; jump: x0'
+    >>> checked.loc[3, "reason"]
+    'jump: x0'
+    >>> any(issubclass(w.category, SensorRangeWarning) for w in caught)
+    True
+    """
+
+    _parameter_constraints: dict = {
+        "estimator": [HasMethods(["fit", "predict"])],
+        "span": [Interval(Real, 0, None, closed="left")],
+        "jump": [Interval(Real, 0, None, closed="neither"), None],
+        "flat": [
+            Interval(Integral, 2, None, closed="left"),
+            StrOptions({"auto"}),
+            None,
+        ],
+        "output_span": [Interval(Real, 0, None, closed="left")],
+        "inputs": ["array-like", None],
+        "mode": [StrOptions({"warn", "clip", "hold"})],
+    }
+
+    def __init__(
+        self,
+        estimator,
+        *,
+        span=0.25,
+        jump=4.0,
+        flat="auto",
+        output_span=0.25,
+        inputs=None,
+        mode="warn",
+    ):
+        self.estimator = estimator
+        self.span = span
+        self.jump = jump
+        self.flat = flat
+        self.output_span = output_span
+        self.inputs = inputs
+        self.mode = mode
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        inner = get_tags(self.estimator)
+        tags.target_tags.multi_output = inner.target_tags.multi_output
+        tags.target_tags.single_output = inner.target_tags.single_output
+        if tags.regressor_tags is not None and inner.regressor_tags is not None:
+            tags.regressor_tags.poor_score = inner.regressor_tags.poor_score
+        tags.non_deterministic = inner.non_deterministic
+        return tags
+
+    # --- fit ----------------------------------------------------------------
+
+    @_fit_context(prefer_skip_nested_validation=False)
+    def fit(self, X, y, groups=None, **fit_params):
+        """Fit the wrapped regressor and record the training ranges.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+            Training inputs. A ``run`` column or index level holds run labels
+            and is not an input; the wrapped model gets ``X`` as given.
+        y : array-like of shape (n_samples,) or (n_samples, n_outputs)
+            Training targets.
+        groups : array-like of shape (n_samples,), optional
+            Run labels; passed on to the wrapped model's ``fit`` when it
+            takes ``groups``.
+        **fit_params : dict
+            Further arguments of the wrapped model's ``fit``.
+
+        Returns
+        -------
+        self : GuardedRegressor
+        """
+        features, runs = extract_runs(X, groups)
+        A, Y = validate_data(
+            self, features, y, multi_output=True, y_numeric=True, dtype=np.float64
+        )
+        self.checked_inputs_ = self._resolve_inputs()
+        self.estimator_ = clone(self.estimator)
+        if groups is not None and _accepts_groups(self.estimator_.fit):
+            fit_params["groups"] = groups
+        self.estimator_.fit(X, y, **fit_params)
+        self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
+        if isinstance(y, pd.DataFrame):
+            self._output_names = [str(c) for c in y.columns]
+        elif isinstance(y, pd.Series) and y.name is not None:
+            self._output_names = [str(y.name)]
+        else:
+            self._output_names = None
+        return self
+
+    def _resolve_inputs(self):
+        p = self.n_features_in_
+        mask = np.zeros(p, dtype=bool)
+        if self.inputs is None:
+            mask[:] = True
+            return mask
+        items = list(np.asarray(self.inputs, dtype=object).ravel())
+        names = list(getattr(self, "feature_names_in_", []))
+        for item in items:
+            if isinstance(item, str):
+                if item not in names:
+                    where = f"X has {names}" if names else "X has no column names"
+                    raise ValueError(
+                        f"inputs names {item!r}, which is not an input; {where}."
+                    )
+                mask[names.index(item)] = True
+            elif isinstance(item, Integral) and not isinstance(item, bool):
+                if not -p <= item < p:
+                    raise ValueError(
+                        f"inputs holds position {item}, out of range for X with "
+                        f"{p} column(s)."
+                    )
+                mask[item] = True
+            else:
+                raise ValueError(
+                    f"inputs must hold column names or positions, got {item!r}."
+                )
+        if not mask.any():
+            raise ValueError("inputs is empty: name at least one input to check.")
+        return mask
+
+    def _fit_ranges(self, A, Y, runs):
+        start = _run_starts(runs, A.shape[0])
+        first = start == np.arange(A.shape[0])
+        self.input_min_ = A.min(axis=0)
+        self.input_max_ = A.max(axis=0)
+        self.input_max_step_ = np.abs(_steps(A, first)).max(axis=0)
+        self.input_max_unchanged_ = _unchanged(A, first).max(axis=0) + 1
+        self.output_min_ = Y.min(axis=0)
+        self.output_max_ = Y.max(axis=0)
+
+    # --- predict ------------------------------------------------------------
+
+    def predict(self, X, groups=None):
+        """Predict with the wrapped model, checked (and in a safe mode, bounded).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+            Inputs, with the same columns as in ``fit``.
+        groups : array-like of shape (n_samples,), optional
+            Run labels; passed on to the wrapped model's ``predict`` when it
+            takes ``groups``.
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            With ``mode="warn"`` exactly the wrapped model's prediction.
+
+        Warns
+        -----
+        SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning
+            Naming the sensors, the run and the time of the first finding.
+        """
+        return self._guard(X, groups)["prediction"]
+
+    def predict_checked(self, X, groups=None):
+        """Predictions with, per row, whether the guard found a problem.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+            Inputs, with the same columns as in ``fit``.
+        groups : array-like of shape (n_samples,), optional
+            Run labels (as in :meth:`predict`).
+
+        Returns
+        -------
+        checked : DataFrame
+            Indexed like ``X`` (a plain array: by row number), with columns
+
+            - ``prediction`` (``prediction_<name>`` per output for several
+              outputs): the value to apply, as returned by :meth:`predict`;
+            - ``ok``: True when no input of the row is out of range, jumps,
+              flat-lines or is missing, and the prediction is in its band;
+            - ``action``: ``""`` (prediction of the model), ``"clipped"``
+              (inputs or prediction clipped) or ``"held"`` (last good
+              prediction of the run repeated);
+            - ``reason``: what was found, e.g. ``"out of range: T03_C;
+              jump: T03_C"``, empty when ``ok``.
+
+        Warns
+        -----
+        SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning
+            As :meth:`predict`.
+        """
+        result = self._guard(X, groups)
+        pred = np.asarray(result["prediction"], dtype=float)
+        index = X.index if isinstance(X, pd.DataFrame) else None
+        if pred.ndim == 1:
+            columns = {"prediction": pred}
+        else:
+            names = getattr(self, "_output_names", None) or [
+                str(k) for k in range(pred.shape[1])
+            ]
+            columns = {f"prediction_{n}": pred[:, k] for k, n in enumerate(names)}
+        columns.update(
+            ok=~result["bad"], action=result["action"], reason=result["reason"]
+        )
+        return pd.DataFrame(columns, index=index)
+
+    def _guard(self, X, groups):
+        check_is_fitted(self)
+        features, runs = extract_runs(X, groups)
+        A = validate_data(
+            self, features, reset=False, dtype=np.float64, ensure_all_finite=False
+        )
+        n = A.shape[0]
+        start = _run_starts(runs, n)
+        first = start == np.arange(n)
+        where = _Where(X, runs, self._sensor_names())
+        flags = self._input_flags(A, first, where)
+        fault = np.logical_or.reduce(list(flags.values()))
+
+        inputs_changed = np.zeros(n, dtype=bool)
+        X_inner = X
+        lo, hi = _limits(self.input_min_, self.input_max_, self.span)
+        if self.mode == "clip":
+            B = np.where(self.checked_inputs_, np.clip(A, lo, hi), A)
+            inputs_changed = (B != A).any(axis=1)
+            X_inner = _with_values(X, B)
+        elif self.mode == "hold" and fault.any():
+            last = _last_good(fault, start)
+            fallback = np.where(np.isnan(A), (lo + hi) / 2, np.clip(A, lo, hi))
+            held = A[np.maximum(last, 0), np.arange(A.shape[1])]
+            B = np.where(fault, np.where(last >= 0, held, fallback), A)
+            inputs_changed = fault.any(axis=1)
+            X_inner = _with_values(X, B)
+
+        kwargs = {}
+        if groups is not None and _accepts_groups(self.estimator_.predict):
+            kwargs["groups"] = groups
+        raw = np.asarray(self.estimator_.predict(X_inner, **kwargs), dtype=float)
+        P = raw.reshape(n, -1)
+        olo, ohi = _limits(self.output_min_, self.output_max_, self.output_span)
+        out_band = ~((P >= olo) & (P <= ohi))
+        self._warn_output(P, out_band, olo, ohi, where)
+
+        bad = fault.any(axis=1) | out_band.any(axis=1)
+        action = np.full(n, "", dtype=object)
+        if self.mode == "warn":
+            final = P
+        else:
+            final = np.clip(P, olo, ohi)
+            clipped = inputs_changed | (final != P).any(axis=1)
+            action[clipped] = "clipped"
+            if self.mode == "hold":
+                last = _last_good(bad, start)
+                hold = bad & (last >= 0)
+                final = np.where(hold[:, None], final[np.maximum(last, 0)], final)
+                action[hold] = "held"
+        reason = _reasons(flags, out_band, self._sensor_names(), n)
+        return {
+            "prediction": final.reshape(raw.shape),
+            "bad": bad,
+            "action": action,
+            "reason": reason,
+        }
+
+    def _sensor_names(self):
+        names = getattr(self, "feature_names_in_", None)
+        if names is None:
+            return [f"x{j}" for j in range(self.n_features_in_)]
+        return [str(c) for c in names]
+
+    def _input_flags(self, A, first, where):
+        """Boolean (n, p) matrices per fault kind, warned about as found."""
+        finite = np.isfinite(A)
+        if not finite.all() and self.mode != "hold":
+            row, col = np.argwhere(~finite)[0]
+            raise ValueError(
+                f"Input {where.sensors[col]!r} reads {A[row, col]} (NaN or inf) "
+                f"{where.at(row)}; inputs must be finite. A sensor can drop out "
+                "on the machine: mode='hold' holds the last good compensation "
+                "instead of failing."
+            )
+        lo, hi = _limits(self.input_min_, self.input_max_, self.span)
+        with np.errstate(invalid="ignore"):
+            flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
+            if self.jump is not None:
+                step = np.abs(_steps(A, first))
+                limit = np.where(
+                    self.input_max_step_ > 0,
+                    self.jump * self.input_max_step_,
+                    np.inf,
+                )
+                flags["jump"] = np.isfinite(step) & (step > limit)
+            if self.flat is not None:
+                if self.flat == "auto":
+                    window = np.maximum(3 * self.input_max_unchanged_, _MIN_FLAT)
+                else:
+                    window = np.full(A.shape[1], self.flat)
+                moved = self.input_max_ > self.input_min_
+                flags["flat"] = moved & (_unchanged(A, first) + 1 >= window)
+        for kind in ("range", "jump", "flat"):
+            if kind in flags:
+                flags[kind] &= self.checked_inputs_
+        action = {
+            "warn": "",
+            "clip": " Those readings were clipped to the allowed range.",
+            "hold": " The compensation was held at its last good value there (clipped "
+            "where the run had no good row yet).",
+        }[self.mode]
+        if flags["range"].any():
+            msg = where.describe(
+                flags["range"],
+                A,
+                lambda j: f"allowed {lo[j]:.4g} to {hi[j]:.4g}",
+            )
+            warnings.warn(
+                f"Input outside its training range widened by span={self.span:g}: "
+                f"{msg}. The model extrapolates there.{action}"
+                + _HINT.get(self.mode, ""),
+                SensorRangeWarning,
+                stacklevel=4,
+            )
+        held = (
+            " The compensation was held at its last good value there (clipped "
+            "where the run had no good row yet)."
+        )
+        if flags["missing"].any():
+            msg = where.describe(flags["missing"], A, lambda j: "NaN or inf")
+            warnings.warn(
+                f"Sensor reading missing: {msg}.{held}",
+                SensorFaultWarning,
+                stacklevel=4,
+            )
+        if "jump" in flags and flags["jump"].any():
+            msg = where.describe(
+                flags["jump"],
+                A,
+                lambda j: f"largest training step {self.input_max_step_[j]:.4g}",
+            )
+            warnings.warn(
+                f"Sensor jump (a step over jump={self.jump:g} times the largest "
+                f"step in training): {msg}."
+                + (held if self.mode == "hold" else _HINT.get(self.mode, "")),
+                SensorFaultWarning,
+                stacklevel=4,
+            )
+        if "flat" in flags and flags["flat"].any():
+            msg = where.describe(
+                flags["flat"],
+                A,
+                lambda j: f"unchanged for {int(window[j])} samples or more",
+            )
+            warnings.warn(
+                f"Sensor flat-lined (no change although it moved in training): "
+                f"{msg}." + (held if self.mode == "hold" else _HINT.get(self.mode, "")),
+                SensorFaultWarning,
+                stacklevel=4,
+            )
+        return flags
+
+    def _warn_output(self, P, out_band, olo, ohi, where):
+        if not out_band.any():
+            return
+        names = getattr(self, "_output_names", None) or [
+            f"output {k}" for k in range(P.shape[1])
+        ]
+        msg = _Where(where.X, where.runs, names).describe(
+            out_band, P, lambda k: f"band {olo[k]:.4g} to {ohi[k]:.4g}"
+        )
+        then = {
+            "warn": " The predictions were returned unchanged." + _HINT["warn"],
+            "clip": " The predictions were clipped to the band.",
+            "hold": " The last good prediction of the run was held.",
+        }[self.mode]
+        warnings.warn(
+            "Prediction outside the training output range widened by "
+            f"output_span={self.output_span:g}: {msg}.{then}",
+            PredictionRangeWarning,
+            stacklevel=4,
+        )
+
+
+_HINT = {
+    "warn": " predict_checked lists the rows; mode='clip' or 'hold' bounds the "
+    "compensation.",
+    "clip": "",
+}
+
+
+def _with_values(X, B):
+    """``X`` with its input values replaced by ``B`` (index, run column kept)."""
+    if not isinstance(X, pd.DataFrame):
+        return B
+    if RUN_COLUMN in X.columns:
+        features = X.drop(columns=RUN_COLUMN)
+        out = pd.DataFrame(B, index=X.index, columns=features.columns)
+        out.insert(X.columns.get_loc(RUN_COLUMN), RUN_COLUMN, X[RUN_COLUMN])
+        return out
+    return pd.DataFrame(B, index=X.index, columns=X.columns)
+
+
+def _reasons(flags, out_band, sensors, n):
+    """Per row, e.g. ``"out of range: T03_C, T04_C; jump: T03_C"``."""
+    labels = {
+        "missing": "missing",
+        "range": "out of range",
+        "jump": "jump",
+        "flat": "flat-line",
+    }
+    parts = []
+    for kind in _KINDS:
+        F = flags.get(kind)
+        if F is None or not F.any():
+            continue
+        names = np.full(n, "", dtype=object)
+        for j in np.flatnonzero(F.any(axis=0)):
+            sep = np.where(names == "", "", ", ")
+            names = np.where(F[:, j], names + sep + sensors[j], names)
+        parts.append(np.where(names == "", "", labels[kind] + ": " + names))
+    if out_band.any():
+        parts.append(np.where(out_band.any(axis=1), "prediction out of band", ""))
+    reason = np.full(n, "", dtype=object)
+    for part in parts:
+        sep = np.where((reason == "") | (part == ""), "", "; ")
+        reason = reason + sep + part
+    return reason
+
+
+def _plain(value):
+    """A numpy scalar as the Python value, for readable messages."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+class _Where:
+    """Names rows by run and time (or row number) for the messages."""
+
+    def __init__(self, X, runs, sensors):
+        self.X = X
+        self.runs = runs
+        self.sensors = sensors
+        index = getattr(X, "index", None)
+        names = getattr(index, "names", None) or []
+        self.times = (
+            np.asarray(index.get_level_values(TIME_COLUMN))
+            if TIME_COLUMN in names
+            else None
+        )
+
+    def at(self, row):
+        run = "" if self.runs is None else f"in run {_plain(self.runs[row])!r} "
+        if self.times is not None:
+            return f"{run}at time_s={self.times[row]:g}"
+        return f"{run}at row {row}"
+
+    def describe(self, F, values, detail, limit=5):
+        """The first occurrence of every flagged column, at most ``limit``."""
+        cols = np.flatnonzero(F.any(axis=0))
+        rows = F.argmax(axis=0)
+        counts = F.sum(axis=0)
+        items = [
+            f"{self.sensors[j]!r} {self.at(rows[j])} (value "
+            f"{values[rows[j], j]:.4g}, {detail(j)}; {counts[j]} row"
+            f"{'' if counts[j] == 1 else 's'})"
+            for j in cols[:limit]
+        ]
+        more = f" and {cols.size - limit} more" if cols.size > limit else ""
+        head = f"{cols.size} of {F.shape[1]}: " if F.shape[1] > 1 else ""
+        return head + "; ".join(items) + more

@@ -1,0 +1,444 @@
+"""Tests of the deployment guard (skthermal.compose.GuardedRegressor)."""
+
+import subprocess
+import sys
+import warnings
+
+import joblib
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.base import clone
+from sklearn.compose import ColumnTransformer
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.model_selection import GridSearchCV, GroupKFold
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
+from sklearn.utils._param_validation import InvalidParameterError
+
+from skthermal.compose import (
+    GuardedRegressor,
+    GuardWarning,
+    PredictionRangeWarning,
+    SensorFaultWarning,
+    SensorRangeWarning,
+)
+from skthermal.fuzzy import ANFISRegressor
+from skthermal.grey import GreyPSORegressor
+
+SENSORS = ["T1_C", "T2_C", "T3_C", "T4_C"]
+GAINS = np.array([4.0, 2.5, 1.0, 0.5])  # temperature rise per unit of heat
+COEF = np.array([3.0, -1.0, 2.0, 0.5])  # displacement per degree
+
+
+def make_runs(amplitudes, *, seed=0, n=120, period=30.0):
+    """A run table: heating runs of 4 noisy sensors and a linear displacement."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for r, amp in enumerate(amplitudes):
+        t = np.arange(n) * period
+        heat = amp * (1.0 - np.exp(-t / 1200.0))
+        T = 20.0 + heat[:, None] * GAINS + rng.normal(0, 0.02, (n, 4))
+        index = pd.MultiIndex.from_arrays(
+            [np.full(n, f"r{r}"), t], names=["run", "time_s"]
+        )
+        frame = pd.DataFrame(T, index=index, columns=SENSORS)
+        frame["disp_y_um"] = (T - 20.0) @ COEF + rng.normal(0, 0.05, n)
+        frames.append(frame)
+    data = pd.concat(frames)
+    return data[SENSORS], data["disp_y_um"]
+
+
+@pytest.fixture(scope="module")
+def train():
+    return make_runs([1.0, 2.0, 3.0], seed=0)
+
+
+@pytest.fixture(scope="module")
+def new_run():
+    """A run inside the training conditions, different noise."""
+    return make_runs([2.5], seed=1)
+
+
+def _caught(fn, *args, **kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args, **kwargs)
+    return out, caught
+
+
+def _messages(caught, category):
+    return [str(w.message) for w in caught if issubclass(w.category, category)]
+
+
+# --- no false alarms --------------------------------------------------------
+
+
+def test_in_range_data_gives_no_warning_and_unchanged_predictions(train, new_run):
+    X, y = train
+    X_new, _ = new_run
+    for mode in ("warn", "clip", "hold"):
+        guard = GuardedRegressor(LinearRegression(), mode=mode).fit(X, y)
+        checked, caught = _caught(guard.predict_checked, X_new)
+        assert not [w for w in caught if issubclass(w.category, GuardWarning)]
+        plain = LinearRegression().fit(X, y).predict(X_new)
+        np.testing.assert_allclose(checked["prediction"], plain)
+        assert checked["ok"].all()
+        assert (checked["reason"] == "").all() and (checked["action"] == "").all()
+        assert checked.index.equals(X_new.index)
+
+
+def test_no_false_alarm_on_held_out_part_of_machine_b():
+    from skthermal.datasets import make_machine_b_tests, split_runs
+
+    runs = make_machine_b_tests(["I", "II", "III"], random_state=0)
+    X, y, groups = split_runs(runs, targets="disp_y_um")
+    position = X.groupby(level="run", sort=False).cumcount().to_numpy()
+    held = (position // 20) % 5 == 2  # every fifth block of 20 samples
+    guard = GuardedRegressor(Ridge()).fit(X[~held], y[~held])
+    blocks = [f"{r}/{b}" for r, b in zip(groups[held], position[held] // 20)]
+    checked, caught = _caught(guard.predict_checked, X[held], groups=blocks)
+    assert not [str(w.message) for w in caught if issubclass(w.category, GuardWarning)]
+    assert checked["ok"].all() and held.sum() == len(checked) > 100
+
+
+# --- a broken sensor spike --------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def spiked(new_run):
+    X_new, _ = new_run
+    X_bad = X_new.copy()
+    X_bad.iloc[60, 1] = 1e6  # T2_C breaks at time_s=1800 of run r0
+    return X_bad
+
+
+def test_spike_warns_naming_sensor_run_and_time(train, spiked):
+    X, y = train
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    pred, caught = _caught(guard.predict, spiked)
+    (msg,) = _messages(caught, SensorRangeWarning)
+    assert "'T2_C' in run 'r0' at time_s=1800" in msg
+    assert "1e+06" in msg and "1 of 4" in msg
+    (jump,) = [m for m in _messages(caught, SensorFaultWarning) if "jump" in m]
+    assert "'T2_C' in run 'r0' at time_s=1800" in jump and "2 rows" in jump
+    assert _messages(caught, PredictionRangeWarning)
+    # warn mode never changes the predictions
+    np.testing.assert_array_equal(pred, guard.estimator_.predict(spiked))
+    assert abs(pred[60]) > 1e5
+
+
+@pytest.mark.parametrize("mode", ["clip", "hold"])
+def test_spike_is_bounded_in_safe_mode(train, spiked, mode):
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), mode=mode).fit(X, y)
+    checked, caught = _caught(guard.predict_checked, spiked)
+    pred = checked["prediction"].to_numpy()
+    low = y.min() - 0.25 * (y.max() - y.min())
+    high = y.max() + 0.25 * (y.max() - y.min())
+    assert np.isfinite(pred).all()
+    assert (pred >= low - 1e-9).all() and (pred <= high + 1e-9).all()
+    assert not checked["ok"].iloc[60]
+    assert checked["reason"].iloc[60] == "out of range: T2_C; jump: T2_C"
+    assert checked["ok"].drop(checked.index[[60, 61]]).all()
+    if mode == "hold":
+        assert checked["action"].iloc[60] == "held"
+        assert pred[60] == pred[59] and pred[61] == pred[59]
+        # the rows after the fault are predicted from the sensor again
+        good = guard.estimator_.predict(spiked.iloc[62:])
+        np.testing.assert_allclose(pred[62:], good)
+    else:
+        assert checked["action"].iloc[60] == "clipped"
+    assert _messages(caught, SensorRangeWarning)
+
+
+def test_every_sensor_at_1e6(train, new_run):
+    X, y = train
+    X_bad = new_run[0].copy()
+    X_bad.iloc[50:] = 1e6
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    _, caught = _caught(guard.predict, X_bad)
+    (msg,) = _messages(caught, SensorRangeWarning)
+    assert "4 of 4" in msg and "at time_s=1500" in msg
+    for name in SENSORS:
+        assert f"'{name}' in run 'r0' at time_s=1500" in msg
+    for mode in ("clip", "hold"):
+        guard.set_params(mode=mode)
+        checked, _ = _caught(guard.predict_checked, X_bad)
+        pred = checked["prediction"].to_numpy()
+        assert np.isfinite(pred).all()
+        low, high = y.min() - 0.25 * np.ptp(y), y.max() + 0.25 * np.ptp(y)
+        assert (pred >= low - 1e-9).all() and (pred <= high + 1e-9).all()
+        assert not checked["ok"].iloc[50:].any() and checked["ok"].iloc[:50].all()
+        if mode == "hold":
+            assert (pred[50:] == pred[49]).all()
+
+
+@pytest.mark.parametrize(
+    "inner",
+    [ANFISRegressor(n_clusters=2, epochs=5, random_state=0), GreyPSORegressor()],
+    ids=["anfis", "grey"],
+)
+def test_nonlinear_and_sequence_models_are_bounded(train, spiked, inner):
+    X, y = train
+    guard = GuardedRegressor(inner, mode="clip").fit(X, y)
+    X_bad = spiked.copy()
+    X_bad.iloc[80:] = 1e6
+    raw = guard.estimator_.predict(X_bad)
+    pred, caught = _caught(guard.predict, X_bad)
+    assert np.abs(raw).max() > 10 * np.abs(y).max()  # unguarded: absurd
+    low, high = y.min() - 0.25 * np.ptp(y), y.max() + 0.25 * np.ptp(y)
+    assert np.isfinite(pred).all() and (pred >= low).all() and (pred <= high).all()
+    assert "4 of 4" in _messages(caught, SensorRangeWarning)[0]
+
+
+# --- a stuck sensor ---------------------------------------------------------
+
+
+def test_stuck_sensor_is_flagged_after_the_window(train, new_run):
+    X, y = train
+    X_bad = new_run[0].copy()
+    X_bad.iloc[40:, 2] = X_bad.iloc[40, 2]  # T3_C stuck from time_s=1200
+    guard = GuardedRegressor(LinearRegression(), flat=20).fit(X, y)
+    checked, caught = _caught(guard.predict_checked, X_bad)
+    (msg,) = _messages(caught, SensorFaultWarning)
+    # 20 equal readings, rows 40..59: flagged from row 59 (time_s=1770)
+    assert "flat-lined" in msg and "'T3_C' in run 'r0' at time_s=1770" in msg
+    assert not _messages(caught, SensorRangeWarning)
+    flagged = ~checked["ok"].to_numpy()
+    assert not flagged[:59].any() and flagged[59:].all()
+    assert (checked["reason"].iloc[59:] == "flat-line: T3_C").all()
+
+
+def test_flat_auto_uses_training_stretches(train):
+    X, y = train
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    assert (guard.input_max_unchanged_ == 1).all()  # noisy: never repeats
+    X_bad = X.iloc[:120].copy()
+    X_bad.iloc[30:, 0] = X_bad.iloc[30, 0]
+    checked, caught = _caught(guard.predict_checked, X_bad)
+    # auto window: max(3 * 1, 10) = 10 equal readings -> flagged from row 39
+    flagged = checked["reason"].str.contains("flat-line: T1_C").to_numpy()
+    assert not flagged[:39].any() and flagged[39:].all()
+    # a sensor constant in training is never "flat-lined"
+    X_const = X.assign(T4_C=21.0)
+    guard = GuardedRegressor(LinearRegression()).fit(X_const, y)
+    _, caught = _caught(guard.predict, X_const)
+    assert not [w for w in caught if issubclass(w.category, GuardWarning)]
+
+
+# --- a slow drift -----------------------------------------------------------
+
+
+def test_slow_drift_flagged_when_it_leaves_the_range(train, new_run):
+    X, y = train
+    X_new = new_run[0]
+    X_bad = X_new.copy()
+    X_bad["T1_C"] += np.linspace(0.0, 10.0, len(X_bad))  # slow drift
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    checked, caught = _caught(guard.predict_checked, X_bad)
+    # the allowed range computed here independently of the guard
+    high = X["T1_C"].max() + 0.25 * (X["T1_C"].max() - X["T1_C"].min())
+    first = int(np.argmax(X_bad["T1_C"].to_numpy() > high))
+    assert 0 < first < len(X_bad) - 1
+    t_first = X_bad.index.get_level_values("time_s")[first]
+    (msg,) = _messages(caught, SensorRangeWarning)
+    assert f"'T1_C' in run 'r0' at time_s={t_first:g}" in msg
+    assert not _messages(caught, SensorFaultWarning)  # a drift is no jump
+    out = checked["reason"].str.contains("out of range: T1_C").to_numpy()
+    assert not out[:first].any() and out[first:].all()
+
+
+# --- non-finite readings ----------------------------------------------------
+
+
+def test_nan_is_an_error_naming_sensor_unless_hold(train, new_run):
+    X, y = train
+    X_bad = new_run[0].copy()
+    X_bad.iloc[10, 3] = np.nan
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    with pytest.raises(ValueError, match=r"'T4_C' reads nan .*run 'r0' at time_s=300"):
+        guard.predict(X_bad)
+    guard.set_params(mode="hold")
+    checked, caught = _caught(guard.predict_checked, X_bad)
+    assert checked["reason"].iloc[10] == "missing: T4_C"
+    assert checked["prediction"].iloc[10] == checked["prediction"].iloc[9]
+    assert np.isfinite(checked["prediction"]).all()
+    assert any("missing" in m for m in _messages(caught, SensorFaultWarning))
+
+
+def test_plain_arrays_are_named_by_row_and_x_index(train):
+    X, y = train
+    A = X.to_numpy()
+    guard = GuardedRegressor(LinearRegression()).fit(A, y.to_numpy())
+    A_bad = A[:50].copy()
+    A_bad[20, 0] = -500.0
+    _, caught = _caught(guard.predict, A_bad)
+    (msg,) = _messages(caught, SensorRangeWarning)
+    assert "'x0' at row 20" in msg
+    groups = np.repeat(["a", "b"], 25)
+    _, caught = _caught(guard.predict, A_bad, groups=groups)
+    assert "'x0' in run 'a' at row 20" in _messages(caught, SensorRangeWarning)[0]
+
+
+def test_string_column_is_named(train):
+    X, y = train
+    guard = GuardedRegressor(LinearRegression())
+    with pytest.raises(ValueError, match=r"'T2_C'.*not numeric"):
+        guard.fit(X.assign(T2_C="hot"), y)
+
+
+def test_bad_mode_is_rejected(train):
+    with pytest.raises(InvalidParameterError, match="mode"):
+        GuardedRegressor(LinearRegression(), mode="stop").fit(*train)
+
+
+def test_only_the_named_inputs_are_checked(train, spiked):
+    X, y = train
+    # T2_C (spiked) is not read by the model, so it must not hold or clip it
+    model = make_pipeline(
+        ColumnTransformer([("used", "passthrough", ["T1_C", "T3_C"])]), Ridge()
+    )
+    for mode in ("clip", "hold"):
+        guard = GuardedRegressor(model, inputs=["T1_C", "T3_C"], mode=mode)
+        checked, caught = _caught(guard.fit(X, y).predict_checked, spiked)
+        assert checked["ok"].all()
+        np.testing.assert_allclose(
+            checked["prediction"], guard.estimator_.predict(spiked)
+        )
+        assert not [w for w in caught if issubclass(w.category, GuardWarning)]
+    guard = GuardedRegressor(model, inputs=[1], mode="hold").fit(X, y)
+    assert guard.checked_inputs_.tolist() == [False, True, False, False]
+    checked, _ = _caught(guard.predict_checked, spiked)
+    assert checked["action"].iloc[60] == "held"
+    with pytest.raises(ValueError, match="inputs names 'T9_C', which is not an"):
+        GuardedRegressor(model, inputs=["T9_C"]).fit(X, y)
+
+
+# --- run-aware inner models -------------------------------------------------
+
+
+def test_sequence_model_sees_the_runs(train, new_run):
+    X, y = train
+    inner = GreyPSORegressor(calibration="ls")
+    guard = GuardedRegressor(inner).fit(X, y)
+    plain = clone(inner).fit(X, y)
+    X_new = new_run[0]
+    pred, caught = _caught(guard.predict, X_new)
+    np.testing.assert_allclose(pred, plain.predict(X_new))
+    # groups given separately reach the inner model's fit and predict
+    groups = X.index.get_level_values("run").to_numpy()
+    guard2 = GuardedRegressor(inner).fit(X.to_numpy(), y.to_numpy(), groups=groups)
+    np.testing.assert_allclose(guard2.estimator_.coef_, plain.coef_)
+    two = np.r_[X_new.to_numpy(), X_new.to_numpy()]
+    pred2, _ = _caught(guard2.predict, two, groups=np.repeat(["a", "b"], len(X_new)))
+    np.testing.assert_allclose(pred2, np.r_[pred, pred])
+
+
+def test_hold_repairs_the_input_of_a_sequence_model(train, spiked):
+    X, y = train
+    guard = GuardedRegressor(GreyPSORegressor(calibration="ls"), mode="hold")
+    guard.fit(X, y)
+    pred, _ = _caught(guard.predict, spiked)
+    # the grey model accumulates its input: unrepaired, the spike would
+    # shift every later prediction of the run
+    unguarded = guard.estimator_.predict(spiked)
+    low, high = y.min() - 0.25 * np.ptp(y), y.max() + 0.25 * np.ptp(y)
+    assert np.abs(unguarded[62:]).max() > 1e3
+    assert np.isfinite(pred).all() and (pred >= low).all() and (pred <= high).all()
+
+
+def test_multi_output_columns(train):
+    X, y = train
+    Y = pd.DataFrame({"disp_x_um": y, "disp_y_um": -2 * y})
+    guard = GuardedRegressor(LinearRegression(), mode="clip").fit(X, Y)
+    checked, _ = _caught(guard.predict_checked, X.iloc[:5])
+    assert list(checked.columns) == [
+        "prediction_disp_x_um",
+        "prediction_disp_y_um",
+        "ok",
+        "action",
+        "reason",
+    ]
+    assert guard.predict(X.iloc[:5]).shape == (5, 2)
+
+
+def test_run_column_stays_with_the_rows(train):
+    X, y = train
+    flat = X.reset_index()
+    X_run = flat.drop(columns="time_s")
+    guard = GuardedRegressor(GreyPSORegressor(calibration="ls"), mode="clip")
+    guard.fit(X_run, y.to_numpy())
+    assert list(guard.feature_names_in_) == SENSORS
+    pred, caught = _caught(guard.predict, X_run)
+    np.testing.assert_allclose(pred, guard.estimator_.predict(X_run))
+
+
+# --- composition and persistence --------------------------------------------
+
+
+def test_pipeline_grid_search_clone(train):
+    X, y = train
+    groups = X.index.get_level_values("run")
+    guard = GuardedRegressor(make_pipeline(StandardScaler(), Ridge()))
+    search = GridSearchCV(
+        guard,
+        {"estimator__ridge__alpha": [0.1, 10.0], "span": [0.5]},
+        cv=GroupKFold(n_splits=3),
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", GuardWarning)
+        search.fit(X, y, groups=groups)
+    assert search.best_params_["estimator__ridge__alpha"] in (0.1, 10.0)
+    assert isinstance(search.best_estimator_, GuardedRegressor)
+    assert clone(guard).get_params()["estimator__ridge__alpha"] == 1.0
+    # the guard as the last step of a pipeline sees the scaled inputs
+    pipe = make_pipeline(StandardScaler(), GuardedRegressor(Ridge())).fit(X, y)
+    assert np.isfinite(pipe.predict(X)).all()
+
+
+def test_joblib_and_skthermal_io_round_trip(tmp_path, train, spiked):
+    pytest.importorskip("skops")
+    from skthermal.io import load, save
+
+    X, y = train
+    guard = GuardedRegressor(
+        make_pipeline(StandardScaler(), GreyPSORegressor(calibration="ls")),
+        mode="hold",
+    ).fit(X, y)
+    expected, _ = _caught(guard.predict_checked, spiked)
+    joblib.dump(guard, tmp_path / "guard.joblib")
+    save(guard, tmp_path / "guard.skops")
+    for loaded in (
+        joblib.load(tmp_path / "guard.joblib"),
+        load(tmp_path / "guard.skops"),
+    ):
+        got, caught = _caught(loaded.predict_checked, spiked)
+        pd.testing.assert_frame_equal(got, expected)
+        assert _messages(caught, SensorRangeWarning)
+
+
+def test_warnings_share_a_base_class():
+    for cls in (SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning):
+        assert issubclass(cls, GuardWarning) and issubclass(cls, UserWarning)
+
+
+def test_skthermal_io_loads_a_guard_in_a_fresh_interpreter(tmp_path, train):
+    """On the controller PC only ``skthermal.io`` is imported before ``load``."""
+    pytest.importorskip("skops")
+    import skthermal
+    from skthermal.io import save
+
+    if "GuardedRegressor" not in skthermal.__all__:
+        pytest.skip("skthermal does not import skthermal.compose at import time")
+    X, y = train
+    path = save(GuardedRegressor(Ridge()).fit(X, y), tmp_path / "guard.skops")
+    code = (
+        "import sys; from skthermal.io import load; "
+        f"m = load({str(path)!r}); print(type(m).__name__, m.n_features_in_)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=False
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["GuardedRegressor", "4"]

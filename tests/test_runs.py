@@ -1,0 +1,87 @@
+"""Tests of the run helpers shared by the run-aware estimators."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skthermal.utils._runs import (
+    check_numeric_columns,
+    check_time_order,
+    continued_runs,
+    extract_runs,
+    run_memory,
+    run_slices,
+    run_times,
+)
+
+
+def table(times, runs, values=None):
+    n = len(times)
+    values = np.arange(2.0 * n).reshape(n, 2) if values is None else values
+    index = pd.MultiIndex.from_arrays([runs, times], names=["run", "time_s"])
+    return pd.DataFrame(values, columns=["T1", "T2"], index=index)
+
+
+def test_string_column_named_with_its_value():
+    df = pd.DataFrame({"T1": [20.0, 21.0, 22.0], "T2": ["20.5", "hot", "21"]})
+    with pytest.raises(ValueError, match=r"Column 'T2' is not numeric.*row 1.*'hot'"):
+        extract_runs(df)
+
+
+def test_numeric_boolean_and_numeric_object_columns_pass():
+    df = pd.DataFrame(
+        {
+            "a": [1.0, 2.0],
+            "b": [True, False],
+            "c": np.array([1, 2], dtype=object),
+            "run": ["r", "r"],  # labels may be strings
+        }
+    )
+    X, groups = extract_runs(df)
+    assert list(X.columns) == ["a", "b", "c"] and groups.tolist() == ["r", "r"]
+    check_numeric_columns(np.array([["x"]], dtype=object))  # arrays: left to numpy
+
+
+def test_time_going_backwards_is_an_error():
+    df = table([0.0, 15.0, 10.0], ["a", "a", "a"])
+    X, groups = extract_runs(df)
+    with pytest.raises(ValueError, match=r"run 'a' row 2 has time_s=10 after 15"):
+        check_time_order(X, groups)
+
+
+def memory_and_plan(fit_df, pred_df):
+    Xf, gf = extract_runs(fit_df)
+    sl, lab = run_slices(gf, len(Xf))
+    memory = run_memory(Xf.to_numpy(), sl, lab, run_times(Xf, sl))
+    Xp, gp = extract_runs(pred_df)
+    sl, lab = run_slices(gp, len(Xp))
+    return continued_runs("Model", Xp.to_numpy(), sl, lab, run_times(Xp, sl), memory)
+
+
+def test_seen_label_continues_unless_it_restarts():
+    fit = table([0.0, 15.0, 30.0], ["a"] * 3)
+    assert memory_and_plan(fit, table([45.0, 60.0], ["a"] * 2)) == ["a"]
+    assert memory_and_plan(fit, table([0.0, 15.0], ["a"] * 2)) == [None]
+    with pytest.raises(
+        ValueError, match=r"Run .a. starts at time_s=15, neither at the start"
+    ):
+        memory_and_plan(fit, table([15.0, 30.0], ["a"] * 2))
+
+
+def test_seen_label_starting_before_its_training_span_is_an_error():
+    fit = table([100.0, 115.0, 130.0], ["a"] * 3)
+    with pytest.raises(ValueError, match=r"time_s=50, neither at the start"):
+        memory_and_plan(fit, table([50.0, 65.0], ["a"] * 2))
+
+
+def test_new_run_not_starting_at_zero_warns():
+    fit = table([0.0, 15.0, 30.0], ["a"] * 3)
+    with pytest.warns(UserWarning, match=r"Run 'b'.*time_s=45, not 0"):
+        assert memory_and_plan(fit, table([45.0, 60.0], ["b"] * 2)) == [None]
+
+
+def test_without_time_the_first_row_tells_restart_from_continuation():
+    fit = pd.DataFrame({"T1": [1.0, 2.0, 3.0], "run": "a"})
+    pred = pd.DataFrame({"T1": [4.0, 5.0], "run": "a"})
+    assert memory_and_plan(fit, pred) == ["a"]
+    assert memory_and_plan(fit, fit) == [None]
