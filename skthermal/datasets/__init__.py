@@ -7,6 +7,7 @@ synthetic generators with a known sensor structure, for tests and demos, and
 the papers' test campaigns simulated with :mod:`skthermal.simulate`.
 """
 
+from skthermal.datasets._batch import make_batch_campaign
 from skthermal.datasets._campaigns import (
     make_etve,
     make_machine_b_tests,
@@ -23,7 +24,6 @@ from skthermal.datasets._runtable import (
     target_columns,
     validate_runs,
 )
-from skthermal.linear_model._adaptive import make_batch_campaign
 
 __all__ = [
     "changes_since_start",

@@ -5,9 +5,12 @@ sources driving groups of collinear sensors), not the physics-based simulator:
 they exist so that a selector's answer can be checked against the truth.
 """
 
+from numbers import Integral, Real
+
 import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, validate_params
 
 
 def _first_order_response(power, dt, tau):
@@ -26,6 +29,25 @@ def _first_order_response(power, dt, tau):
     return out
 
 
+_NONNEGATIVE = Interval(Real, 0, np.inf, closed="left")
+
+
+@validate_params(
+    {
+        "n_groups": [Interval(Integral, 1, None, closed="left")],
+        "sensors_per_group": [Interval(Integral, 1, None, closed="left")],
+        "n_noise": [Interval(Integral, 0, None, closed="left")],
+        "n_runs": [Interval(Integral, 1, None, closed="left")],
+        # The duty-cycle blocks are n_samples // 12 to n_samples // 4 long.
+        "n_samples": [Interval(Integral, 12, None, closed="left")],
+        "sample_period_s": [Interval(Real, 0, np.inf, closed="neither")],
+        "sensor_noise": [_NONNEGATIVE],
+        "noise_sensor_std": [_NONNEGATIVE],
+        "displacement_noise": [_NONNEGATIVE],
+        "random_state": ["random_state"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def make_sensor_groups(
     n_groups=3,
     sensors_per_group=10,
@@ -59,7 +81,7 @@ def make_sensor_groups(
     n_runs : int, default=2
         Independent test runs (each starts from a cold machine).
     n_samples : int, default=360
-        Samples per run.
+        Samples per run, at least 12.
     sample_period_s : float, default=60.0
     sensor_noise : float, default=0.02
         Standard deviation (°C) of the independent noise on group sensors.

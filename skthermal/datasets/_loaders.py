@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from skthermal._optional import import_optional, missing_dependency
 from skthermal.datasets._runtable import RUN, validate_runs
 
 _PARQUET_SUFFIXES = (".parquet", ".pq")
@@ -40,8 +41,8 @@ def _sidecar_path(path):
 
 
 def _parquet_error(exc):
-    return ImportError(
-        "Reading or writing Parquet needs pyarrow: pip install 'skthermal[parquet]'."
+    return missing_dependency(
+        "pyarrow", extra="parquet", caller="Reading or writing Parquet"
     ).with_traceback(exc.__traceback__)
 
 
@@ -57,13 +58,9 @@ def _unzip(path):
 
 
 def _unzstd(path):
-    try:
-        import zstandard
-    except ImportError as exc:
-        raise ImportError(
-            f"Reading {path} (Zstandard-compressed) needs zstandard: "
-            "pip install zstandard."
-        ) from exc
+    zstandard = import_optional(
+        "zstandard", caller=f"Reading {path} (Zstandard-compressed)"
+    )
     with zstandard.open(path, "rb") as fh:
         return fh.read()
 

@@ -14,17 +14,15 @@ import re
 import numpy as np
 import pandas as pd
 
+from skthermal._naming import STRAIN_PATTERN, TARGET_PATTERN, TEMPERATURE_PATTERN
+from skthermal._run_changes import changes_since_first_row
+
 RUN = "run"
 TIME = "time_s"
 DRIVERS = ("spindle_rpm", "feed_mm_min", "ambient_C")
 REQUIRED_DRIVERS = ("spindle_rpm", "ambient_C")
 ABSOLUTE_ZERO_C = -273.15
 
-# <name> of a sensor or an axis: ASCII letters and digits, inner underscores.
-_NAME = r"[A-Za-z0-9]+(?:_[A-Za-z0-9]+)*"
-TEMPERATURE_PATTERN = re.compile(rf"T{_NAME}_C")
-STRAIN_PATTERN = re.compile(rf"S{_NAME}_ue")
-TARGET_PATTERN = re.compile(rf"disp_{_NAME}_um")
 
 _RULES = {
     "temperature": (
@@ -589,7 +587,9 @@ def changes_since_start(df, columns=None):
 
     Files keep absolute readings (DATA_FORMAT); methods that work on
     "temperature change" or "thermal drift since the start of the test" apply
-    this transformation themselves.
+    this transformation themselves. This is the run-table face of the array
+    helper the estimators use (one implementation): it finds the runs from the
+    ``run`` column, checks the columns, and returns a table.
 
     Parameters
     ----------
@@ -636,11 +636,8 @@ def changes_since_start(df, columns=None):
     out = df.copy()
     if not columns or len(df) == 0:
         return out
-    codes, _ = pd.factorize(df[RUN])
-    if np.any(codes < 0):
-        raise ValueError("Column 'run' has missing labels; every row needs one.")
-    _, first = np.unique(codes, return_index=True)
-    values = _as_float(df, columns)
-    changes = values - values[first[codes]]
+    changes = changes_since_first_row(
+        _as_float(df, columns), df[RUN].to_numpy(), what="Column 'run'"
+    )
     out[columns] = pd.DataFrame(changes, index=df.index, columns=columns)
     return out

@@ -26,7 +26,12 @@ from skthermal.datasets._runtable import (
     sensor_columns,
     target_columns,
 )
-from skthermal.utils._runs import changes_since_start, extract_runs, run_slices
+from skthermal.utils._runs import (
+    RUN_COLUMN,
+    changes_since_start,
+    extract_runs,
+    run_slices,
+)
 
 
 class ModularRegressor(RegressorMixin, _BaseComposition):
@@ -353,9 +358,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 if missing:
                     raise ValueError(f"The run table of {name!r} has no {missing}.")
                 features = sensor_columns(item) + driver_columns(item)
-                X_i, y_i = item[features], item[targets]
-                runs = item["run"] if "run" in item.columns else np.zeros(len(item))
-                g = np.array([f"{name}/{r}" for r in np.asarray(runs).tolist()])
+                labels = [RUN_COLUMN] if RUN_COLUMN in item.columns else []
+                X_i, y_i = item[features + labels], item[targets]
             else:
                 try:
                     X_i, y_i = item
@@ -363,9 +367,9 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                     raise ValueError(
                         f"data[{name!r}] must be a run table or an (X, y) pair."
                     ) from None
-                X_i, g_i = extract_runs(X_i)
-                g_i = np.zeros(len(X_i), dtype=int) if g_i is None else g_i
-                g = np.array([f"{name}/{r}" for r in np.asarray(g_i).tolist()])
+            X_i, g_i = extract_runs(X_i)
+            g_i = np.zeros(len(X_i), dtype=int) if g_i is None else g_i
+            g = np.array([f"{name}/{r}" for r in np.asarray(g_i).tolist()])
             Xs.append(X_i)
             ys.append(np.asarray(y_i, dtype=float))
             src.append(np.full(len(g), name, dtype=object))

@@ -6,8 +6,8 @@ states); whenever the measured residual exceeds 7 µm the machine measures a
 few new samples, the model is updated, and compensation goes on. The paper
 reports 10 updates, 184 minutes of measuring (4 % of the time) and residuals
 within 10 µm. :func:`adaptive_compensation` replays such a record sample by
-sample; :func:`make_batch_campaign` simulates one with the Machine-B-like
-preset of :mod:`skthermal.simulate`.
+sample; :func:`skthermal.datasets.make_batch_campaign` (also importable from
+here) simulates one with the Machine-B-like preset of :mod:`skthermal.simulate`.
 """
 
 import copy
@@ -16,16 +16,27 @@ from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
-from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import (
+    HasMethods,
+    Interval,
+    StrOptions,
+    validate_params,
+)
 from sklearn.utils.validation import check_is_fitted
 
+from skthermal.datasets import make_batch_campaign
 from skthermal.linear_model._update import first_stable_update
 from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
+    extract_runs,
     run_slices,
 )
+
+__all__ = ["AdaptiveCompensationResult", "adaptive_compensation", "make_batch_campaign"]
+
+_NONNEGATIVE = Interval(Real, 0, np.inf, closed="left")
 
 
 @dataclass(frozen=True)
@@ -125,16 +136,6 @@ class AdaptiveCompensationResult:
         }
 
 
-def _check_number(value, name, low, *, integer=False, strict=False):
-    kind = Integral if integer else Real
-    if isinstance(value, bool) or not isinstance(value, kind):
-        what = "an integer" if integer else "a number"
-        raise TypeError(f"{name} must be {what}, got {value!r}.")
-    if not np.isfinite(value) or (value <= low if strict else value < low):
-        sign = ">" if strict else ">="
-        raise ValueError(f"{name} must be {sign} {low}, got {value!r}.")
-
-
 def _stream_inputs(model, runs, target, sensors, relative):
     if not isinstance(runs, pd.DataFrame):
         raise TypeError(
@@ -160,14 +161,10 @@ def _stream_inputs(model, runs, target, sensors, relative):
         raise ValueError(
             f"The model expects {n_in} inputs but {len(sensors)} sensors were given."
         )
-    if RUN_COLUMN in runs.columns:
-        groups = runs[RUN_COLUMN].to_numpy()
-    elif RUN_COLUMN in (runs.index.names or []):
-        groups = runs.index.get_level_values(RUN_COLUMN).to_numpy()
-    else:
-        groups = None
+    labels = [RUN_COLUMN] if RUN_COLUMN in runs.columns else []
+    features, groups = extract_runs(runs[[*sensors, *labels]])
     slices, _ = run_slices(groups, len(runs))
-    X = runs[sensors].to_numpy(dtype=float)
+    X = features.to_numpy(dtype=float)
     y = runs[target].to_numpy(dtype=float)
     if len(runs) == 0:
         raise ValueError("The run table is empty.")
@@ -196,6 +193,23 @@ def _stream_inputs(model, runs, target, sensors, relative):
     return X, y, groups, t, sensors, period
 
 
+@validate_params(
+    {
+        "model": [HasMethods(["predict", "partial_fit"])],
+        "runs": "no_validation",  # checked with a run-table message
+        "target": "no_validation",
+        "sensors": ["array-like", None],
+        "threshold_um": [_NONNEGATIVE],
+        "n_update": [Interval(Integral, 1, None, closed="left"), StrOptions({"auto"})],
+        "max_update": [Interval(Integral, 3, None, closed="left")],
+        "rtol": [_NONNEGATIVE],
+        "atol": [_NONNEGATIVE],
+        "relative": ["boolean"],
+        "measure_time_s": [_NONNEGATIVE, None],
+        "update": ["boolean"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def adaptive_compensation(
     model,
     runs,
@@ -293,26 +307,10 @@ def adaptive_compensation(
     12.4
     """
     check_is_fitted(model)
-    for method in ("predict", "partial_fit"):
-        if not hasattr(model, method):
-            raise TypeError(
-                f"model must have a {method} method; {type(model).__name__} has not."
-            )
-    _check_number(threshold_um, "threshold_um", 0.0)
-    _check_number(max_update, "max_update", 3, integer=True)
-    _check_number(rtol, "rtol", 0.0)
-    _check_number(atol, "atol", 0.0)
-    if isinstance(n_update, str):
-        if n_update != "auto":
-            raise ValueError(f"n_update must be an int or 'auto', got {n_update!r}.")
-        if not hasattr(model, "update_path"):
-            raise TypeError(
-                "n_update='auto' needs a model with update_path (UpdateRegressor)."
-            )
-    else:
-        _check_number(n_update, "n_update", 1, integer=True)
-    if measure_time_s is not None:
-        _check_number(measure_time_s, "measure_time_s", 0.0)
+    if n_update == "auto" and not hasattr(model, "update_path"):
+        raise TypeError(
+            "n_update='auto' needs a model with update_path (UpdateRegressor)."
+        )
 
     X, y, groups, t, sensors, period = _stream_inputs(
         model, runs, target, sensors, relative
@@ -376,169 +374,3 @@ def adaptive_compensation(
         sample_period_s=period,
         measure_time_s=period if measure_time_s is None else float(measure_time_s),
     )
-
-
-def make_batch_campaign(
-    n_batches=20,
-    *,
-    machine=None,
-    batch_h=4.0,
-    cycle_min=4.0,
-    speeds_rpm=(3000, 4000, 5000, 6000, 7000, 8000),
-    feeds_mm_min=(500, 1000, 2000, 3000),
-    cut_fraction=(0.5, 0.9),
-    rest_h=(0.5, 14.0),
-    day_amplitude_C=2.0,
-    noise=True,
-    random_state=None,
-):
-    """A long campaign of machining batches in changing states, simulated.
-
-    Like the 20 batches of Liu et al. (004 §4.1): each batch is ``batch_h``
-    hours of machining cycles of ``cycle_min`` minutes, cutting for part of
-    each cycle at a spindle speed and feed drawn per batch, and a
-    measurement (one sample) at the end of every cycle. Batches follow one
-    another on one timeline, separated by rests of random length, so a batch
-    may start on a machine still warm from the last one, at any hour of the
-    workshop's day/night cycle. The Machine-B-like ``"vmc-b"`` preset is
-    simulated continuously and the samples of each batch are cut out.
-
-    Parameters
-    ----------
-    n_batches : int, default=20
-    machine : ThermalMachine, optional
-        Default: ``ThermalMachine.from_preset("vmc-b")``.
-    batch_h : float, default=4.0
-        Length of a batch (hours).
-    cycle_min : float, default=4.0
-        Cutting-and-measuring cycle (minutes); also the sample period.
-    speeds_rpm : sequence of float, default=(3000, ..., 8000)
-        Spindle speeds a batch may use.
-    feeds_mm_min : sequence of float, default=(500, 1000, 2000, 3000)
-        Axis feeds a batch may use.
-    cut_fraction : (float, float), default=(0.5, 0.9)
-        Range of the cutting share of a cycle (drawn per batch, rounded to
-        eighths of the cycle).
-    rest_h : (float, float), default=(0.5, 14.0)
-        Range of the rest before each batch after the first (the first
-        starts after 12 h at rest).
-    day_amplitude_C : float, default=2.0
-        Half the workshop's day/night swing (mean 20 °C).
-    noise : bool, default=True
-        Sensor and displacement noise.
-    random_state : int, RandomState instance or None
-
-    Returns
-    -------
-    runs : DataFrame
-        Run table with runs ``"B1"`` .. ``"B<n>"``, each ``batch_h * 60 /
-        cycle_min + 1`` samples with ``time_s`` from 0, drivers, 77
-        temperatures ``T01_C`` .. ``T77_C`` and ``disp_x_um``,
-        ``disp_y_um``, ``disp_z_um`` (raw values: take changes since the
-        start of each batch for modelling). ``runs.attrs["metadata"]`` has
-        one record per batch (speed, feed, cutting share, rest before it,
-        start hour on the campaign timeline).
-
-    See Also
-    --------
-    adaptive_compensation, skthermal.datasets.make_machine_b_tests
-
-    Notes
-    -----
-    The batches' parameters are drawn, not the paper's Table 1 (not in the
-    extracted text). Y is the simulated machine's largest error; 004
-    modelled Z, the largest on its machine.
-
-    Examples
-    --------
-    >>> from skthermal.linear_model import make_batch_campaign
-    >>> runs = make_batch_campaign(n_batches=3, random_state=0)
-    >>> runs.groupby("run", sort=False).size().to_dict()
-    {'B1': 61, 'B2': 61, 'B3': 61}
-    """
-    from skthermal.simulate import AmbientProfile, DutyCycle, ThermalMachine
-
-    _check_number(n_batches, "n_batches", 1, integer=True)
-    _check_number(batch_h, "batch_h", 0.0, strict=True)
-    _check_number(cycle_min, "cycle_min", 0.0, strict=True)
-    _check_number(day_amplitude_C, "day_amplitude_C", 0.0)
-    for name, pair, low in (("cut_fraction", cut_fraction, 0.0), ("rest_h", rest_h, 0)):
-        if len(pair) != 2 or not (low <= pair[0] <= pair[1]):
-            raise ValueError(f"{name} must be a (low, high) pair, got {pair!r}.")
-    if cut_fraction[1] > 1:
-        raise ValueError(f"cut_fraction must lie in [0, 1], got {cut_fraction!r}.")
-    speeds = np.asarray(speeds_rpm, dtype=float)
-    feeds = np.asarray(feeds_mm_min, dtype=float)
-    if speeds.size == 0 or feeds.size == 0 or np.any(speeds < 0):
-        raise ValueError("speeds_rpm and feeds_mm_min must be non-empty; speeds >= 0.")
-    cycle_s = 60.0 * cycle_min
-    n_cycles = int(round(batch_h * 60.0 / cycle_min))
-    if n_cycles < 2:
-        raise ValueError(
-            f"A batch of {batch_h} h holds fewer than two {cycle_min}-minute cycles."
-        )
-    machine = ThermalMachine.from_preset("vmc-b") if machine is None else machine
-    rng = check_random_state(random_state)
-    sub = 8  # integration steps per cycle
-    step_s = cycle_s / sub
-    segments, starts, metas = [], [], []
-    cursor = 0  # in integration steps
-    for b in range(n_batches):
-        rest_cycles = (
-            int(round(12.0 * 3600 / cycle_s))
-            if b == 0
-            else max(1, int(round(rng.uniform(*rest_h) * 3600 / cycle_s)))
-        )
-        segments.append((rest_cycles * cycle_s, 0.0, 0.0))
-        cursor += rest_cycles * sub
-        rpm = float(rng.choice(speeds))
-        feed = float(rng.choice(feeds))
-        cut = int(np.clip(round(rng.uniform(*cut_fraction) * sub), 1, sub))
-        for _ in range(n_cycles):
-            segments.append((cut * step_s, rpm, feed))
-            if cut < sub:
-                segments.append(((sub - cut) * step_s, 0.0, 0.0))
-        starts.append(cursor)
-        name = f"B{b + 1}"
-        metas.append(
-            {
-                "run": name,
-                "spindle_rpm": rpm,
-                "feed_mm_min": feed,
-                "cut_fraction": cut / sub,
-                "rest_before_h": rest_cycles * cycle_s / 3600.0,
-                "start_h": cursor * step_s / 3600.0,
-                "description": (
-                    f"{batch_h:g} h of {cycle_min:g}-minute cycles, cutting "
-                    f"{cut / sub:.0%} of each at {rpm:.0f} rpm, feed {feed:.0f} mm/min"
-                ),
-            }
-        )
-        cursor += n_cycles * sub
-    ambient = AmbientProfile(
-        mean_C=20.0,
-        day_amplitude_C=day_amplitude_C,
-        start_hour=6.0,
-        noise_C=0.1,
-        noise_tau_min=60.0,
-    )
-    whole = machine.simulate(
-        DutyCycle(segments),
-        ambient,
-        sample_period_s=step_s,
-        run="campaign",
-        noise=noise,
-        random_state=rng,
-    )
-    frames = []
-    for start, meta in zip(starts, metas, strict=True):
-        rows = start + sub * np.arange(n_cycles + 1)
-        frame = whole.iloc[rows].copy()
-        frame[RUN_COLUMN] = meta["run"]
-        frame[TIME_COLUMN] = frame[TIME_COLUMN] - frame[TIME_COLUMN].iloc[0]
-        frames.append(frame)
-    runs = pd.concat(frames, ignore_index=True)
-    runs.attrs.clear()
-    base = machine.run_metadata("campaign")
-    runs.attrs["metadata"] = [{**base, **meta} for meta in metas]
-    return runs

@@ -383,22 +383,9 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         self : object
         """
         first = not hasattr(self, "coef_")
-        X, y = validate_data(
-            self,
-            X,
-            y,
-            multi_output=True,
-            y_numeric=True,
-            dtype=np.float64,
-            reset=first,
+        X, y, E, old = self._new_samples(
+            X, y, first=first, hint="; partial_fit needs the same targets as fit"
         )
-        E = _as_2d_target(y)
-        old = np.zeros((X.shape[1] + 1, E.shape[1])) if first else self._coef_matrix()
-        if old.shape[1] != E.shape[1]:
-            raise ValueError(
-                f"y has {E.shape[1]} target(s) but the model was fitted on "
-                f"{old.shape[1]}; partial_fit needs the same targets as fit."
-            )
         coef = update_coef(
             X, E, old, eta=self.eta, penalize_intercept=self.penalize_intercept
         )
@@ -425,22 +412,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
             Intercept first in the last axis, as ``[intercept_, *coef_]``.
         """
         check_is_fitted(self)
-        X, y = validate_data(
-            self,
-            X,
-            y,
-            multi_output=True,
-            y_numeric=True,
-            dtype=np.float64,
-            reset=False,
-        )
-        E = _as_2d_target(y)
-        old = self._coef_matrix()
-        if old.shape[1] != E.shape[1]:
-            raise ValueError(
-                f"y has {E.shape[1]} target(s) but the model was fitted on "
-                f"{old.shape[1]}."
-            )
+        X, y, E, old = self._new_samples(X, y, first=False)
         path = update_path(
             X, E, old, eta=self.eta, penalize_intercept=self.penalize_intercept
         )
@@ -461,6 +433,27 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         X = validate_data(self, X, reset=False, dtype=np.float64)
         return X @ self.coef_.T + self.intercept_
+
+    def _new_samples(self, X, y, *, first, hint=""):
+        """Validated new samples, their 2-D targets and the coefficients so far
+        (zeros for the first ``partial_fit``)."""
+        X, y = validate_data(
+            self,
+            X,
+            y,
+            multi_output=True,
+            y_numeric=True,
+            dtype=np.float64,
+            reset=first,
+        )
+        E = _as_2d_target(y)
+        old = np.zeros((X.shape[1] + 1, E.shape[1])) if first else self._coef_matrix()
+        if old.shape[1] != E.shape[1]:
+            raise ValueError(
+                f"y has {E.shape[1]} target(s) but the model was fitted on "
+                f"{old.shape[1]}{hint}."
+            )
+        return X, y, E, old
 
     def _coef_matrix(self):
         coef = np.atleast_2d(self.coef_)

@@ -10,6 +10,9 @@ import numbers
 import numpy as np
 from scipy.optimize import OptimizeResult
 from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, validate_params
+
+_NONNEGATIVE = Interval(numbers.Real, 0, np.inf, closed="left")
 
 
 def _as_bounds(bounds):
@@ -43,14 +46,6 @@ def _as_bounds(bounds):
     return lo.copy(), hi.copy()
 
 
-def _check_positive_int(value, name, minimum):
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise TypeError(f"{name} must be an int, got {value!r}.")
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}.")
-    return int(value)
-
-
 def _inertia_schedule(inertia, epochs):
     if isinstance(inertia, numbers.Real):
         return np.full(max(epochs, 1), float(inertia))
@@ -82,6 +77,27 @@ def _evaluate(fun, P, n_particles):
     return np.where(np.isnan(costs), np.inf, costs)
 
 
+@validate_params(
+    {
+        "fun": [callable],
+        "bounds": "no_validation",  # pairs or scipy Bounds, checked with the shape
+        "n_particles": [Interval(numbers.Integral, 1, None, closed="left")],
+        "epochs": [Interval(numbers.Integral, 0, None, closed="left")],
+        "c1": [_NONNEGATIVE],
+        "c2": [_NONNEGATIVE],
+        "inertia": [numbers.Real, "array-like"],
+        "velocity_clamp": [
+            Interval(numbers.Real, 0, None, closed="neither"),
+            "array-like",
+            None,
+        ],
+        "init": ["array-like", None],
+        "random_state": ["random_state"],
+        "tol": [_NONNEGATIVE, None],
+        "patience": [Interval(numbers.Integral, 1, None, closed="left")],
+    },
+    prefer_skip_nested_validation=True,
+)
 def particle_swarm(
     fun,
     bounds,
@@ -184,18 +200,9 @@ def particle_swarm(
     >>> len(res.history), res.nfev
     (101, 3030)
     """
-    if not callable(fun):
-        raise TypeError(f"fun must be callable, got {type(fun).__name__}.")
     lo, hi = _as_bounds(bounds)
     d = lo.shape[0]
-    n = _check_positive_int(n_particles, "n_particles", 1)
-    epochs = _check_positive_int(epochs, "epochs", 0)
-    patience = _check_positive_int(patience, "patience", 1)
-    for name, c in (("c1", c1), ("c2", c2)):
-        if not isinstance(c, numbers.Real) or not c >= 0:
-            raise ValueError(f"{name} must be a non-negative number, got {c!r}.")
-    if tol is not None and not (isinstance(tol, numbers.Real) and tol >= 0):
-        raise ValueError(f"tol must be None or a non-negative number, got {tol!r}.")
+    n, epochs, patience = int(n_particles), int(epochs), int(patience)
     weights = _inertia_schedule(inertia, epochs)
     span = hi - lo
     if velocity_clamp is None:

@@ -6,6 +6,8 @@ when something is drawn, with an error that says how to install it.
 
 import numpy as np
 
+from skthermal._optional import import_optional
+
 _TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
 
 
@@ -28,14 +30,7 @@ def check_matplotlib_support(caller_name):
     ImportError
         If matplotlib is not installed.
     """
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as exc:
-        raise ImportError(
-            f"{caller_name} requires matplotlib. Install it with "
-            'pip install "skthermal[plot]".'
-        ) from exc
-    return plt
+    return import_optional("matplotlib.pyplot", extra="plot", caller=caller_name)
 
 
 def _time_scale(time, time_unit):

@@ -20,7 +20,7 @@ from skthermal.plotting._base import (
     _time_scale,
     check_matplotlib_support,
 )
-from skthermal.utils._runs import RUN_COLUMN, TIME_COLUMN, run_slices
+from skthermal.utils._runs import RUN_COLUMN, TIME_COLUMN, extract_runs, run_slices
 
 _DISP = re.compile(r"^disp_(?P<axis>[a-z0-9]+)_um$", re.IGNORECASE)
 
@@ -399,9 +399,9 @@ default=None
             Sample times in seconds; default: the ``time_s`` index level of
             ``y``, else of ``X``, else the sample number.
         groups : array-like of shape (n_samples,), default=None
-            Run labels; default: the ``run`` index level of ``y``, else of
-            ``X``. Also passed to ``predict`` when the estimator's
-            ``predict`` accepts ``groups``.
+            Run labels; default: the ``run`` index level of ``y``, else the
+            ``run`` column or index level of ``X``. Also passed to
+            ``predict`` when the estimator's ``predict`` accepts ``groups``.
         run : label or list of labels, default=None
             The run(s) to plot; None plots every run, one column each.
         target_name : str, default=None
@@ -431,8 +431,8 @@ default=None
                 time = _index_level(X, TIME_COLUMN)
         if groups is None:
             groups = _index_level(y, RUN_COLUMN)
-            if groups is None:
-                groups = _index_level(X, RUN_COLUMN)
+            if groups is None:  # a run column or index level, as estimators read it
+                groups = extract_runs(X)[1]
         if target_name is None:
             target_name = getattr(y, "name", None)
         if estimator_name is None:

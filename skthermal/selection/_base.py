@@ -53,7 +53,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         return tags
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y, groups=None):
+    def fit(self, X, y, *, groups=None):
         """Score the sensors and choose the ones to keep.
 
         Parameters

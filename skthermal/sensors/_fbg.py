@@ -18,36 +18,21 @@ from numbers import Real
 import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, validate_params
 
-from skthermal.datasets._runtable import STRAIN_PATTERN, TEMPERATURE_PATTERN
+from skthermal._naming import STRAIN_PATTERN, TEMPERATURE_PATTERN
+from skthermal._run_changes import changes_since_first_row
+from skthermal.utils._runs import RUN_COLUMN, extract_runs
 
 FBG_SENSITIVITY_UE_PER_C = 8.64
 """Apparent strain of a grating per °C of its own temperature (µε/°C, 001
 §4.2.2.3)."""
 
 
-def _number(value, name, *, nonnegative=False):
+def _number(value, name):
     if isinstance(value, bool) or not isinstance(value, Real) or not np.isfinite(value):
         raise ValueError(f"{name} must be a finite number, got {value!r}.")
-    if nonnegative and value < 0:
-        raise ValueError(f"{name} must not be negative, got {value!r}.")
     return float(value)
-
-
-def _run_starts(groups, n):
-    """Index of the first row of every row's run (runs need not be contiguous)."""
-    if groups is None:
-        return np.zeros(n, dtype=int)
-    groups = np.asarray(groups)
-    if groups.shape != (n,):
-        raise ValueError(
-            f"groups must hold one run label per row ({n}), got shape {groups.shape}."
-        )
-    codes, _ = pd.factorize(groups)
-    if np.any(codes < 0):
-        raise ValueError("groups has missing run labels; every row needs one.")
-    _, first = np.unique(codes, return_index=True)
-    return first[codes]
 
 
 def correct_fbg_strain(
@@ -121,18 +106,17 @@ def correct_fbg_strain(
             row = int(np.argwhere(bad)[0][0])
             raise ValueError(f"{name} is NaN or infinite at sample {row}.")
     if reference_C is None:
-        ref = temp[_run_starts(groups, raw.shape[0])]
-    else:
-        ref = np.asarray(reference_C, dtype=float)
-        if not np.all(np.isfinite(ref)):
-            raise ValueError("reference_C must be finite.")
-        try:
-            ref = np.broadcast_to(ref, raw.shape[1:])
-        except ValueError:
-            raise ValueError(
-                f"reference_C of shape {ref.shape} does not match the "
-                f"{raw.shape[1:]} gratings."
-            ) from None
+        return raw - k * changes_since_first_row(temp, groups)
+    ref = np.asarray(reference_C, dtype=float)
+    if not np.all(np.isfinite(ref)):
+        raise ValueError("reference_C must be finite.")
+    try:
+        ref = np.broadcast_to(ref, raw.shape[1:])
+    except ValueError:
+        raise ValueError(
+            f"reference_C of shape {ref.shape} does not match the "
+            f"{raw.shape[1:]} gratings."
+        ) from None
     return raw - k * (temp - ref)
 
 
@@ -235,6 +219,17 @@ def _check_gauges(gauges, nodes):
     return out
 
 
+@validate_params(
+    {
+        "runs": "no_validation",  # checked with the states, naming both
+        "states": "no_validation",
+        "gauges": "no_validation",
+        "sensitivity_ue_per_C": "no_validation",  # as in correct_fbg_strain
+        "noise_ue": [Interval(Real, 0, np.inf, closed="left")],
+        "random_state": ["random_state"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def add_strain_channels(
     runs,
     states,
@@ -301,7 +296,7 @@ def add_strain_channels(
     if len(runs) == 0:
         raise ValueError("runs is empty.")
     k = _number(sensitivity_ue_per_C, "sensitivity_ue_per_C")
-    noise = _number(noise_ue, "noise_ue", nonnegative=True)
+    noise = float(noise_ue)
     checked = _check_gauges(gauges, states.columns)
     clash = [c for c in checked if c in runs.columns]
     if clash:
@@ -310,8 +305,8 @@ def add_strain_channels(
     if not np.all(np.isfinite(T)):
         row = int(np.argwhere(~np.isfinite(T))[0][0])
         raise ValueError(f"states is NaN or infinite at row {row}.")
-    groups = runs["run"].to_numpy() if "run" in runs.columns else None
-    dT = T - T[_run_starts(groups, len(runs))]
+    _, groups = extract_runs(runs[[RUN_COLUMN]] if RUN_COLUMN in runs else runs[[]])
+    dT = changes_since_first_row(T, groups)
     index = {n: i for i, n in enumerate(states.columns)}
     # Gauges are linear in the node rises: one matrix product for all of them.
     G = np.zeros((len(index), len(checked)))
@@ -385,7 +380,7 @@ def correct_strain_channels(
             if not pattern.fullmatch(str(col)):
                 raise ValueError(f"{col!r} is not a {what} column name.")
     strain = list(colocated)
-    groups = runs["run"].to_numpy() if "run" in runs.columns else None
+    _, groups = extract_runs(runs[[RUN_COLUMN]] if RUN_COLUMN in runs else runs[[]])
     corrected = correct_fbg_strain(
         runs[strain].to_numpy(dtype=float),
         runs[[colocated[s] for s in strain]].to_numpy(dtype=float),

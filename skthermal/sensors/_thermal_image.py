@@ -19,19 +19,14 @@ from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
-from sklearn.utils import check_random_state
+from sklearn.utils import check_random_state, check_scalar
+from sklearn.utils._param_validation import Interval, validate_params
 
-from skthermal.datasets._runtable import TEMPERATURE_PATTERN
+from skthermal._naming import TEMPERATURE_PATTERN
 
 _NAME = re.compile(r"[A-Za-z0-9]+")
 # Frames processed at once: bounds the memory of the integral images.
 _CHUNK_PIXELS = 1 << 23
-
-
-def _check_int(value, name, low=1):
-    if isinstance(value, bool) or not isinstance(value, Integral) or value < low:
-        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}.")
-    return int(value)
 
 
 def _as_stack(stack, what="stack"):
@@ -187,11 +182,16 @@ class VirtualSensorExtractor:
     # ------------------------------------------------------------ layout
 
     def _check_params(self, shape):
-        _check_int(self.spot_size, "spot_size")
-        _check_int(self.frame_average, "frame_average")
-        cov = self.min_coverage
-        if isinstance(cov, bool) or not isinstance(cov, Real) or not 0 < cov <= 1:
-            raise ValueError(f"min_coverage must lie in (0, 1], got {cov!r}.")
+        check_scalar(self.spot_size, "spot_size", Integral, min_val=1)
+        check_scalar(self.frame_average, "frame_average", Integral, min_val=1)
+        check_scalar(
+            self.min_coverage,
+            "min_coverage",
+            Real,
+            min_val=0,
+            max_val=1,
+            include_boundaries="right",
+        )
         if self.grid is None and self.centres is None and self.strips is None:
             raise ValueError(
                 "Place some spots: give grid=(n_rows, n_cols), centres or strips."
@@ -263,7 +263,7 @@ class VirtualSensorExtractor:
                     f"Strip {name!r} must be ((row0, col0), (row1, col1), n_spots), "
                     f"got {spec!r}."
                 ) from None
-            n = _check_int(n, f"n_spots of strip {name!r}")
+            n = check_scalar(n, f"n_spots of strip {name!r}", Integral, min_val=1)
             ends = self._points([start, end], f"The ends of strip {name!r}")
             t = np.linspace(0.0, 1.0, n) if n > 1 else np.zeros(1)
             line = np.rint(ends[0] + t[:, None] * (ends[1] - ends[0])).astype(int)
@@ -551,6 +551,14 @@ class ThermalImageRun:
 REGIONS = ("background", "carrier", "spindle boss", "tool")
 
 
+@validate_params(
+    {
+        "nodes": "no_validation",
+        "shape": "no_validation",  # a pair, checked with its own message
+        "blur_px": [Interval(Real, 0, np.inf, closed="left")],
+    },
+    prefer_skip_nested_validation=True,
+)
 def carrier_field_weights(nodes, shape, *, blur_px=1.0):
     """Linear map from node temperatures to the pixels of a carrier image.
 
@@ -603,8 +611,6 @@ def carrier_field_weights(nodes, shape, *, blur_px=1.0):
         or min(shape) < 20
     ):
         raise ValueError(f"shape must be (height, width), both >= 20, got {shape!r}.")
-    if not isinstance(blur_px, Real) or not np.isfinite(blur_px) or blur_px < 0:
-        raise ValueError(f"blur_px must be a number >= 0, got {blur_px!r}.")
     H, W = int(shape[0]), int(shape[1])
     idx = {n: i for i, n in enumerate(nodes)}
     rows = (np.arange(H) + 0.5) / H
@@ -641,6 +647,14 @@ def carrier_field_weights(nodes, shape, *, blur_px=1.0):
     return weights, regions
 
 
+@validate_params(
+    {
+        "noise_C": [Interval(Real, 0, None, closed="left")],
+        "fixed_pattern_C": [Interval(Real, 0, None, closed="left")],
+        "random_state": ["random_state"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def simulate_thermal_images(
     machine,
     duty,
@@ -715,9 +729,6 @@ def simulate_thermal_images(
     >>> bool(hot[sim.regions == 2].mean() > hot[sim.regions == 1].mean() > 1.0)
     True
     """
-    for name, value in (("noise_C", noise_C), ("fixed_pattern_C", fixed_pattern_C)):
-        if isinstance(value, bool) or not isinstance(value, Real) or value < 0:
-            raise ValueError(f"{name} must be a number >= 0, got {value!r}.")
     weights, regions = carrier_field_weights(machine.spec.nodes, shape, blur_px=blur_px)
     H, W = regions.shape
     eps = np.asarray(emissivity, dtype=float)

@@ -16,6 +16,7 @@ from numbers import Integral, Real
 import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
+from sklearn.utils._param_validation import Interval, validate_params
 
 _UNITS = {"mm": 1000.0, "um": 1.0}
 
@@ -213,6 +214,19 @@ _MATERIAL = {  # specific cutting force (N/mm^2), Young's modulus (N/mm^2)
 }
 
 
+@validate_params(
+    {
+        "n_cases": [Interval(Integral, 1, None, closed="left")],
+        "conditions": [pd.DataFrame, None],
+        "n_positions": [Interval(Integral, 2, None, closed="left")],
+        "spacing_mm": [Interval(Real, 0, None, closed="neither")],
+        "noise_um": [Interval(Real, 0, None, closed="left")],
+        "force_noise": [Interval(Real, 0, None, closed="left")],
+        "part_noise_um": [Interval(Real, 0, None, closed="left")],
+        "random_state": ["random_state"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def make_turning_errors(
     n_cases=20,
     *,
@@ -304,26 +318,7 @@ def make_turning_errors(
     True
     """
     rng = check_random_state(random_state)
-    for name, value in (("n_positions", n_positions),):
-        if isinstance(value, bool) or not isinstance(value, Integral) or value < 2:
-            raise ValueError(f"{name} must be an integer >= 2, got {value!r}.")
-    for name, value in (
-        ("spacing_mm", spacing_mm),
-        ("noise_um", noise_um),
-        ("force_noise", force_noise),
-        ("part_noise_um", part_noise_um),
-    ):
-        if isinstance(value, bool) or not isinstance(value, Real) or value < 0:
-            raise ValueError(f"{name} must be a number >= 0, got {value!r}.")
-    if spacing_mm <= 0:
-        raise ValueError(f"spacing_mm must be positive, got {spacing_mm!r}.")
     if conditions is None:
-        if (
-            isinstance(n_cases, bool)
-            or not isinstance(n_cases, Integral)
-            or n_cases < 1
-        ):
-            raise ValueError(f"n_cases must be an integer >= 1, got {n_cases!r}.")
         cond = pd.DataFrame(
             {
                 k: np.asarray(v, dtype=object)[rng.randint(len(v), size=n_cases)]

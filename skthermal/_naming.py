@@ -1,0 +1,15 @@
+"""Column-naming patterns of the run table (DATA_FORMAT).
+
+The patterns sit below every package, so that :mod:`skthermal.sensors` (which
+the simulator uses) can name the channels it adds without importing
+:mod:`skthermal.datasets` (which holds campaigns simulated with the
+simulator). :mod:`skthermal.datasets` builds its checks and messages on them.
+"""
+
+import re
+
+# <name> of a sensor or an axis: ASCII letters and digits, inner underscores.
+NAME = r"[A-Za-z0-9]+(?:_[A-Za-z0-9]+)*"
+TEMPERATURE_PATTERN = re.compile(rf"T{NAME}_C")
+STRAIN_PATTERN = re.compile(rf"S{NAME}_ue")
+TARGET_PATTERN = re.compile(rf"disp_{NAME}_um")

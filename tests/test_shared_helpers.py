@@ -1,0 +1,120 @@
+"""The package-private helpers shared across skthermal's subpackages."""
+
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skthermal._markdown import markdown_table
+from skthermal._optional import import_optional, missing_dependency
+from skthermal._run_changes import changes_since_first_row
+from skthermal._versions import package_versions
+from skthermal.utils import changes_since_start, run_slices
+
+
+def test_import_optional_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(
+        ImportError, match=r'Thing requires matplotlib\. .*"skthermal\[plot\]"'
+    ):
+        import_optional("matplotlib.pyplot", extra="plot", caller="Thing")
+    err = missing_dependency("zstandard", caller="Reading x.zst")
+    assert str(err).endswith("pip install zstandard.")
+    assert import_optional("json", caller="x") is sys.modules["json"]
+
+
+def test_changes_since_first_row_matches_contiguous_runs():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(7, 2))
+    groups = np.array(["a", "b", "a", "b", "b", "a", "c"])
+    got = changes_since_first_row(X, groups)
+    for g in np.unique(groups):
+        rows = groups == g
+        np.testing.assert_array_equal(got[rows], X[rows] - X[rows][0])
+    # Sorted into blocks, it is the array helper of the estimators.
+    order = np.argsort(groups, kind="stable")
+    slices, _ = run_slices(groups[order])
+    np.testing.assert_array_equal(got[order], changes_since_start(X[order], slices))
+    np.testing.assert_array_equal(changes_since_first_row(X, None), X - X[0])
+    with pytest.raises(ValueError, match="one run label per row"):
+        changes_since_first_row(X, groups[:3])
+    with pytest.raises(ValueError, match="missing run labels"):
+        changes_since_first_row(X[:2], np.array(["a", None], dtype=object))
+
+
+def test_markdown_table_and_versions():
+    frame = pd.DataFrame({"a": [1.5, 2.0], "b": ["x", "y"]})
+    table = markdown_table(frame, cell=lambda v: f"<{v}>")
+    assert table.splitlines() == [
+        "| a | b |",
+        "|---|---|",
+        "| <1.5> | <x> |",
+        "| <2.0> | <y> |",
+    ]
+    assert markdown_table(frame.iloc[:0], empty="(none)") == "(none)"
+    versions = package_versions(["numpy", "no-such-distribution-xyz"])
+    assert versions["numpy"] == np.__version__
+    assert versions["no-such-distribution-xyz"] is None
+    assert versions["python"] == ".".join(map(str, sys.version_info[:3]))
+
+
+def test_table_changes_since_start_interleaved_runs():
+    from skthermal.datasets import changes_since_start as table_changes
+
+    df = pd.DataFrame(
+        {
+            "run": ["a", "b", "a", "b", "a"],
+            "time_s": [0.0, 0.0, 1.0, 1.0, 2.0],
+            "T1_C": [20.0, 30.0, 21.0, 29.0, 23.5],
+        }
+    )
+    out = table_changes(df)
+    assert out["T1_C"].tolist() == [0.0, 0.0, 1.0, -1.0, 3.5]
+    assert out["run"].tolist() == df["run"].tolist()
+
+
+def _imported_modules(package):
+    """Every skthermal module imported (anywhere) by the files of ``package``."""
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).parents[1] / "skthermal" / package
+    out = set()
+    for path in root.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                out.add(node.module)
+            elif isinstance(node, ast.Import):
+                out.update(alias.name for alias in node.names)
+    return {m for m in out if m.startswith("skthermal")}
+
+
+def test_sensors_and_datasets_import_layers():
+    """The sensors do not use the data sets, nor the data sets the models."""
+    assert not any(
+        m.startswith("skthermal.datasets") for m in _imported_modules("sensors")
+    )
+    assert not any(
+        m.startswith("skthermal.linear_model") for m in _imported_modules("datasets")
+    )
+
+
+def test_make_sensor_groups_rejects_too_few_samples():
+    from sklearn.utils._param_validation import InvalidParameterError
+
+    from skthermal.datasets import make_sensor_groups
+
+    # Fewer than 12 samples per run used to loop forever on empty duty blocks.
+    with pytest.raises(InvalidParameterError, match="n_samples"):
+        make_sensor_groups(n_samples=3, random_state=0)
+    runs, truth = make_sensor_groups(
+        n_groups=1,
+        sensors_per_group=1,
+        n_noise=0,
+        n_runs=1,
+        n_samples=12,
+        random_state=0,
+    )
+    assert runs.shape == (12, 4) and truth.tolist() == [0]
