@@ -24,8 +24,12 @@ implementations disagree.
 
 import argparse
 import itertools
+import json
 import math
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -35,6 +39,8 @@ from skthermal.fuzzy import ANFISRegressor
 from skthermal.fuzzy._anfis_core import StepSizeRule, solve_consequents
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+PEERS = ("torchanfis", "anfis-toolbox")
+PEER_SCRIPT = Path(__file__).resolve().parent / "peers" / "run_anfis_peer.py"
 
 JANG_MFS = np.array(
     [
@@ -150,13 +156,77 @@ def load(data):
     return trn, chk, cons
 
 
+def peer_data(seed=0, n=2000):
+    """The data of part 4: 2000 x 4 inputs, a smooth target plus noise 0.1."""
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-1, 1, size=(n, 4))
+    y = (
+        np.sin(2 * X[:, 0])
+        + X[:, 1] ** 2
+        - 0.5 * X[:, 2] * X[:, 3]
+        + 0.1 * rng.standard_normal(n)
+    )
+    return X, y
+
+
+def compare_peers(python, epochs, repeats, threads):
+    """Part 4: skthermal against other packages, fitted on the same data."""
+    X, y = peer_data()
+    times = []
+    for _ in range(max(repeats, 3)):
+        model = ANFISRegressor(init="grid", n_mfs=2, epochs=epochs)
+        t0 = time.perf_counter()
+        model.fit(X, y)
+        times.append(time.perf_counter() - t0)
+    ours, ours_rmse = min(times), rmse(model.predict(X), y)
+    print(
+        f"   skthermal      {ours:8.3f} s  RMSE {ours_rmse:.4f}  (fits: "
+        + ", ".join(f"{t:.3f}" for t in times)
+        + ")"
+    )
+    env = dict(os.environ)
+    if threads:
+        env.update({"OMP_NUM_THREADS": str(threads), "MKL_NUM_THREADS": str(threads)})
+        env["OPENBLAS_NUM_THREADS"] = str(threads)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "data.npz"
+        np.savez(path, X=X, y=y)
+        for peer in PEERS:
+            cmd = [python, str(PEER_SCRIPT), peer, str(path), str(epochs)]
+            cmd.append(str(repeats))
+            done = subprocess.run(cmd, capture_output=True, text=True, env=env)
+            if done.returncode != 0:
+                last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+                print(f"   {peer:14s} failed: {last}")
+                continue
+            res = json.loads(done.stdout.strip().splitlines()[-1])
+            print(
+                f"   {peer:14s} {res['best_s']:8.3f} s  RMSE {res['rmse']:.4f}  "
+                f"ratio to skthermal {res['best_s'] / ours:6.1f}x  (fits: "
+                + ", ".join(f"{t:.3f}" for t in res["times_s"])
+                + ")"
+            )
+    return ours_rmse <= 0.111
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", default=str(DEFAULT_DATA), help="shared data")
     parser.add_argument("--epochs", type=int, default=500)
     parser.add_argument("--step-size", type=float, default=0.1)
     parser.add_argument("--loop-epochs", type=int, default=3)
+    parser.add_argument(
+        "--peers",
+        default="/tmp/anfis-peers/bin/python",
+        help="Python of the peer environment (benchmarks/peers/make_anfis_peers.sh)",
+    )
+    parser.add_argument("--peer-epochs", type=int, default=50)
+    parser.add_argument("--peer-repeats", type=int, default=2)
+    parser.add_argument("--peer-threads", type=int, default=1)
+    parser.add_argument("--peers-only", action="store_true", help="part 4 alone")
     args = parser.parse_args(argv)
+    if args.peers_only:
+        return run_peers(args)
     try:
         trn, chk, cons = load(args.data)
     except OSError as exc:
@@ -234,6 +304,23 @@ def main(argv=None):
         f"ratio {t_loop / t_vec:.0f}x"
     )
     ok &= same
+    return run_peers(args) if ok else 1
+
+
+def run_peers(args):
+    print(
+        f"\n4. Other Python ANFIS packages: 2000 x 4, 16 rules, "
+        f"{args.peer_epochs} epochs, hybrid learning"
+    )
+    if not Path(args.peers).exists():
+        print(
+            f"   skipped: no peer environment at {args.peers} (make it with "
+            "bash benchmarks/peers/make_anfis_peers.sh)"
+        )
+        return 0
+    ok = compare_peers(
+        args.peers, args.peer_epochs, args.peer_repeats, args.peer_threads
+    )
     return 0 if ok else 1
 
 

@@ -5,19 +5,26 @@ literature (grey models, fuzzy c-means, ANFIS), with run-aware handling of
 time-ordered test runs.
 """
 
+import importlib
+
 __version__ = "0.1.0.dev0"
 
-from skthermal.ensemble import ModularRegressor  # noqa: E402
-from skthermal.fuzzy import ANFISRegressor  # noqa: E402
-from skthermal.grey import GNNMCIRegressor, GreyPSORegressor  # noqa: E402
-from skthermal.linear_model import UpdateRegressor  # noqa: E402
-from skthermal.selection import (  # noqa: E402
-    FCMClusterPicker,
-    FuzzyEquivalenceSelector,
-    GRASelector,
-    GreyInfluenceSelector,
-    StableTSPSelector,
-)
+# The estimators are imported on first use (PEP 562), so that importing the
+# package -- and starting the ``skthermal`` command -- does not pay for
+# scikit-learn, scipy and every estimator module up front.
+_LAZY = {
+    "ANFISRegressor": "skthermal.fuzzy",
+    "FCMClusterPicker": "skthermal.selection",
+    "FuzzyEquivalenceSelector": "skthermal.selection",
+    "GNNMCIRegressor": "skthermal.grey",
+    "GRASelector": "skthermal.selection",
+    "GreyInfluenceSelector": "skthermal.selection",
+    "GreyPSORegressor": "skthermal.grey",
+    "GuardedRegressor": "skthermal.compose",
+    "ModularRegressor": "skthermal.ensemble",
+    "StableTSPSelector": "skthermal.selection",
+    "UpdateRegressor": "skthermal.linear_model",
+}
 
 __all__ = [
     "ANFISRegressor",
@@ -25,10 +32,24 @@ __all__ = [
     "FuzzyEquivalenceSelector",
     "GNNMCIRegressor",
     "GRASelector",
+    "GreyInfluenceSelector",
     "GreyPSORegressor",
+    "GuardedRegressor",
     "ModularRegressor",
     "StableTSPSelector",
     "UpdateRegressor",
-    "GreyInfluenceSelector",
     "__version__",
 ]
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'skthermal' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -19,115 +19,18 @@ Subcommands:
     trained on some runs and evaluated on held-out runs, and a table of the
     papers' metrics.
 
-The implementations live in :mod:`skthermal._cli_commands`. User errors print
-one line and exit with status 2, never a traceback.
+The implementations live in the modules of :mod:`skthermal._cli`, imported
+only when their subcommand runs (``skthermal --help`` imports none of them).
+User errors print one line and exit with status 2, never a traceback.
 """
 
 import argparse
+import importlib
+import shutil
 import sys
-from pathlib import Path
+import textwrap
 
-import pandas as pd
-
-from skthermal import _cli_commands as commands
-from skthermal._cli_commands import UserError
-
-__all__ = ["UserError", "build_parser", "main"]
-
-
-def _demo(args):
-    from sklearn.linear_model import LinearRegression
-    from sklearn.model_selection import GroupKFold
-    from sklearn.pipeline import make_pipeline
-
-    from skthermal import FCMClusterPicker, GreyInfluenceSelector
-    from skthermal.datasets import make_sensor_groups, split_runs
-    from skthermal.metrics import (
-        improvement,
-        nash_sutcliffe,
-        pearson_r,
-        residual_band,
-        rmse,
-    )
-
-    if args.runs < 2:
-        raise UserError(
-            f"--runs must be at least 2 (one to train, one to test), got {args.runs}"
-        )
-    if args.groups < 1 or args.sensors_per_group < 1:
-        raise UserError("--groups and --sensors-per-group must be at least 1")
-    runs, truth = make_sensor_groups(
-        n_groups=args.groups,
-        sensors_per_group=args.sensors_per_group,
-        n_noise=args.noise_sensors,
-        n_runs=args.runs,
-        random_state=args.seed,
-    )
-    X, y, groups = split_runs(runs)
-    n_sensors = X.shape[1]
-    print(
-        f"Generated {args.runs} runs x {runs.shape[0] // args.runs} samples: "
-        f"{n_sensors} sensors ({args.groups} heat-driven groups of "
-        f"{args.sensors_per_group} collinear sensors, {args.noise_sensors} noise "
-        "sensors), target disp_y_um."
-    )
-
-    picker = FCMClusterPicker(n_clusters=args.groups, random_state=args.seed)
-    picker.fit(X, y)
-    kept = picker.get_feature_names_out()
-    print(f"\nFCMClusterPicker kept {len(kept)} of {n_sensors} sensors:")
-    scores = pd.Series(picker.scores_, index=X.columns)
-    for name in kept:
-        g = truth[name]
-        what = f"group {g}" if g >= 0 else "NOISE"
-        print(f"  {name}  (true {what}, GM(1,N) influence {scores[name]:.3g})")
-
-    models = {
-        f"FCM picker ({args.groups}) + linear": make_pipeline(
-            FCMClusterPicker(n_clusters=args.groups, random_state=args.seed),
-            LinearRegression(),
-        ),
-        f"grey top-{args.groups} + linear": make_pipeline(
-            GreyInfluenceSelector(n_features_to_select=args.groups),
-            LinearRegression(),
-        ),
-        f"all {n_sensors} sensors + linear": LinearRegression(),
-    }
-    rows = []
-    cv = GroupKFold(n_splits=args.runs)
-    for name, model in models.items():
-        for train, test in cv.split(X, y, groups):
-            model.fit(X.iloc[train], y.iloc[train])
-            # Displacements are compared as change since the run start, as
-            # a compensation would apply them.
-            z = y.iloc[test].to_numpy()
-            p = model.predict(X.iloc[test])
-            p, z = p - p[0], z - z[0]
-            rows.append(
-                {
-                    "model": name,
-                    "test run": groups[test][0],
-                    "R": pearson_r(z, p),
-                    "RMSE (µm)": rmse(z, p),
-                    "NSE": nash_sutcliffe(z, p),
-                    "residual (±µm)": residual_band(z, p),
-                    "improvement": improvement(z, p),
-                }
-            )
-    table = pd.DataFrame(rows)
-    summary = table.groupby("model", sort=False).mean(numeric_only=True)
-    with pd.option_context(
-        "display.float_format", "{:.3f}".format, "display.width", 120
-    ):
-        print(f"\nHeld-out runs (leave one run out, {args.runs} folds), mean:")
-        print(summary.to_string())
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        runs.to_csv(out / "runs.csv", index=False)
-        table.to_csv(out / "scores.csv", index=False)
-        print(f"\nWrote {out / 'runs.csv'} and {out / 'scores.csv'}")
-    return 0
+__all__ = ["build_parser", "main"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -140,11 +43,17 @@ class _Parser(argparse.ArgumentParser):
 _FORMATTER = argparse.RawDescriptionHelpFormatter
 
 
+def _wrap(text):
+    """``text`` filled to the terminal width (argparse keeps raw text as is)."""
+    width = min(shutil.get_terminal_size((80, 24)).columns, 100) - 2
+    return textwrap.fill(text, width=max(width, 40), break_on_hyphens=False)
+
+
 def _sub(sub, name, help, description, epilog):
     return sub.add_parser(
         name,
         help=help,
-        description=description,
+        description=_wrap(description),
         epilog="examples:\n" + epilog,
         formatter_class=_FORMATTER,
     )
@@ -170,7 +79,7 @@ def _add_demo(sub):
     demo.add_argument(
         "--out", metavar="DIR", help="also write the runs and scores here"
     )
-    demo.set_defaults(func=_demo)
+    demo.set_defaults(func="_study:cmd_demo")
 
 
 def _add_reproduce(sub):
@@ -186,7 +95,8 @@ def _add_reproduce(sub):
         "figures (001 Tables 5-7/5-8), and write a report folder: report.md, "
         "tables as CSV, figures as PNG (cf. 001 Figs. 5-11..5-15), the run "
         "table and settings.json (settings, versions, seed, timings). Progress "
-        "goes to stderr. Default settings take about a minute on two cores.",
+        "goes to stderr. Default settings (10 s sampling, as the thesis) take "
+        "a few minutes on two cores.",
         "  skthermal reproduce\n"
         "  skthermal reproduce --out report/ --seed 3\n"
         "  skthermal reproduce --quick --no-figures          # a few seconds\n"
@@ -208,7 +118,8 @@ def _add_reproduce(sub):
         "--sample-period",
         type=float,
         metavar="SECONDS",
-        help="sampling of the simulated tests (default 60, 120 with --quick)",
+        help="sampling of the simulated tests (default 10, as the thesis; 120 "
+        "with --quick)",
     )
     p.add_argument(
         "--models",
@@ -217,7 +128,7 @@ def _add_reproduce(sub):
         "mlp (default all)",
     )
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    p.set_defaults(func=commands.cmd_reproduce)
+    p.set_defaults(func="_study:cmd_reproduce")
 
 
 def _add_simulate(sub):
@@ -303,7 +214,7 @@ def _add_simulate(sub):
         default="runs.csv",
         help="run table to write: .csv, .csv.gz, .parquet (default runs.csv)",
     )
-    p.set_defaults(func=commands.cmd_simulate)
+    p.set_defaults(func="_data:cmd_simulate")
 
 
 def _add_select(sub):
@@ -341,7 +252,7 @@ def _add_select(sub):
         help="sensor list: .json (names, scores) or .csv (one row per sensor); "
         "default sensors.json",
     )
-    p.set_defaults(func=commands.cmd_select)
+    p.set_defaults(func="_data:cmd_select")
 
 
 def _add_fit(sub):
@@ -401,7 +312,7 @@ def _add_fit(sub):
         default="model.joblib",
         help="model file: *.skops (safe) or joblib (default model.joblib)",
     )
-    p.set_defaults(func=commands.cmd_fit)
+    p.set_defaults(func="_models:cmd_fit")
 
 
 def _add_predict(sub):
@@ -422,7 +333,7 @@ def _add_predict(sub):
         default="predictions.csv",
         help="default predictions.csv",
     )
-    p.set_defaults(func=commands.cmd_predict)
+    p.set_defaults(func="_models:cmd_predict")
 
 
 def _add_evaluate(sub):
@@ -445,7 +356,7 @@ def _add_evaluate(sub):
     p.add_argument("--model", metavar="FILE", help="predict with this model")
     p.add_argument("--target", help="displacement column")
     p.add_argument("--out", metavar="FILE", help="write the table (.csv or .md)")
-    p.set_defaults(func=commands.cmd_evaluate)
+    p.set_defaults(func="_models:cmd_evaluate")
 
 
 def _add_search(sub):
@@ -498,7 +409,7 @@ def _add_search(sub):
         metavar="FILE",
         help="save the best model, refitted on all runs (as 'skthermal fit')",
     )
-    p.set_defaults(func=commands.cmd_search)
+    p.set_defaults(func="_models:cmd_search")
 
 
 def _add_gap(sub):
@@ -532,7 +443,8 @@ def _add_gap(sub):
         metavar="DIR",
         help="write report.md, report.html, report.json, tables and figures",
     )
-    p.set_defaults(func=commands.cmd_gap)
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func="_gap:cmd_gap")
 
     p = _sub(
         sub,
@@ -561,8 +473,9 @@ def _add_gap(sub):
         help="write validation.md, cases.csv and confusion.csv here",
     )
     p.add_argument("--n-jobs", type=int, help="parallel cases (joblib; default 1)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.set_defaults(func=commands.cmd_gap_check)
+    p.set_defaults(func="_gap:cmd_gap_check")
 
 
 def build_parser():
@@ -570,7 +483,7 @@ def build_parser():
         prog="skthermal",
         description="Thermal-error modelling of CNC machine tools.",
         epilog="examples:\n"
-        "  skthermal reproduce                  # the papers' study, ~1 minute\n"
+        "  skthermal reproduce                  # the papers' study, a few minutes\n"
         "  skthermal simulate --tests I,IV,V --out tests.csv\n"
         "  skthermal select --runs tests.csv --train-runs IV --out sensors.json\n"
         "  skthermal fit --runs tests.csv --train-runs IV --model anfis-fcm \\\n"
@@ -580,7 +493,7 @@ def build_parser():
         "\n'skthermal COMMAND --help' describes a command.",
         formatter_class=_FORMATTER,
     )
-    from skthermal import __version__
+    from skthermal import __version__  # the package only, no estimators
 
     parser.add_argument(
         "--version", action="version", version=f"%(prog)s {__version__}"
@@ -607,8 +520,12 @@ def main(argv=None):
         parser.print_help()
         return 0
     args.command_line = " ".join(["skthermal", *argv])
+    module, _, name = args.func.partition(":")
+    command = getattr(importlib.import_module(f"skthermal._cli.{module}"), name)
+    from skthermal._cli._common import UserError
+
     try:
-        return args.func(args)
+        return command(args)
     except (UserError, ValueError, FileNotFoundError, IsADirectoryError) as exc:
         print(f"skthermal {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2

@@ -570,3 +570,121 @@ def test_fcm_rules_beat_a_243_rule_grid_on_simulated_machine_b():
     assert grid.n_rules_ == 243 and fcm.n_rules_ == 3
     assert scores["fcm"] < 5.0
     assert scores["fcm"] < scores["grid"]
+
+
+# ------------------------------------------------- fast path, ridge, runs
+
+
+def test_normal_equations_match_the_design_matrix(rng):
+    """The training loop's transposed Gram (syrk) solves the same system as
+    the plain design matrix."""
+    from skthermal.fuzzy._anfis_core import _design, _solve_transposed
+
+    X = rng.uniform(-1, 1, size=(200, 3))
+    Y = rng.normal(size=(200, 2))
+    params = np.stack([np.full((3, 2), 0.6), np.tile([-0.5, 0.5], (3, 1))], -1)
+    rules = grid_rules(2, 3)
+    wbar = _normalised_firing(X, params, rules, "gaussian")
+    A = _design(wbar, _with_ones(X))  # columns (rule, input)
+    expected = solve_consequents(A, Y, 1e-6)
+    AT = (_with_ones(X).T[:, None, :] * wbar.T[None]).reshape(-1, 200)
+    theta = _solve_transposed(AT, Y.T, 1e-6)  # columns (input, rule)
+    got = theta.reshape(4, 8, 2).transpose(1, 0, 2).reshape(32, 2)
+    assert_allclose(got, expected, rtol=1e-8, atol=1e-10)
+
+
+def test_ridge_auto_picks_from_the_grid_by_time_ordered_checking(rng):
+    X = rng.normal(size=(300, 6))
+    X[:, 1:] = X[:, :1] + 0.01 * rng.normal(size=(300, 5))  # collinear inputs
+    y = X[:, 0] + 0.3 * rng.normal(size=300)
+    grid = (1e-8, 1e-2, 1.0)
+    model = ANFISRegressor(ridge="auto", ridge_grid=grid, epochs=5, random_state=0)
+    model.fit(X, y)
+    assert set(model.ridge_scores_) == set(grid)
+    assert model.ridge_ == min(model.ridge_scores_, key=model.ridge_scores_.get)
+    # The final model is the refit with the chosen ridge on all rows.
+    same = ANFISRegressor(ridge=model.ridge_, epochs=5, random_state=0).fit(X, y)
+    assert_allclose(model.predict(X), same.predict(X))
+    # With a checking set, the chosen candidate's fit is kept as it is.
+    checked = ANFISRegressor(ridge="auto", ridge_grid=grid, epochs=5, random_state=0)
+    checked.fit(X[:200], y[:200], X_val=X[200:], y_val=y[200:])
+    assert checked.ridge_ in grid
+    assert checked.history_["val_rmse"].min() == pytest.approx(
+        checked.ridge_scores_[checked.ridge_]
+    )
+    with pytest.raises(ValueError, match="ridge_grid"):
+        ANFISRegressor(ridge="auto", ridge_grid=[-1.0]).fit(X, y)
+    with pytest.raises(ValueError, match="ridge='auto'"):
+        ANFISRegressor(ridge="auto", n_clusters=1).fit(X[:2], y[:2])
+
+
+def test_a_larger_ridge_shrinks_the_consequents(rng):
+    X = rng.normal(size=(200, 5))
+    X[:, 1:] = X[:, :1] + 1e-3 * rng.normal(size=(200, 4))
+    y = X[:, 0] + 0.1 * rng.normal(size=200)
+    norms = [
+        np.abs(
+            ANFISRegressor(ridge=r, epochs=3, random_state=0).fit(X, y).consequents_
+        ).max()
+        for r in (1e-10, 1e-2, 1.0)
+    ]
+    assert norms[0] > norms[1] > norms[2]
+
+
+def _timed_runs(rng):
+    table = _runs_table(rng, n_runs=2)
+    table["time_s"] = table.groupby("run").cumcount() * 10.0
+    table = table.set_index(["run", "time_s"])
+    return table[["T1", "T2"]], table["err"]
+
+
+def test_time_going_backwards_within_a_run_raises(rng):
+    X, y = _timed_runs(rng)
+    index = X.index.to_frame(index=False)
+    index.loc[5, "time_s"] = 20.0  # row 5 after time 40
+    bad = X.set_axis(pd.MultiIndex.from_frame(index))
+    with pytest.raises(ValueError, match=r"time_s must increase.*run 'r0'.*row 5"):
+        ANFISRegressor(grey=True, epochs=2).fit(bad, y)
+    with pytest.raises(ValueError, match="time_s must increase"):
+        ANFISRegressor(validation_fraction=0.2, epochs=2).fit(bad, y)
+    model = ANFISRegressor(grey=True, epochs=2, random_state=0).fit(X, y)
+    with pytest.raises(ValueError, match="time_s must increase"):
+        model.predict(bad)
+    # A static model reads rows independently: no order is needed.
+    ANFISRegressor(epochs=2, random_state=0).fit(bad, y)
+
+
+def test_grey_model_warns_when_predict_gets_no_run_labels(rng):
+    X, y = _timed_runs(rng)
+    model = ANFISRegressor(grey=True, epochs=2, random_state=0).fit(X, y)
+    with pytest.warns(UserWarning, match="fitted on 2 labelled run"):
+        model.predict(X.to_numpy())
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(X)
+        ANFISRegressor(grey=True, epochs=2).fit(X.to_numpy(), y).predict(X.to_numpy())
+
+
+@pytest.mark.parametrize("mf", ["gaussian", "gbell"])
+@pytest.mark.parametrize("init", ["fcm", "grid"])
+def test_far_inputs_give_finite_convex_outputs(regression_data, mf, init):
+    """One sensor at 1e6, 1e150 or 1e300: the firing strengths stay a convex
+    combination (no 0/0), and the output that of the rules' linear models at
+    that input (ANFIS extrapolates linearly; it does not clip)."""
+    X, y = regression_data
+    model = ANFISRegressor(init=init, mf=mf, epochs=5, random_state=0).fit(X, y)
+    for value in (1e6, -1e6, 1e150, 1e300):
+        far = X[:4].copy()
+        far[:, 1] = value
+        pred = model.predict(far)
+        rule_out = far @ model.consequents_[:, :3].T + model.consequents_[:, 3]
+        if np.all(np.isfinite(rule_out)):
+            assert np.all(np.isfinite(pred))
+            tol = 1e-9 * np.abs(rule_out).max(axis=1)
+            assert np.all(pred >= rule_out.min(axis=1) - tol)
+            assert np.all(pred <= rule_out.max(axis=1) + tol)
+        wbar = _normalised_firing(far, model.mf_params_, model.rules_, mf)
+        assert np.all(np.isfinite(wbar))
+        assert_allclose(wbar.sum(axis=1), 1.0)

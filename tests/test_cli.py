@@ -212,7 +212,6 @@ def test_fit_every_model_with_a_selector(capsys, workdir, name):
 
 def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):
     pytest.importorskip("skops")
-    pytest.importorskip("skthermal.io")
     model = workdir / "safe.skops"
     argv = ["fit", "--runs", workdir / "tests.csv", "--model", "grey-pso"]
     status, _, err = _run(capsys, *argv, "--sensors", "T05_C", "--out", model)
@@ -251,7 +250,6 @@ def test_fit_set_parameters(capsys, workdir):
 
 def test_search_runs_a_small_study(capsys, workdir):
     pytest.importorskip("optuna")
-    pytest.importorskip("skthermal.model_selection")
     best = workdir / "best.json"
     status, text, err = _run(
         capsys,
@@ -335,18 +333,70 @@ def test_gap_check_exit_status_follows_targets(capsys, monkeypatch, tmp_path):
     assert (tmp_path / "check" / "validation.md").is_file()
 
 
-@pytest.mark.parametrize("command", ["search", "gap", "gap-check"])
-def test_missing_optional_module_is_one_line(capsys, monkeypatch, workdir, command):
-    for module in ("skthermal.model_selection", "skthermal.gap"):
-        monkeypatch.setitem(sys.modules, module, None)
-    argv = {
-        "search": ["search", "--runs", workdir / "tests.csv", "--model", "mlp"],
-        "gap": ["gap", "--runs", workdir / "tests.csv"],
-        "gap-check": ["gap-check"],
-    }[command]
+def test_missing_optuna_names_the_extra(capsys, monkeypatch, workdir):
+    monkeypatch.setitem(sys.modules, "optuna", None)
+    argv = ["search", "--runs", workdir / "tests.csv", "--model", "mlp"]
     status, _, err = _run(capsys, *argv)
     assert status == 2 and err.count("\n") == 1
-    assert "this installation of skthermal does not have" in err
+    assert "skthermal[optuna]" in err
+
+
+def test_missing_skops_names_the_extra(capsys, monkeypatch, workdir):
+    monkeypatch.setitem(sys.modules, "skops", None)
+    monkeypatch.setitem(sys.modules, "skops.io", None)
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "grey-pso"]
+    out = workdir / "no-skops.skops"
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C", "--out", out)
+    assert status == 2 and err.count("\n") == 1
+    assert "skthermal[deploy]" in err
+    assert not out.exists()
+
+
+def test_help_does_not_import_the_estimators():
+    code = (
+        "import sys; from skthermal.cli import build_parser; build_parser(); "
+        "print(sorted(m for m in ('sklearn', 'pandas', 'scipy', 'skthermal.fuzzy') "
+        "if m in sys.modules))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    )
+    assert done.stdout.strip() == "[]"
+
+
+def test_lazy_package_attributes():
+    import skthermal
+
+    assert "ANFISRegressor" in dir(skthermal)
+    assert skthermal.ANFISRegressor.__name__ == "ANFISRegressor"
+    with pytest.raises(AttributeError, match="no attribute 'Nope'"):
+        skthermal.Nope  # noqa: B018
+
+
+def test_list_effects_is_wrapped_to_the_terminal(capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "60")
+    status, text, _ = _run(capsys, "simulate", "--list-effects")
+    assert status == 0 and "tool_growth" in text
+    assert max(len(line) for line in text.splitlines()) <= 60
+
+
+def test_gap_progress_logging_and_quiet(capsys, workdir, monkeypatch):
+    import logging
+
+    gap = pytest.importorskip("skthermal.gap")
+
+    def fake(machine, runs, candidates=None):
+        logging.getLogger("skthermal.gap").info("screening candidate tool_growth")
+        logging.getLogger("skthermal.gap").debug("not shown")
+        return _FakeGapReport()
+
+    monkeypatch.setattr(gap, "diagnose", fake)
+    argv = ["gap", "--runs", workdir / "tests.csv"]
+    status, _, err = _run(capsys, *argv)
+    assert status == 0 and "screening candidate tool_growth" in err
+    assert "not shown" not in err
+    status, _, err = _run(capsys, *argv, "--quiet")
+    assert status == 0 and "screening candidate" not in err
 
 
 @pytest.mark.parametrize("command", SUBCOMMANDS)

@@ -24,6 +24,7 @@ from skthermal import (  # noqa: E402
     GRASelector,
     GreyInfluenceSelector,
     GreyPSORegressor,
+    GuardedRegressor,
     ModularRegressor,
     StableTSPSelector,
     UpdateRegressor,
@@ -49,6 +50,7 @@ ESTIMATORS = [
     FuzzyEquivalenceSelector(n_groups=2),
     UpdateRegressor(),
     ModularRegressor(),
+    GuardedRegressor(GreyPSORegressor(n_particles=6, epochs=3), mode="clip"),
     make_pipeline(
         GreyInfluenceSelector(n_features_to_select=2),
         StandardScaler(),

@@ -16,6 +16,7 @@ from numpy.testing import assert_allclose
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import make_pipeline
+from sklearn.utils._param_validation import InvalidParameterError
 
 optuna = pytest.importorskip("optuna")
 
@@ -36,7 +37,7 @@ from skthermal.model_selection import (  # noqa: E402
     search_space_names,
 )
 
-WORKER = Path(__file__).with_name("_optuna_worker.py")
+WORKER = Path(__file__).with_name("_search_worker.py")
 POSTGRES_URL = os.environ.get("SKTHERMAL_TEST_POSTGRES_URL")
 COMPLETE = optuna.trial.TrialState.COMPLETE
 FAIL = optuna.trial.TrialState.FAIL
@@ -212,7 +213,7 @@ def test_run_search_in_memory(runs_data):
         ANFISRegressor(random_state=0),
         X,
         y,
-        groups,
+        groups=groups,
         space=_small_anfis_space(),
         n_trials=4,
         cv=GroupKFold(n_splits=3),
@@ -272,7 +273,7 @@ def test_run_search_pipeline_spaces(runs_data):
         pipe,
         X,
         y,
-        groups,
+        groups=groups,
         space={
             "fcmclusterpicker": search_space(
                 "fcm_picker", n_clusters=(2, 3), scorer="pearson"
@@ -330,7 +331,7 @@ def test_anfis_epoch_pruning(runs_data, validation_fraction):
         est,
         X,
         y,
-        groups,
+        groups=groups,
         space={"anfisregressor": _small_anfis_space(epochs=5)},
         n_trials=3,
         pruner=_pruner(2),
@@ -360,7 +361,7 @@ def test_fold_pruning_for_other_estimators(runs_data):
         GreyPSORegressor(calibration="ls"),
         X,
         y,
-        groups,
+        groups=groups,
         space=lambda trial: {"delay": trial.suggest_int("delay", 0, 2)},
         n_trials=3,
         pruner=_pruner(1),
@@ -375,7 +376,7 @@ def test_fold_pruning_for_other_estimators(runs_data):
             GreyPSORegressor(calibration="ls"),
             X,
             y,
-            groups,
+            groups=groups,
             space=lambda trial: {},
             n_trials=1,
             pruning="epochs",
@@ -390,7 +391,7 @@ def test_bad_draws_fail_trials_not_the_search(runs_data):
             ANFISRegressor(),
             X,
             y,
-            groups,
+            groups=groups,
             # more rules than the folds' training rows
             space=search_space("anfis", init="fcm", n_clusters=10_000, epochs=2),
             n_trials=2,
@@ -410,8 +411,8 @@ def test_total_trials_counts_every_worker(runs_data, tmp_path):
         "refit": False,
     }
     est = GreyPSORegressor(calibration="ls")
-    run_search(est, X, y, groups, n_trials=2, **kwargs)
-    result = run_search(est, X, y, groups, n_trials=10, **kwargs)
+    run_search(est, X, y, groups=groups, n_trials=2, **kwargs)
+    result = run_search(est, X, y, groups=groups, n_trials=10, **kwargs)
     assert len(result.study.trials) == 3
 
 
@@ -443,7 +444,12 @@ def test_storage_needs_a_study_name(runs_data, tmp_path):
     X, y, groups = runs_data
     with pytest.raises(ValueError, match="study_name"):
         run_search(
-            ANFISRegressor(), X, y, groups, space="anfis", storage=tmp_path / "x.db"
+            ANFISRegressor(),
+            X,
+            y,
+            groups=groups,
+            space="anfis",
+            storage=tmp_path / "x.db",
         )
 
 
@@ -555,3 +561,14 @@ def test_killed_worker_leaves_a_consistent_study(kind, tmp_path):
     assert states == [FAIL, COMPLETE, COMPLETE]
     assert study.best_trial.number in (1, 2)
     assert fail_stale_trials(study) == []
+
+
+def test_run_search_validates_its_parameters(runs_data):
+    X, y, groups = runs_data
+    est = ANFISRegressor(epochs=2, random_state=0)
+    with pytest.raises(InvalidParameterError, match="direction"):
+        run_search(est, X, y, groups=groups, direction="up", n_trials=1)
+    with pytest.raises(InvalidParameterError, match="n_trials"):
+        run_search(est, X, y, groups=groups, n_trials=-1)
+    with pytest.raises(TypeError, match="positional"):
+        run_search(est, X, y, groups, n_trials=1)

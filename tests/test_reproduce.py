@@ -10,17 +10,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from skthermal._reproduce import (
-    MODELS,
-    PAPER,
-    TEST_RUNS,
-    RunStartRegressor,
-    make_model,
-    reproduce,
-    score_runs,
-)
 from skthermal.cli import main
 from skthermal.datasets import read_runs
+from skthermal.models import MODELS, RunStartRegressor, make_model
+from skthermal.study import PAPER, reproduce, score_runs
+from skthermal.study._constants import TEST_RUNS
 
 EXPECTED_FILES = [
     "report.md",
@@ -162,3 +156,16 @@ def test_score_runs_compares_changes_since_run_start():
     assert table["run"].tolist() == ["a", "b"]
     np.testing.assert_allclose(table["RMSE_um"], 0.0, atol=1e-12)
     np.testing.assert_allclose(table["improvement_pct"], 100.0)
+
+
+def test_results_say_how_far_anfis_grid_is_from_the_paper(quick_report):
+    folder, out = quick_report[:2]
+    results = pd.read_csv(folder / "results.csv")
+    np.testing.assert_allclose(
+        results["RMSE_vs_paper"], results["RMSE_um"] / results["paper_RMSE_um"]
+    )
+    grid = results[results["model"] == "anfis-grid"].set_index("test")
+    near = [t for t in TEST_RUNS if grid.loc[t, "RMSE_vs_paper"] <= 2.0]
+    assert f"within 2x of the paper's RMSE on Tests {', '.join(near) or 'none'}" in (
+        " ".join(out.split())
+    )

@@ -29,7 +29,12 @@ from skthermal.fuzzy._membership import (
     log_membership,
 )
 from skthermal.grey._ago import ago, iago
-from skthermal.utils._runs import extract_runs, run_slices
+from skthermal.utils._runs import (
+    check_time_order,
+    extract_runs,
+    run_slices,
+    warn_unlabelled_runs,
+)
 from skthermal.utils._threads import single_threaded_blas
 
 # --------------------------------------------------------------------------
@@ -168,10 +173,22 @@ default="fcm"
     step_decrease : float, default=0.9
         Factor applied to the step after two consecutive up/down oscillations
         of the training error.
-    ridge : float, default=1e-8
-        Ridge regularisation of the least-squares solve, relative to the mean
-        diagonal of the normal equations (scale free); 0 uses the SVD-based
-        minimum-norm least-squares solution.
+    ridge : float or "auto", default=1e-8
+        Ridge regularisation of the consequents' least-squares solve,
+        relative to the mean diagonal of the normal equations (scale free);
+        0 uses the SVD-based minimum-norm least-squares solution. Many
+        collinear inputs (e.g. neighbouring temperature sensors) make the
+        consequents overfit; a larger ridge (1e-3 .. 1) shrinks them.
+        ``"auto"`` picks it from ``ridge_grid``: by the checking set when
+        there is one (``X_val``/``y_val`` or ``validation_fraction``), else by
+        time-ordered cross-validation on the training rows (train on the
+        first half of every run and check on its third quarter; train on the
+        first three quarters and check on the last; mean checking RMSE); the
+        model is then refitted on all training rows with the chosen value,
+        stored in ``ridge_``.
+    ridge_grid : array-like of float, default=(1e-8, 1e-6, 1e-4, 1e-3, 1e-2, \
+0.1, 1.0)
+        Candidate values for ``ridge="auto"``.
     validation_fraction : float in (0, 1) or None, default=None
         Hold out the last ``validation_fraction`` of the rows of every run
         (of all rows without runs) as checking data. The split is deterministic
@@ -190,6 +207,11 @@ default="fcm"
         Accumulation restarts at every run (``groups``, a ``run`` column or a
         ``run`` index level); every run is predicted from its own start, so a
         run's prediction does not depend on the other rows passed with it.
+        A model fitted with run labels warns when ``predict`` gets rows
+        without them (they would be taken as one run). Whenever the rows of a
+        run are read in order (``grey``, ``validation_fraction``,
+        ``ridge="auto"``), a ``time_s`` index level that does not increase
+        within a run is an error.
     max_rules : int, default=4096
         Largest rule base a grid partition may create; a larger one raises a
         ValueError before anything is allocated.
@@ -228,6 +250,10 @@ default="fcm"
         Per epoch: ``"epoch"`` (1-based), ``"train_rmse"`` (in AGO space when
         ``grey``), ``"step_size"`` and, with a checking set, ``"val_rmse"``
         (in the original space). ``pandas.DataFrame(history_)`` tabulates it.
+    ridge_ : float
+        Ridge used for the consequents (the chosen one with ``ridge="auto"``).
+    ridge_scores_ : dict of float to float
+        With ``ridge="auto"``: the checking RMSE of every candidate ridge.
     best_epoch_ : int
         Epoch whose parameters were kept: least checking RMSE, or least
         training RMSE without a checking set.
@@ -250,7 +276,12 @@ default="fcm"
     learning §IV, step-size rule §III (also 003 §5). The firing strengths are
     normalised in log space (log-sum-exp of summed log-memberships), so inputs
     far outside the training range still give a finite output: that of the
-    rule whose membership functions decay slowest there. Abdulshahed et al.
+    rule whose membership functions decay slowest there. That output is the
+    rules' linear consequents evaluated at the input, so it grows linearly
+    with an input far outside the training range (a sensor reading 1e6 gives
+    a prediction of the order of 1e6 times a consequent slope); it is not
+    clipped: wrap a deployed model in
+    :class:`skthermal.compose.GuardedRegressor`. Abdulshahed et al.
     (000) found 3 FCM rules to beat a 243-rule grid for thermal error.
 
     Examples
@@ -277,7 +308,8 @@ default="fcm"
         "step_size": [Interval(numbers.Real, 0, None, closed="neither")],
         "step_increase": [Interval(numbers.Real, 1, None, closed="left")],
         "step_decrease": [Interval(numbers.Real, 0, 1, closed="right")],
-        "ridge": [Interval(numbers.Real, 0, None, closed="left")],
+        "ridge": [Interval(numbers.Real, 0, None, closed="left"), StrOptions({"auto"})],
+        "ridge_grid": ["array-like"],
         "validation_fraction": [
             Interval(numbers.Real, 0, 1, closed="neither"),
             None,
@@ -304,6 +336,7 @@ default="fcm"
         step_increase=1.2,
         step_decrease=0.9,
         ridge=1e-8,
+        ridge_grid=(1e-8, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 1.0),
         validation_fraction=None,
         tol=0.0,
         n_iter_no_change=None,
@@ -323,6 +356,7 @@ default="fcm"
         self.step_increase = step_increase
         self.step_decrease = step_decrease
         self.ridge = ridge
+        self.ridge_grid = ridge_grid
         self.validation_fraction = validation_fraction
         self.tol = tol
         self.n_iter_no_change = n_iter_no_change
@@ -375,6 +409,7 @@ default="fcm"
             The fitted estimator.
         """
         X, groups = extract_runs(X, groups)
+        frame = X
         X, y = validate_data(
             self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
@@ -388,6 +423,8 @@ default="fcm"
                     f"groups must hold one run label per row ({n}), got shape "
                     f"{groups.shape}."
                 )
+        if self._uses_runs():
+            check_time_order(frame, groups)
 
         has_val = X_val is not None or y_val is not None
         if has_val and (X_val is None or y_val is None):
@@ -414,33 +451,36 @@ default="fcm"
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
 
-        hook = None
-        if self.epoch_callback is not None:
-            hook = _EpochHook(self.epoch_callback, checking, X_train, Y_train)
-            checking = hook
-
-        n_columns = rules.shape[0] * (d + 1)
-        small = n_columns <= _SINGLE_THREAD_COLUMNS
-        with single_threaded_blas() if small else contextlib.nullcontext():
-            result = anfis_train(
+        ridge, result = self.ridge, None
+        self.ridge_scores_ = {}
+        if ridge == "auto":
+            ridge, result = self._choose_ridge(
+                X_model,
+                Y_model,
+                Y,
+                groups,
                 X_train,
                 Y_train,
                 mf_params,
                 rules,
-                self.mf,
-                epochs=self.epochs,
-                learning=self.learning,
-                step_size=self.step_size,
-                step_increase=self.step_increase,
-                step_decrease=self.step_decrease,
-                ridge=self.ridge,
-                checking=checking,
-                tol=self.tol,
-                n_iter_no_change=self.n_iter_no_change,
-                verbose=self.verbose,
+                checking,
+                rng,
             )
-        if hook is not None:
-            result = hook.fix_result(result)
+
+        if result is None or self.epoch_callback is not None:
+            hook = None
+            if self.epoch_callback is not None:
+                hook = _EpochHook(self.epoch_callback, checking, X_train, Y_train)
+                checking = hook
+            result = self._train(
+                X_train, Y_train, mf_params, rules, ridge, checking, self.verbose
+            )
+            if hook is not None:
+                result = hook.fix_result(result)
+        self.ridge_ = float(ridge)
+        self._n_fitted_runs = None
+        if groups is not None:
+            self._n_fitted_runs = len(run_slices(groups, n)[0])
         self.initial_mf_params_ = mf_params
         self.mf_params_ = result["mf_params"]
         self.rules_ = rules
@@ -450,6 +490,110 @@ default="fcm"
         self.n_iter_ = len(self.history_["epoch"])
         self._input_range = np.c_[X_train.min(axis=0), X_train.max(axis=0)]
         return self
+
+    def _uses_runs(self):
+        """Whether fitting reads the rows of a run in time order."""
+        return self.grey or self.validation_fraction is not None or self.ridge == "auto"
+
+    def _train(self, X, Y, mf_params, rules, ridge, checking, verbose):
+        n_columns = rules.shape[0] * (X.shape[1] + 1)
+        small = n_columns <= _SINGLE_THREAD_COLUMNS
+        with single_threaded_blas() if small else contextlib.nullcontext():
+            return anfis_train(
+                X,
+                Y,
+                mf_params,
+                rules,
+                self.mf,
+                epochs=self.epochs,
+                learning=self.learning,
+                step_size=self.step_size,
+                step_increase=self.step_increase,
+                step_decrease=self.step_decrease,
+                ridge=ridge,
+                checking=checking,
+                tol=self.tol,
+                n_iter_no_change=self.n_iter_no_change,
+                verbose=verbose,
+            )
+
+    def _choose_ridge(
+        self,
+        X_model,
+        Y_model,
+        Y,
+        groups,
+        X_train,
+        Y_train,
+        mf_params,
+        rules,
+        checking,
+        rng,
+    ):
+        """``ridge="auto"``: the candidate with the least checking RMSE.
+
+        Uses the checking set when there is one (and then returns the fit of
+        the chosen candidate, which is final), else the mean checking RMSE of
+        the forward folds of :meth:`_forward_folds` (returns no fit: the
+        caller refits on all rows).
+        """
+        grid = np.asarray(self.ridge_grid, dtype=float).ravel()
+        if grid.size == 0 or not np.all(np.isfinite(grid)) or np.any(grid < 0):
+            raise ValueError(
+                "ridge_grid must hold at least one finite, non-negative value, "
+                f"got {self.ridge_grid!r}."
+            )
+        if checking is None:
+            folds = self._forward_folds(X_model, Y_model, Y, groups, rng)
+            final = False
+        else:
+            folds = [(X_train, Y_train, mf_params, rules, checking)]
+            final = True
+        best = (np.inf, None, None)
+        for value in grid:
+            scores, res = [], None
+            for X_sel, Y_sel, mfp, rls, check in folds:
+                res = self._train(X_sel, Y_sel, mfp, rls, value, check, 0)
+                val = np.asarray(res["history"]["val_rmse"], dtype=float)
+                scores.append(np.nanmin(val) if np.any(np.isfinite(val)) else np.inf)
+            score = float(np.mean(scores))
+            self.ridge_scores_[float(value)] = score
+            if score < best[0] or best[1] is None:
+                best = (score, float(value), res)
+        return best[1], (best[2] if final else None)
+
+    def _forward_folds(self, X_model, Y_model, Y, groups, rng):
+        """Two time-ordered folds over the last half of every run.
+
+        Fold 1 trains on the first half of every run and checks on its third
+        quarter; fold 2 trains on the first three quarters and checks on the
+        last quarter (forward chaining: never trained on later rows than it
+        is checked on). Each fold gets its own initial rule base.
+        """
+        n = X_model.shape[0]
+        slices, _ = run_slices(groups, n)
+        labels = None if groups is None else np.asarray(groups)
+        folds = []
+        for end in (0.75, 1.0):
+            keep = np.zeros(n, dtype=bool)
+            for sl in slices:
+                length = sl.stop - sl.start
+                keep[sl.start : sl.start + int(round(end * length))] = True
+            Xk, Yk, Yo = X_model[keep], Y_model[keep], Y[keep]
+            gk = None if labels is None else labels[keep]
+            sk, _ = run_slices(gk, Xk.shape[0])
+            try:
+                val = _tail_split(sk, Xk.shape[0], 0.25 / end)
+            except ValueError:
+                raise ValueError(
+                    f"ridge='auto' checks candidates on the third and last "
+                    f"quarters of every run, but {n} samples leave none; pass "
+                    "X_val and y_val, or a number for ridge."
+                ) from None
+            check = self._tail_checking(Xk, Yo, gk, sk, val)
+            mfp, rls = self._initial_rule_base(Xk[~val], rng)
+            folds.append((Xk[~val], Yk[~val], mfp, rls, check))
+        return folds
 
     def _set_consequents(self, consequents, single_output):
         self._consequents = np.asarray(consequents, dtype=float)
@@ -570,8 +714,16 @@ default="fcm"
         """
         check_is_fitted(self)
         X, groups = extract_runs(X, groups)
+        if self.grey:
+            check_time_order(X, groups)
         X = validate_data(self, X, reset=False, dtype=np.float64)
         if self.grey:
+            warn_unlabelled_runs(
+                type(self).__name__,
+                getattr(self, "_n_fitted_runs", None),
+                groups,
+                X.shape[0],
+            )
             X = _ago_by_run(X, groups)
         pred = anfis_predict(
             X, self.mf_params_, self.rules_, self._consequents, self.mf
@@ -687,6 +839,9 @@ default="fcm"
         }
         est.best_epoch_ = 0
         est.n_iter_ = 0
+        est.ridge_ = 0.0 if est.ridge == "auto" else float(est.ridge)
+        est.ridge_scores_ = {}
+        est._n_fitted_runs = None
         spread = mf_params[..., 0] * (1.0 if mf == "gbell" else _HALF)
         centres = mf_params[..., -1]
         est._input_range = np.c_[

@@ -19,6 +19,7 @@ import sys
 
 import numpy as np
 from scipy import linalg
+from scipy.linalg import blas, lapack
 
 from skthermal.fuzzy._cmeans import fuzzy_cmeans
 from skthermal.fuzzy._membership import (
@@ -145,33 +146,92 @@ def _rule_selectors(rules, n_mfs):
 # --------------------------------------------------------------------------
 
 
-def _log_memberships(X, mf_params, mf):
-    """Log-memberships of every input in each of its MFs, shape (n, d, M)."""
-    return log_membership(X[:, :, None], mf_params[None], mf)
+def _forward_log(XT, mf_params, mf):
+    """Log-memberships ``(d, M, n)`` of inputs given as ``X.T`` (d, n).
+
+    Samples run along the last, contiguous axis (the "rules x samples" layout
+    of the training loop: reductions over rules and products with short rows
+    of parameters then stream over long rows). For Gaussians also returns
+    ``z = (x - c) / sigma`` (d, M, n), reused by the gradient.
+    """
+    if mf != "gaussian":
+        return log_membership(XT[:, None, :], mf_params[:, :, None, :], mf), None
+    z = XT[:, None, :] - mf_params[:, :, 1, None]
+    z /= mf_params[:, :, 0, None]
+    with np.errstate(over="ignore"):  # -inf far away: floored by the caller
+        return -0.5 * z * z, z
 
 
-def _normalised_firing(X, mf_params, rules, mf):
-    """Normalised firing strengths ``wbar`` (n, R), computed in log space.
+def _rule_matrix(rules, n_mfs):
+    """One-hot ``(d M, R)`` matrix: column r picks ``rules[r, j]`` of each input.
+
+    With log-memberships flattened to ``(d M, n)``, one matrix product sums
+    every rule's log-memberships: ``log w = rule_matrix.T @ logmu``.
+    """
+    n_rules, d = rules.shape
+    E = np.zeros((d * n_mfs, n_rules))
+    E[np.arange(d)[None, :] * n_mfs + rules, np.arange(n_rules)[:, None]] = 1.0
+    return E
+
+
+def _log_floor(d):
+    """Floor of one log-membership: ``d`` of them still sum to a finite number.
+
+    A sample infinitely far from some MF then costs a huge but finite log
+    firing strength, never ``0 * -inf = NaN`` in the product of
+    :func:`_firing_from_log`.
+    """
+    return -np.finfo(float).max / (4.0 * max(d, 1))
+
+
+def _is_grid(rules, n_mfs):
+    """Whether ``rules`` is the full grid of :func:`grid_rules`, in its order."""
+    n_rules, d = rules.shape
+    return n_rules == n_mfs**d and np.array_equal(rules, grid_rules(n_mfs, d))
+
+
+def _firing_from_log(logmu, E, grid=False):
+    """Normalised firing strengths ``wbar`` (R, n) from log-memberships (d, M, n).
 
     ``log w_r = sum_j log mu_{j, rules[r, j]}(x_j)`` and
     ``wbar = exp(log w - logsumexp(log w))``: however far an input lies from
     every membership function, the largest ``wbar`` is of order one, so the
     output stays finite (METHODS §6).
+
+    ``grid=True`` (the rules are :func:`grid_rules`) uses the product
+    structure instead: every input's memberships are scaled so that its
+    largest is 1 (the grid holds the rule combining all these largest ones,
+    whose weight is then exactly 1), and the rule weights are the outer
+    products of the inputs' memberships, ``d M`` exponentials instead of
+    ``M^d``.
     """
-    logmu = _log_memberships(X, mf_params, mf)
-    d = X.shape[1]
-    logw = np.zeros((X.shape[0], rules.shape[0]))
-    for j in range(d):  # a loop over inputs, not samples
-        logw += logmu[:, j, rules[:, j]]
-    # Squared distances of ~1e155 and beyond overflow to -inf; clipping keeps
-    # the normalisation well defined (all rules then share the weight).
-    np.maximum(logw, -np.finfo(float).max / 4, out=logw)
-    # Softmax with the row maximum subtracted (log-sum-exp): the largest
-    # weight is exp(0) = 1 before normalisation, so the sum never underflows.
-    logw -= logw.max(axis=1, keepdims=True)
-    w = np.exp(logw, out=logw)
-    w /= w.sum(axis=1, keepdims=True)
+    d, n_mfs, n = logmu.shape
+    # Squared distances of ~1e155 and beyond overflow to -inf; the floor
+    # keeps the normalisation well defined.
+    np.maximum(logmu, _log_floor(d), out=logmu)
+    if grid:
+        logmu -= logmu.max(axis=1, keepdims=True)
+        mu = np.exp(logmu, out=logmu)
+        w = mu[0]
+        for j in range(1, d):  # a loop over inputs, not samples
+            w = (w[:, None, :] * mu[j][None, :, :]).reshape(-1, n)
+    else:
+        logw = E.T @ logmu.reshape(d * n_mfs, n)
+        # Softmax with the largest log weight subtracted (log-sum-exp): the
+        # largest weight is exp(0) = 1 before normalisation, so the sum
+        # never underflows.
+        logw -= logw.max(axis=0)
+        w = np.exp(logw, out=logw)
+    w /= w.sum(axis=0)
     return w
+
+
+def _normalised_firing(X, mf_params, rules, mf):
+    """Normalised firing strengths ``wbar`` (n, R), computed in log space."""
+    logmu, _ = _forward_log(np.ascontiguousarray(X.T), mf_params, mf)
+    n_mfs = mf_params.shape[1]
+    grid = _is_grid(rules, n_mfs)
+    return _firing_from_log(logmu, _rule_matrix(rules, n_mfs), grid).T
 
 
 def _rule_outputs(X1, consequents):
@@ -235,19 +295,90 @@ def solve_consequents(A, Y, ridge):
     n, p = A.shape
     if ridge > 0:
         dual = p > n
-        G = A @ A.T if dual else A.T @ A
-        lam = ridge * np.trace(G) / max(p, 1)
-        if lam > 0:
-            G[np.diag_indices_from(G)] += lam
-            try:
-                factor = linalg.cho_factor(G, check_finite=False)
-                if dual:
-                    return A.T @ linalg.cho_solve(factor, Y, check_finite=False)
-                return linalg.cho_solve(factor, A.T @ Y, check_finite=False)
-            except linalg.LinAlgError:
-                pass
+        G = _gram(A.T if dual else A)
+        theta = _cholesky_ridge(G, Y if dual else A.T @ Y, ridge, p)
+        if theta is not None:
+            return A.T @ theta if dual else theta
     theta, *_ = linalg.lstsq(A, Y, lapack_driver="gelsd")
     return theta
+
+
+def _gram(A):
+    """Upper triangle of ``A^T A`` (BLAS ``syrk``: half the work of a product)."""
+    A = np.ascontiguousarray(A)
+    # A C-ordered A is a Fortran-ordered A^T: syrk(trans=0) on it gives A^T A.
+    return blas.dsyrk(1.0, A.T, trans=0, lower=0)
+
+
+def _solve_transposed(AT, YT, ridge):
+    """:func:`solve_consequents` for ``A.T`` (columns, n) and ``Y.T`` (o, n).
+
+    Forms the normal equations straight from the transposed design matrix
+    (``A^T A`` by BLAS ``syrk``, no copy), the usual case of more samples than
+    columns; otherwise defers to :func:`solve_consequents`.
+    """
+    p, n = AT.shape
+    if ridge > 0 and p <= n:
+        # AT.T is a Fortran-ordered (n, p) view: syrk(trans=1) gives A^T A.
+        G = blas.dsyrk(1.0, AT.T, trans=1, lower=0)
+        theta = _cholesky_ridge(G, AT @ YT.T, ridge, p)
+        if theta is not None:
+            return theta
+    return solve_consequents(AT.T, YT.T, ridge)
+
+
+def _cholesky_ridge(G, B, ridge, n_columns):
+    """Solve ``(G + lam I) theta = B``, ``lam = ridge * trace(G) / n_columns``.
+
+    Only the upper triangle of ``G`` is read (and ``G`` is overwritten).
+    Returns None when ``lam`` is 0 or the factorisation fails.
+    """
+    lam = ridge * np.trace(G) / max(n_columns, 1)
+    if not lam > 0:
+        return None
+    G.flat[:: G.shape[0] + 1] += lam
+    # LAPACK directly: the scipy wrappers' checks cost more than this small
+    # factorisation.
+    factor, info = lapack.dpotrf(G, lower=0, overwrite_a=1, clean=0)
+    if info != 0:
+        return None
+    theta, info = lapack.dpotrs(factor, B, lower=0)
+    return theta if info == 0 else None
+
+
+def _softmax_gradient(wT, F, yhat, err):
+    """``dE / dlog w_r = wbar_r (f_r - yhat) . err`` (R, n), E = 0.5 sum err^2.
+
+    In the rules x samples layout: ``wT`` (R, n), rule outputs ``F``
+    (R, o, n), ``yhat`` and ``err`` (o, n).
+    """
+    if F.shape[1] == 1:
+        return wT * ((F[:, 0] - yhat) * err)
+    return wT * np.einsum("ron,on->rn", F - yhat, err)
+
+
+def _premise_gradient_from(g, XT, mf_params, mf, E, z=None):
+    """Premise gradient from ``g = dE / dlog w`` (R, n).
+
+    ``E`` is the rule matrix of :func:`_rule_matrix`; ``z`` the standardised
+    distances ``(x - c) / sigma`` (d, M, n) of the forward pass (Gaussian MFs),
+    which give the log-membership derivatives without recomputing them.
+    """
+    d, n = XT.shape
+    n_mfs = mf_params.shape[1]
+    per_mf = (E @ g).reshape(d, n_mfs, n)  # dE / dlog mu_jm
+    if mf == "gaussian":
+        if z is None:
+            z = (XT[:, None, :] - mf_params[:, :, 1, None]) / mf_params[:, :, 0, None]
+        per_mf *= z
+        grad = np.empty_like(mf_params)
+        # d log mu / d sigma = z^2 / sigma, d log mu / d c = z / sigma
+        grad[..., 0] = np.einsum("jmn,jmn->jm", per_mf, z)
+        grad[..., 1] = per_mf.sum(axis=-1)
+        grad /= mf_params[..., :1]
+        return grad
+    dlog = log_membership_grad(XT[:, None, :], mf_params[:, :, None, :], mf)
+    return np.einsum("jmn,jmnk->jmk", per_mf, dlog)
 
 
 def _premise_gradient(X, mf_params, mf, S, wbar, f, yhat, err):
@@ -256,14 +387,14 @@ def _premise_gradient(X, mf_params, mf, S, wbar, f, yhat, err):
     ``d yhat / d log w_r = wbar_r (f_r - yhat)`` (softmax), the log firing
     strength is a sum of log-memberships, and the log-membership derivatives
     come from :mod:`skthermal.fuzzy._membership`; everything is vectorised over
-    samples, rules and inputs.
+    samples, rules and inputs. ``S`` is the one-hot ``(d, R, M)`` selector of
+    :func:`_rule_selectors`; ``wbar`` (n, R), ``f`` (n, R, o), ``yhat`` and
+    ``err`` (n, o).
     """
-    g = wbar * (
-        np.einsum("nro,no->nr", f, err) - np.einsum("no,no->n", yhat, err)[:, None]
-    )  # (n, R)
-    per_mf = g @ S  # (d, n, M): dE/dlog mu_jm
-    dlog = log_membership_grad(X.T[:, :, None], mf_params[:, None], mf)
-    return np.einsum("jnm,jnmk->jmk", per_mf, dlog)
+    d, n_rules, n_mfs = S.shape
+    E = S.transpose(0, 2, 1).reshape(d * n_mfs, n_rules)
+    g = _softmax_gradient(wbar.T, f.transpose(1, 2, 0), yhat.T, err.T)
+    return _premise_gradient_from(g, np.ascontiguousarray(X.T), mf_params, mf, E)
 
 
 def _apply_floors(mf_params, mf, width_floor):
@@ -398,8 +529,16 @@ n_iter_no_change, verbose
     n_out = Y.shape[1]
     n_rules = rules.shape[0]
     mf_params = np.array(mf_params, dtype=float)
-    X1 = _with_ones(X)
-    S = _rule_selectors(rules, mf_params.shape[1])
+    # Rules x samples layout: every per-sample array has samples along its
+    # last, contiguous axis; the design matrix is built transposed, columns
+    # ordered (input, rule), into one buffer reused every epoch.
+    XT = np.ascontiguousarray(X.T)
+    X1T = np.vstack([XT, np.ones((1, n))])
+    YT = np.ascontiguousarray(Y.T)
+    E = _rule_matrix(rules, mf_params.shape[1])
+    grid = _is_grid(rules, mf_params.shape[1])
+    AT3 = np.empty((d + 1, n_rules, n))
+    AT = AT3.reshape(-1, n)
     width_floor = _WIDTH_FLOOR * _input_scale(X)
     if learning == "backprop" and consequents is None:
         consequents = np.zeros((n_rules, d + 1, n_out))
@@ -415,14 +554,22 @@ n_iter_no_change, verbose
     report_every = max(1, epochs // 10) if verbose == 1 else 1
 
     for epoch in range(1, epochs + 1):
-        wbar = _normalised_firing(X, mf_params, rules, mf)
+        logmu, z = _forward_log(XT, mf_params, mf)
+        wT = _firing_from_log(logmu, E, grid)
+        np.multiply(wT[None], X1T[:, None, :], out=AT3)
         if learning == "hybrid":
-            A = _design(wbar, X1)
-            theta = solve_consequents(A, Y, ridge)
-            consequents = theta.reshape(n_rules, d + 1, n_out)
-        f = _rule_outputs(X1, consequents)
-        yhat = np.einsum("nr,nro->no", wbar, f)
-        err = yhat - Y
+            theta = _solve_transposed(AT, YT, ridge)
+            consequents = np.ascontiguousarray(
+                theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
+            )
+        F = (consequents.transpose(0, 2, 1).reshape(-1, d + 1) @ X1T).reshape(
+            n_rules, n_out, n
+        )
+        if n_out == 1:
+            yhat = np.einsum("rn,rn->n", wT, F[:, 0])[None]
+        else:
+            yhat = np.einsum("rn,ron->on", wT, F)
+        err = yhat - YT
         train = _rmse(err)
         history["epoch"].append(epoch)
         history["train_rmse"].append(train)
@@ -457,13 +604,14 @@ n_iter_no_change, verbose
         if epoch == epochs:
             break
         step = rule.update(history["train_rmse"])
-        grad = _premise_gradient(X, mf_params, mf, S, wbar, f, yhat, err)
+        g = _softmax_gradient(wT, F, yhat, err)
+        grad = _premise_gradient_from(g, XT, mf_params, mf, E, z)
         if learning == "hybrid":
             norm = np.sqrt(np.vdot(grad, grad))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
         else:
-            grad_c = (_design(wbar, X1).T @ err).reshape(consequents.shape)
+            grad_c = (AT @ err.T).reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
             norm = np.sqrt(np.vdot(grad, grad) + np.vdot(grad_c, grad_c))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad

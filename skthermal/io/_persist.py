@@ -11,11 +11,16 @@ records the versions it was written with, and :func:`load` warns when they
 differ from the installed ones.
 """
 
+import importlib
+import importlib.util
 import json
 import os
 import sys
 import warnings
 import zipfile
+
+from skthermal._optional import import_optional
+from skthermal._versions import package_versions
 
 _METADATA_NAME = "skthermal_metadata.json"
 _FORMAT = 1
@@ -45,31 +50,16 @@ class UntrustedTypesError(ValueError):
 
 
 def _skops_io():
-    try:
-        import skops.io as sio
-    except ImportError as exc:
-        raise ImportError(
-            'skthermal.io needs skops; install it with pip install "skthermal[deploy]".'
-        ) from exc
-    return sio
+    return import_optional("skops.io", extra="deploy", caller="skthermal.io")
 
 
 def _versions():
-    import numpy
-    import scipy
-    import sklearn
-    import skops
-
     import skthermal
 
-    return {
-        "skthermal": skthermal.__version__,
-        "scikit-learn": sklearn.__version__,
-        "numpy": numpy.__version__,
-        "scipy": scipy.__version__,
-        "skops": skops.__version__,
-        "python": ".".join(str(v) for v in sys.version_info[:3]),
-    }
+    versions = package_versions(["scikit-learn", "numpy", "scipy", "skops"])
+    # The running package, not the installed distribution's metadata: a source
+    # checkout may not match what pip recorded.
+    return {"skthermal": skthermal.__version__, **versions}
 
 
 def _type_name(t):
@@ -89,16 +79,25 @@ _ALSO_TRUSTED = ("sklearn.utils._bunch.Bunch",)
 
 
 def _is_skthermal_class(name):
-    """Whether ``name`` is a class defined by an imported skthermal module.
+    """Whether ``name`` is a class defined in one of skthermal's subpackages.
 
-    Only modules already imported are looked at: importing a module named by a
-    file could run code (``skthermal.__main__`` runs the command line).
+    ``import skthermal`` is lazy, so the subpackage named by ``name`` is
+    imported here. Only subpackages (folders of the installed package) are
+    imported, never a top-level module named by a file: ``skthermal.__main__``
+    would run the command line.
     """
-    import skthermal  # noqa: F401 - imports the estimator modules
-
     module, _, attr = name.rpartition(".")
-    if not (module == "skthermal" or module.startswith("skthermal.")):
+    parts = module.split(".")
+    if parts[0] != "skthermal" or len(parts) < 2:
         return False
+    package = f"skthermal.{parts[1]}"
+    try:
+        spec = importlib.util.find_spec(package)
+    except (ImportError, ValueError):
+        return False
+    if spec is None or spec.submodule_search_locations is None:
+        return False
+    importlib.import_module(package)
     mod = sys.modules.get(module)
     obj = getattr(mod, attr, None) if mod is not None else None
     return isinstance(obj, type) and obj.__module__ == module

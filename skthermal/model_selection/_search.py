@@ -20,6 +20,12 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import Pipeline
+from sklearn.utils._param_validation import (
+    HasMethods,
+    Interval,
+    StrOptions,
+    validate_params,
+)
 
 from skthermal.metrics import get_scorer
 from skthermal.model_selection._spaces import (
@@ -525,12 +531,42 @@ def _resolve_pruning(pruning, study, estimator):
     return pruning
 
 
+@validate_params(
+    {
+        "estimator": [HasMethods(["fit"])],
+        "X": ["array-like"],
+        "y": ["array-like"],
+        "groups": ["array-like", None],
+        "space": [None, str, callable, dict],
+        "n_trials": [Interval(numbers.Integral, 0, None, closed="left"), None],
+        "cv": ["cv_object"],
+        "scoring": [str, callable],
+        "storage": "no_validation",
+        "study_name": [str, None],
+        "direction": [StrOptions({"maximize", "minimize"})],
+        "sampler": "no_validation",
+        "pruner": "no_validation",
+        "pruning": [StrOptions({"auto", "epochs", "folds"}), None],
+        "timeout": [Interval(numbers.Real, 0, None, closed="neither"), None],
+        "total_trials": [Interval(numbers.Integral, 1, None, closed="left"), None],
+        "n_jobs": [numbers.Integral],
+        "random_state": [Interval(numbers.Integral, 0, None, closed="left"), None],
+        "load_if_exists": ["boolean"],
+        "heartbeat_interval": "no_validation",
+        "grace_period": "no_validation",
+        "max_retry": "no_validation",
+        "fail_stale": ["boolean"],
+        "refit": ["boolean"],
+        "callbacks": [list, None],
+    },
+    prefer_skip_nested_validation=False,
+)
 def run_search(
     estimator,
     X,
     y,
-    groups=None,
     *,
+    groups=None,
     space=None,
     n_trials=20,
     cv=None,
@@ -623,7 +659,8 @@ def run_search(
     load_if_exists : bool, default=True
         Join the study if it exists (how workers share it).
     heartbeat_interval, grace_period, max_retry
-        Passed to :func:`make_storage` when ``storage`` is a path or URL.
+        Passed to :func:`make_storage` (which validates them) when
+        ``storage`` is a path or URL.
     fail_stale : bool, default=True
         Before searching, mark failed the trials left running by dead workers
         (:func:`fail_stale_trials`).
@@ -667,7 +704,7 @@ def run_search(
     ...                              n_runs=3, n_samples=60, random_state=0)
     >>> X, y, groups = split_runs(runs)
     >>> space = search_space("anfis", init="fcm", n_clusters=(2, 3), epochs=(3, 6))
-    >>> result = run_search(ANFISRegressor(random_state=0), X, y, groups,
+    >>> result = run_search(ANFISRegressor(random_state=0), X, y, groups=groups,
     ...                     space=space, n_trials=3, random_state=0)
     >>> len(result.study.trials), sorted(result.best_params_)
     (3, ['epochs', 'init', 'mf', 'n_clusters', 'step_size'])
@@ -682,10 +719,6 @@ def run_search(
         cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
     )
     scorer = get_scorer(scoring)
-    if direction not in ("maximize", "minimize"):
-        raise ValueError(
-            f"direction must be 'maximize' or 'minimize', got {direction!r}."
-        )
 
     store = make_storage(
         storage,

@@ -1,6 +1,6 @@
 """One worker of a distributed search, run as its own process by the tests.
 
-    python tests/_optuna_worker.py STORAGE STUDY [--n-trials N] [--sleep S]
+    python tests/_search_worker.py STORAGE STUDY [--n-trials N] [--sleep S]
         [--marker PATH] [--heartbeat H] [--grace G]
 
 ``STORAGE`` is anything :func:`skthermal.model_selection.make_storage`
@@ -58,7 +58,7 @@ def main(argv=None):
         ANFISRegressor(random_state=0),
         X,
         y,
-        groups,
+        groups=groups,
         space=space,
         n_trials=args.n_trials,
         storage=args.storage,

@@ -1,0 +1,204 @@
+"""What the subcommands share: user errors and reading the user's input.
+
+Every subcommand reads and writes run tables through
+:mod:`skthermal.datasets` (``read_runs`` validates them) and turns problems
+with the user's input -- a missing file, a bad column, an unknown name, an
+out-of-range option -- into :class:`UserError`, which the command prints as
+one line with exit status 2.
+"""
+
+import importlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+class UserError(Exception):
+    """An error in the user's input: reported as one line, exit status 2."""
+
+
+def split_list(value):
+    """``"a,b c"`` or ``["a,b", "c"]`` -> ``["a", "b", "c"]``."""
+    if value is None:
+        return None
+    items = [value] if isinstance(value, str) else list(value)
+    out = []
+    for item in items:
+        out += [v for v in item.replace(",", " ").split() if v]
+    return out
+
+
+def read_table(path, what="--runs"):
+    """Read and validate a run table, naming the option on failure."""
+    from skthermal.datasets import read_runs
+
+    if path is None:
+        raise UserError(f"{what} FILE is required.")
+    path = Path(path)
+    if not path.exists():
+        raise UserError(f"{what}: no such file: {path}")
+    if path.is_dir():
+        raise UserError(f"{what}: {path} is a folder, not a run table file.")
+    try:
+        return read_runs(path)
+    except UnicodeDecodeError as exc:
+        raise UserError(
+            f"{what} {path}: not a text CSV run table (binary data; use .csv, "
+            ".csv.gz or .parquet)."
+        ) from exc
+    except (ValueError, ImportError, pd.errors.ParserError) as exc:
+        raise UserError(f"{what} {path}: {exc}") from exc
+
+
+def write_table(df, path, *, metadata=None):
+    from skthermal.datasets import write_runs
+
+    path = Path(path)
+    if path.parent and not path.parent.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        write_runs(df, path, metadata=metadata)
+    except ImportError as exc:  # Parquet without pyarrow
+        raise UserError(f"{path}: {exc}") from exc
+
+
+def pick_target(df, target, path="the run table"):
+    """The displacement column to model: ``--target``, the only one, or Y."""
+    from skthermal.datasets import target_columns
+
+    targets = target_columns(df)
+    if target is not None:
+        if target not in targets:
+            raise UserError(
+                f"--target {target!r} is not a displacement column of {path}; "
+                f"it has {targets or 'none'}."
+            )
+        return target
+    if not targets:
+        raise UserError(f"{path} has no displacement column (disp_<axis>_um) to model.")
+    if len(targets) == 1:
+        return targets[0]
+    if "disp_y_um" in targets:
+        return "disp_y_um"
+    raise UserError(
+        f"{path} has several displacement columns {targets}; choose one with --target."
+    )
+
+
+def run_mask(df, runs, option="--train-runs"):
+    """Rows of the runs named in ``runs`` (all rows when None)."""
+    labels = df["run"].astype(str)
+    if not runs:
+        return np.ones(len(df), dtype=bool)
+    wanted = split_list(runs)
+    present = list(pd.unique(labels))
+    unknown = [r for r in wanted if r not in present]
+    if unknown:
+        raise UserError(
+            f"{option}: run(s) {unknown} are not in the table; runs: {present}."
+        )
+    return labels.isin(wanted).to_numpy()
+
+
+def read_sensor_list(value, df):
+    """Sensor names from ``--sensors``: a comma list or a select output file."""
+    from skthermal.datasets import driver_columns, sensor_columns
+
+    path = Path(value)
+    if path.suffix.lower() in (".json", ".csv") or path.is_file():
+        if not path.is_file():
+            raise UserError(f"--sensors: no such file: {path}")
+        if path.suffix.lower() == ".json":
+            try:
+                doc = json.loads(path.read_text(encoding="utf-8"))
+            except json.JSONDecodeError as exc:
+                raise UserError(f"--sensors {path}: not valid JSON ({exc})") from exc
+            names = doc.get("sensors") if isinstance(doc, dict) else doc
+        else:
+            table = pd.read_csv(path)
+            if "sensor" not in table.columns:
+                raise UserError(f"--sensors {path}: no 'sensor' column.")
+            if "selected" in table.columns:
+                table = table[table["selected"].astype(bool)]
+            names = table["sensor"].tolist()
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise UserError(
+                f"--sensors {path}: expected a list of sensor names (as written by "
+                "'skthermal select')."
+            )
+    else:
+        names = split_list(value)
+    if not names:
+        raise UserError("--sensors: no sensor names given.")
+    allowed = sensor_columns(df) + driver_columns(df)
+    missing = [n for n in names if n not in allowed]
+    if missing:
+        raise UserError(
+            f"--sensors: {missing} are not sensor columns of the table "
+            f"(it has {len(sensor_columns(df))} sensors, e.g. "
+            f"{sensor_columns(df)[:5]})."
+        )
+    return names
+
+
+def features_of(df, sensors):
+    """``df[sensors]`` indexed by (run, time_s), as ``split_runs`` makes it."""
+    missing = [s for s in sensors if s not in df.columns]
+    if missing:
+        raise UserError(f"The run table lacks the model's input column(s) {missing}.")
+    index = pd.MultiIndex.from_arrays(
+        [df["run"], df["time_s"]], names=["run", "time_s"]
+    )
+    return df[list(sensors)].set_axis(index, axis=0)
+
+
+def check_positive(value, option, *, upper=None):
+    if value is None:
+        return
+    if not np.isfinite(value) or value <= 0:
+        raise UserError(f"{option} must be positive, got {value}.")
+    if upper is not None and value > upper:
+        raise UserError(f"{option} must be at most {upper}, got {value}.")
+
+
+def note_warnings(caught, command):
+    """Warnings of a fit as one line each on stderr (first line, no repeats)."""
+    seen = set()
+    for w in caught:
+        first = str(w.message).strip().splitlines()[0] if str(w.message) else ""
+        if first and first not in seen:
+            seen.add(first)
+            print(f"skthermal {command}: warning: {first}", file=sys.stderr)
+
+
+def parse_effects(value):
+    from skthermal.simulate import EFFECTS
+
+    if value is None:
+        return None
+    names = split_list(value)
+    if names == ["none"]:
+        return []
+    if names == ["all"]:
+        return list(EFFECTS)
+    unknown = [n for n in names if n not in EFFECTS]
+    if unknown:
+        raise UserError(
+            f"--effects: unknown effect(s) {unknown}; known: {', '.join(EFFECTS)} "
+            "(or 'all', 'none'; see --list-effects)."
+        )
+    return names
+
+
+def require(package, *, extra, command):
+    """Import the third-party ``package``, or a UserError naming the extra."""
+    try:
+        return importlib.import_module(package)
+    except ImportError as exc:
+        raise UserError(
+            f"'skthermal {command}' needs the package {package!r}: "
+            f"pip install 'skthermal[{extra}]'."
+        ) from exc

@@ -1,0 +1,209 @@
+"""``skthermal simulate`` and ``skthermal select``: make and reduce run tables."""
+
+import json
+import shutil
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from skthermal._cli._common import (
+    UserError,
+    check_positive,
+    parse_effects,
+    pick_target,
+    read_table,
+    run_mask,
+    split_list,
+    write_table,
+)
+
+_HOURS = {"h": 1.0, "hr": 1.0, "min": 1 / 60, "m": 1 / 60, "s": 1 / 3600}
+
+
+def parse_segments(specs):
+    """``["4000:1h,0:30min", "6000:2:1500"]`` -> ``[(s, rpm, feed), ...]``."""
+    segments = []
+    for spec in split_list(specs):
+        parts = spec.split(":")
+        if len(parts) not in (2, 3):
+            raise UserError(
+                f"--segment {spec!r}: expected RPM:DURATION[:FEED], e.g. 4000:1h, "
+                "0:30min or 6000:2h:1500."
+            )
+        try:
+            rpm = float(parts[0])
+            dur = parts[1].strip().lower()
+            unit = next((u for u in _HOURS if dur.endswith(u)), None)
+            hours = float(dur[: -len(unit)] if unit else dur) * _HOURS.get(unit, 1.0)
+            feed = float(parts[2]) if len(parts) == 3 else 0.0
+        except ValueError as exc:
+            raise UserError(
+                f"--segment {spec!r}: RPM, DURATION (hours, or with h/min/s) and "
+                "FEED must be numbers."
+            ) from exc
+        if rpm < 0 or feed < 0 or not hours > 0:
+            raise UserError(
+                f"--segment {spec!r}: speed and feed must be >= 0 and the duration "
+                "positive."
+            )
+        segments.append((hours * 3600.0, rpm, feed))
+    return segments
+
+
+def effects_text(table, width=None):
+    """The effects table as text blocks wrapped to the terminal width.
+
+    One block per effect: its name, then its parameters and its summary
+    indented below, each wrapped to ``width`` columns (default: the
+    terminal's, at most 100).
+    """
+    if width is None:
+        width = min(shutil.get_terminal_size((80, 24)).columns, 100)
+    width = max(int(width), 40)
+    blocks = []
+    for row in table.to_dict("records"):
+        lines = [str(row["effect"])]
+        for label, text in (("parameters: ", row["parameters"]), ("", row["summary"])):
+            lines += textwrap.wrap(
+                label + str(text),
+                width=width,
+                initial_indent="    ",
+                subsequent_indent="    ",
+                break_on_hyphens=False,
+            )
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
+
+
+def cmd_simulate(args):
+    from skthermal.datasets import make_machine_b_tests, read_runs
+    from skthermal.simulate import (
+        AmbientProfile,
+        DutyCycle,
+        ThermalMachine,
+        describe_effects,
+    )
+
+    if args.list_effects:
+        print(effects_text(describe_effects()))
+        return 0
+    check_positive(args.sample_period, "--sample-period")
+    if args.ambient_noise < 0:
+        raise UserError(f"--ambient-noise must be >= 0, got {args.ambient_noise}.")
+    machine = ThermalMachine.from_preset(
+        args.preset, effects=parse_effects(args.effects)
+    )
+    noise = not args.no_noise
+    if args.tests:
+        if args.segment:
+            raise UserError("Give either --tests or --segment, not both.")
+        tests = split_list(args.tests)
+        runs = make_machine_b_tests(
+            tests,
+            machine=machine,
+            sample_period_s=args.sample_period,
+            noise=noise,
+            random_state=args.seed,
+        )
+    else:
+        segments = parse_segments(args.segment or ["4000:1h", "0:1h"])
+        duty = DutyCycle(segments)
+        if duty.duration_s < 2 * args.sample_period:
+            raise UserError(
+                f"The duty cycle lasts {duty.duration_s:g} s, less than two samples "
+                f"of --sample-period {args.sample_period:g} s."
+            )
+        ambient = AmbientProfile(
+            mean_C=args.ambient_mean,
+            trend_C_per_h=args.ambient_trend,
+            day_amplitude_C=args.day_amplitude,
+            start_hour=args.start_hour,
+            noise_C=args.ambient_noise,
+        )
+        runs = machine.simulate(
+            duty,
+            ambient,
+            sample_period_s=args.sample_period,
+            run=args.run,
+            noise=noise,
+            random_state=args.seed,
+        )
+    meta = list(runs.attrs.get("metadata", []))
+    out = Path(args.out)
+    if args.append and out.exists():
+        try:
+            old, old_meta = read_runs(out, metadata=True)
+        except ValueError as exc:
+            raise UserError(f"--append {out}: {exc}") from exc
+        clash = sorted(set(old["run"].astype(str)) & set(runs["run"].astype(str)))
+        if clash:
+            raise UserError(
+                f"--append: run(s) {clash} are already in {out}; name the new run "
+                "with --run."
+            )
+        meta = old_meta.to_dict("records") + meta
+        runs = pd.concat([old, runs], ignore_index=True)
+    write_table(runs, out, metadata=meta or None)
+    sizes = runs.groupby("run", sort=False).size()
+    print(
+        f"Wrote {out}: {len(sizes)} run(s) ({', '.join(map(str, sizes.index))}), "
+        f"{len(runs)} rows, {runs.shape[1]} columns, preset {args.preset}."
+    )
+    return 0
+
+
+# --------------------------------------------------------------------------
+# select
+# --------------------------------------------------------------------------
+
+
+def cmd_select(args):
+    from skthermal.datasets import split_runs
+    from skthermal.models import SELECTORS, make_selector
+
+    if args.method not in SELECTORS:
+        raise UserError(f"--method: choose one of {', '.join(SELECTORS)}.")
+    df = read_table(args.runs)
+    target = pick_target(df, args.target, args.runs)
+    X, y, _ = split_runs(df, targets=target)
+    if not 1 <= args.n_sensors <= X.shape[1]:
+        raise UserError(
+            f"--n-sensors must be between 1 and the {X.shape[1]} sensors of the "
+            f"table, got {args.n_sensors}."
+        )
+    mask = run_mask(df, args.train_runs)
+    selector = make_selector(args.method, args.n_sensors, random_state=args.seed)
+    selector.fit(X[mask], y[mask])
+    names = list(X.columns)
+    kept = list(selector.get_feature_names_out())
+    scores = np.asarray(selector.scores_, dtype=float)
+    table = pd.DataFrame({"sensor": names, "score": scores})
+    table["selected"] = table["sensor"].isin(kept)
+    if hasattr(selector, "labels_"):
+        table["group"] = selector.labels_
+    out = Path(args.out)
+    if out.parent and not out.parent.exists():
+        out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix.lower() == ".csv":
+        table.to_csv(out, index=False)
+    elif out.suffix.lower() == ".json":
+        doc = {
+            "method": args.method,
+            "target": target,
+            "train_runs": sorted(pd.unique(df["run"][mask].astype(str)).tolist()),
+            "sensors": kept,
+            "scores": dict(zip(names, map(float, scores), strict=True)),
+        }
+        if "group" in table:
+            doc["groups"] = dict(zip(names, map(int, table["group"]), strict=True))
+        out.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    else:
+        raise UserError(f"--out {out}: write .json or .csv.")
+    print(
+        f"{args.method}: kept {len(kept)} of {len(names)} sensors for {target}: "
+        + ", ".join(kept)
+    )
+    print(f"Wrote {out}")
+    return 0

@@ -1,0 +1,411 @@
+"""``skthermal fit``, ``predict``, ``evaluate`` and ``search``: named models.
+
+Models come from :func:`skthermal.models.make_model`; model files are
+bundles (a dict with the fitted model, its input sensors and target) saved
+with :func:`skthermal.io.save` (``.skops``) or joblib (any other name).
+"""
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from sklearn.exceptions import ConvergenceWarning
+
+from skthermal._cli._common import (
+    UserError,
+    features_of,
+    note_warnings,
+    pick_target,
+    read_sensor_list,
+    read_table,
+    require,
+    run_mask,
+    write_table,
+)
+
+MODEL_FORMAT = "skthermal-model"
+
+
+def _is_skops(path):
+    return Path(path).suffix.lower() == ".skops"
+
+
+def save_model(bundle, path):
+    """Write a model bundle (dict) to ``path``.
+
+    ``*.skops``: the safe format of :mod:`skthermal.io` (skops, loads without
+    running code from the file); anything else: joblib.
+    """
+    path = Path(path)
+    if path.parent and not path.parent.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+    if _is_skops(path):
+        from skthermal.io import save
+
+        try:
+            save(bundle, path)
+        except ImportError as exc:  # skops missing: the message names the extra
+            raise UserError(str(exc)) from exc
+        return
+    import joblib
+
+    joblib.dump(bundle, path)
+
+
+def load_model(path):
+    """Read a model bundle written by :func:`save_model`.
+
+    joblib runs code from the file while loading it: load only ``.joblib``
+    files you trust (yours). ``.skops`` files are loaded by
+    :func:`skthermal.io.load`, which runs no code from the file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"--model: no such file: {path}")
+    try:
+        if _is_skops(path):
+            from skthermal.io import load
+
+            bundle = load(path)
+        else:
+            import joblib
+
+            bundle = joblib.load(path)
+    except UserError:
+        raise
+    except Exception as exc:  # a corrupt or foreign file fails in many ways
+        raise UserError(
+            f"--model {path}: not a readable model file ({type(exc).__name__}: {exc})"
+        ) from exc
+    if not isinstance(bundle, dict) or bundle.get("format") != MODEL_FORMAT:
+        raise UserError(f"--model {path}: not a model file written by 'skthermal fit'.")
+    return bundle
+
+
+def _parse_value(text):
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def _parse_params(items):
+    params = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise UserError(f"--set expects KEY=VALUE, got {item!r}.")
+        params[key.strip()] = _parse_value(value.strip())
+    return params
+
+
+def _resolve_params(model, params):
+    """``--set`` names -> ``set_params`` keys of the wrapped model.
+
+    A name may be the inner model's parameter (``epochs``), a full nested key
+    (``transformedtargetregressor__regressor__alpha``) or any unambiguous
+    last part of one (``max_iter`` for the MLP).
+    """
+    valid = [k.removeprefix("estimator__") for k in model.get_params(deep=True)]
+    valid = [k for k in valid if k != "estimator"]
+    out = {}
+    for key, value in params.items():
+        if key in valid:
+            out[f"estimator__{key}"] = value
+            continue
+        matches = [k for k in valid if k.endswith("__" + key)]
+        if len(matches) != 1:
+            short = sorted({k.rsplit("__", 1)[-1] for k in valid})
+            what = "is ambiguous" if matches else "is not a parameter of the model"
+            raise UserError(f"--set {key}: {what}; parameters: {', '.join(short)}.")
+        out[f"estimator__{matches[0]}"] = value
+    return out
+
+
+def cmd_fit(args):
+    from skthermal import __version__
+    from skthermal.datasets import sensor_columns, split_runs
+    from skthermal.models import MODELS, make_model, make_selector
+    from skthermal.study import score_runs
+
+    if args.model not in MODELS:
+        raise UserError(
+            f"--model: unknown model {args.model!r}; choose one of {', '.join(MODELS)}."
+        )
+    if args.sensors and args.selector:
+        raise UserError("Give either --sensors or --selector, not both.")
+    df = read_table(args.runs)
+    target = pick_target(df, args.target, args.runs)
+    mask = run_mask(df, args.train_runs)
+    if args.sensors:
+        sensors = read_sensor_list(args.sensors, df)
+    elif args.selector:
+        X, y, _ = split_runs(df, targets=target)
+        if not 1 <= args.n_sensors <= X.shape[1]:
+            raise UserError(
+                f"--n-sensors must be between 1 and {X.shape[1]}, got {args.n_sensors}."
+            )
+        selector = make_selector(args.selector, args.n_sensors, random_state=args.seed)
+        selector.fit(X[mask], y[mask])
+        sensors = list(selector.get_feature_names_out())
+        print(f"{args.selector} selected {', '.join(sensors)}")
+    else:
+        sensors = sensor_columns(df)
+    X, y, groups = split_runs(df, sensors=sensors, targets=target)
+    model = make_model(args.model, random_state=args.seed, quick=args.quick)
+    params = _resolve_params(model, _parse_params(args.set))
+    if params:
+        model.set_params(**params)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        model.fit(X[mask], y[mask])
+    note_warnings(caught, "fit")
+    scores = score_runs(y[mask], model.predict(X[mask]), groups[mask])
+    bundle = {
+        "format": MODEL_FORMAT,
+        "version": 1,
+        "model": args.model,
+        "estimator": model,
+        "sensors": sensors,
+        "target": target,
+        "train_runs": [str(r) for r in pd.unique(groups[mask])],
+        "skthermal_version": __version__,
+    }
+    save_model(bundle, args.out)
+    rmse = ", ".join(
+        f"{r}: {v:.2f}" for r, v in zip(scores["run"], scores["RMSE_um"], strict=True)
+    )
+    print(
+        f"Fitted {MODELS[args.model].label} on {len(sensors)} sensor(s) -> {target}, "
+        f"runs {', '.join(bundle['train_runs'])}; training RMSE (µm) {rmse}."
+    )
+    print(f"Wrote {args.out}")
+    return 0
+
+
+def _predict(bundle, df):
+    X = features_of(df, bundle["sensors"])
+    return bundle["estimator"].predict(X)
+
+
+def cmd_predict(args):
+    from skthermal.datasets import read_runs
+
+    bundle = load_model(args.model)
+    df = read_table(args.runs)
+    pred = _predict(bundle, df)
+    out = df.copy()
+    out[f"pred_{bundle['target']}"] = pred
+    try:
+        _, meta = read_runs(args.runs, metadata=True, validate=False)
+    except ValueError:
+        meta = None
+    write_table(
+        out, args.out, metadata=meta if meta is not None and len(meta) else None
+    )
+    print(
+        f"Predicted pred_{bundle['target']} (change since the start of each run) "
+        f"for {df['run'].nunique()} run(s); wrote {args.out}"
+    )
+    return 0
+
+
+def _prediction_column(df, target, where):
+    from skthermal.datasets import target_columns
+
+    preds = [c for c in df.columns if isinstance(c, str) and c.startswith("pred_")]
+    if target is not None:
+        name = f"pred_{target}"
+        if name not in df.columns:
+            raise UserError(
+                f"{where} has no {name!r} column; it has {preds or 'none'}."
+            )
+        return target, name
+    candidates = [f"pred_{t}" for t in target_columns([c[5:] for c in preds])]
+    if not candidates:
+        raise UserError(
+            f"{where} has no prediction column pred_disp_<axis>_um; pass "
+            "--predictions FILE or --model FILE."
+        )
+    if len(candidates) > 1:
+        raise UserError(
+            f"{where} has several prediction columns {candidates}; choose with "
+            "--target."
+        )
+    return candidates[0][5:], candidates[0]
+
+
+def cmd_evaluate(args):
+    from skthermal.study import METRIC_COLUMNS, score_runs
+    from skthermal.study._report import markdown_table
+
+    if args.model and args.predictions:
+        raise UserError("Give either --model or --predictions, not both.")
+    df = read_table(args.runs)
+    if args.model:
+        bundle = load_model(args.model)
+        target = args.target or bundle["target"]
+        if target not in df.columns:
+            raise UserError(f"{args.runs} has no measured {target!r} column.")
+        pred = _predict(bundle, df)
+        data = df
+    else:
+        if args.predictions:
+            preds = read_table(args.predictions, "--predictions")
+            target, col = _prediction_column(preds, args.target, args.predictions)
+            data = df.merge(
+                preds[["run", "time_s", col]], on=["run", "time_s"], how="inner"
+            )
+            if data.empty:
+                raise UserError(
+                    f"--predictions {args.predictions} shares no (run, time_s) rows "
+                    f"with {args.runs}."
+                )
+        else:
+            target, col = _prediction_column(df, args.target, args.runs)
+            data = df
+        if target not in data.columns:
+            raise UserError(f"{args.runs} has no measured {target!r} column.")
+        pred = data[col].to_numpy(dtype=float)
+        if not np.all(np.isfinite(pred)):
+            raise UserError(f"Column {col!r} has missing or infinite values.")
+    table = score_runs(data[target], pred, data["run"].to_numpy())
+    mean = {"run": "mean", "n_samples": int(table["n_samples"].sum())}
+    mean.update(table[list(METRIC_COLUMNS)].mean().to_dict())
+    mean["residual_um"] = table["residual_um"].max()
+    table = pd.concat([table, pd.DataFrame([mean])], ignore_index=True)
+    shown = table.copy()
+    for c in METRIC_COLUMNS:
+        shown[c] = [f"{v:.2f}" if np.isfinite(v) else "—" for v in table[c]]
+    print(
+        f"{target}: measured vs predicted change since the start of each run "
+        "(residual: max |error|; mean row: residual is the max over runs)"
+    )
+    print(shown.to_string(index=False))
+    if args.out:
+        out = Path(args.out)
+        if out.parent and not out.parent.exists():
+            out.parent.mkdir(parents=True, exist_ok=True)
+        if out.suffix.lower() == ".md":
+            out.write_text(markdown_table(shown) + "\n", encoding="utf-8")
+        elif out.suffix.lower() == ".csv":
+            table.to_csv(out, index=False)
+        else:
+            raise UserError(f"--out {out}: write .csv or .md.")
+        print(f"Wrote {out}")
+    return 0
+
+
+def cmd_search(args):
+    from skthermal.datasets import split_runs
+    from skthermal.model_selection import run_search
+    from skthermal.models import MODELS, make_model, model_search_space
+
+    if args.model not in MODELS:
+        raise UserError(
+            f"--model: unknown model {args.model!r}; choose one of {', '.join(MODELS)}."
+        )
+    if args.trials < 1:
+        raise UserError(f"--trials must be at least 1, got {args.trials}.")
+    optuna = require("optuna", extra="optuna", command="search")
+    df = read_table(args.runs)
+    target = pick_target(df, args.target, args.runs)
+    if args.sensors:
+        sensors = read_sensor_list(args.sensors, df)
+        X, y, groups = split_runs(df, sensors=sensors, targets=target)
+    else:
+        X, y, groups = split_runs(df, targets=target)
+        sensors = list(X.columns)
+    if args.model == "anfis-grid" and len(sensors) > 6:
+        raise UserError(
+            f"anfis-grid on {len(sensors)} inputs has at least 2**{len(sensors)} "
+            "rules; choose at most 6 inputs with --sensors."
+        )
+    n_runs = len(pd.unique(groups))
+    if n_runs < 2:
+        raise UserError(
+            f"{args.runs} has {n_runs} run; the search cross-validates over runs "
+            "and needs at least 2."
+        )
+    study_name = args.study_name
+    if args.storage and not study_name:
+        study_name = f"skthermal-{args.model}"
+    model = make_model(args.model, random_state=args.seed)
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    print(
+        f"Searching {MODELS[args.model].label} on {len(sensors)} input(s) -> "
+        f"{target}: {args.trials} trial(s), {min(5, n_runs)}-fold CV over "
+        f"{n_runs} runs"
+        + (f", study {study_name!r} in {args.storage}" if args.storage else "")
+        + " ...",
+        flush=True,
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        result = run_search(
+            model,
+            X,
+            y,
+            groups=groups,
+            space=model_search_space(args.model),
+            n_trials=args.trials,
+            storage=args.storage,
+            study_name=study_name,
+            random_state=args.seed,
+        )
+    note_warnings(caught, "search")
+    trials = result.trials_dataframe()
+    done = int((trials["state"] == "COMPLETE").sum()) if len(trials) else 0
+    if result.best_params_ is None:
+        raise UserError(
+            f"No trial of {len(trials)} completed; see the trials' 'error' "
+            "attribute in the study."
+        )
+    best = {k.removeprefix("estimator__"): v for k, v in result.best_params_.items()}
+    print(
+        f"{done} of {len(trials)} trial(s) complete; best CV RMSE "
+        f"{-result.best_score_:.3f} µm with:"
+    )
+    for key, value in best.items():
+        print(f"  {key} = {value!r}")
+    if args.out:
+        doc = {
+            "model": args.model,
+            "target": target,
+            "sensors": sensors,
+            "best_rmse_um": -result.best_score_,
+            "best_params": {k: _plain(v) for k, v in best.items()},
+            "n_trials": len(trials),
+            "storage": args.storage,
+            "study_name": study_name,
+        }
+        Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        print(f"Wrote {args.out}")
+    if args.save_model and result.best_estimator_ is not None:
+        from skthermal import __version__
+
+        save_model(
+            {
+                "format": MODEL_FORMAT,
+                "version": 1,
+                "model": args.model,
+                "estimator": result.best_estimator_,
+                "sensors": sensors,
+                "target": target,
+                "train_runs": [str(r) for r in pd.unique(groups)],
+                "skthermal_version": __version__,
+            },
+            args.save_model,
+        )
+        print(f"Wrote {args.save_model} (best parameters, refitted on all runs)")
+    return 0
+
+
+def _plain(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, tuple):
+        return list(value)
+    return value

@@ -1,0 +1,133 @@
+"""A regressor fitted and applied on changes since the start of each run."""
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
+from sklearn.utils._param_validation import HasMethods
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from skthermal.utils._runs import (
+    RUN_COLUMN,
+    changes_since_start,
+    extract_runs,
+    run_slices,
+)
+
+
+class RunStartRegressor(RegressorMixin, BaseEstimator):
+    """Fit and predict a regressor on changes since the start of each run.
+
+    The papers model "temperature change" against "thermal drift": inputs and
+    target are taken relative to the first sample of their run, and the
+    prediction is the change of the error since the run started -- what a
+    compensation applies (zero on the first sample of every run).
+
+    Run labels come from ``groups``, a ``run`` column or a ``run`` index level
+    (as returned by :func:`skthermal.datasets.split_runs`); without any, all
+    rows are one run. The inner estimator sees a DataFrame indexed by run, so
+    run-aware estimators (grey models, ANFIS checking sets) keep the run
+    boundaries.
+
+    Parameters
+    ----------
+    estimator : regressor
+        The model, cloned by ``fit``.
+
+    Attributes
+    ----------
+    estimator_ : regressor
+        The fitted clone.
+    n_features_in_ : int
+        Number of features seen during ``fit``.
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Names of the features seen during ``fit`` (string column names only).
+
+    See Also
+    --------
+    skthermal.ensemble.ModularRegressor : a sum of regressors; with
+        ``relative=True`` it also works on changes since the run start, but
+        hands its modules plain arrays.
+    skthermal.models.make_model : the named models, each wrapped in this
+        class.
+
+    Notes
+    -----
+    001 §5.3 trains and scores its models on temperature and displacement
+    changes since the start of each test. Scores of this regressor
+    (:meth:`score`) compare changes with absolute targets; score changes with
+    :func:`skthermal.study.score_runs` instead.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from skthermal.models import RunStartRegressor
+    >>> t = np.linspace(0.0, 1.0, 20)
+    >>> X = np.r_[20.0 + 3.0 * t, 25.0 + 3.0 * t][:, None]  # two runs
+    >>> y = np.r_[5.0 + 2.0 * t, -4.0 + 2.0 * t]
+    >>> runs = np.repeat(["a", "b"], 20)
+    >>> model = RunStartRegressor(LinearRegression()).fit(X, y, groups=runs)
+    >>> model.predict(X, groups=runs)[[0, 19, 20, 39]].round(6)
+    array([0., 2., 0., 2.])
+    """
+
+    _parameter_constraints: dict = {
+        "estimator": [HasMethods(["fit", "predict"])],
+    }
+
+    def __init__(self, estimator):
+        self.estimator = estimator
+
+    def _changes(self, A, groups):
+        """``A`` minus the first row of its run, as a DataFrame indexed by run."""
+        slices, _ = run_slices(groups, A.shape[0])
+        index = None if groups is None else pd.Index(groups, name=RUN_COLUMN)
+        names = getattr(self, "feature_names_in_", None)
+        # Integer column labels when unnamed: the inner model records no names.
+        return pd.DataFrame(changes_since_start(A, slices), index=index, columns=names)
+
+    @_fit_context(prefer_skip_nested_validation=False)
+    def fit(self, X, y, *, groups=None):
+        """Fit the estimator on changes since the start of each run.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+            Inputs; a ``run`` column or index level holds run labels.
+        y : array-like of shape (n_samples,)
+            Target.
+        groups : array-like of shape (n_samples,), optional
+            Run labels (runs contiguous); override a ``run`` column.
+
+        Returns
+        -------
+        self : RunStartRegressor
+        """
+        X, groups = extract_runs(X, groups)
+        A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        slices, _ = run_slices(groups, A.shape[0])
+        dy = changes_since_start(np.asarray(y, dtype=float), slices)
+        self.estimator_ = clone(self.estimator).fit(self._changes(A, groups), dy)
+        return self
+
+    def predict(self, X, *, groups=None):
+        """Predict the change of the target since the start of each run.
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_samples, n_features)
+            Inputs; a ``run`` column or index level holds run labels.
+        groups : array-like of shape (n_samples,), optional
+            Run labels (runs contiguous); override a ``run`` column.
+
+        Returns
+        -------
+        ndarray of shape (n_samples,)
+            Zero on the first row of every run.
+        """
+        check_is_fitted(self, "estimator_")
+        X, groups = extract_runs(X, groups)
+        A = validate_data(self, X, reset=False, dtype=np.float64)
+        pred = np.asarray(self.estimator_.predict(self._changes(A, groups)), float)
+        slices, _ = run_slices(groups, A.shape[0])
+        return changes_since_start(pred, slices)

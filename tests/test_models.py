@@ -1,0 +1,125 @@
+"""Tests of the named models and of RunStartRegressor."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.linear_model import LinearRegression
+from sklearn.utils._param_validation import InvalidParameterError
+
+from skthermal.cli import main
+from skthermal.models import (
+    MODELS,
+    RunStartRegressor,
+    make_model,
+    make_selector,
+    model_search_space,
+)
+
+
+def _two_runs(n=30):
+    t = np.linspace(0.0, 1.0, n)
+    X = np.c_[np.r_[20 + 3 * t, 22 + 4 * t], np.r_[18 + t**2, 19 + 2 * t**2]]
+    y = np.r_[5 + 2 * X[:n, 0] - X[:n, 1], -3 + 2 * X[n:, 0] - X[n:, 1]]
+    return X, y, np.repeat(["a", "b"], n)
+
+
+def test_run_start_regressor_validates_its_estimator():
+    X, y, groups = _two_runs()
+    with pytest.raises(InvalidParameterError, match="estimator"):
+        RunStartRegressor("ridge").fit(X, y, groups=groups)
+
+
+def test_run_start_regressor_needs_contiguous_runs():
+    X, y, groups = _two_runs()
+    mixed = groups[np.r_[0:20, 40:60, 20:40]]
+    with pytest.raises(ValueError, match="not contiguous"):
+        RunStartRegressor(LinearRegression()).fit(X, y, groups=mixed)
+
+
+def test_run_start_regressor_hands_runs_and_names_to_the_inner_model():
+    X, y, groups = _two_runs()
+    frame = pd.DataFrame(X, columns=["T1_C", "T2_C"]).assign(run=groups)
+    model = RunStartRegressor(LinearRegression()).fit(frame, y)
+    assert list(model.feature_names_in_) == ["T1_C", "T2_C"]
+    assert list(model.estimator_.feature_names_in_) == ["T1_C", "T2_C"]
+    pred = model.predict(frame)
+    assert pred[0] == 0 and pred[30] == 0
+    z = np.r_[y[:30] - y[0], y[30:] - y[30]]
+    np.testing.assert_allclose(pred, z, atol=1e-9)
+    with pytest.raises(ValueError, match="T2_C"):
+        model.predict(frame[["T1_C", "run"]])
+
+
+def test_every_named_model_is_wrapped_and_has_a_search_space():
+    for name in MODELS:
+        model = make_model(name, random_state=0, quick=True)
+        assert isinstance(model, RunStartRegressor)
+        assert callable(model_search_space(name))
+    with pytest.raises(InvalidParameterError, match="name"):
+        make_model("svm")
+    with pytest.raises(InvalidParameterError, match="n_sensors"):
+        make_selector("fcm", 0)
+
+
+def test_mlp_search_space_keys_are_model_parameters():
+    optuna = pytest.importorskip("optuna")
+    model = make_model("mlp")
+    trial = optuna.trial.FixedTrial({"hidden": 4, "alpha": 1e-3, "activation": "relu"})
+    params = model_search_space("mlp")(trial)
+    model.set_params(**params)
+    inner = model.estimator.steps[-1][1].regressor
+    assert inner.hidden_layer_sizes == (4,) and inner.activation == "relu"
+
+
+@pytest.fixture(scope="module")
+def small_runs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("runs")
+    path = folder / "runs.csv"
+    rng = np.random.default_rng(0)
+    frames = []
+    for r in range(3):
+        t = np.arange(60) * 60.0
+        heat = (1 - np.exp(-t / 1500.0)) * (4 + r)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": f"r{r}",
+                    "time_s": t,
+                    "T01_C": 20 + heat + rng.normal(0, 0.02, t.size),
+                    "T02_C": 20 + 0.5 * heat + rng.normal(0, 0.02, t.size),
+                    "disp_y_um": 3 * heat + rng.normal(0, 0.1, t.size),
+                }
+            )
+        )
+    pd.concat(frames).to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_every_cli_model_loads_back_with_skthermal_io_in_a_fresh_process(
+    name, small_runs, tmp_path, capsys
+):
+    pytest.importorskip("skops")
+    out = tmp_path / f"{name}.skops"
+    argv = ["fit", "--runs", str(small_runs), "--model", name, "--quick"]
+    argv += ["--sensors", "T01_C,T02_C", "--set", "epochs=3"] if "anfis" in name else []
+    argv += ["--set", "n_particles=5", "--set", "epochs=3"] if "g" == name[0] else []
+    assert main([*argv, "--out", str(out)]) == 0, capsys.readouterr().err
+    code = (
+        "import sys, pandas as pd; from skthermal.io import load; "
+        "b = load(sys.argv[1]); df = pd.read_csv(sys.argv[2]); "
+        "X = df.set_index(['run', 'time_s'])[b['sensors']]; "
+        "p = b['estimator'].predict(X); "
+        "print(type(b['estimator']).__module__, len(p), bool((p == p).all()))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(out), str(small_runs)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["skthermal.models._run_start", "180", "True"]
