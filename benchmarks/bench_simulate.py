@@ -20,7 +20,6 @@ import numpy as np
 from scipy.linalg import expm
 
 from skthermal.simulate import AmbientProfile, DoorEvent, DutyCycle, ThermalMachine
-from skthermal.utils._threads import single_threaded_blas
 
 
 def _naive(machine, rpm, air, dt, T0):
@@ -30,10 +29,12 @@ def _naive(machine, rpm, air, dt, T0):
     T = np.empty((rpm.size, len(nodes)))
     T[0] = T0
     cache = {}
-    Q, cols = machine._heat(rpm[:-1], np.zeros(rpm.size - 1))
+    heat = machine.heat_inputs(rpm[:-1])
+    Q = heat.to_numpy()
+    cols = [machine.node_index[n] for n in heat.columns]
     for k in range(rpm.size - 1):
         if rpm[k] not in cache:
-            K, to_room = machine._network(rpm[k])
+            _, K, to_room = machine.network(rpm[k])
             n = len(nodes)
             A = -K / C[:, None]
             # Augmented matrix: state, heat (held), air value and air slope.
@@ -94,13 +95,10 @@ def main(argv=None):
         machine, rpm, air_true, dt, np.full(len(machine.spec.nodes), air_true[0])
     )
     t_naive = time.perf_counter() - t0
-    T0 = np.full(len(machine.spec.nodes), air_true[0])
-    feed = np.zeros_like(rpm)
     t_states = np.inf
     for _ in range(args.repeats):
         t0 = time.perf_counter()
-        with single_threaded_blas():
-            machine._integrate(rpm, feed, air_true, dt, T0)
+        machine.response(t, rpm, air_true)
         t_states = min(t_states, time.perf_counter() - t0)
 
     print(

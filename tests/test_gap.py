@@ -1,6 +1,7 @@
 """Tests of the sim-to-real gap diagnosis (skthermal.gap)."""
 
 import json
+import logging
 
 import numpy as np
 import pandas as pd
@@ -279,9 +280,37 @@ def test_diagnose_errors(tool_case):
         diagnose(
             sim, runs.rename(columns={"disp_z_um": "disp_q_um"}), channels=["disp_q_um"]
         )
+    with pytest.raises(ValueError, match="run table is empty"):
+        diagnose(sim, runs.iloc[:0])
+    with pytest.raises(ValueError, match="No measured column matches"):
+        diagnose(sim, runs[["run", "time_s", "spindle_rpm", "ambient_C"]])
+    bad = runs.reset_index(drop=True)
+    second = np.flatnonzero(bad["run"] == "r2")[7]
+    bad.loc[second, "spindle_rpm"] = -50.0
+    with pytest.raises(
+        ValueError, match=r"spindle_rpm is negative \(-50\) in run 'r2' at row 7"
+    ):
+        diagnose(sim, bad)
+    bad = runs.reset_index(drop=True)
+    bad.loc[second, "ambient_C"] = np.nan
+    with pytest.raises(ValueError, match=r"ambient_C is missing .* run 'r2' at row 7"):
+        diagnose(sim, bad)
 
 
-def test_mapping_renamed_channels(tool_case):
+def test_verdict_and_tables_show_the_same_numbers(tool_report):
+    """The sentence quotes the numbers of the tables it names, with units."""
+    text = tool_report.verdict()
+    overall = tool_report.how_far.set_index("regime").loc["overall"]
+    assert f"{overall['gap_before']:.3g} -> {overall['gap_after']:.3g}" in text
+    assert "table 'How far', overall" in text
+    top = tool_report.ranking.set_index("effect").loc["tool_growth"]
+    assert f"{top['gap_before']:.3g} -> {top['gap_after']:.3g}" in text
+    md = tool_report.to_markdown()
+    assert "| gap_before [norm.] |" in md and "normalised" in md
+
+
+def test_mapping_renamed_channels(tool_case, caplog):
+    caplog.set_level(logging.INFO, logger="skthermal.gap")
     runs = tool_case.runs[
         ["run", "time_s", "spindle_rpm", "feed_mm_min", "ambient_C", "disp_z_um"]
     ].rename(columns={"disp_z_um": "disp_ch1_um"})
@@ -294,6 +323,12 @@ def test_mapping_renamed_channels(tool_case):
     )
     assert report.settings["channels"] == ["disp_ch1_um"]
     assert report.ranking.iloc[0]["effect"] == "tool_growth"
+    # Progress through the standard logging module, per step and candidate.
+    messages = [r.getMessage() for r in caplog.records if r.name == "skthermal.gap"]
+    assert any(m.startswith("Where:") for m in messages)
+    assert any(m.startswith("Which: tool_growth: held-out gap") for m in messages)
+    assert any(m.startswith("How far:") for m in messages)
+    assert any(m.startswith("Verdict:") for m in messages)
 
 
 def test_validate_small():

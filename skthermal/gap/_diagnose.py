@@ -1,6 +1,8 @@
 """Where the simulation and the measurement disagree, which unmodelled effect
 explains it, and how far the gap shrinks once that effect is added."""
 
+import logging
+
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
@@ -19,14 +21,11 @@ from skthermal.gap._problem import (
     residuals,
 )
 from skthermal.gap._regimes import label_regimes
-from skthermal.simulate._effects import EFFECTS, check_effects
+from skthermal.gap._report import GapReport
+from skthermal.gap._scores import excess_shrink
+from skthermal.simulate import EFFECTS
 
-BANDS_H = [
-    ("> 6 h", 6.0, np.inf),
-    ("1-6 h", 1.0, 6.0),
-    ("10 min-1 h", 1 / 6, 1.0),
-    ("< 10 min", 0.0, 1 / 6),
-]
+logger = logging.getLogger("skthermal.gap")
 
 
 def _folds(n_runs, cv):
@@ -218,11 +217,13 @@ def _evaluate(
     alpha,
 ):
     effects = tuple(before_effects) + (candidate,)
+    logger.info("Which: calibrating with %s on every fold.", " + ".join(effects))
     starts = [f.values for f in before_fits]
     after_R, fits = ctx.heldout(effects, starts)
     row, (rb, ra) = _score(
         ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
     )
+    _log_row("Which", row)
     regime_shrink = (1.0 - ra / rb.reindex(ra.index)).rename(candidate)
     param = EFFECT_PARAMETER.get(candidate)
     if param is not None:
@@ -234,10 +235,17 @@ def _evaluate(
     return row, regime_shrink, after_R, fits
 
 
-def _excess_shrink(gap_b, gap_a, floor2):
-    ex_b = np.sqrt(max(gap_b**2 - floor2, 0.0))
-    ex_a = np.sqrt(max(gap_a**2 - floor2, 0.0))
-    return float(1.0 - ex_a / ex_b) if ex_b > 0 else 0.0
+def _log_row(step, row):
+    logger.info(
+        "%s: %s: held-out gap %.3g -> %.3g, shrink %.0f%% above noise, p = %.2g%s.",
+        step,
+        row["effect"],
+        row["gap_before"],
+        row["gap_after"],
+        100 * row["shrink"],
+        row["p_value"],
+        " (explains)" if row["explains"] else "",
+    )
 
 
 def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha):
@@ -254,7 +262,7 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         b, a = before_R, after_R
     gap_b, ms_b = _gap(b)
     gap_a, ms_a = _gap(a)
-    shrink = _excess_shrink(gap_b, gap_a, floor2)
+    shrink = excess_shrink(gap_b, gap_a, floor2)
     d = ms_b - ms_a  # per held-out run
     p = _block_test(b, a)
     rb = _regime_gaps(b, regimes)
@@ -374,12 +382,16 @@ def diagnose(
     >>> report.best_effect
     'tool_growth'
     """
-    from skthermal.gap._report import GapReport
-
     base_effects = tuple(machine.effects)
     if candidates is None:
         candidates = [e for e in EFFECTS if e not in base_effects]
-    candidates = list(check_effects(candidates))
+    candidates = [candidates] if isinstance(candidates, str) else list(candidates)
+    unknown = [c for c in candidates if c not in EFFECTS]
+    if unknown:
+        raise ValueError(
+            f"Unknown effect(s) {unknown}; the vocabulary is {list(EFFECTS)}."
+        )
+    candidates = [e for e in EFFECTS if e in candidates]
     already = [c for c in candidates if c in base_effects]
     if already:
         raise ValueError(
@@ -398,6 +410,13 @@ def diagnose(
             "The diagnosis scores effects on held-out runs: give at least 2 runs "
             f"(got {len(problem.runs)})."
         )
+    logger.info(
+        "Prepared %d run(s) and %d channel(s); %d candidate(s): %s.",
+        len(problem.runs),
+        len(problem.channels),
+        len(candidates),
+        ", ".join(candidates),
+    )
     reference = machine.params
     folds = _folds(len(problem.runs), cv)
     ctx = _Context(problem, machine, reference, folds, max_nfev)
@@ -405,6 +424,7 @@ def diagnose(
     floor2 = floor_squared(problem)
 
     # Where: as given, and with the base calibrated on all runs (in sample).
+    logger.info("Where: simulating the runs and calibrating the base.")
     as_given = residuals(
         problem,
         {i: predict_run(machine, problem, r) for i, r in enumerate(problem.runs)},
@@ -424,6 +444,7 @@ def diagnose(
     )
 
     # Which: held-out gap of the base, then of every candidate.
+    logger.info("Which: calibrating the base on %d fold(s).", len(folds))
     base_R, base_fits = ctx.heldout(())
     jobs = Parallel(n_jobs=n_jobs)(
         delayed(_evaluate)(
@@ -432,6 +453,9 @@ def diagnose(
         for c in candidates
     )
     rows = [j[0] for j in jobs]
+    if n_jobs not in (None, 1):  # workers' log records stay in the workers
+        for row in rows:
+            _log_row("Which", row)
     ranking = pd.DataFrame(rows)
     ranking = ranking.sort_values(
         ["explains", "shrink"], ascending=False, kind="stable"
@@ -448,6 +472,11 @@ def diagnose(
     fine_row = fine_regimes = fine_before_R = fine_after_R = None
     if focus is not None:
         n_folds = len(folds)
+        logger.info(
+            "How far: %s against the base, %s calibration.",
+            focus,
+            "fine" if fine else "screening",
+        )
         if fine:
             results = Parallel(n_jobs=n_jobs)(
                 delayed(ctx.fold)(k, effects, start, True)
@@ -472,6 +501,7 @@ def diagnose(
             alpha,
         )
         fine_row["calibration"] = "fine" if fine else "screening"
+        _log_row("How far", fine_row)
     best = focus if fine_row is not None and fine_row["explains"] else None
 
     # How far: the best effect, then greedily more.
@@ -519,6 +549,10 @@ def diagnose(
             )
             remaining.remove(top[0]["effect"])
     machines = {"base calibrated": base_all.machine}
+    logger.info(
+        "Verdict: %s.",
+        f"{' + '.join(added)} explain(s) the gap" if best else "no effect explains",
+    )
     if best is not None:
         with_best = calibrate(
             problem,

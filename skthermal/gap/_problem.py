@@ -13,11 +13,11 @@ estimated from second differences of its measurement.
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares
 
-from skthermal.simulate._effects import EFFECTS
-from skthermal.utils._threads import single_threaded_blas
+from skthermal.simulate import EFFECTS
 
 # Base calibration. The network's time scales are set by two multipliers (all
 # capacities, all convection coefficients), fitted by nonlinear least squares.
@@ -37,20 +37,10 @@ BASE_GROUPS = {
 START_SAMPLES = 5
 
 # The parameter each candidate effect brings to the calibration (None: the
-# effect is a structural switch without a free parameter).
-EFFECT_PARAMETER = {
-    "sensor_lag": "sensor_lag.tau_s",
-    "speed_convection": "speed_convection.gain",
-    "tool_growth": "tool_growth.hA_rotating",
-    "ambient_transient": None,
-    # The feed-driven part has its own gain per channel, which sets the
-    # screw heating's amplitude; a power parameter on top would only be
-    # degenerate with those gains.
-    "feed_heating": None,
-    "sensor_drift": None,
-}
-# Effects not simulated deterministically but modelled on the residual.
-RESIDUAL_EFFECTS = ("sensor_drift",)
+# effect is a structural switch without a free parameter), and the effects
+# modelled on the residual instead of simulated: both owned by the effects.
+EFFECT_PARAMETER = {name: e.diagnosis_parameter for name, e in EFFECTS.items()}
+RESIDUAL_EFFECTS = tuple(name for name, e in EFFECTS.items() if e.residual)
 
 
 def noise_floor(y):
@@ -139,6 +129,32 @@ def build_problem(
                 f"The measured runs have no {col!r} column; the diagnosis "
                 "simulates each run from its drivers (time_s, spindle_rpm, "
                 "ambient_C and, if present, feed_mm_min)."
+            )
+    if runs.shape[0] == 0:
+        raise ValueError(
+            "The measured run table is empty (no rows): the diagnosis needs at "
+            "least 2 runs with their drivers and measured channels."
+        )
+    for col in ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min"):
+        if col not in runs.columns:
+            continue
+        values = pd.to_numeric(runs[col], errors="coerce").to_numpy(float)
+        bad = ~np.isfinite(values)
+        if col == "spindle_rpm":
+            bad |= values < 0
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            run = runs["run"].iloc[i]
+            row = i - int(np.flatnonzero((runs["run"] == run).to_numpy())[0])
+            what = (
+                f"is negative ({values[i]:g})"
+                if np.isfinite(values[i])
+                else f"is missing or not finite ({runs[col].iloc[i]!r})"
+            )
+            raise ValueError(
+                f"{col} {what} in run {run!r} at row "
+                f"{row}: the drivers must be finite"
+                + (" and spindle_rpm not negative." if col == "spindle_rpm" else ".")
             )
     mapping = dict(mapping or {})
     predicted = set(machine.targets) | set(machine.sensors)
@@ -255,49 +271,11 @@ def with_scales(machine, reference, values):
     return machine.with_params(new)
 
 
-def _sensor_weights(machine, names):
-    key = ("sensor_weights", tuple(names))
-    if key not in machine._cache:
-        spec = machine.spec
-        index = {n: i for i, n in enumerate(spec.nodes)}
-        room = len(spec.nodes)
-        by_name = {s.name: s for s in spec.sensors}
-        W = np.zeros((len(names), room + 1))
-        lagged = np.zeros(len(names), dtype=bool)
-        for i, name in enumerate(names):
-            sensor = by_name[name]
-            for node, w in sensor.weights.items():
-                W[i, room if node == "room" else index[node]] += w
-            lagged[i] = sensor.kind == "surface"
-        machine._cache[key] = (W, lagged)
-    return machine._cache[key]
-
-
-def _channels_of(machine, problem, run, T, air, dt):
-    """Compared channels from node temperatures ``T`` and the air ``air``
-    (pass zeros for a heat-driven part: the sensors' air term then drops)."""
-    out = np.empty((run.rows.size, len(problem.channels)))
-    disp_cols = np.flatnonzero(problem.is_disp)
-    if disp_cols.size:
-        M = machine._displacement_array()
-        axis_index = {a: i for i, a in enumerate(machine.spec.axes)}
-        axes = [axis_index[problem.sim_channels[i].split("_")[1]] for i in disp_cols]
-        Tr = T[run.rows]
-        out[:, disp_cols] = (Tr - Tr[:START_SAMPLES].mean(axis=0)) @ M[axes].T
-    temp_cols = np.flatnonzero(~problem.is_disp)
-    if temp_cols.size:
-        names = [problem.sim_channels[i] for i in temp_cols]
-        W, lagged = _sensor_weights(machine, names)
-        x = T @ W[:, :-1].T + np.outer(air, W[:, -1])
-        if machine._on("sensor_lag") and lagged.any():
-            from skthermal.simulate._solver import first_order_lag
-
-            x[:, lagged] = first_order_lag(
-                x[:, lagged], machine.params["sensor_lag.tau_s"], dt
-            )
-        r = x[run.rows]
-        out[:, temp_cols] = r - r[:START_SAMPLES].mean(axis=0)
-    return out
+def _channels_of(problem, run, values):
+    """Compared channels (change since start, at ``run.rows``) from the
+    machine's noise-free readings ``values`` of ``problem.sim_channels``."""
+    r = values[run.rows]
+    return r - r[:START_SAMPLES].mean(axis=0)
 
 
 PARTS = ("air", "bearing", "drive", "feed")
@@ -309,30 +287,27 @@ def predict_run(machine, problem, run, parts=False):
     The network and the sensors (with their lag) run at the measurement's own
     sample rate; the comparison keeps every ``rows`` sample. The model is
     linear in its inputs, so with ``parts`` the prediction is returned as its
-    parts driven by the air, the spindle bearings, the spindle drive (motor
-    and belt) and the feed (shape ``(4, n, n_channels)``; their sum is the
-    prediction).
+    parts driven by the air, the spindle bearings, the spindle drive (motor,
+    belt and cutting) and the feed (shape ``(4, n, n_channels)``; their sum
+    is the prediction). Uses only the machine's public response API
+    (:meth:`ThermalMachine.response` and :meth:`ThermalMachine.read`).
     """
     dt = float(run.time_s[1] - run.time_s[0])
-    n_nodes = len(machine.spec.nodes)
     air = run.ambient_C
-    rpm, feed = run.spindle_rpm, run.feed_mm_min
-    with single_threaded_blas():
-        if not parts:
-            T = machine._integrate(rpm, feed, air, dt, np.full(n_nodes, air[0]))
-            return _channels_of(machine, problem, run, T, air, dt)
-        out = np.zeros((len(PARTS), run.rows.size, len(problem.channels)))
-        T = machine._integrate(rpm, feed, air, dt, np.full(n_nodes, air[0]), ())
-        out[0] = _channels_of(machine, problem, run, T, air, dt)
-        zero_air = np.zeros_like(air)
-        zero_T = np.zeros(n_nodes)
-        for k, source in enumerate(PARTS[1:], start=1):
-            if source == "feed" and not (
-                machine._on("feed_heating") and np.any(feed != 0)
-            ):
-                continue
-            T = machine._integrate(rpm, feed, zero_air, dt, zero_T, (source,))
-            out[k] = _channels_of(machine, problem, run, T, zero_air, dt)
+    drivers = (run.time_s, run.spindle_rpm, air, run.feed_mm_min)
+
+    def read(T, ambient):
+        values = machine.read(T, ambient, problem.sim_channels, sample_period_s=dt)
+        return _channels_of(problem, run, values)
+
+    if not parts:
+        return read(machine.response(*drivers, run=run.name), air)
+    out = np.zeros((len(PARTS), run.rows.size, len(problem.channels)))
+    by_source = machine.response(*drivers, by_source=True, run=run.name)
+    zero_air = np.zeros_like(air)
+    for k, source in enumerate(PARTS):
+        if source in by_source:
+            out[k] = read(by_source[source], air if source == "air" else zero_air)
     return out
 
 

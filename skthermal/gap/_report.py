@@ -7,10 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from skthermal.gap._diagnose import (
-    BANDS_H,
-    _excess_shrink,
-)
+from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
 
 
 def _units(problem, R):
@@ -192,7 +189,7 @@ class GapReport:
             how_far = pd.DataFrame({"gap_before": before, "gap_after": after})
             how_far.loc["overall"] = [fine_row["gap_before"], fine_row["gap_after"]]
             how_far["shrink"] = [
-                _excess_shrink(gb, ga, floor2)
+                excess_shrink(gb, ga, floor2)
                 for gb, ga in zip(
                     how_far["gap_before"], how_far["gap_after"], strict=True
                 )
@@ -262,8 +259,14 @@ class GapReport:
             if fine.get("calibration") == "fine"
             else "with the screening calibration"
         )
+        table = (
+            "table 'How far', overall"
+            if fine.get("calibration") == "fine"
+            else ("table 'Which effect'")
+        )
         evidence = (
-            f"{fine['gap_before']:.3g} -> {fine['gap_after']:.3g}, "
+            f"held-out gap {fine['gap_before']:.3g} -> {fine['gap_after']:.3g} "
+            f"({table}), "
             f"{fine['runs_improved']}/{fine['n_runs']} held-out runs better, "
             f"p = {fine['p_value']:.2g}"
         )
@@ -279,8 +282,12 @@ class GapReport:
             f"{how} ({evidence})"
         )
         if fine.get("calibration") == "fine":
-            screening = self.ranking.set_index("effect").loc[fine["effect"], "shrink"]
-            text += f"; {screening:.0%} with the screening calibration"
+            row = self.ranking.set_index("effect").loc[fine["effect"]]
+            text += (
+                f"; with the screening calibration (table 'Which effect') "
+                f"{row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
+                f"{row['shrink']:.0%}"
+            )
         text += "."
         if len(self.steps) > 1:
             text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
@@ -328,7 +335,10 @@ class GapReport:
             "",
             f"Machine `{self.settings.get('machine')}`, candidates "
             f"{', '.join(self.settings.get('candidates', []))}; noise floor "
-            f"{self.noise_floor:.3g} (normalised gap units).",
+            f"{self.noise_floor:.3g}. Gap figures [norm.] are {GAP_UNIT}: the "
+            "weighted RMS residual, each channel divided by the spread of its "
+            "group's measurements (µm for displacements, °C for temperatures); "
+            "errors per channel are in the channel's unit.",
             "",
             "## Which effect",
             table(self.ranking.drop(columns=[], errors="ignore")),
@@ -369,7 +379,9 @@ class GapReport:
             ("Steps", self.steps),
         ] + [(f"Where: {k}", v) for k, v in self.where.items()]:
             body.append(f"<h2>{html.escape(title)}</h2>")
-            body.append(df.to_html(index=False, float_format=lambda x: f"{x:.3g}"))
+            body.append(
+                _with_units(df).to_html(index=False, float_format=lambda x: f"{x:.3g}")
+            )
         return (
             "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Gap report"
             "</title></head><body>" + "\n".join(body) + "</body></html>"
@@ -478,6 +490,24 @@ class GapReport:
         return folder
 
 
+_DISPLAY_UNITS = {
+    "gap": "gap [norm.]",
+    "gap_before": "gap_before [norm.]",
+    "gap_after": "gap_after [norm.]",
+    "rmse": "rmse [µm or °C]",
+    "bias": "bias [µm or °C]",
+    "max_abs": "max_abs [µm or °C]",
+    "noise": "noise [µm or °C]",
+    "jump": "jump [norm.]",
+    "time_s": "time [s]",
+}
+
+
+def _with_units(df):
+    """``df`` with units in the headers of its gap and error columns."""
+    return df.rename(columns=_DISPLAY_UNITS)
+
+
 def _markdown_table(df):
     """A DataFrame as a Markdown pipe table (no extra dependency)."""
     if not len(df):
@@ -488,6 +518,7 @@ def _markdown_table(df):
             return f"{v:.3g}"
         return str(v).replace("|", "/")
 
+    df = _with_units(df)
     head = "| " + " | ".join(map(str, df.columns)) + " |"
     rule = "|" + "|".join("---" for _ in df.columns) + "|"
     rows = [

@@ -7,13 +7,9 @@ effects; presets for the papers' machines and their test campaigns.
 
 from skthermal.simulate._drivers import AmbientProfile, DoorEvent, DutyCycle, Segment
 from skthermal.simulate._effects import EFFECTS, Effect, describe_effects
-from skthermal.simulate._machine import (
-    CalibrationResult,
-    MachineSpec,
-    SensorSpec,
-    ThermalMachine,
-)
+from skthermal.simulate._machine import CalibrationResult, ThermalMachine
 from skthermal.simulate._solver import ModalSystem, linear_recurrence
+from skthermal.simulate._spec import MachineSpec, SensorSpec
 
 __all__ = [
     "EFFECTS",

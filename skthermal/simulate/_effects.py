@@ -6,14 +6,21 @@ adds them one at a time to explain where a simulation and a measurement
 disagree, so the names and meanings are part of the public API.
 """
 
-from dataclasses import dataclass, field
-
+import numpy as np
 import pandas as pd
 
+from skthermal.simulate._solver import first_order_lag
 
-@dataclass(frozen=True)
+
 class Effect:
-    """One switchable physical effect.
+    """One switchable physical effect: its parameters and its physics.
+
+    An effect owns everything about itself: default parameters and units,
+    their valid ranges, the parameter the gap diagnosis frees when it tests
+    the effect, and its change to the machine, through hooks the simulator
+    calls while the effect is on (or, for :meth:`displacement_off`, off).
+    Adding an effect to the vocabulary is one new subclass registered in
+    ``EFFECTS``.
 
     Attributes
     ----------
@@ -25,85 +32,242 @@ class Effect:
         Default parameter values, stored in the machine as ``"<name>.<param>"``.
     units : dict
         Unit of each parameter.
+    diagnosis_parameter : str or None
+        The parameter (full name) the gap diagnosis calibrates when it adds
+        this effect; None for a switch without a free parameter.
+    residual : bool
+        True for an effect the diagnosis models on the residual instead of
+        simulating it (a random process such as sensor drift).
     """
 
-    name: str
-    summary: str
-    params: dict = field(default_factory=dict)
-    units: dict = field(default_factory=dict)
+    name = ""
+    summary = ""
+    params = {}
+    units = {}
+    diagnosis_parameter = None
+    residual = False
+
+    def __repr__(self):
+        return f"Effect({self.name!r})"
+
+    def check(self, params):
+        """Validate this effect's parameters in the machine's ``params``.
+
+        Default: every parameter must not be negative.
+        """
+        for key in self.params:
+            value = params[f"{self.name}.{key}"]
+            if value < 0:
+                raise ValueError(
+                    f"Parameter {self.name + '.' + key!r} must not be negative, "
+                    f"got {value}."
+                )
+
+    # Hooks; ``machine`` is the ThermalMachine, ``p`` its parameters.
+
+    def convection(self, machine, p, rpm, h):
+        """Change the convection conductances ``h`` (W/K) at speed ``rpm``."""
+        return h
+
+    def exposed_nodes(self, machine):
+        """Nodes that convect to the workshop air instead of the enclosure."""
+        return ()
+
+    def heat(self, machine, p, rpm, feed, cols, sources):
+        """Add heat inputs (W) to ``cols`` (node -> array), in place."""
+
+    def displacement(self, machine, p, M):
+        """Change the thermo-elastic map ``M`` (axes x nodes), in place."""
+
+    def displacement_off(self, machine, p, M):
+        """Change ``M`` while the effect is off, in place."""
+
+    def read(self, machine, p, x, lagged, dt):
+        """Change noise-free sensor readings ``x`` (n x sensors)."""
+        return x
+
+    def noise(self, machine, p, x, t, dt, rng):
+        """Change noisy sensor readings ``x``."""
+        return x
+
+
+class SensorLag(Effect):
+    name = "sensor_lag"
+    summary = (
+        "Surface-mounted sensors read the skin of a part through a contact "
+        "resistance and their own mass, so they lag the structure they sit "
+        "on: heating and cooling trace different loops in a "
+        "temperature-displacement plot (hysteresis)."
+    )
+    params = {"tau_s": 480.0}
+    units = {"tau_s": "s"}
+    diagnosis_parameter = "sensor_lag.tau_s"
+
+    def check(self, params):
+        if params["sensor_lag.tau_s"] <= 0:
+            raise ValueError(
+                "Parameter 'sensor_lag.tau_s' must be positive, got "
+                f"{params['sensor_lag.tau_s']}."
+            )
+
+    def read(self, machine, p, x, lagged, dt):
+        if lagged.any():
+            x[:, lagged] = first_order_lag(x[:, lagged], p["sensor_lag.tau_s"], dt)
+        return x
+
+
+class SpeedConvection(Effect):
+    name = "speed_convection"
+    summary = (
+        "A turning spindle stirs the air around the head: the convection of "
+        "the spindle, boss, carrier and motor grows with speed, roughly as "
+        "(n / 1000 rpm)^0.8 (forced convection), so the machine runs cooler "
+        "at speed than still-air convection predicts."
+    )
+    params = {"gain": 0.2, "exponent": 0.8}
+    units = {"gain": "1", "exponent": "1"}
+    diagnosis_parameter = "speed_convection.gain"
+
+    def convection(self, machine, p, rpm, h):
+        if rpm > 0:
+            gain = (
+                p["speed_convection.gain"]
+                * (rpm / 1000.0) ** p["speed_convection.exponent"]
+            )
+            index = machine.node_index
+            for n in machine.spec.head_nodes:
+                h[index[n]] *= 1.0 + gain
+        return h
+
+
+class ToolGrowth(Effect):
+    name = "tool_growth"
+    summary = (
+        "The test bar (tool) is cooled by the air it churns while it turns. "
+        "When the spindle stops, that cooling stops while heat from the hot "
+        "spindle nose keeps flowing in, so the tool keeps growing after the "
+        "stop (001 §4.4). Without this effect the tool is taken as rigid."
+    )
+    params = {"hA_rotating": 2.5}
+    units = {"hA_rotating": "W/K at 1000 rpm"}
+    diagnosis_parameter = "tool_growth.hA_rotating"
+
+    def convection(self, machine, p, rpm, h):
+        if rpm > 0:
+            h[machine.node_index[machine.spec.tool]] += (
+                p["tool_growth.hA_rotating"] * (rpm / 1000.0) ** 0.8
+            )
+        return h
+
+    def displacement_off(self, machine, p, M):
+        M[:, machine.node_index[machine.spec.tool]] = 0.0
+
+
+class AmbientTransient(Effect):
+    name = "ambient_transient"
+    summary = (
+        "Exposed surfaces (column skin, carrier, head, tool, base) are "
+        "washed by the workshop air itself, so fast air events such as an "
+        "opened door reach the structure within minutes. Without this "
+        "effect the structure only sees the air inside the enclosure, which "
+        "smooths the workshop air over about an hour."
+    )
+
+    def exposed_nodes(self, machine):
+        return machine.spec.exposed_nodes
+
+
+class FeedHeating(Effect):
+    name = "feed_heating"
+    summary = (
+        "Friction in the ball screw and nut heats the screw in proportion "
+        "to |feed|, along the stretch the nut travels; the screw's growth "
+        "between its fixed bearing and the nut moves the axis, so the error "
+        "depends on position. Part of the heat goes to the nut and the axis "
+        "motor."
+    )
+    params = {
+        "W_per_m_min": 4.0,
+        "stroke": 1.0,
+        "measure_at": 0.5,
+        "nut_share": 0.25,
+        "motor_share": 0.25,
+    }
+    units = {
+        "W_per_m_min": "W per m/min",
+        "stroke": "fraction of travel",
+        "measure_at": "fraction of travel",
+        "nut_share": "1",
+        "motor_share": "1",
+    }
+    # The diagnosis gives the feed-driven part its own gain per channel,
+    # which sets the screw heating's amplitude; a power parameter on top
+    # would only be degenerate with those gains.
+    diagnosis_parameter = None
+
+    def check(self, params):
+        for key in ("stroke", "measure_at", "nut_share", "motor_share"):
+            key = f"feed_heating.{key}"
+            if not 0 <= params[key] <= 1:
+                raise ValueError(
+                    f"Parameter {key!r} must lie in [0, 1], got {params[key]}."
+                )
+        if params["feed_heating.nut_share"] + params["feed_heating.motor_share"] > 1:
+            raise ValueError("feed_heating.nut_share + motor_share must not exceed 1.")
+        super().check(params)
+
+    def heat(self, machine, p, rpm, feed, cols, sources):
+        spec = machine.spec
+        if "feed" not in sources or not spec.screw_nodes:
+            return
+        power = p["feed_heating.W_per_m_min"] * np.abs(np.asarray(feed, float)) / 1000.0
+        nut_share = p["feed_heating.nut_share"] if spec.nut else 0.0
+        motor_share = p["feed_heating.motor_share"] if spec.axis_motor else 0.0
+        screw_power = power * (1.0 - nut_share - motor_share)
+        m = len(spec.screw_nodes)
+        cover = np.clip(p["feed_heating.stroke"] * m - np.arange(m), 0.0, 1.0)
+        cover = cover / cover.sum() if cover.sum() > 0 else np.full(m, 1.0 / m)
+        for node, share in zip(spec.screw_nodes, cover, strict=True):
+            cols[node] = cols.get(node, 0.0) + screw_power * share
+        if spec.nut:
+            cols[spec.nut] = cols.get(spec.nut, 0.0) + power * nut_share
+        if spec.axis_motor:
+            cols[spec.axis_motor] = cols.get(spec.axis_motor, 0.0) + power * motor_share
+
+
+class SensorDrift(Effect):
+    name = "sensor_drift"
+    summary = (
+        "Temperature sensors drift slowly (ageing, connector thermo-EMF): "
+        "each reading gains an offset that grows linearly at a random rate "
+        "plus a slow random walk."
+    )
+    params = {"rate_C_per_h": 0.01, "walk_C_per_sqrt_h": 0.01}
+    units = {"rate_C_per_h": "°C/h (std over sensors)", "walk_C_per_sqrt_h": "°C/√h"}
+    residual = True
+
+    def noise(self, machine, p, x, t, dt, rng):
+        hours = (t - t[0]) / 3600.0
+        rate = rng.normal(0.0, p["sensor_drift.rate_C_per_h"], x.shape[1])
+        steps = rng.normal(
+            0.0,
+            p["sensor_drift.walk_C_per_sqrt_h"] * np.sqrt(dt / 3600.0),
+            (x.shape[0] - 1, x.shape[1]),
+        )
+        walk = np.vstack([np.zeros(x.shape[1]), np.cumsum(steps, axis=0)])
+        return x + np.outer(hours, rate) + walk
 
 
 EFFECTS = {
     e.name: e
-    for e in [
-        Effect(
-            "sensor_lag",
-            "Surface-mounted sensors read the skin of a part through a contact "
-            "resistance and their own mass, so they lag the structure they sit "
-            "on: heating and cooling trace different loops in a "
-            "temperature-displacement plot (hysteresis).",
-            {"tau_s": 480.0},
-            {"tau_s": "s"},
-        ),
-        Effect(
-            "speed_convection",
-            "A turning spindle stirs the air around the head: the convection of "
-            "the spindle, boss, carrier and motor grows with speed, roughly as "
-            "(n / 1000 rpm)^0.8 (forced convection), so the machine runs cooler "
-            "at speed than still-air convection predicts.",
-            {"gain": 0.2, "exponent": 0.8},
-            {"gain": "1", "exponent": "1"},
-        ),
-        Effect(
-            "tool_growth",
-            "The test bar (tool) is cooled by the air it churns while it turns. "
-            "When the spindle stops, that cooling stops while heat from the hot "
-            "spindle nose keeps flowing in, so the tool keeps growing after the "
-            "stop (001 §4.4). Without this effect the tool is taken as rigid.",
-            {"hA_rotating": 2.5},
-            {"hA_rotating": "W/K at 1000 rpm"},
-        ),
-        Effect(
-            "ambient_transient",
-            "Exposed surfaces (column skin, carrier, head, tool, base) are "
-            "washed by the workshop air itself, so fast air events such as an "
-            "opened door reach the structure within minutes. Without this "
-            "effect the structure only sees the air inside the enclosure, which "
-            "smooths the workshop air over about an hour.",
-            {},
-            {},
-        ),
-        Effect(
-            "feed_heating",
-            "Friction in the ball screw and nut heats the screw in proportion "
-            "to |feed|, along the stretch the nut travels; the screw's growth "
-            "between its fixed bearing and the nut moves the axis, so the error "
-            "depends on position. Part of the heat goes to the nut and the axis "
-            "motor.",
-            {
-                "W_per_m_min": 4.0,
-                "stroke": 1.0,
-                "measure_at": 0.5,
-                "nut_share": 0.25,
-                "motor_share": 0.25,
-            },
-            {
-                "W_per_m_min": "W per m/min",
-                "stroke": "fraction of travel",
-                "measure_at": "fraction of travel",
-                "nut_share": "1",
-                "motor_share": "1",
-            },
-        ),
-        Effect(
-            "sensor_drift",
-            "Temperature sensors drift slowly (ageing, connector thermo-EMF): "
-            "each reading gains an offset that grows linearly at a random rate "
-            "plus a slow random walk.",
-            {"rate_C_per_h": 0.01, "walk_C_per_sqrt_h": 0.01},
-            {"rate_C_per_h": "°C/h (std over sensors)", "walk_C_per_sqrt_h": "°C/√h"},
-        ),
-    ]
+    for e in (
+        SensorLag(),
+        SpeedConvection(),
+        ToolGrowth(),
+        AmbientTransient(),
+        FeedHeating(),
+        SensorDrift(),
+    )
 }
 
 

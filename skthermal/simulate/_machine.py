@@ -9,8 +9,10 @@ any of them can be changed with :meth:`ThermalMachine.with_params` or fitted to
 measurements with :meth:`ThermalMachine.calibrate`.
 """
 
+import dataclasses
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -18,59 +20,10 @@ from sklearn.utils import check_random_state
 
 from skthermal.simulate._drivers import AmbientProfile, DutyCycle, _check_number
 from skthermal.simulate._effects import EFFECTS, check_effects
-from skthermal.simulate._solver import ModalSystem, first_order_lag
+from skthermal.simulate._presets import PRESETS
+from skthermal.simulate._solver import ModalSystem
+from skthermal.simulate._spec import NUMBER_DEFAULTS, ROOM, MachineSpec
 from skthermal.utils._threads import single_threaded_blas
-
-ROOM = "room"
-SENSOR_KINDS = ("surface", "embedded", "air")
-
-
-@dataclass(frozen=True)
-class SensorSpec:
-    """A temperature sensor: which temperatures it reads, and how.
-
-    Attributes
-    ----------
-    name : str
-        Run-table column, ``T<name>_C``.
-    weights : dict
-        Node name (or ``"room"``, the workshop air) -> weight; the sensor reads
-        the weighted mean, e.g. a point between two carrier segments.
-    kind : {"surface", "embedded", "air"}
-        Surface sensors lag when the ``sensor_lag`` effect is on.
-    location : str
-        Where it sits, in words.
-    """
-
-    name: str
-    weights: dict
-    kind: str = "surface"
-    location: str = ""
-
-
-@dataclass(frozen=True)
-class MachineSpec:
-    """The structure of a machine: nodes, couplings, roles and sensors."""
-
-    name: str
-    description: str
-    nodes: tuple
-    edges: tuple
-    sensors: tuple
-    head_nodes: tuple = ()
-    exposed_nodes: tuple = ()
-    enclosure: str = "enclosure"
-    tool: str = "tool"
-    bearing: str = "bearings"
-    motor: str = "motor"
-    belt: str = "carrier2"
-    cutting: str = "tool"
-    screw_nodes: tuple = ()
-    nut: str | None = None
-    axis_motor: str | None = None
-    feed_axis: str = "y"
-    axes: tuple = ("x", "y", "z")
-    groups: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -164,38 +117,106 @@ class ThermalMachine:
     # --- construction -------------------------------------------------------
 
     @classmethod
-    def from_preset(cls, name, *, effects=None, params=None):
-        """A preset machine.
+    def from_spec(cls, spec, *, effects=None, params=None):
+        """A machine from a description: a spec, a dict or a TOML file.
 
         Parameters
         ----------
-        name : {"vmc-b", "vmc-a"}
-            ``"vmc-b"``: a small vertical milling centre like Machine B of the
-            papers, 77 temperature sensors (001 Table 4-4). ``"vmc-a"``: like
-            Machine A, 26 sensors (001 Table 6-1).
+        spec : MachineSpec, dict or path
+            The machine; a dict or a file in the layout of
+            :meth:`MachineSpec.from_dict`.
         effects : sequence of str, optional
             Default: every effect except ``sensor_drift``.
         params : dict, optional
-            Parameter overrides.
-        """
-        from skthermal.simulate._presets import PRESETS
+            Parameter overrides (names as in :meth:`parameter_table`).
 
-        if name not in PRESETS:
-            raise ValueError(
-                f"Unknown preset {name!r}; choose one of {sorted(PRESETS)}."
+        Examples
+        --------
+        >>> from skthermal.simulate import ThermalMachine
+        >>> spec = ThermalMachine.from_preset("spindle-rig").spec
+        >>> machine = ThermalMachine.from_spec(spec.to_dict())
+        >>> machine.targets[:2]
+        ['disp_ch1_um', 'disp_ch2_um']
+        """
+        if isinstance(spec, dict):
+            spec = MachineSpec.from_dict(spec)
+        elif isinstance(spec, str | Path):
+            spec = MachineSpec.from_toml(spec)
+        elif not isinstance(spec, MachineSpec):
+            raise TypeError(
+                "spec must be a MachineSpec, a dict or the path of a TOML file, "
+                f"got {type(spec).__name__}."
             )
-        spec, defaults = PRESETS[name]()
+        if not spec.params:
+            raise ValueError(
+                f"Machine spec {spec.name!r} has no numbers (params is empty): "
+                "give capacities, conductances and the other parameters."
+            )
         if effects is None:
             effects = [e for e in EFFECTS if e != "sensor_drift"]
-        merged = dict(defaults)
+        merged = dict(NUMBER_DEFAULTS)
+        merged.update(
+            {f"k.{axis}.{node}": 0.0 for axis in spec.axes for node in spec.nodes}
+        )
+        merged.update(spec.params)
         if params:
             unknown = [
                 k for k in params if k not in merged and k.split(".")[0] not in EFFECTS
             ]
             if unknown:
-                raise ValueError(f"Unknown parameter(s) {unknown} for preset {name!r}.")
+                raise ValueError(
+                    f"Unknown parameter(s) {unknown} for machine {spec.name!r}."
+                )
             merged.update(params)
         return cls(spec, merged, effects)
+
+    def to_spec(self):
+        """The machine's description with its current parameters.
+
+        Write it with ``to_toml(path)``; :meth:`from_spec` reads it back.
+
+        Examples
+        --------
+        >>> from skthermal.simulate import ThermalMachine
+        >>> m = ThermalMachine.from_preset("spindle-rig").with_params(
+        ...     {"q.bearing_W": 5.0})
+        >>> ThermalMachine.from_spec(m.to_spec()).params["q.bearing_W"]
+        5.0
+        """
+        return dataclasses.replace(self.spec, params=dict(self._params))
+
+    @classmethod
+    def from_preset(cls, name, *, effects=None, params=None):
+        """A preset machine.
+
+        Parameters
+        ----------
+        name : {"vmc-b", "vmc-a", "spindle-rig"}
+            ``"vmc-b"``: a small vertical milling centre like Machine B of the
+            papers, 77 temperature sensors (001 Table 4-4). ``"vmc-a"``: like
+            Machine A, 26 sensors (001 Table 6-1). ``"spindle-rig"``: a
+            spindle test rig (front and rear bearings and housings, motor,
+            base, air), 16 sensors and 5 displacement channels of the
+            spindle nose, laid out like the FL_THERMAL record.
+        effects : sequence of str, optional
+            Default: every effect except ``sensor_drift``.
+        params : dict, optional
+            Parameter overrides.
+        """
+        if name not in PRESETS:
+            raise ValueError(
+                f"Unknown preset {name!r}; choose one of {sorted(PRESETS)}."
+            )
+        spec = PRESETS[name]()
+        if params:
+            unknown = [
+                k
+                for k in params
+                if k not in spec.params and k.split(".")[0] not in EFFECTS
+            ]
+            if unknown:
+                raise ValueError(f"Unknown parameter(s) {unknown} for preset {name!r}.")
+        return cls.from_spec(spec, effects=effects, params=params)
 
     def _validate_params(self, params):
         out = {}
@@ -219,34 +240,10 @@ class ThermalMachine:
                 f"Parameter 'q.alpha' (bearing loss ~ speed^alpha) must lie in "
                 f"[0.5, 3], got {alpha}; Palmgren-type friction gives 1 to 1.7."
             )
-        for key in ("sensor_lag.tau_s",):
-            if out[key] <= 0:
-                raise ValueError(f"Parameter {key!r} must be positive, got {out[key]}.")
-        for key in (
-            "feed_heating.stroke",
-            "feed_heating.measure_at",
-            "feed_heating.nut_share",
-            "feed_heating.motor_share",
-        ):
-            if not 0 <= out[key] <= 1:
-                raise ValueError(
-                    f"Parameter {key!r} must lie in [0, 1], got {out[key]}."
-                )
-        if out["feed_heating.nut_share"] + out["feed_heating.motor_share"] > 1:
-            raise ValueError("feed_heating.nut_share + motor_share must not exceed 1.")
+        for effect in EFFECTS.values():
+            effect.check(out)
         for key, value in out.items():
-            if (
-                key.split(".")[0]
-                in (
-                    "sensor",
-                    "disp",
-                    "sensor_drift",
-                    "speed_convection",
-                    "tool_growth",
-                    "feed_heating",
-                )
-                and value < 0
-            ):
+            if key.split(".")[0] in ("sensor", "disp") and value < 0:
                 raise ValueError(
                     f"Parameter {key!r} must not be negative, got {value}."
                 )
@@ -317,20 +314,19 @@ class ThermalMachine:
     def _on(self, effect):
         return effect in self._effects
 
+    @property
+    def node_index(self):
+        """Node name -> column of the node temperatures (``spec.nodes`` order)."""
+        return dict(self._index)
+
+    def _active(self):
+        return [EFFECTS[e] for e in self._effects]
+
     def _convection(self, rpm):
         p, spec = self._params, self.spec
         h = np.array([p.get(f"hA.{n}", 0.0) for n in spec.nodes])
-        if rpm > 0 and self._on("speed_convection"):
-            gain = (
-                p["speed_convection.gain"]
-                * (rpm / 1000.0) ** p["speed_convection.exponent"]
-            )
-            for n in spec.head_nodes:
-                h[self._index[n]] *= 1.0 + gain
-        if rpm > 0 and self._on("tool_growth") and spec.tool in self._index:
-            h[self._index[spec.tool]] += (
-                p["tool_growth.hA_rotating"] * (rpm / 1000.0) ** 0.8
-            )
+        for effect in self._active():
+            h = effect.convection(self, p, rpm, h)
         return h
 
     def _network(self, rpm):
@@ -348,9 +344,9 @@ class ThermalMachine:
         h = self._convection(rpm)
         to_room = np.zeros(n)
         enc = idx[self.spec.enclosure]
-        exposed = (
-            set(self.spec.exposed_nodes) if self._on("ambient_transient") else set()
-        )
+        exposed = set()
+        for effect in self._active():
+            exposed |= set(effect.exposed_nodes(self))
         for name, i in idx.items():
             if i == enc:
                 to_room[i] = h[i]
@@ -371,6 +367,44 @@ class ThermalMachine:
             C = np.array([self._params[f"C.{n}"] for n in self.spec.nodes])
             self._cache[key] = (ModalSystem.from_network(C, K), to_room)
         return self._cache[key]
+
+    def network(self, spindle_rpm=0.0):
+        """The linear network at one spindle speed.
+
+        ``C dT/dt = -K T + h_room T_room + Q``: every node's convection to
+        the enclosure air is part of ``K``; ``h_room`` is the convection of
+        the enclosure (and, with ``ambient_transient``, of the exposed nodes)
+        to the workshop air.
+
+        Returns
+        -------
+        C : ndarray of shape (n_nodes,)
+            Heat capacities (J/K).
+        K : ndarray of shape (n_nodes, n_nodes)
+            Conductance matrix (W/K).
+        h_room : ndarray of shape (n_nodes,)
+            Convection to the workshop air (W/K).
+        """
+        K, to_room = self._network(_check_number(spindle_rpm, "spindle_rpm"))
+        C = np.array([self._params[f"C.{n}"] for n in self.spec.nodes])
+        return C, K, to_room
+
+    def heat_inputs(self, spindle_rpm, feed_mm_min=None):
+        """Heat input (W) of every heated node, one row per sample.
+
+        Returns
+        -------
+        DataFrame
+            Columns: the heated nodes.
+        """
+        rpm = np.atleast_1d(np.asarray(spindle_rpm, dtype=float))
+        feed = (
+            np.zeros_like(rpm)
+            if feed_mm_min is None
+            else np.atleast_1d(np.asarray(feed_mm_min, dtype=float))
+        )
+        Q, cols = self._heat(rpm, feed)
+        return pd.DataFrame(Q, columns=[self.spec.nodes[i] for i in cols])
 
     def node_time_constants(self, spindle_rpm=0.0):
         """Local time constant ``C_i / (sum of its conductances)`` of every node (s).
@@ -413,14 +447,164 @@ class ThermalMachine:
         """Time constants of the network's modes (s), fastest first."""
         return np.sort(self._modal(float(spindle_rpm))[0].time_constants)
 
+    # --- responses (noise-free) ----------------------------------------------
+
+    #: Heat-source groups of :meth:`response` with ``by_source=True``.
+    SOURCES = ("air", "bearing", "drive", "feed")
+
+    def response(
+        self,
+        time_s,
+        spindle_rpm,
+        ambient_C,
+        feed_mm_min=None,
+        *,
+        initial="ambient",
+        by_source=False,
+        run="run1",
+    ):
+        """Node temperatures for given drivers, without noise.
+
+        The noise-free state of the network; read channels from it with
+        :meth:`read`. :meth:`simulate_drivers` is this followed by
+        :meth:`read` and the sensors' noise.
+
+        Parameters
+        ----------
+        time_s, spindle_rpm, ambient_C, feed_mm_min
+            Drivers, as in :meth:`simulate_drivers`.
+        initial : as in :meth:`simulate_drivers`, default="ambient"
+        by_source : bool, default=False
+            Split the response by what drives it (the network is linear):
+            ``"air"`` (the air, from ``initial``, without heat), and the
+            heat of the ``"bearing"`` (spindle bearings), the ``"drive"``
+            (motor, belt and cutting) and the ``"feed"`` (ball screw, only
+            with ``feed_heating`` and a non-zero feed), each from zero with
+            the air at zero. The parts sum to the response.
+        run : label, default="run1"
+            Named in error messages.
+
+        Returns
+        -------
+        ndarray of shape (n, n_nodes) or dict of them
+            Node temperatures (°C; a heat part is a rise in K), columns in
+            the order of ``spec.nodes``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from skthermal.simulate import ThermalMachine
+        >>> m = ThermalMachine.from_preset("spindle-rig")
+        >>> t = np.arange(121) * 30.0
+        >>> parts = m.response(t, np.full(121, 3000.0), np.full(121, 20.0),
+        ...                    by_source=True)
+        >>> sorted(parts)
+        ['air', 'bearing', 'drive']
+        >>> total = m.response(t, np.full(121, 3000.0), np.full(121, 20.0))
+        >>> bool(np.allclose(sum(parts.values()), total))
+        True
+        """
+        t, rpm, air, feed = self._drivers(time_s, spindle_rpm, ambient_C, feed_mm_min)
+        self._check_drivers(t, rpm, air, feed, run)
+        dt = float(t[1] - t[0])
+        T0 = self._initial_state(initial, rpm[0], feed[0], air[0])
+        with single_threaded_blas():
+            if not by_source:
+                return self._integrate(rpm, feed, air, dt, T0)
+            out = {"air": self._integrate(rpm, feed, air, dt, T0, ())}
+            zero_air = np.zeros_like(air)
+            zero_T = np.zeros_like(T0)
+            for source in self.SOURCES[1:]:
+                if source == "feed" and not (
+                    self._on("feed_heating") and np.any(feed != 0)
+                ):
+                    continue
+                out[source] = self._integrate(
+                    rpm, feed, zero_air, dt, zero_T, (source,)
+                )
+        return out
+
+    def read(
+        self, node_T, ambient_C, channels=None, *, sample_period_s, reference=None
+    ):
+        """Channels read from node temperatures, without noise.
+
+        Parameters
+        ----------
+        node_T : array-like of shape (n, n_nodes)
+            Node temperatures, e.g. from :meth:`response`.
+        ambient_C : array-like of shape (n,)
+            Workshop air (sensors with a ``"room"`` weight read it; pass zeros
+            for a heat part of :meth:`response`).
+        channels : sequence of str, optional
+            Sensor and displacement columns; default all sensors, then all
+            displacements.
+        sample_period_s : float
+            Sample period (s), for the sensors' lag (``sensor_lag``).
+        reference : array-like of shape (n_nodes,), optional
+            Node temperatures at which displacements are zero; default the
+            first row of ``node_T``.
+
+        Returns
+        -------
+        ndarray of shape (n, n_channels)
+            Temperatures (°C) and displacements (µm).
+        """
+        T = np.asarray(node_T, dtype=float)
+        n_nodes = len(self.spec.nodes)
+        if T.ndim != 2 or T.shape[1] != n_nodes:
+            raise ValueError(
+                f"node_T must have shape (n, {n_nodes}) (one column per node), "
+                f"got {T.shape}."
+            )
+        air = np.asarray(ambient_C, dtype=float)
+        if air.shape != (T.shape[0],):
+            raise ValueError(
+                f"ambient_C has shape {air.shape}, expected ({T.shape[0]},)."
+            )
+        channels = self.sensors + self.targets if channels is None else list(channels)
+        sensors, targets = set(self.sensors), set(self.targets)
+        bad = [c for c in channels if c not in sensors and c not in targets]
+        if bad:
+            raise ValueError(
+                f"The machine does not predict {bad}; its channels are its "
+                f"sensors ({len(sensors)}) and {self.targets}."
+            )
+        out = np.empty((T.shape[0], len(channels)))
+        temp = [i for i, c in enumerate(channels) if c in sensors]
+        if temp:
+            out[:, temp] = self._sensor_values(
+                T, air, float(sample_period_s), [channels[i] for i in temp]
+            )
+        disp = [i for i, c in enumerate(channels) if c in targets]
+        if disp:
+            M = self._displacement_array()
+            rows = [self.targets.index(channels[i]) for i in disp]
+            ref = T[0] if reference is None else np.asarray(reference, dtype=float)
+            out[:, disp] = (T - ref) @ M[rows].T
+        return out
+
+    @staticmethod
+    def _drivers(time_s, spindle_rpm, ambient_C, feed_mm_min):
+        t = np.asarray(time_s, dtype=float)
+        feed = (
+            np.zeros_like(t) if feed_mm_min is None else np.asarray(feed_mm_min, float)
+        )
+        return (
+            t,
+            np.asarray(spindle_rpm, dtype=float),
+            np.asarray(ambient_C, dtype=float),
+            feed,
+        )
+
     # --- heat and displacement ----------------------------------------------
 
     def _heat(self, rpm, feed, sources=("spindle", "feed")):
         """Heat inputs (W), shape (n_steps, n_heated), and the heated nodes.
 
         ``sources`` selects the spindle losses (``"spindle"``: bearings,
-        motor, belt, cutting; or ``"bearing"`` and ``"drive"`` (motor and
-        belt) separately) and/or the feed losses (``"feed"``: ball screw,
+        motor, belt, cutting; or ``"bearing"`` and ``"drive"`` (motor, belt
+        and cutting) separately) and/or the feed losses (``"feed"``: ball screw,
         nut, axis motor).
         """
         p, spec = self._params, self.spec
@@ -434,29 +618,13 @@ class ThermalMachine:
                 p["q.motor_idle_W"] * running + p["q.motor_W_per_krpm"] * krpm
             )
             cols[spec.belt] = cols.get(spec.belt, 0.0) + p["q.belt_W_per_krpm"] * krpm
-        if "spindle" in sources:
+        if "spindle" in sources or "drive" in sources:
             if p.get("q.cutting_W", 0.0):
                 cols[spec.cutting] = (
                     cols.get(spec.cutting, 0.0) + p["q.cutting_W"] * running
                 )
-        if "feed" in sources and self._on("feed_heating") and spec.screw_nodes:
-            power = (
-                p["feed_heating.W_per_m_min"] * np.abs(np.asarray(feed, float)) / 1000.0
-            )
-            nut_share = p["feed_heating.nut_share"] if spec.nut else 0.0
-            motor_share = p["feed_heating.motor_share"] if spec.axis_motor else 0.0
-            screw_power = power * (1.0 - nut_share - motor_share)
-            m = len(spec.screw_nodes)
-            cover = np.clip(p["feed_heating.stroke"] * m - np.arange(m), 0.0, 1.0)
-            cover = cover / cover.sum() if cover.sum() > 0 else np.full(m, 1.0 / m)
-            for node, share in zip(spec.screw_nodes, cover, strict=True):
-                cols[node] = cols.get(node, 0.0) + screw_power * share
-            if spec.nut:
-                cols[spec.nut] = cols.get(spec.nut, 0.0) + power * nut_share
-            if spec.axis_motor:
-                cols[spec.axis_motor] = (
-                    cols.get(spec.axis_motor, 0.0) + power * motor_share
-                )
+        for effect in self._active():
+            effect.heat(self, p, rpm, feed, cols, sources)
         nodes = list(cols)
         n = np.shape(rpm)[0]
         if not nodes:
@@ -501,8 +669,11 @@ class ThermalMachine:
             reach = np.clip(p["feed_heating.measure_at"] * m - np.arange(m), 0.0, 1.0)
             cols = [self._index[n] for n in spec.screw_nodes]
             M[axis_index[spec.feed_axis], cols] += screw_total / m * reach
-        if not self._on("tool_growth"):
-            M[:, self._index[spec.tool]] = 0.0
+        for name, effect in EFFECTS.items():
+            if self._on(name):
+                effect.displacement(self, p, M)
+            else:
+                effect.displacement_off(self, p, M)
         self._cache["displacement"] = M
         return M
 
@@ -828,16 +999,29 @@ class ThermalMachine:
         q = self._params["sensor.quantization_C"]
         return np.round(x / q) * q if q > 0 else x
 
+    def _sensor_matrix(self, names):
+        """Weights (sensors x nodes + room) and the lagged mask, cached."""
+        key = ("sensors", tuple(names))
+        if key not in self._cache:
+            index = dict(self._index)
+            index[ROOM] = len(self.spec.nodes)
+            by_name = {s.name: s for s in self.spec.sensors}
+            sensors = [by_name[n] for n in names]
+            W = _weights_matrix(self.spec, index, [s.weights for s in sensors])
+            lagged = np.array([s.kind == "surface" for s in sensors], dtype=bool)
+            self._cache[key] = (W, lagged)
+        return self._cache[key]
+
+    def _sensor_values(self, T, air, dt, names):
+        W, lagged = self._sensor_matrix(names)
+        x = T @ W[:, :-1].T + np.outer(air, W[:, -1])
+        for effect in self._active():
+            x = effect.read(self, self._params, x, lagged, dt)
+        return x
+
     def _read_sensors(self, T, air, t, dt, noise, rng):
         spec, p = self.spec, self._params
-        index = dict(self._index)
-        index[ROOM] = len(spec.nodes)
-        W = _weights_matrix(spec, index, [s.weights for s in spec.sensors])
-        x = T @ W[:, :-1].T + np.outer(air, W[:, -1])
-        if self._on("sensor_lag"):
-            lagged = np.array([s.kind == "surface" for s in spec.sensors])
-            if lagged.any():
-                x[:, lagged] = first_order_lag(x[:, lagged], p["sensor_lag.tau_s"], dt)
+        x = self._sensor_values(T, air, dt, self.sensors)
         if not noise:
             return x
         # Calibration offsets belong to the sensor, not the run: the same
@@ -851,16 +1035,8 @@ class ThermalMachine:
             ]
         )
         x = x + offsets
-        if self._on("sensor_drift"):
-            hours = (t - t[0]) / 3600.0
-            rate = rng.normal(0.0, p["sensor_drift.rate_C_per_h"], x.shape[1])
-            steps = rng.normal(
-                0.0,
-                p["sensor_drift.walk_C_per_sqrt_h"] * np.sqrt(dt / 3600.0),
-                (x.shape[0] - 1, x.shape[1]),
-            )
-            walk = np.vstack([np.zeros(x.shape[1]), np.cumsum(steps, axis=0)])
-            x = x + np.outer(hours, rate) + walk
+        for effect in self._active():
+            x = effect.noise(self, p, x, t, dt, rng)
         x = x + rng.normal(0.0, p["sensor.noise_C"], x.shape)
         return self._quantise(x)
 

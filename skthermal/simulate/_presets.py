@@ -7,9 +7,11 @@ report (METHODS §14). They are a starting point for
 :meth:`ThermalMachine.calibrate`, not a model of any particular machine.
 """
 
+import dataclasses
+
 import numpy as np
 
-from skthermal.simulate._machine import MachineSpec, SensorSpec
+from skthermal.simulate._spec import MachineSpec, SensorSpec
 
 N_CARRIER = 6
 N_SCREW = 4
@@ -333,7 +335,7 @@ def _with_all_coefficients(build):
         for axis in spec.axes:
             for node in spec.nodes:
                 p.setdefault(f"k.{axis}.{node}", 0.0)
-        return spec, p
+        return dataclasses.replace(spec, params=p)
 
     preset.__doc__ = build.__doc__
     return preset
@@ -343,3 +345,135 @@ PRESETS = {
     "vmc-b": _with_all_coefficients(vmc_b),
     "vmc-a": _with_all_coefficients(vmc_a),
 }
+
+
+def spindle_rig():
+    """Spindle test rig: bearings, housings, motor, base, air; 5 nose channels."""
+    nodes = (
+        "front_bearing",
+        "rear_bearing",
+        "spindle",
+        "nose",
+        "front_housing",
+        "rear_housing",
+        "motor",
+        "base",
+        "air",
+    )
+    links = {
+        ("front_bearing", "spindle"): 5.0,
+        ("front_bearing", "front_housing"): 8.0,
+        ("rear_bearing", "spindle"): 5.0,
+        ("rear_bearing", "rear_housing"): 8.0,
+        ("spindle", "nose"): 3.0,
+        ("front_housing", "rear_housing"): 6.0,
+        ("motor", "rear_housing"): 4.0,
+        ("motor", "spindle"): 1.5,
+        ("front_housing", "base"): 4.0,
+        ("rear_housing", "base"): 4.0,
+    }
+    capacity = {
+        "front_bearing": 800.0,
+        "rear_bearing": 800.0,
+        "spindle": 6000.0,
+        "nose": 600.0,
+        "front_housing": 15000.0,
+        "rear_housing": 15000.0,
+        "motor": 12000.0,
+        "base": 300000.0,
+        "air": 60000.0,
+    }
+    convection = {
+        "front_bearing": 0.1,
+        "rear_bearing": 0.1,
+        "spindle": 0.5,
+        "nose": 0.3,
+        "front_housing": 3.0,
+        "rear_housing": 3.0,
+        "motor": 3.0,
+        "base": 10.0,
+        "air": 60.0,
+    }
+    layout = [
+        (1, {"front_housing": 1.0}, "surface", "front housing"),
+        (2, {"front_housing": 0.8, "front_bearing": 0.2}, "surface", "front cap"),
+        (3, {"rear_housing": 1.0}, "surface", "rear housing"),
+        (4, {"rear_housing": 0.7, "rear_bearing": 0.3}, "surface", "rear cap"),
+        (5, {"motor": 1.0}, "surface", "motor casing"),
+        (6, {"air": 1.0}, "air", "air beside the rig"),
+        (7, {"air": 0.5, "room": 0.5}, "air", "air above the rig"),
+        (8, {"spindle": 0.5, "front_housing": 0.5}, "surface", "front face"),
+        (9, {"front_bearing": 0.6, "front_housing": 0.4}, "embedded", "front ring"),
+        (10, {"room": 1.0}, "air", "workshop air"),
+        (11, {"base": 1.0}, "surface", "base"),
+        (12, {"base": 0.7, "front_housing": 0.3}, "surface", "front foot"),
+        (13, {"base": 0.7, "rear_housing": 0.3}, "surface", "rear foot"),
+        (14, {"base": 0.8, "motor": 0.2}, "surface", "motor mount"),
+        (15, {"base": 0.6, "air": 0.4}, "surface", "base edge"),
+        (16, {"nose": 0.5, "air": 0.5}, "air", "air at the spindle nose"),
+    ]
+    sensors = tuple(
+        SensorSpec(f"T{n}_C", w, kind, where) for n, w, kind, where in layout
+    )
+    head = ("front_bearing", "rear_bearing", "spindle", "nose", "front_housing")
+    spec = MachineSpec(
+        name="spindle-rig",
+        description=(
+            "Spindle test rig: a motor-driven spindle in front and rear bearing "
+            "housings on a base, 16 temperature sensors and 5 displacement "
+            "channels of the spindle nose (ch1, ch2 radial, ch3, ch4 axial, ch5 "
+            "tilt), laid out like the FL_THERMAL record (whose sensor "
+            "locations are not documented: the layout is a plausible guess)."
+        ),
+        nodes=nodes,
+        edges=tuple(links),
+        sensors=sensors,
+        head_nodes=(*head, "rear_housing", "motor"),
+        exposed_nodes=("nose", "front_housing", "rear_housing", "motor", "base"),
+        enclosure="air",
+        tool="nose",
+        bearing="front_bearing",
+        motor="motor",
+        belt="rear_bearing",
+        cutting="nose",
+        axes=("ch1", "ch2", "ch3", "ch4", "ch5"),
+        groups={
+            "spindle": ["T1_C", "T2_C", "T3_C", "T4_C", "T8_C", "T9_C", "T16_C"],
+            "motor": ["T5_C", "T14_C"],
+            "base": ["T11_C", "T12_C", "T13_C", "T15_C"],
+            "air": ["T6_C", "T7_C", "T10_C"],
+        },
+    )
+    p = {f"C.{n}": v for n, v in capacity.items()}
+    p.update({f"hA.{n}": v for n, v in convection.items()})
+    p.update({f"G.{a}-{b}": g for (a, b), g in links.items()})
+    p.update(
+        {
+            "q.bearing_W": 3.0,
+            "q.alpha": 1.5,
+            "q.motor_idle_W": 5.0,
+            "q.motor_W_per_krpm": 2.0,
+            "q.belt_W_per_krpm": 1.5,
+            "q.cutting_W": 0.0,
+            "sensor.noise_C": 0.02,
+            "sensor.quantization_C": 0.01,
+            "sensor.offset_C": 0.1,
+            "disp.noise_um": 0.3,
+            "k.ch1.front_housing": 3.0,
+            "k.ch1.spindle": 1.0,
+            "k.ch2.front_housing": 2.5,
+            "k.ch2.motor": 0.8,
+            "k.ch3.spindle": -8.0,
+            "k.ch3.nose": -4.0,
+            "k.ch3.front_housing": -4.0,
+            "k.ch4.spindle": -7.0,
+            "k.ch4.rear_housing": -5.0,
+            "k.ch5.front_housing": 5.0,
+            "k.ch5.rear_housing": -2.0,
+            "k.ch5.nose": 2.0,
+        }
+    )
+    return spec, p
+
+
+PRESETS["spindle-rig"] = _with_all_coefficients(spindle_rig)

@@ -1,0 +1,712 @@
+"""The machine description: a validated data model apart from the solvers.
+
+A :class:`MachineSpec` says what a machine *is* (nodes, links, convection,
+heat sources, sensors, thermo-elastic map and every number with its unit);
+:class:`~skthermal.simulate.ThermalMachine` says what is done with it
+(responses, simulation, calibration). A spec is checked once, when it is
+built, and every error names the offending entry. It converts to and from a
+plain dict and a TOML file (:meth:`MachineSpec.from_toml`,
+:meth:`MachineSpec.to_toml`), whose layout is documented in
+:meth:`MachineSpec.from_dict`.
+"""
+
+import difflib
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from skthermal.simulate._drivers import _check_number
+from skthermal.simulate._effects import EFFECTS
+
+ROOM = "room"
+SENSOR_KINDS = ("surface", "embedded", "air")
+
+# Heat sources of the file layout: table -> {field: (parameter, unit)}.
+HEAT_FIELDS = {
+    "bearing": {
+        "W_at_1000_rpm": ("q.bearing_W", "W"),
+        "alpha": ("q.alpha", "1"),
+    },
+    "drive": {
+        "idle_W": ("q.motor_idle_W", "W"),
+        "W_per_1000_rpm": ("q.motor_W_per_krpm", "W per 1000 rpm"),
+    },
+    "belt": {"W_per_1000_rpm": ("q.belt_W_per_krpm", "W per 1000 rpm")},
+    "cutting": {"W": ("q.cutting_W", "W")},
+}
+HEAT_ROLES = {
+    "bearing": "bearing",
+    "drive": "motor",
+    "belt": "belt",
+    "cutting": "cutting",
+}
+SENSOR_FIELDS = {
+    "noise_C": "sensor.noise_C",
+    "quantization_C": "sensor.quantization_C",
+    "offset_C": "sensor.offset_C",
+}
+NODE_FIELDS = ("capacity_J_per_K", "convection_W_per_K")
+# Numbers a description may leave out: an absent heat source gives no heat,
+# absent sensor and displacement noise is zero.
+NUMBER_DEFAULTS = {
+    "q.bearing_W": 0.0,
+    "q.alpha": 1.5,
+    "q.motor_idle_W": 0.0,
+    "q.motor_W_per_krpm": 0.0,
+    "q.belt_W_per_krpm": 0.0,
+    "q.cutting_W": 0.0,
+    "sensor.noise_C": 0.0,
+    "sensor.quantization_C": 0.0,
+    "sensor.offset_C": 0.0,
+    "disp.noise_um": 0.0,
+}
+
+
+def _suggest(name, choices):
+    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _unknown(where, name, choices, what="node"):
+    return ValueError(
+        f"{where}: unknown {what} {name!r}{_suggest(name, choices)}; "
+        f"known: {sorted(map(str, choices))}."
+    )
+
+
+def _check_fields(where, table, allowed):
+    if not isinstance(table, dict):
+        raise ValueError(f"{where} must be a table (dict), got {type(table).__name__}.")
+    for key in table:
+        if key not in allowed:
+            raise ValueError(
+                f"{where}: unknown field {key!r}{_suggest(key, allowed)}; "
+                f"fields: {list(allowed)}."
+            )
+
+
+def _number(where, value, *, positive=False, nonnegative=False):
+    # A file's number must be a number, not a string that parses as one.
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{where} must be a number, got {value!r}.")
+    return _check_number(value, where, positive=positive, nonnegative=nonnegative)
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """A temperature sensor: which temperatures it reads, and how.
+
+    Attributes
+    ----------
+    name : str
+        Run-table column, e.g. ``"T01_C"``.
+    weights : dict
+        Node name (or ``"room"``, the workshop air) -> weight (1); the sensor
+        reads the weighted mean, e.g. a point between two carrier segments.
+    kind : {"surface", "embedded", "air"}
+        Surface sensors lag when the ``sensor_lag`` effect is on.
+    location : str
+        Where it sits, in words.
+
+    Noise (°C, standard deviation), quantisation step (°C) and calibration
+    offset (°C, standard deviation over sensors) are shared by all sensors of
+    a machine: parameters ``sensor.noise_C``, ``sensor.quantization_C`` and
+    ``sensor.offset_C``.
+    """
+
+    name: str
+    weights: dict
+    kind: str = "surface"
+    location: str = ""
+
+
+@dataclass(frozen=True)
+class MachineSpec:
+    """The description of a machine: network, heat sources, sensors, map.
+
+    Building a spec checks it: names exist (with a suggestion for a typo),
+    capacities are positive, conductances and convection not negative, and
+    every node reaches the air through links or convection. Errors name the
+    offending entry.
+
+    Attributes
+    ----------
+    name : str
+        Machine name (recorded in the metadata of simulated runs).
+    description : str
+        The machine in words.
+    nodes : tuple of str
+        Lumped bodies. Each has a heat capacity ``C.<node>`` (J/K, > 0) and
+        a convection conductance to the air ``hA.<node>`` (W/K, >= 0).
+    edges : tuple of (str, str)
+        Links between nodes; each has a conductance ``G.<a>-<b>`` (W/K).
+    sensors : tuple of SensorSpec
+        Temperature sensors.
+    head_nodes : tuple of str
+        Nodes whose convection grows with spindle speed (``speed_convection``).
+    exposed_nodes : tuple of str
+        Nodes washed by the workshop air itself with ``ambient_transient``.
+    enclosure : str
+        The air node around the machine: every other node convects to it,
+        and it convects to the workshop air (``"room"``).
+    tool : str
+        The tool or test bar (``tool_growth``).
+    bearing : str
+        Node heated by the spindle bearings, ``q.bearing_W * (n/1000)^q.alpha``
+        (W, n in rpm).
+    motor : str
+        Node heated by the spindle drive, ``q.motor_idle_W`` while turning
+        plus ``q.motor_W_per_krpm * n/1000`` (W).
+    belt : str
+        Node heated by a loss linear in speed, ``q.belt_W_per_krpm * n/1000``
+        (W): a belt, or a second bearing.
+    cutting : str
+        Node heated by cutting while the spindle turns, ``q.cutting_W`` (W).
+    screw_nodes : tuple of str
+        Ball-screw segments from the fixed bearing on (``feed_heating``).
+    nut, axis_motor : str or None
+        Ball nut and feed-axis motor nodes (``feed_heating``).
+    feed_axis : str
+        Displacement channel moved by the ball screw's growth
+        (``k.<feed_axis>.screw``, µm/K for the whole screw).
+    axes : tuple of str
+        Displacement channels: run-table columns ``disp_<axis>_um``; each has
+        a coefficient ``k.<axis>.<node>`` (µm/K of node rise) per node.
+    groups : dict
+        Group name -> sensor names (for reports).
+    params : dict
+        Default value of every number, by parameter name (see the attributes
+        above; ``disp.noise_um`` is the displacement noise in µm, and
+        ``<effect>.<param>`` the parameters of an effect). May be empty for a
+        structure without numbers; :class:`ThermalMachine` then needs them.
+    """
+
+    name: str
+    description: str
+    nodes: tuple
+    edges: tuple
+    sensors: tuple
+    head_nodes: tuple = ()
+    exposed_nodes: tuple = ()
+    enclosure: str = "enclosure"
+    tool: str = "tool"
+    bearing: str = "bearings"
+    motor: str = "motor"
+    belt: str = "carrier2"
+    cutting: str = "tool"
+    screw_nodes: tuple = ()
+    nut: str | None = None
+    axis_motor: str | None = None
+    feed_axis: str = "y"
+    axes: tuple = ("x", "y", "z")
+    groups: dict = field(default_factory=dict)
+    params: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.validate()
+
+    # --- checks -------------------------------------------------------------
+
+    def validate(self):
+        """Check the description; raises ValueError naming the bad entry."""
+        nodes = list(self.nodes)
+        seen = set()
+        for n in nodes:
+            if not isinstance(n, str) or not n or n == ROOM or "." in n:
+                raise ValueError(
+                    f"node {n!r}: a node name is a non-empty string without '.', "
+                    f"and {ROOM!r} is reserved for the workshop air."
+                )
+            if n in seen:
+                raise ValueError(f"node {n!r} is listed twice.")
+            seen.add(n)
+        known = set(nodes)
+        links = set()
+        for edge in self.edges:
+            if len(edge) != 2:
+                raise ValueError(f"link {edge!r}: a link joins two nodes.")
+            a, b = edge
+            label = f"link '{a}-{b}'"
+            for x in (a, b):
+                if x not in known:
+                    raise _unknown(label, x, nodes)
+            if a == b:
+                raise ValueError(f"{label}: joins a node to itself.")
+            if (a, b) in links or (b, a) in links:
+                raise ValueError(f"{label} is listed twice.")
+            links.add((a, b))
+        for role in ("enclosure", "tool", "bearing", "motor", "belt", "cutting"):
+            value = getattr(self, role)
+            if value not in known:
+                raise _unknown(f"role {role!r}", value, nodes)
+        for role in ("nut", "axis_motor"):
+            value = getattr(self, role)
+            if value is not None and value not in known:
+                raise _unknown(f"role {role!r}", value, nodes)
+        for role in ("head_nodes", "exposed_nodes", "screw_nodes"):
+            for value in getattr(self, role):
+                if value not in known:
+                    raise _unknown(f"{role}", value, nodes)
+        axes = list(self.axes)
+        if not axes:
+            raise ValueError("axes: give at least one displacement channel.")
+        for a in axes:
+            if not isinstance(a, str) or not a or "_" in a or "." in a:
+                raise ValueError(
+                    f"axis {a!r}: a displacement channel name is a non-empty "
+                    "string without '_' or '.' (column disp_<axis>_um)."
+                )
+        if len(set(axes)) != len(axes):
+            raise ValueError(f"axes {axes} lists a channel twice.")
+        if self.screw_nodes and self.feed_axis not in axes:
+            raise _unknown("feed_axis", self.feed_axis, axes, "axis")
+        names = set()
+        for s in self.sensors:
+            if not isinstance(s, SensorSpec):
+                raise ValueError(f"sensor {s!r} is not a SensorSpec.")
+            where = f"sensor {s.name!r}"
+            if s.name in names:
+                raise ValueError(f"{where} is listed twice.")
+            names.add(s.name)
+            if s.kind not in SENSOR_KINDS:
+                raise ValueError(
+                    f"{where}: kind {s.kind!r}{_suggest(s.kind, SENSOR_KINDS)} is "
+                    f"not one of {list(SENSOR_KINDS)}."
+                )
+            if not s.weights:
+                raise ValueError(f"{where} reads no node (weights is empty).")
+            for node, w in s.weights.items():
+                if node != ROOM and node not in known:
+                    raise _unknown(where, node, [*nodes, ROOM])
+                _number(f"{where}: weight of {node!r}", w)
+        for group, members in self.groups.items():
+            for m in members:
+                if m not in names:
+                    raise _unknown(f"group {group!r}", m, names, "sensor")
+        if self.params:
+            self._validate_numbers(known, axes)
+
+    def _validate_numbers(self, known, axes):
+        p = self.params
+        for n in self.nodes:
+            if f"C.{n}" not in p:
+                raise ValueError(f"node {n!r}: no heat capacity (C.{n}, J/K).")
+        for a, b in self.edges:
+            if f"G.{a}-{b}" not in p:
+                raise ValueError(f"link '{a}-{b}': no conductance (G.{a}-{b}, W/K).")
+        for key, value in p.items():
+            family, _, rest = key.partition(".")
+            if family in ("C", "hA"):
+                if rest not in known:
+                    raise _unknown(f"parameter {key!r}", rest, self.nodes)
+                _number(
+                    f"parameter {key!r}",
+                    value,
+                    positive=family == "C",
+                    nonnegative=True,
+                )
+            elif family == "G":
+                a, _, b = rest.partition("-")
+                if (a, b) not in set(map(tuple, self.edges)):
+                    raise ValueError(
+                        f"parameter {key!r}: no link '{rest}' in the network"
+                        f"{_suggest(rest, [f'{x}-{y}' for x, y in self.edges])}."
+                    )
+                _number(f"parameter {key!r}", value, nonnegative=True)
+            elif family == "k":
+                axis, _, node = rest.partition(".")
+                if axis not in axes:
+                    raise _unknown(f"parameter {key!r}", axis, axes, "axis")
+                if node != "screw" and node not in known:
+                    raise _unknown(f"parameter {key!r}", node, self.nodes)
+                _number(f"parameter {key!r}", value)
+            else:
+                _number(f"parameter {key!r}", value)
+        # Every node must reach the air, or its temperature is undefined.
+        reach = {self.enclosure}
+        adjacent = {n: set() for n in self.nodes}
+        for a, b in self.edges:
+            if p[f"G.{a}-{b}"] > 0:
+                adjacent[a].add(b)
+                adjacent[b].add(a)
+        for n in self.nodes:
+            if p.get(f"hA.{n}", 0.0) > 0:
+                adjacent[n].add(self.enclosure)
+                adjacent[self.enclosure].add(n)
+        if p.get(f"hA.{self.enclosure}", 0.0) <= 0:
+            raise ValueError(
+                f"node {self.enclosure!r} (the enclosure air) needs a positive "
+                f"convection to the workshop air (hA.{self.enclosure}, W/K)."
+            )
+        todo = [self.enclosure]
+        while todo:
+            for m in adjacent[todo.pop()] - reach:
+                reach.add(m)
+                todo.append(m)
+        cut = [n for n in self.nodes if n not in reach]
+        if cut:
+            raise ValueError(
+                f"node(s) {cut} are not connected to the air: give them a link "
+                "with a positive conductance or a positive convection."
+            )
+
+    # --- dict and TOML -------------------------------------------------------
+
+    def to_dict(self):
+        """The spec as a plain dict in the file layout of :meth:`from_dict`."""
+        p = dict(self.params)
+        out = {"name": self.name, "description": self.description}
+        out["axes"] = list(self.axes)
+        roles = {
+            "enclosure": self.enclosure,
+            "tool": self.tool,
+            "head": list(self.head_nodes),
+            "exposed": list(self.exposed_nodes),
+        }
+        out["roles"] = roles
+        out["nodes"] = {}
+        for n in self.nodes:
+            entry = {}
+            if f"C.{n}" in p:
+                entry["capacity_J_per_K"] = p.pop(f"C.{n}")
+            if f"hA.{n}" in p:
+                entry["convection_W_per_K"] = p.pop(f"hA.{n}")
+            out["nodes"][n] = entry
+        out["links"] = []
+        for a, b in self.edges:
+            link = {"between": [a, b]}
+            if f"G.{a}-{b}" in p:
+                link["conductance_W_per_K"] = p.pop(f"G.{a}-{b}")
+            out["links"].append(link)
+        heat = {}
+        for source, fields in HEAT_FIELDS.items():
+            entry = {"node": getattr(self, HEAT_ROLES[source])}
+            for f, (key, _) in fields.items():
+                if key in p:
+                    entry[f] = p.pop(key)
+            heat[source] = entry
+        if self.screw_nodes:
+            feed = {"screw": list(self.screw_nodes), "axis": self.feed_axis}
+            if self.nut is not None:
+                feed["nut"] = self.nut
+            if self.axis_motor is not None:
+                feed["axis_motor"] = self.axis_motor
+            heat["feed"] = feed
+        out["heat"] = heat
+        noise = {f: p.pop(k) for f, k in SENSOR_FIELDS.items() if k in p}
+        out["sensor_noise"] = noise
+        out["sensors"] = {
+            s.name: {"weights": dict(s.weights), "kind": s.kind, "location": s.location}
+            for s in self.sensors
+        }
+        disp = {}
+        if "disp.noise_um" in p:
+            disp["noise_um"] = p.pop("disp.noise_um")
+        for axis in self.axes:
+            disp[axis] = {}
+            for key in [k for k in p if k.startswith(f"k.{axis}.")]:
+                value = p.pop(key)
+                if value != 0:  # absent coefficients are zero
+                    disp[axis][key.split(".", 2)[2]] = value
+        out["displacement"] = disp
+        effects = {}
+        for key in [k for k in p if k.split(".")[0] in EFFECTS]:
+            e, _, name = key.partition(".")
+            effects.setdefault(e, {})[name] = p.pop(key)
+        if effects:
+            out["effects"] = effects
+        if self.groups:
+            out["groups"] = {g: list(m) for g, m in self.groups.items()}
+        if p:
+            out["params"] = p
+        return out
+
+    @classmethod
+    def from_dict(cls, data):
+        """Build a spec from a dict (the layout of a machine file).
+
+        Layout (units in the field names)::
+
+            name = "my-rig"
+            description = "..."
+            axes = ["x", "y", "z"]          # disp_<axis>_um columns
+
+            [roles]
+            enclosure = "air"                # air node around the machine
+            tool = "spindle_nose"
+            head = ["spindle"]               # convection grows with speed
+            exposed = ["housing"]            # washed by workshop air
+
+            [nodes.spindle]
+            capacity_J_per_K = 2000.0
+            convection_W_per_K = 0.5
+
+            [[links]]
+            between = ["spindle", "housing"]
+            conductance_W_per_K = 10.0
+
+            [heat.bearing]                   # W_at_1000_rpm * (n/1000)^alpha
+            node = "front_bearing"
+            W_at_1000_rpm = 8.0
+            alpha = 1.5
+            [heat.drive]                     # idle_W + W_per_1000_rpm * n/1000
+            node = "motor"
+            [heat.belt]                      # W_per_1000_rpm * n/1000
+            node = "rear_bearing"
+            [heat.cutting]                   # W while turning
+            node = "spindle_nose"
+            [heat.feed]                      # optional ball screw
+            screw = ["screw1", "screw2"]
+            nut = "nut"
+            axis_motor = "axis_motor"
+            axis = "y"
+
+            [sensor_noise]
+            noise_C = 0.03
+            quantization_C = 0.125
+            offset_C = 0.15
+
+            [sensors.T1_C]
+            weights = { front_housing = 0.8, air = 0.2 }   # or "room"
+            kind = "surface"                 # surface, embedded or air
+            location = "front housing"
+
+            [displacement]
+            noise_um = 0.3
+            [displacement.z]                 # µm per K of node rise
+            spindle = 1.2
+            screw = 4.0                      # the whole ball screw
+
+            [effects.sensor_lag]             # optional effect parameters
+            tau_s = 300.0
+
+            [groups]
+            spindle = ["T1_C"]
+
+        Missing numbers take the defaults of an empty machine (no heat, no
+        displacement); a misspelt field or name is an error naming the entry.
+        """
+        if not isinstance(data, dict):
+            raise ValueError(f"A machine spec is a dict, got {type(data).__name__}.")
+        top = (
+            "name",
+            "description",
+            "axes",
+            "roles",
+            "nodes",
+            "links",
+            "heat",
+            "sensor_noise",
+            "sensors",
+            "displacement",
+            "effects",
+            "groups",
+            "params",
+        )
+        _check_fields("machine spec", data, top)
+        for key in ("name", "nodes"):
+            if key not in data:
+                raise ValueError(f"machine spec: the field {key!r} is required.")
+        p = {}
+        nodes = data["nodes"]
+        _check_fields("nodes", nodes, list(nodes))
+        for n, entry in nodes.items():
+            _check_fields(f"node {n!r}", entry, NODE_FIELDS)
+            if "capacity_J_per_K" not in entry:
+                raise ValueError(f"node {n!r}: capacity_J_per_K is required.")
+            p[f"C.{n}"] = _number(
+                f"node {n!r}: capacity_J_per_K",
+                entry["capacity_J_per_K"],
+                positive=True,
+            )
+            p[f"hA.{n}"] = _number(
+                f"node {n!r}: convection_W_per_K",
+                entry.get("convection_W_per_K", 0),
+                nonnegative=True,
+            )
+        edges = []
+        for i, link in enumerate(data.get("links", [])):
+            _check_fields(f"link {i}", link, ("between", "conductance_W_per_K"))
+            pair = link.get("between")
+            if not isinstance(pair, list | tuple) or len(pair) != 2:
+                raise ValueError(f"link {i}: 'between' must list two nodes.")
+            a, b = pair
+            label = f"link '{a}-{b}'"
+            if "conductance_W_per_K" not in link:
+                raise ValueError(f"{label}: conductance_W_per_K is required.")
+            edges.append((a, b))
+            p[f"G.{a}-{b}"] = _number(
+                f"{label}: conductance_W_per_K",
+                link["conductance_W_per_K"],
+                nonnegative=True,
+            )
+        roles = data.get("roles", {})
+        _check_fields("roles", roles, ("enclosure", "tool", "head", "exposed"))
+        kw = {
+            "enclosure": roles.get("enclosure", "enclosure"),
+            "tool": roles.get("tool", "tool"),
+            "head_nodes": tuple(roles.get("head", ())),
+            "exposed_nodes": tuple(roles.get("exposed", ())),
+        }
+        heat = data.get("heat", {})
+        _check_fields("heat", heat, (*HEAT_FIELDS, "feed"))
+        for source, fields in HEAT_FIELDS.items():
+            entry = heat.get(source, {})
+            _check_fields(f"heat source {source!r}", entry, ("node", *fields))
+            if "node" in entry:
+                kw[HEAT_ROLES[source]] = entry["node"]
+            for f, (key, _) in fields.items():
+                if f in entry:
+                    p[key] = _number(f"heat source {source!r}: {f}", entry[f])
+        feed = heat.get("feed")
+        if feed is not None:
+            _check_fields(
+                "heat source 'feed'", feed, ("screw", "nut", "axis_motor", "axis")
+            )
+            kw["screw_nodes"] = tuple(feed.get("screw", ()))
+            kw["nut"] = feed.get("nut")
+            kw["axis_motor"] = feed.get("axis_motor")
+            if "axis" in feed:
+                kw["feed_axis"] = feed["axis"]
+        for source in ("bearing", "drive", "belt", "cutting"):
+            if HEAT_ROLES[source] not in kw:
+                # No such source: heat a node that exists, with zero power.
+                kw[HEAT_ROLES[source]] = (
+                    kw["tool"] if kw["tool"] in nodes else next(iter(nodes), "")
+                )
+        for key, value in NUMBER_DEFAULTS.items():
+            p.setdefault(key, value)
+        noise = data.get("sensor_noise", {})
+        _check_fields("sensor_noise", noise, SENSOR_FIELDS)
+        for f, key in SENSOR_FIELDS.items():
+            if f in noise:
+                p[key] = _number(f"sensor_noise: {f}", noise[f], nonnegative=True)
+        sensors = []
+        for name, entry in data.get("sensors", {}).items():
+            _check_fields(f"sensor {name!r}", entry, ("weights", "kind", "location"))
+            if "weights" not in entry:
+                raise ValueError(f"sensor {name!r}: weights is required.")
+            sensors.append(
+                SensorSpec(
+                    name,
+                    dict(entry["weights"]),
+                    entry.get("kind", "surface"),
+                    entry.get("location", ""),
+                )
+            )
+        axes = tuple(data.get("axes", ("x", "y", "z")))
+        disp = data.get("displacement", {})
+        _check_fields("displacement", disp, ("noise_um", *axes))
+        if "noise_um" in disp:
+            p["disp.noise_um"] = _number(
+                "displacement: noise_um", disp["noise_um"], nonnegative=True
+            )
+        for axis in axes:
+            p.update({f"k.{axis}.{n}": 0.0 for n in nodes})
+            coefficients = disp.get(axis, {})
+            _check_fields(f"displacement {axis!r}", coefficients, [*nodes, "screw"])
+            for node, value in coefficients.items():
+                p[f"k.{axis}.{node}"] = _number(f"displacement {axis!r}: {node}", value)
+        effects = data.get("effects", {})
+        _check_fields("effects", effects, EFFECTS)
+        for e, values in effects.items():
+            _check_fields(f"effect {e!r}", values, EFFECTS[e].params)
+            for k, v in values.items():
+                p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
+        extra = data.get("params", {})
+        p.update(extra)
+        groups = {g: list(m) for g, m in data.get("groups", {}).items()}
+        return cls(
+            name=str(data["name"]),
+            description=str(data.get("description", "")),
+            nodes=tuple(nodes),
+            edges=tuple(edges),
+            sensors=tuple(sensors),
+            axes=axes,
+            groups=groups,
+            params=p,
+            **kw,
+        )
+
+    @classmethod
+    def from_toml(cls, path):
+        """Read a machine file (TOML, layout of :meth:`from_dict`)."""
+        path = Path(path)
+        try:
+            with path.open("rb") as f:
+                data = tomllib.load(f)
+        except FileNotFoundError:
+            raise FileNotFoundError(f"No machine file {str(path)!r}.") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not a valid TOML file ({exc}).") from None
+        try:
+            return cls.from_dict(data)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+    def to_toml(self, path=None):
+        """The spec as TOML text; written to ``path`` if given."""
+        text = dumps_toml(self.to_dict())
+        if path is not None:
+            Path(path).write_text(text, encoding="utf-8")
+        return text
+
+
+# --- a small TOML writer (the standard library only reads TOML) ------------
+
+
+def _key(k):
+    k = str(k)
+    if k and all(c.isalnum() or c in "_-" for c in k):
+        return k
+    return _string(k)
+
+
+def _string(s):
+    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+    return f'"{out}"'
+
+
+def _value(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, str):
+        return _string(v)
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"Cannot write {type(v).__name__} to TOML.")
+
+
+INLINE_TABLES = ("weights",)
+
+
+def dumps_toml(data, prefix=()):
+    """TOML text of a nested dict of numbers, strings, lists and dicts.
+
+    Sub-dicts become tables, lists of dicts arrays of tables; floats are
+    written with ``repr`` so they read back to the same value.
+    """
+    lines, tables = [], []
+    for k, v in data.items():
+        if isinstance(v, dict) and k not in INLINE_TABLES:
+            tables.append((k, v))
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            tables.append((k, v))
+        else:
+            lines.append(f"{_key(k)} = {_value(v)}")
+    out = "\n".join(lines)
+    for k, v in tables:
+        path = (*prefix, k)
+        header = ".".join(_key(x) for x in path)
+        if isinstance(v, list):
+            for item in v:
+                body = dumps_toml(item, path)
+                out += f"\n\n[[{header}]]\n{body}".rstrip()
+        else:
+            body = dumps_toml(v, path)
+            out += f"\n\n[{header}]\n{body}".rstrip()
+    return out.strip() + ("\n" if not prefix else "")

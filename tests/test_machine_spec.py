@@ -1,0 +1,266 @@
+"""The machine description: validation, dict and TOML, presets, response API."""
+
+import ast
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skthermal.simulate import (
+    EFFECTS,
+    DutyCycle,
+    Effect,
+    MachineSpec,
+    SensorSpec,
+    ThermalMachine,
+)
+
+DUTY = DutyCycle([(1800, 4000, 2000), (900, 0, 0), (900, 6000, 500)])
+
+
+def _small():
+    """A three-node machine as a dict (the file layout)."""
+    return {
+        "name": "small",
+        "axes": ["z"],
+        "roles": {"enclosure": "air", "tool": "spindle", "head": ["spindle"]},
+        "nodes": {
+            "spindle": {"capacity_J_per_K": 2000.0, "convection_W_per_K": 0.5},
+            "housing": {"capacity_J_per_K": 20000.0, "convection_W_per_K": 3.0},
+            "air": {"capacity_J_per_K": 50000.0, "convection_W_per_K": 40.0},
+        },
+        "links": [{"between": ["spindle", "housing"], "conductance_W_per_K": 5.0}],
+        "heat": {"bearing": {"node": "spindle", "W_at_1000_rpm": 4.0, "alpha": 1.5}},
+        "sensors": {"T1_C": {"weights": {"housing": 0.8, "room": 0.2}}},
+        "displacement": {"z": {"spindle": 2.0, "housing": 1.0}},
+    }
+
+
+@pytest.mark.parametrize("name", ["vmc-b", "vmc-a", "spindle-rig"])
+def test_presets_round_trip_through_dict_and_toml(name, tmp_path):
+    machine = ThermalMachine.from_preset(name)
+    spec = machine.spec
+    assert MachineSpec.from_dict(spec.to_dict()) == spec
+    path = tmp_path / "machine.toml"
+    spec.to_toml(path)
+    assert MachineSpec.from_toml(path) == spec
+    again = ThermalMachine.from_spec(path)
+    a = machine.simulate(DUTY, 20.0, random_state=0)
+    b = again.simulate(DUTY, 20.0, random_state=0)
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
+def test_a_small_machine_from_a_dict_simulates():
+    machine = ThermalMachine.from_spec(_small(), effects=[])
+    run = machine.simulate(DUTY, 20.0, noise=False)
+    assert list(run.columns[-2:]) == ["T1_C", "disp_z_um"]
+    assert np.all(np.isfinite(run.iloc[:, 2:].to_numpy(float)))
+    assert run["disp_z_um"].iloc[60] > 1.0  # the spindle heats and grows
+    assert machine.params["q.motor_idle_W"] == 0.0  # absent sources are off
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (
+            lambda d: d["links"][0].update(between=["spindle", "housng"]),
+            r"link 'spindle-housng': unknown node 'housng' \(did you mean 'housing'",
+        ),
+        (
+            lambda d: d["nodes"]["housing"].update(capacity_J_per_K=-5.0),
+            r"node 'housing': capacity_J_per_K must be positive, got -5",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(weights={"spindel": 1.0}),
+            r"sensor 'T1_C': unknown node 'spindel' \(did you mean 'spindle'",
+        ),
+        (
+            lambda d: d["nodes"]["spindle"].update(capacity_J_per_k=1.0),
+            r"node 'spindle': unknown field 'capacity_J_per_k' "
+            r"\(did you mean 'capacity_J_per_K'",
+        ),
+        (
+            lambda d: d["nodes"].update(lost={"capacity_J_per_K": 10.0}),
+            r"\['lost'\] are not connected to the air",
+        ),
+        (
+            lambda d: d["roles"].update(tool="nose"),
+            r"role 'tool': unknown node 'nose'",
+        ),
+        (
+            lambda d: d["displacement"].update(x={"spindle": 1.0}),
+            r"displacement: unknown field 'x'",
+        ),
+        (
+            lambda d: d["heat"]["bearing"].update(W_at_1000rpm=3.0),
+            r"heat source 'bearing': unknown field 'W_at_1000rpm' "
+            r"\(did you mean 'W_at_1000_rpm'",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(kind="surfce"),
+            r"kind 'surfce' \(did you mean 'surface'",
+        ),
+        (
+            lambda d: d.update(groups={"g": ["T2_C"]}),
+            r"group 'g': unknown sensor 'T2_C'",
+        ),
+        (
+            lambda d: d["nodes"]["spindle"].update(capacity_J_per_K="2 kJ/K"),
+            r"node 'spindle': capacity_J_per_K must be a number",
+        ),
+    ],
+)
+def test_bad_specs_name_the_entry(edit, message):
+    data = _small()
+    edit(data)
+    with pytest.raises(ValueError, match=message):
+        MachineSpec.from_dict(data)
+
+
+def test_bad_toml_file_names_the_file(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "x"\n[nodes.a]\ncapacity_J_per_K = 1.0\n[[links]]\n')
+    with pytest.raises(ValueError, match=r"bad.toml: link 0: 'between'"):
+        ThermalMachine.from_spec(path)
+    path.write_text("name = ")
+    with pytest.raises(ValueError, match=r"bad.toml: not a valid TOML"):
+        ThermalMachine.from_spec(path)
+    with pytest.raises(FileNotFoundError, match="missing.toml"):
+        ThermalMachine.from_spec(tmp_path / "missing.toml")
+
+
+def test_toml_writer_reads_back_exactly():
+    spec = ThermalMachine.from_preset("vmc-b").spec
+    text = spec.to_toml()
+    assert tomllib.loads(text) == spec.to_dict()
+
+
+def test_spec_built_in_python_is_checked():
+    with pytest.raises(ValueError, match="unknown node 'b'"):
+        MachineSpec("m", "", ("a", "enclosure"), (("a", "b"),), ())
+    with pytest.raises(ValueError, match="sensor 'T1_C': unknown node"):
+        MachineSpec(
+            "m",
+            "",
+            ("tool", "enclosure", "bearings", "motor", "carrier2"),
+            (),
+            (SensorSpec("T1_C", {"toll": 1.0}),),
+        )
+
+
+def test_spindle_rig_preset_matches_the_fl_thermal_layout():
+    rig = ThermalMachine.from_preset("spindle-rig")
+    assert rig.sensors == [f"T{i}_C" for i in range(1, 17)]
+    assert rig.targets == [f"disp_ch{i}_um" for i in range(1, 6)]
+    run = rig.simulate(DUTY, 20.0, random_state=0)
+    values = run.iloc[:, 2:].to_numpy(float)
+    assert np.all(np.isfinite(values))
+    assert np.abs(run[rig.targets].to_numpy()).max() > 5.0  # µm, not nothing
+    assert rig.node_time_constants()["base"] > rig.node_time_constants()["spindle"]
+
+
+@pytest.mark.parametrize("name", ["vmc-b", "spindle-rig"])
+def test_response_and_read_reproduce_the_noiseless_simulation(name):
+    machine = ThermalMachine.from_preset(name, effects=list(EFFECTS))
+    sim = machine.simulate(DUTY, 20.0, noise=False)
+    drivers = (sim["time_s"], sim["spindle_rpm"], sim["ambient_C"], sim["feed_mm_min"])
+    T = machine.response(*drivers)
+    values = machine.read(T, sim["ambient_C"], sample_period_s=30.0)
+    expected = sim[machine.sensors + machine.targets].to_numpy()
+    np.testing.assert_allclose(values, expected, atol=1e-9)
+    parts = machine.response(*drivers, by_source=True)
+    np.testing.assert_allclose(sum(parts.values()), T, atol=1e-9)
+    with pytest.raises(ValueError, match="does not predict"):
+        machine.read(T, sim["ambient_C"], ["T99_C"], sample_period_s=30.0)
+
+
+def test_an_effect_is_one_class(monkeypatch):
+    """A new effect needs only its class: parameters, checks and physics."""
+
+    class Coolant(Effect):
+        name = "coolant"
+        summary = "Coolant takes heat out of the spindle while it turns."
+        params = {"hA": 3.0}
+        units = {"hA": "W/K"}
+        diagnosis_parameter = "coolant.hA"
+
+        def convection(self, machine, p, rpm, h):
+            if rpm > 0:
+                h[machine.node_index[machine.spec.bearing]] += p["coolant.hA"]
+            return h
+
+    monkeypatch.setitem(EFFECTS, "coolant", Coolant())
+    base = ThermalMachine.from_preset("spindle-rig", effects=[])
+    cooled = base.with_effects(add=["coolant"])
+    hot = base.simulate(DUTY, 20.0, noise=False)
+    cool = cooled.simulate(DUTY, 20.0, noise=False)
+    assert cool["T9_C"].iloc[90] < hot["T9_C"].iloc[90] - 0.1
+    with pytest.raises(ValueError, match="'coolant.hA' must not be negative"):
+        cooled.with_params({"coolant.hA": -1.0})
+
+
+def test_every_effect_declares_its_diagnosis_parameter():
+    for name, effect in EFFECTS.items():
+        assert isinstance(effect, Effect) and effect.name == name
+        p = effect.diagnosis_parameter
+        assert p is None or p.split(".", 1)[1] in effect.params
+
+
+def test_gap_uses_only_the_public_simulator_api():
+    root = Path(__file__).parents[1] / "skthermal" / "gap"
+    private = {"_cache", "_integrate", "_displacement_array", "_on", "_heat", "_params"}
+    for path in root.glob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute):
+                assert node.attr not in private, f"{path.name} uses .{node.attr}"
+            if isinstance(node, ast.ImportFrom) and node.module:
+                assert not node.module.startswith("skthermal.simulate."), path.name
+
+
+def test_a_calibrated_machine_is_written_back(tmp_path):
+    machine = ThermalMachine.from_preset("spindle-rig").with_params(
+        {"q.bearing_W": 4.5, "sensor_lag.tau_s": 300.0}
+    )
+    path = tmp_path / "calibrated.toml"
+    machine.to_spec().to_toml(path)
+    again = ThermalMachine.from_spec(path, effects=machine.effects)
+    assert again.params == machine.params
+
+
+def test_a_spec_built_in_python_needs_only_the_network_numbers():
+    spec = MachineSpec(
+        name="bare",
+        description="",
+        nodes=("tool", "housing", "enclosure"),
+        edges=(("tool", "housing"), ("housing", "enclosure")),
+        sensors=(SensorSpec("T1_C", {"tool": 1.0}),),
+        bearing="tool",
+        motor="tool",
+        belt="tool",
+        axes=("z",),
+        params={
+            "C.tool": 500.0,
+            "C.housing": 5000.0,
+            "C.enclosure": 5000.0,
+            "hA.enclosure": 10.0,
+            "G.tool-housing": 2.0,
+            "G.housing-enclosure": 2.0,
+            "q.bearing_W": 5.0,
+            "k.z.housing": 1.0,
+        },
+    )
+    run = ThermalMachine.from_spec(spec, effects=[]).simulate(DUTY, noise=False)
+    assert run["T1_C"].iloc[60] > 20.5 and run["disp_z_um"].iloc[60] > 0.5
+
+
+def test_network_and_heat_inputs_are_public():
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    C, K, h_room = rig.network(3000.0)
+    assert C.shape == (9,) and K.shape == (9, 9) and np.allclose(K, K.T)
+    assert h_room[rig.node_index["air"]] == rig.params["hA.air"]
+    heat = rig.heat_inputs([0.0, 1000.0])
+    assert heat.loc[1, "front_bearing"] == pytest.approx(rig.params["q.bearing_W"])
+    assert heat.loc[0].sum() == 0.0
