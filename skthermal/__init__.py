@@ -23,6 +23,7 @@ _LAZY = {
     "GuardedRegressor": "skthermal.compose",
     "ModularRegressor": "skthermal.ensemble",
     "StableTSPSelector": "skthermal.selection",
+    "TransferFunctionRegressor": "skthermal.linear_model",
     "UpdateRegressor": "skthermal.linear_model",
 }
 
@@ -37,6 +38,7 @@ __all__ = [
     "GuardedRegressor",
     "ModularRegressor",
     "StableTSPSelector",
+    "TransferFunctionRegressor",
     "UpdateRegressor",
     "__version__",
 ]

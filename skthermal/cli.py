@@ -145,13 +145,21 @@ def _add_simulate(sub):
         "      --ambient-trend 0.3 --run hot --append --out runs.csv\n"
         "  skthermal simulate --tests I,IV,V --sample-period 60 --out tests.csv.gz\n"
         "  skthermal simulate --effects sensor_lag,tool_growth --out runs.csv\n"
-        "  skthermal simulate --list-effects\n",
+        "  skthermal simulate --list-effects\n"
+        "  skthermal simulate --machine my-rig.toml --out runs.csv\n",
     )
     p.add_argument(
         "--preset",
-        choices=["vmc-b", "vmc-a"],
+        choices=["vmc-b", "vmc-a", "spindle-rig"],
         default="vmc-b",
-        help="machine: vmc-b (Machine B, 77 sensors) or vmc-a (26); default vmc-b",
+        help="machine: vmc-b (Machine B, 77 sensors), vmc-a (26) or spindle-rig "
+        "(16 sensors, 5 spindle-nose channels); default vmc-b",
+    )
+    p.add_argument(
+        "--machine",
+        metavar="FILE.toml",
+        help="your own machine description (see docs/own_machine.md); "
+        "overrides --preset",
     )
     p.add_argument(
         "--segment",
@@ -426,7 +434,16 @@ def _add_gap(sub):
     )
     p.add_argument("--runs", metavar="FILE", required=True, help="real run table")
     p.add_argument(
-        "--preset", choices=["vmc-b", "vmc-a"], default="vmc-b", help="default vmc-b"
+        "--preset",
+        choices=["vmc-b", "vmc-a", "spindle-rig"],
+        default="vmc-b",
+        help="default vmc-b",
+    )
+    p.add_argument(
+        "--machine",
+        metavar="FILE.toml",
+        help="your own machine description (see docs/own_machine.md); "
+        "overrides --preset",
     )
     p.add_argument(
         "--effects",

@@ -17,6 +17,7 @@ from skthermal import (
     GreyPSORegressor,
     ModularRegressor,
     StableTSPSelector,
+    TransferFunctionRegressor,
     UpdateRegressor,
 )
 from skthermal.compose import GuardedRegressor
@@ -66,14 +67,17 @@ INSTANCES = [
     GuardedRegressor(Ridge(), mode="clip", flat=3, jump=2.0),
     GuardedRegressor(LinearRegression(), mode="hold"),
     GuardedRegressor(ANFISRegressor(epochs=5, random_state=0), jump=None, flat=None),
+    TransferFunctionRegressor(n_grid=3, max_iter=2),
+    TransferFunctionRegressor(order=2, alpha=1.0, n_grid=3, max_iter=0),
     RunStartRegressor(LinearRegression()),
     RunStartRegressor(ANFISRegressor(epochs=5, random_state=0)),
 ]
 
 _SEQUENCE = (
     "sequence model: a row's prediction depends on the earlier rows of its run "
-    "(the grey accumulation restarts at each run), so predicting a subset or a "
-    "reordering of the rows of a plain array, which is one run, changes it"
+    "(the grey accumulation or the lag filters restart at each run), so "
+    "predicting a subset or a reordering of the rows of a plain array, which is "
+    "one run, changes it"
 )
 _RELATIVE = (
     "the model predicts the change since the start of the run "
@@ -92,7 +96,7 @@ def expected_failed_checks(estimator):
                 "and holds the last good compensation instead of raising"
             )
         }
-    if name in ("GreyPSORegressor", "GNNMCIRegressor"):
+    if name in ("GreyPSORegressor", "GNNMCIRegressor", "TransferFunctionRegressor"):
         return {
             "check_methods_subset_invariance": _SEQUENCE,
             "check_methods_sample_order_invariance": _SEQUENCE,

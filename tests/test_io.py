@@ -27,6 +27,7 @@ from skthermal import (  # noqa: E402
     GuardedRegressor,
     ModularRegressor,
     StableTSPSelector,
+    TransferFunctionRegressor,
     UpdateRegressor,
 )
 from skthermal.datasets import make_sensor_groups, split_runs  # noqa: E402
@@ -49,6 +50,7 @@ ESTIMATORS = [
     StableTSPSelector(),
     FuzzyEquivalenceSelector(n_groups=2),
     UpdateRegressor(),
+    TransferFunctionRegressor(n_grid=3, max_iter=2),
     ModularRegressor(),
     GuardedRegressor(GreyPSORegressor(n_particles=6, epochs=3), mode="clip"),
     make_pipeline(

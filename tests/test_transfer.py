@@ -1,0 +1,140 @@
+"""Tests of the transfer-function thermal-error model."""
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from skthermal.linear_model import TransferFunctionRegressor, first_order_lags
+
+
+def _heating_runs(taus=(300.0, 1200.0), gains=(2.0, -0.5), speed_gain=0.003):
+    """Two runs, 10 s sampling, built from known first-order lags.
+
+    T1 follows the spindle's heat, T2 the room (independent of the spindle).
+    """
+    frames = []
+    for run, (on, n) in enumerate([(1800, 720), (2400, 600)]):
+        t = np.arange(n) * 10.0
+        speed = np.where(t < on, 4000.0, 0.0)
+        slices = [slice(0, n)]
+        heat = first_order_lags(
+            speed[:, None] / 1000.0, np.array([400.0]), np.array([10.0]), slices
+        )[:, 0]
+        t1 = 21.0 + 3.0 * heat
+        room = np.sin(2 * np.pi * t / (3000.0 + 1000.0 * run))
+        t2 = (
+            20.0
+            + first_order_lags(
+                room[:, None], np.array([900.0]), np.array([10.0]), slices
+            )[:, 0]
+        )
+        U = np.c_[t1 - t1[0], t2 - t2[0], speed]
+        Z = first_order_lags(U, np.array([*taus, 500.0]), np.array([10.0]), slices)
+        err = Z @ np.array([*gains, speed_gain]) + 1.5
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": f"r{run}",
+                    "time_s": t,
+                    "T1_C": t1,
+                    "T2_C": t2,
+                    "spindle_rpm": speed,
+                    "disp_z_um": err,
+                }
+            )
+        )
+    df = pd.concat(frames).set_index(["run", "time_s"])
+    return df[["T1_C", "T2_C", "spindle_rpm"]], df["disp_z_um"]
+
+
+def test_first_order_lags_step_response_and_restart():
+    U = np.ones((6, 1))
+    z = first_order_lags(
+        U, np.array([2.0]), np.array([1.0, 1.0]), [slice(0, 3), slice(3, 6)]
+    )[:, 0]
+    expected = 1 - np.exp(-np.arange(1, 4) / 2.0)
+    np.testing.assert_allclose(z, np.r_[expected, expected])
+
+
+def test_recovers_known_time_constants_and_gains():
+    X, y = _heating_runs()
+    model = TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=60)
+    model.fit(X, y)
+    np.testing.assert_allclose(model.time_constants_[:, 0], [300, 1200, 500], rtol=0.02)
+    np.testing.assert_allclose(model.coef_[:, 0], [2.0, -0.5, 0.003], rtol=0.02)
+    assert model.intercept_ == pytest.approx(1.5, abs=1e-3)
+    assert np.max(np.abs(model.predict(X) - y.to_numpy())) < 1e-3
+
+
+def test_time_from_index_matches_dt():
+    X, y = _heating_runs()
+    a = TransferFunctionRegressor(speed_column=2, max_iter=5).fit(X, y)
+    b = TransferFunctionRegressor(speed_column=2, max_iter=5, dt=10.0).fit(
+        X.to_numpy(), y.to_numpy(), groups=X.index.get_level_values("run")
+    )
+    np.testing.assert_allclose(a.time_constants_, b.time_constants_)
+    np.testing.assert_allclose(
+        a.predict(X), b.predict(X.to_numpy(), groups=X.index.get_level_values(0))
+    )
+
+
+def test_refinement_beats_grid_search():
+    X, y = _heating_runs()
+    grid = TransferFunctionRegressor(speed_column=2, max_iter=0).fit(X, y)
+    refined = TransferFunctionRegressor(speed_column=2, max_iter=30).fit(X, y)
+    err = [np.mean((m.predict(X) - y.to_numpy()) ** 2) for m in (grid, refined)]
+    assert err[1] < 0.1 * err[0]
+
+
+def test_second_order_and_multi_output():
+    X, y = _heating_runs()
+    Y = np.c_[y, -2.0 * y]
+    model = TransferFunctionRegressor(
+        speed_column=2, order=2, n_grid=5, max_iter=10
+    ).fit(X, Y)
+    assert model.time_constants_.shape == (2, 3, 2)
+    assert model.coef_.shape == (2, 3, 2)
+    pred = model.predict(X)
+    assert pred.shape == Y.shape
+    assert np.sqrt(np.mean((pred - Y) ** 2)) < 0.05 * Y.std()
+
+
+def test_speed_column_errors():
+    X, y = _heating_runs()
+    with pytest.raises(ValueError, match="'rpm' is not a column of X"):
+        TransferFunctionRegressor(speed_column="rpm").fit(X, y)
+    with pytest.raises(ValueError, match="X has no column names"):
+        TransferFunctionRegressor(speed_column="spindle_rpm").fit(X.to_numpy(), y)
+    with pytest.raises(ValueError, match="speed_column 5 is out of range"):
+        TransferFunctionRegressor(speed_column=5).fit(X.to_numpy(), y)
+
+
+def test_irregular_sampling_names_the_run():
+    X, y = _heating_runs()
+    t = X.index.get_level_values("time_s").to_numpy().copy()
+    t[800:] *= 1.5
+    X.index = pd.MultiIndex.from_arrays(
+        [X.index.get_level_values("run"), t], names=["run", "time_s"]
+    )
+    with pytest.raises(ValueError, match="constant sampling.*run 'r1'"):
+        TransferFunctionRegressor(speed_column=2, max_iter=0).fit(X, y)
+
+
+def test_bad_tau_bounds():
+    X, y = _heating_runs()
+    with pytest.raises(ValueError, match="tau_bounds"):
+        TransferFunctionRegressor(tau_bounds=(10.0, 1.0)).fit(X, y)
+
+
+def test_warns_when_run_labels_are_dropped():
+    X, y = _heating_runs()
+    runs = X.index.get_level_values("run")
+    model = TransferFunctionRegressor(speed_column=2, dt=10.0, max_iter=0)
+    model.fit(X.to_numpy(), y, groups=runs)
+    with pytest.warns(UserWarning, match="labelled run"):
+        model.predict(X.to_numpy())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(X.to_numpy(), groups=runs)
