@@ -6,6 +6,10 @@ from skthermal.linear_model._adaptive import (
     adaptive_compensation,
     make_batch_campaign,
 )
+from skthermal.linear_model._transfer import (
+    TransferFunctionRegressor,
+    first_order_lags,
+)
 from skthermal.linear_model._update import (
     UpdateRegressor,
     first_stable_update,
@@ -17,8 +21,10 @@ from skthermal.linear_model._update import (
 
 __all__ = [
     "AdaptiveCompensationResult",
+    "TransferFunctionRegressor",
     "UpdateRegressor",
     "adaptive_compensation",
+    "first_order_lags",
     "first_stable_update",
     "make_batch_campaign",
     "ridge_coef",
