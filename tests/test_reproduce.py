@@ -169,3 +169,17 @@ def test_results_say_how_far_anfis_grid_is_from_the_paper(quick_report):
     assert f"within 2x of the paper's RMSE on Tests {', '.join(near) or 'none'}" in (
         " ".join(out.split())
     )
+
+
+def test_settings_record_the_ridge_the_checking_set_chose(quick_report):
+    folder = quick_report[0]
+    settings = json.loads((folder / "settings.json").read_text(encoding="utf-8"))
+    for name in ("anfis-fcm", "anfis-grid"):
+        model = settings["models"][name]
+        assert model["params"]["ridge"] == "auto"
+        fitted = model["fitted"]
+        scores = fitted["ridge_checking_rmse"]
+        assert len(scores) == len(model["params"]["ridge_grid"])
+        assert f"{fitted['ridge']:g}" == min(scores, key=scores.get)
+        assert fitted["best_epoch"] >= 1
+    assert settings["models"]["mlp"]["fitted"] is None

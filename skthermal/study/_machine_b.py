@@ -11,7 +11,6 @@ adds the grey models (GNNMCI, Grey-PSO) and the thesis' neural network baseline
 by :mod:`skthermal.study._report`.
 """
 
-import platform
 import sys
 import time
 import warnings
@@ -21,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from skthermal._versions import package_versions
 from skthermal.models import MODELS, make_model, make_selector, n_rules
 from skthermal.models._registry import N_SENSORS
 from skthermal.study._constants import (
@@ -53,22 +53,24 @@ class Progress:
             print(f"[{self.elapsed():6.1f} s] {message}", file=self.stream, flush=True)
 
 
-def _versions():
-    import importlib.metadata as md
-
-    out = {"python": platform.python_version(), "platform": platform.platform()}
-    for dist in ("skthermal", "scikit-learn", "numpy", "scipy", "pandas", "matplotlib"):
-        try:
-            out[dist] = md.version(dist)
-        except md.PackageNotFoundError:
-            out[dist] = None
-    return out
-
-
 def _model_params(model):
     inner = model.estimator
     params = inner.get_params(deep=True)
     return {k: _jsonable(v) for k, v in params.items() if not hasattr(v, "fit")}
+
+
+def _fitted_choices(model):
+    """What training chose for a fitted ANFIS (ridge, checking scores, epoch)."""
+    inner = getattr(model, "estimator_", None)
+    if not hasattr(inner, "ridge_"):
+        return None
+    return {
+        "ridge": inner.ridge_,
+        "ridge_checking_rmse": {
+            f"{k:g}": _jsonable(v) for k, v in inner.ridge_scores_.items()
+        },
+        "best_epoch": inner.best_epoch_,
+    }
 
 
 def _sensor_table(picker, names, machine, selected):
@@ -269,12 +271,16 @@ def reproduce(
                 "class": type(fitted[name].estimator).__name__,
                 "params": _model_params(fitted[name]),
                 "rules": n_rules(fitted[name]),
+                "fitted": _fitted_choices(fitted[name]),
                 "fit_s": round(fit_s[name], 3),
             }
             for name in models
         },
         "machine_effects": machine.run_metadata("x")["effects"],
-        "versions": _versions(),
+        "versions": package_versions(
+            ("skthermal", "scikit-learn", "numpy", "scipy", "pandas", "matplotlib"),
+            with_platform=True,
+        ),
         "timings_s": {k: round(v, 3) for k, v in timings.items()},
     }
     result = StudyResult(

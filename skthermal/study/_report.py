@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pandas as pd
 
+from skthermal._markdown import markdown_table
 from skthermal.models import MODELS
 from skthermal.study._constants import PAPER, PAPER_SENSORS, TARGET, TEST_RUNS
 
@@ -15,17 +16,6 @@ def _fmt(value, spec=".2f", prefix=""):
     if isinstance(value, int | np.integer):
         return f"{prefix}{value}"
     return f"{prefix}{value:{spec}}"
-
-
-def markdown_table(frame):
-    """A DataFrame as a GitHub Markdown table (cells as already formatted)."""
-    header = "| " + " | ".join(map(str, frame.columns)) + " |"
-    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
-    body = [
-        "| " + " | ".join(str(v) for v in row) + " |"
-        for row in frame.itertuples(index=False, name=None)
-    ]
-    return "\n".join([header, rule, *body])
 
 
 def format_results(results):
