@@ -15,6 +15,8 @@ from skthermal import (
     GRASelector,
     GreyInfluenceSelector,
     GreyPSORegressor,
+    LagFeatures,
+    LagRidgeCV,
     ModularRegressor,
     StableTSPSelector,
     TransferFunctionRegressor,
@@ -69,6 +71,8 @@ INSTANCES = [
     GuardedRegressor(ANFISRegressor(epochs=5, random_state=0), jump=None, flat=None),
     TransferFunctionRegressor(n_grid=3, max_iter=2),
     TransferFunctionRegressor(order=2, alpha=1.0, n_grid=3, max_iter=0),
+    LagFeatures(time_constants=(2.0, 5.0)),
+    LagRidgeCV(time_constant_sets=[(), (2.0, 5.0)], alphas=[0.1, 10.0]),
     RunStartRegressor(LinearRegression()),
     RunStartRegressor(ANFISRegressor(epochs=5, random_state=0)),
 ]
@@ -96,7 +100,13 @@ def expected_failed_checks(estimator):
                 "and holds the last good compensation instead of raising"
             )
         }
-    if name in ("GreyPSORegressor", "GNNMCIRegressor", "TransferFunctionRegressor"):
+    if name in (
+        "GreyPSORegressor",
+        "GNNMCIRegressor",
+        "TransferFunctionRegressor",
+        "LagFeatures",
+        "LagRidgeCV",
+    ):
         return {
             "check_methods_subset_invariance": _SEQUENCE,
             "check_methods_sample_order_invariance": _SEQUENCE,

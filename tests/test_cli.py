@@ -119,6 +119,65 @@ def test_simulate_segments_effects_and_list(capsys, tmp_path):
     assert status == 0 and "tool_growth" in text
 
 
+def _write_rig_file(tmp_path, **change):
+    from skthermal.simulate import ThermalMachine
+
+    data = ThermalMachine.from_preset("spindle-rig").spec.to_dict()
+    data.update(change)
+    from skthermal.simulate import MachineSpec
+
+    path = tmp_path / "rig.toml"
+    MachineSpec.from_dict(data).to_toml(path)
+    return path
+
+
+def test_simulate_and_gap_use_a_machine_file(capsys, tmp_path, monkeypatch):
+    machine_file = _write_rig_file(tmp_path, name="my-rig")
+    out = tmp_path / "rig.csv"
+    status, text, _ = _run(
+        capsys,
+        "simulate",
+        "--machine",
+        machine_file,
+        "--segment",
+        "3000:20min",
+        "--segment",
+        "0:10min",
+        "--sample-period",
+        "60",
+        "--out",
+        out,
+    )
+    assert status == 0 and f"machine {machine_file}" in text
+    runs = pd.read_csv(out)
+    assert "T16_C" in runs.columns and "disp_ch5_um" in runs.columns
+    assert "T1" not in runs.columns and "disp_y_um" not in runs.columns
+
+    gap = pytest.importorskip("skthermal.gap")
+    seen = {}
+
+    def fake(machine, runs, candidates=None):
+        seen.update(name=machine.spec.name, targets=list(machine.targets))
+        return _FakeGapReport()
+
+    monkeypatch.setattr(gap, "diagnose", fake)
+    status, text, _ = _run(capsys, "gap", "--runs", out, "--machine", machine_file)
+    assert status == 0 and seen["name"] == "my-rig"
+    assert "disp_ch1_um" in seen["targets"]
+
+
+def test_bad_machine_file_is_one_user_error(capsys, tmp_path):
+    status, _, err = _run(
+        capsys, "simulate", "--machine", tmp_path / "none.toml", "--out", "x.csv"
+    )
+    assert status == 2 and "--machine: no such file" in err
+    bad = tmp_path / "bad.toml"
+    bad.write_text("name = 'rig'\nnodes = 3\n")
+    status, _, err = _run(capsys, "simulate", "--machine", bad, "--out", "x.csv")
+    assert status == 2 and err.count("\n") == 1
+    assert "bad.toml" in err and "nodes must be a table" in err
+
+
 def test_select_fit_predict_evaluate_chain(capsys, workdir):
     runs, sensors = workdir / "tests.csv", workdir / "sensors.json"
     status, text, _ = _run(

@@ -100,6 +100,14 @@ def test_gains_of_a_buried_part_follow_the_other_channels(rng):
     assert gain[1, 4] == pytest.approx(3.0, rel=0.1)
 
 
+def test_fine_calibration_frees_the_spindle_heads_nodes():
+    sim = ThermalMachine.from_preset("vmc-b", effects=[])
+    keys = fine_keys(sim)
+    assert {"C.bearings", "hA.boss", "G.bearings-boss", "C.tool"} <= set(keys)
+    assert not any("screw" in k or "column" in k.split("-")[0] for k in keys)
+
+
+@pytest.mark.slow
 def test_fine_calibration_recovers_the_spindle_heads_dynamics():
     # The truth differs from the simulation only in the spindle head's
     # capacities, convection and conductances, by 25% either way. The
@@ -234,6 +242,24 @@ def test_report_files_and_formats(tool_report, tmp_path):
     assert any(n.startswith("timeline_") and n.endswith(".png") for n in names)
 
 
+def test_null_case_screening_is_not_blamed_on_an_effect():
+    # Fast version of the null case below: screening calibration only.
+    case = make_gap_campaign(None, n_runs=3, hours=4, random_state=1)
+    report = diagnose(
+        case.simulation,
+        case.runs,
+        candidates=["tool_growth", "speed_convection"],
+        fine=False,
+        max_samples=200,
+        greedy=False,
+    )
+    assert report.best_effect is None
+    assert not report.ranking["explains"].any()
+    assert report.how_far_evidence["calibration"] == "screening"
+    assert "No candidate effect explains the gap" in report.verdict()
+
+
+@pytest.mark.slow
 def test_null_case_is_not_blamed_on_an_effect():
     case = make_gap_campaign(None, random_state=1)
     report = diagnose(
@@ -251,6 +277,7 @@ def test_null_case_is_not_blamed_on_an_effect():
     assert set(report.how_far["effect"]) == {evidence["effect"]}
 
 
+@pytest.mark.slow
 def test_vmc_a_campaign_and_another_strength():
     """Not tuned on: the other preset, a weaker feed-heating effect."""
     case = make_gap_campaign(
@@ -331,6 +358,33 @@ def test_mapping_renamed_channels(tool_case, caplog):
     assert any(m.startswith("Verdict:") for m in messages)
 
 
+def test_validate_reports_cases_rates_and_targets():
+    # Fast version of the validation below (short runs, screening only): the
+    # report's plumbing, not the diagnosis's power.
+    report = validate(
+        ["tool_growth"],
+        seeds=1,
+        out_of_vocabulary=None,
+        n_runs=3,
+        hours=2.0,
+        random_state=3,
+        fine=False,
+        max_samples=200,
+    )
+    assert list(report.cases["case"]) == ["effect", "null"]
+    assert report.cases["diagnosis"].iloc[1] == "none"
+    assert report.rates["withheld effect ranked first"] == 1.0
+    assert 0 < report.rates["mean shrink of the withheld effect"] < 1
+    assert report.rates["null called none"] == 1.0
+    assert set(report.targets) == {
+        "withheld effect ranked first >= 90%",
+        "mean shrink of the withheld effect >= 70%",
+        "null called none >= 90%",
+    }
+    assert "Confusion" in report.to_markdown()
+
+
+@pytest.mark.slow
 def test_validate_small():
     report = validate(["tool_growth"], seeds=1, out_of_vocabulary=None, random_state=3)
     assert set(report.cases["case"]) == {"effect", "null"}

@@ -50,7 +50,10 @@ def read_table(path, what="--runs"):
             ".csv.gz or .parquet)."
         ) from exc
     except (ValueError, ImportError, pd.errors.ParserError) as exc:
-        raise UserError(f"{what} {path}: {exc}") from exc
+        message = str(exc)
+        if str(path) not in message:
+            message = f"{path}: {message}"
+        raise UserError(f"{what}: {message}") from exc
 
 
 def write_table(df, path, *, metadata=None):
@@ -191,6 +194,33 @@ def parse_effects(value):
             "(or 'all', 'none'; see --list-effects)."
         )
     return names
+
+
+def machine_from_args(args, *, effects=None):
+    """The machine of ``--machine FILE`` (if given) or of ``--preset``.
+
+    ``effects=None`` keeps the machine's default effects. A machine file that
+    is missing or does not describe a valid machine is a :class:`UserError`
+    naming the file and the offending entry.
+    """
+    from skthermal.simulate import ThermalMachine
+
+    path = getattr(args, "machine", None)
+    if path is None:
+        return ThermalMachine.from_preset(args.preset, effects=effects)
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"--machine: no such file: {path}")
+    try:
+        return ThermalMachine.from_spec(path, effects=effects)
+    except (ValueError, TypeError, OSError) as exc:
+        raise UserError(f"--machine: {exc}") from exc
+
+
+def machine_label(args):
+    """How a command names the machine it used: the file or the preset."""
+    path = getattr(args, "machine", None)
+    return f"machine {path}" if path is not None else f"preset {args.preset}"
 
 
 def require(package, *, extra, command):

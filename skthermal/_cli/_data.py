@@ -11,6 +11,8 @@ import pandas as pd
 from skthermal._cli._common import (
     UserError,
     check_positive,
+    machine_from_args,
+    machine_label,
     parse_effects,
     pick_target,
     read_table,
@@ -78,11 +80,10 @@ def effects_text(table, width=None):
 
 
 def cmd_simulate(args):
-    from skthermal.datasets import make_machine_b_tests, read_runs
+    from skthermal.datasets import concat_runs, make_machine_b_tests, read_runs
     from skthermal.simulate import (
         AmbientProfile,
         DutyCycle,
-        ThermalMachine,
         describe_effects,
     )
 
@@ -92,9 +93,7 @@ def cmd_simulate(args):
     check_positive(args.sample_period, "--sample-period")
     if args.ambient_noise < 0:
         raise UserError(f"--ambient-noise must be >= 0, got {args.ambient_noise}.")
-    machine = ThermalMachine.from_preset(
-        args.preset, effects=parse_effects(args.effects)
-    )
+    machine = machine_from_args(args, effects=parse_effects(args.effects))
     noise = not args.no_noise
     if args.tests:
         if args.segment:
@@ -143,13 +142,17 @@ def cmd_simulate(args):
                 f"--append: run(s) {clash} are already in {out}; name the new run "
                 "with --run."
             )
-        meta = old_meta.to_dict("records") + meta
-        runs = pd.concat([old, runs], ignore_index=True)
+        old.attrs["metadata"] = old_meta.to_dict("records")
+        try:
+            runs = concat_runs([old, runs])
+        except ValueError as exc:
+            raise UserError(f"--append {out}: {exc}") from exc
+        meta = list(runs.attrs.get("metadata", []))
     write_table(runs, out, metadata=meta or None)
     sizes = runs.groupby("run", sort=False).size()
     print(
         f"Wrote {out}: {len(sizes)} run(s) ({', '.join(map(str, sizes.index))}), "
-        f"{len(runs)} rows, {runs.shape[1]} columns, preset {args.preset}."
+        f"{len(runs)} rows, {runs.shape[1]} columns, {machine_label(args)}."
     )
     return 0
 

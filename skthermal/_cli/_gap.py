@@ -6,7 +6,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from skthermal._cli._common import UserError, parse_effects, read_table
+from skthermal._cli._common import (
+    UserError,
+    machine_from_args,
+    machine_label,
+    parse_effects,
+    read_table,
+)
 
 
 def log_progress(quiet=False, stream=None):
@@ -31,18 +37,16 @@ def log_progress(quiet=False, stream=None):
 
 def cmd_gap(args):
     from skthermal.gap import diagnose
-    from skthermal.simulate import ThermalMachine
 
     log_progress(args.quiet)
 
     df = read_table(args.runs)
-    machine = ThermalMachine.from_preset(
-        args.preset, effects=parse_effects(args.effects) or []
-    )
+    machine = machine_from_args(args, effects=parse_effects(args.effects) or [])
     candidates = parse_effects(args.candidates)
     print(
-        f"Diagnosing {args.runs} ({df['run'].nunique()} run(s)) against preset "
-        f"{args.preset} (effects on: {', '.join(machine.effects) or 'none'}) ...",
+        f"Diagnosing {args.runs} ({df['run'].nunique()} run(s)) against "
+        f"{machine_label(args)} "
+        f"(effects on: {', '.join(machine.effects) or 'none'}) ...",
         flush=True,
     )
     report = diagnose(machine, df, candidates=candidates)

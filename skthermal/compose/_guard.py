@@ -27,7 +27,12 @@ from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skthermal.utils._runs import RUN_COLUMN, TIME_COLUMN, extract_runs, run_slices
+from skthermal.utils._runs import (
+    RUN_COLUMN,
+    TIME_COLUMN,
+    extract_runs,
+    run_first_rows,
+)
 
 
 class GuardWarning(UserWarning):
@@ -53,15 +58,6 @@ class PredictionRangeWarning(GuardWarning):
 # Fault kinds, in the order they are reported.
 _KINDS = ("missing", "range", "jump", "flat")
 _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
-
-
-def _run_starts(groups, n):
-    """The first row of the run of every row (all rows one run without groups)."""
-    slices, _ = run_slices(groups, n)
-    return np.repeat(
-        np.array([s.start for s in slices], dtype=int),
-        [s.stop - s.start for s in slices],
-    )
 
 
 def _steps(A, first):
@@ -295,7 +291,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     # --- fit ----------------------------------------------------------------
 
     @_fit_context(prefer_skip_nested_validation=False)
-    def fit(self, X, y, groups=None, **fit_params):
+    def fit(self, X, y, *, groups=None, **fit_params):
         """Fit the wrapped regressor and record the training ranges.
 
         Parameters
@@ -365,7 +361,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         return mask
 
     def _fit_ranges(self, A, Y, runs):
-        start = _run_starts(runs, A.shape[0])
+        start = run_first_rows(runs, A.shape[0])
         first = start == np.arange(A.shape[0])
         self.input_min_ = A.min(axis=0)
         self.input_max_ = A.max(axis=0)
@@ -376,7 +372,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     # --- predict ------------------------------------------------------------
 
-    def predict(self, X, groups=None):
+    def predict(self, X, *, groups=None):
         """Predict with the wrapped model, checked (and in a safe mode, bounded).
 
         Parameters
@@ -399,7 +395,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         return self._guard(X, groups)["prediction"]
 
-    def predict_checked(self, X, groups=None):
+    def predict_checked(self, X, *, groups=None):
         """Predictions with, per row, whether the guard found a problem.
 
         Parameters
@@ -451,7 +447,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             self, features, reset=False, dtype=np.float64, ensure_all_finite=False
         )
         n = A.shape[0]
-        start = _run_starts(runs, n)
+        start = run_first_rows(runs, n)
         first = start == np.arange(n)
         where = _Where(X, runs, self._sensor_names())
         flags = self._input_flags(A, first, where)

@@ -7,16 +7,12 @@ every run boundary.
 
 import numpy as np
 
-from skthermal.utils._runs import run_slices
+from skthermal.utils._runs import run_first_rows, run_slices
 
 
-def _run_starts(groups, n):
-    slices, _ = run_slices(groups, n)
-    starts = np.zeros(n, dtype=bool)
-    for sl in slices:
-        if sl.stop > sl.start:
-            starts[sl.start] = True
-    return slices, starts
+def _starts(groups, n):
+    """Mask of the rows that start a run."""
+    return run_first_rows(groups, n) == np.arange(n)
 
 
 def ago(x, groups=None):
@@ -71,7 +67,7 @@ def iago(x1, groups=None):
     out[0] = x1[0]
     out[1:] = x1[1:] - x1[:-1]
     if groups is not None:
-        _, starts = _run_starts(groups, n)
+        starts = _starts(groups, n)
         out[starts] = x1[starts]
     return out
 
@@ -95,7 +91,7 @@ def background(x1, groups=None):
         if n:
             mask[0] = False
     else:
-        _, starts = _run_starts(groups, n)
+        starts = _starts(groups, n)
         mask = ~starts
     prev = np.empty_like(x1)
     if n:

@@ -10,7 +10,7 @@ every run boundary.
 from numbers import Integral, Real
 
 import numpy as np
-from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
@@ -133,7 +133,8 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         tags.regressor_tags.poor_score = True
         return tags
 
-    def fit(self, X, y, groups=None):
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y, *, groups=None):
         """Calibrate the model on one or more training runs.
 
         Parameters
@@ -152,7 +153,6 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         self : object
             The fitted estimator.
         """
-        self._validate_params()
         X, y, slices, memory = self._runs_for_fit(X, y, groups)
         # The matrix products of training are small (n_samples x n_features,
         # times n_particles per epoch): a multi-threaded BLAS only adds
@@ -476,7 +476,7 @@ class GreyPSORegressor(_GreyRunRegressor):
             ind = J + i1 * a ** np.arange(X.shape[0], dtype=float)
         return np.diff(ind, prepend=state["I_end"])
 
-    def predict(self, X, groups=None):
+    def predict(self, X, *, groups=None):
         """Predicted change of the target since the first sample of each run.
 
         A run whose label was seen in ``fit`` *continues* that run: rows that
@@ -709,7 +709,7 @@ class GNNMCIRegressor(_GreyRunRegressor):
         # The restored series of a continued run needs only its first row.
         return memory
 
-    def predict(self, X, groups=None):
+    def predict(self, X, *, groups=None):
         """Predicted change of the target since the first sample of each run.
 
         A run whose label was seen in ``fit`` *continues* that run (see the

@@ -85,6 +85,18 @@ def _check_fields(where, table, allowed):
             )
 
 
+def _check_names(where, value):
+    """A list of names (strings) in a machine file, as a tuple."""
+    if isinstance(value, str) or not isinstance(value, list | tuple):
+        raise ValueError(
+            f"{where} must be a list of names, got {type(value).__name__} {value!r}."
+        )
+    for item in value:
+        if not isinstance(item, str):
+            raise ValueError(f"{where}: {item!r} is not a name (a string).")
+    return tuple(value)
+
+
 def _number(where, value, *, positive=False, nonnegative=False):
     # A file's number must be a number, not a string that parses as one.
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -509,7 +521,12 @@ class MachineSpec:
                 raise ValueError(f"machine spec: the field {key!r} is required.")
         p = {}
         nodes = data["nodes"]
-        _check_fields("nodes", nodes, list(nodes))
+        if not isinstance(nodes, dict) or not nodes:
+            raise ValueError(
+                "nodes must be a table with one entry per node "
+                "([nodes.<name>] capacity_J_per_K = ...), "
+                f"got {type(nodes).__name__} {nodes!r}."
+            )
         for n, entry in nodes.items():
             _check_fields(f"node {n!r}", entry, NODE_FIELDS)
             if "capacity_J_per_K" not in entry:
@@ -525,7 +542,13 @@ class MachineSpec:
                 nonnegative=True,
             )
         edges = []
-        for i, link in enumerate(data.get("links", [])):
+        links = data.get("links", [])
+        if not isinstance(links, list | tuple):
+            raise ValueError(
+                "links must be a list of tables ([[links]] between = [...]), "
+                f"got {type(links).__name__}."
+            )
+        for i, link in enumerate(links):
             _check_fields(f"link {i}", link, ("between", "conductance_W_per_K"))
             pair = link.get("between")
             if not isinstance(pair, list | tuple) or len(pair) != 2:
@@ -545,8 +568,8 @@ class MachineSpec:
         kw = {
             "enclosure": roles.get("enclosure", "enclosure"),
             "tool": roles.get("tool", "tool"),
-            "head_nodes": tuple(roles.get("head", ())),
-            "exposed_nodes": tuple(roles.get("exposed", ())),
+            "head_nodes": _check_names("roles: head", roles.get("head", ())),
+            "exposed_nodes": _check_names("roles: exposed", roles.get("exposed", ())),
         }
         heat = data.get("heat", {})
         _check_fields("heat", heat, (*HEAT_FIELDS, "feed"))
@@ -563,7 +586,9 @@ class MachineSpec:
             _check_fields(
                 "heat source 'feed'", feed, ("screw", "nut", "axis_motor", "axis")
             )
-            kw["screw_nodes"] = tuple(feed.get("screw", ()))
+            kw["screw_nodes"] = _check_names(
+                "heat source 'feed': screw", feed.get("screw", ())
+            )
             kw["nut"] = feed.get("nut")
             kw["axis_motor"] = feed.get("axis_motor")
             if "axis" in feed:
@@ -582,10 +607,17 @@ class MachineSpec:
             if f in noise:
                 p[key] = _number(f"sensor_noise: {f}", noise[f], nonnegative=True)
         sensors = []
-        for name, entry in data.get("sensors", {}).items():
+        sensor_table = data.get("sensors", {})
+        _check_fields("sensors", sensor_table, list(sensor_table or ()))
+        for name, entry in sensor_table.items():
             _check_fields(f"sensor {name!r}", entry, ("weights", "kind", "location"))
             if "weights" not in entry:
                 raise ValueError(f"sensor {name!r}: weights is required.")
+            if not isinstance(entry["weights"], dict):
+                raise ValueError(
+                    f"sensor {name!r}: weights must be a table of node weights "
+                    f"(node or 'room' = weight), got {entry['weights']!r}."
+                )
             sensors.append(
                 SensorSpec(
                     name,
@@ -594,7 +626,7 @@ class MachineSpec:
                     entry.get("location", ""),
                 )
             )
-        axes = tuple(data.get("axes", ("x", "y", "z")))
+        axes = _check_names("axes", data.get("axes", ("x", "y", "z")))
         disp = data.get("displacement", {})
         _check_fields("displacement", disp, ("noise_um", *axes))
         if "noise_um" in disp:
@@ -614,8 +646,13 @@ class MachineSpec:
             for k, v in values.items():
                 p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
         extra = data.get("params", {})
+        _check_fields("params", extra, list(extra or ()))
         p.update(extra)
-        groups = {g: list(m) for g, m in data.get("groups", {}).items()}
+        group_table = data.get("groups", {})
+        _check_fields("groups", group_table, list(group_table or ()))
+        groups = {
+            g: list(_check_names(f"group {g!r}", m)) for g, m in group_table.items()
+        }
         return cls(
             name=str(data["name"]),
             description=str(data.get("description", "")),

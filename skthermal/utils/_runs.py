@@ -73,6 +73,35 @@ def run_slices(groups, n_samples=None):
     return slices, labels.tolist()
 
 
+def run_first_rows(groups, n_samples):
+    """The first row of the run of every row.
+
+    Parameters
+    ----------
+    groups : array-like of shape (n_samples,) or None
+        Run label of every row; ``None``: all rows form one run.
+    n_samples : int
+        Number of rows.
+
+    Returns
+    -------
+    first : ndarray of int, shape (n_samples,)
+        ``first[i]`` is the index of the first row of row ``i``'s run;
+        ``first == np.arange(n_samples)`` marks the rows that start a run.
+
+    Examples
+    --------
+    >>> from skthermal.utils._runs import run_first_rows
+    >>> run_first_rows(["a", "a", "b", "b", "b"], 5)
+    array([0, 0, 2, 2, 2])
+    """
+    slices, _ = run_slices(groups, n_samples)
+    return np.repeat(
+        np.array([s.start for s in slices], dtype=int),
+        [s.stop - s.start for s in slices],
+    )
+
+
 def extract_runs(X, groups=None):
     """Separate run labels from the features of ``X``.
 

@@ -1,0 +1,171 @@
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.linear_model import LinearRegression
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from skthermal.preprocessing import (
+    LagFeatures,
+    LagRidgeCV,
+    exponential_filter,
+    make_lag_pipeline,
+)
+
+_SEQUENCE = (
+    "sequence model: a row's output depends on the earlier rows of its run "
+    "(the lag filters restart at each run), so a subset or a reordering of the "
+    "rows of a plain array, which is one run, changes it"
+)
+DATA = Path(__file__).parents[1].parent / "shared" / "data"
+
+
+@parametrize_with_checks(
+    [
+        LagFeatures(time_constants=(2.0, 5.0)),
+        LagRidgeCV(time_constant_sets=[(), (2.0, 5.0)], alphas=[0.1, 10.0]),
+    ],
+    expected_failed_checks=lambda est: {
+        "check_methods_subset_invariance": _SEQUENCE,
+        "check_methods_sample_order_invariance": _SEQUENCE,
+    },
+)
+def test_sklearn_compatible(estimator, check):
+    check(estimator)
+
+
+def test_filter_steady_state_and_restart():
+    U = np.r_[np.full(5, 3.0), np.full(5, 7.0)]
+    slices = [slice(0, 5), slice(5, 10)]
+    Z = exponential_filter(U, 10.0, 1.0, slices)
+    # constant input within each run: steady state from the first row
+    np.testing.assert_allclose(Z, U)
+    one_run = exponential_filter(U, 10.0, 1.0)
+    assert one_run[5] < 7.0  # without the restart the step is smoothed
+
+
+def test_filter_matches_recursion():
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=50)
+    a = np.exp(-2.0 / 7.0)
+    z = np.empty_like(u)
+    z[0] = u[0]
+    for k in range(1, u.size):
+        z[k] = a * z[k - 1] + (1 - a) * u[k]
+    np.testing.assert_allclose(exponential_filter(u, 7.0, 2.0), z)
+
+
+def test_bad_time_constant():
+    with pytest.raises(ValueError, match="time_constant"):
+        exponential_filter(np.ones(3), 0.0, 1.0)
+    with pytest.raises(ValueError, match="time_constants"):
+        LagFeatures(time_constants=[-1.0]).fit(np.ones((3, 1)))
+
+
+def _frame():
+    t = np.r_[np.arange(6) * 30.0, np.arange(4) * 30.0]
+    idx = pd.MultiIndex.from_arrays([["a"] * 6 + ["b"] * 4, t], names=["run", "time_s"])
+    return pd.DataFrame(
+        {
+            "T1_C": np.r_[np.linspace(20, 25, 6), np.linspace(30, 31, 4)],
+            "spindle_rpm": np.r_[np.full(6, 2000.0), np.zeros(4)],
+        },
+        index=idx,
+    )
+
+
+def test_runs_restart_and_names_and_pandas_output():
+    X = _frame()
+    lf = LagFeatures(time_constants=[60.0]).set_output(transform="pandas")
+    F = lf.fit_transform(X)
+    assert list(F.columns) == [
+        "d_T1_C",
+        "d_T1_C_lp60",
+        "spindle_rpm_pow1_lp60",
+        "spindle_rpm_pow1.5_lp60",
+    ]
+    assert isinstance(F, pd.DataFrame)
+    # changes restart at the start of run b
+    assert F["d_T1_C"].iloc[0] == 0 and F["d_T1_C"].iloc[6] == 0
+    # driver filters start in steady state: constant within each run
+    np.testing.assert_allclose(F["spindle_rpm_pow1_lp60"].iloc[:6], 2.0)
+    np.testing.assert_allclose(F["spindle_rpm_pow1_lp60"].iloc[6:], 0.0)
+    # spacing taken from time_s (30 s), not dt
+    a = np.exp(-30.0 / 60.0)
+    dT = F["d_T1_C"].to_numpy()
+    assert F["d_T1_C_lp60"].iloc[1] == pytest.approx((1 - a) * dT[1])
+
+
+def test_bad_driver_and_time_order():
+    X = _frame()
+    with pytest.raises(ValueError, match="'rpm'"):
+        LagFeatures(drivers=["rpm"]).fit(X)
+    bad = X.iloc[[1, 0, 2, 3, 4, 5, 6, 7, 8, 9]]
+    with pytest.raises(ValueError, match="time_s must increase"):
+        LagFeatures().fit(bad).transform(bad)
+
+
+def test_cv_uses_training_rows_only():
+    from sklearn.linear_model import Ridge
+    from sklearn.preprocessing import StandardScaler
+
+    from skthermal.preprocessing._lag_ridge import _forward_folds, _ridge_path_sse
+
+    rng = np.random.default_rng(0)
+    n = 300
+    T = np.cumsum(rng.normal(size=(n, 2)), axis=0)
+    y = T[:, 0] + 0.1 * rng.normal(size=n)
+    lf = LagFeatures(time_constants=[5.0]).fit(T)
+    F = lf.transform(T)
+    # causal: features of a prefix equal the prefix of the features, so
+    # slicing once-computed features per forward fold sees no later rows
+    np.testing.assert_allclose(lf.transform(T[:120]), F[:120])
+    # the SVD alpha path equals ridge refitted on each fold's training rows
+    folds = _forward_folds(n, 4, 0.4)
+    alphas = np.array([0.1, 10.0])
+    expected = np.zeros(2)
+    for tr, va in folds:
+        sc = StandardScaler().fit(F[tr])
+        for j, a in enumerate(alphas):
+            m = Ridge(alpha=a).fit(sc.transform(F[tr]), y[tr])
+            expected[j] += np.sum((m.predict(sc.transform(F[va])) - y[va]) ** 2)
+    np.testing.assert_allclose(_ridge_path_sse(F, y, folds, alphas), expected)
+    # fit's CV scores come from the rows given to fit, in the same folds
+    m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)], alphas=alphas).fit(T, y)
+    np.testing.assert_allclose(m1.cv_results_["sse"][1], expected)
+    m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)]).fit(T[:200], y[:200])
+    assert m1.cv_results_["sse"].shape == (2, 15)
+    assert np.isfinite(m1.predict(T)).all()
+
+
+def test_cv_folds_score_only_later_rows():
+    from skthermal.preprocessing._lag_ridge import _forward_folds, _group_folds
+
+    for tr, va in _forward_folds(100, 4, 0.4):
+        assert tr.max() < va.min()
+    folds = _group_folds([slice(0, 3), slice(3, 7), slice(7, 9)], 4)
+    assert len(folds) == 3
+    for tr, va in folds:
+        assert np.intersect1d(tr, va).size == 0
+
+
+@pytest.mark.skipif(
+    not (DATA / "fl_thermal_spindle.csv.gz").exists(),
+    reason="FL_THERMAL data not found in ../shared/data",
+)
+def test_fl_thermal_target():
+    df = pd.read_csv(DATA / "fl_thermal_spindle.csv.gz")
+    temps = [f"T{i}_C" for i in range(1, 17)]
+    n = len(df)
+    cut = int(0.6 * n)
+    index = pd.MultiIndex.from_arrays(
+        [np.zeros(n, int), df["time_s"].to_numpy()], names=["run", "time_s"]
+    )
+    X = df[temps + ["spindle_rpm"]].set_axis(index, axis=0)
+    for ch in (1, 5):  # the best and the worst channel of the benchmark
+        y = df[f"disp_ch{ch}_um"].to_numpy()
+        lr = LinearRegression().fit(df[temps].iloc[:cut], y[:cut])
+        base = np.sqrt(np.mean((lr.predict(df[temps].iloc[cut:]) - y[cut:]) ** 2))
+        pred = make_lag_pipeline().fit(X.iloc[:cut], y[:cut]).predict(X)[cut:]
+        assert np.sqrt(np.mean((pred - y[cut:]) ** 2)) <= 0.5 * base
