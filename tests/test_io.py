@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_array_equal
 from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.linear_model import Ridge
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
@@ -25,6 +26,8 @@ from skthermal import (  # noqa: E402
     GreyInfluenceSelector,
     GreyPSORegressor,
     GuardedRegressor,
+    LagFeatures,
+    LagRidgeCV,
     ModularRegressor,
     StableTSPSelector,
     TransferFunctionRegressor,
@@ -53,6 +56,8 @@ ESTIMATORS = [
     TransferFunctionRegressor(n_grid=3, max_iter=2),
     ModularRegressor(),
     GuardedRegressor(GreyPSORegressor(n_particles=6, epochs=3), mode="clip"),
+    LagRidgeCV(time_constant_sets=[(), (2.0, 5.0)], alphas=[0.1, 10.0]),
+    make_pipeline(LagFeatures(time_constants=(3.0,)), StandardScaler(), Ridge()),
     make_pipeline(
         GreyInfluenceSelector(n_features_to_select=2),
         StandardScaler(),
@@ -211,12 +216,12 @@ def test_epoch_callback_is_not_saved(runs_data, tmp_path):
     assert_array_equal(loaded.predict(X), model.predict(X))
 
 
-def test_missing_skops_names_the_extra(monkeypatch):
+def test_missing_skops_says_how_to_install_it(monkeypatch):
     import sys
 
     monkeypatch.setitem(sys.modules, "skops.io", None)
     monkeypatch.setitem(sys.modules, "skops", None)
-    with pytest.raises(ImportError, match=r"skthermal\[deploy\]"):
+    with pytest.raises(ImportError, match=r"requires skops.*pip install skops"):
         save(ANFISRegressor(), "unused.skops")
 
 

@@ -53,6 +53,19 @@ def test_run_start_regressor_hands_runs_and_names_to_the_inner_model():
         model.predict(frame[["T1_C", "run"]])
 
 
+def test_run_start_regressor_warns_when_runs_lose_their_labels():
+    X, y, groups = _two_runs()
+    model = RunStartRegressor(LinearRegression()).fit(X, y, groups=groups)
+    with pytest.warns(UserWarning, match="fitted on 2 labelled run.*ONE run"):
+        model.predict(X)
+    unlabelled = RunStartRegressor(LinearRegression()).fit(X[:30], y[:30])
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        unlabelled.predict(X[:30])
+
+
 def test_every_named_model_is_wrapped_and_has_a_search_space():
     for name in MODELS:
         model = make_model(name, random_state=0, quick=True)

@@ -44,7 +44,10 @@ def test_relative_works_on_changes_since_each_run_start():
         [("spindle", LinearRegression(), [0]), ("axis", LinearRegression(), [1])]
     ).fit(Xa, ya, source=source, groups=groups)
     combined = np.c_[np.linspace(0, 2, 5), np.linspace(0, 1, 5), np.zeros(5)] + 21.0
-    pred = model.predict(combined)
+    # Fitted on labelled runs, given rows without labels: one run, with a word.
+    with pytest.warns(UserWarning, match="carry no run labels"):
+        pred = model.predict(combined)
+    np.testing.assert_allclose(pred, model.predict(combined, groups=np.zeros(5)))
     np.testing.assert_allclose(
         pred, 3.0 * np.linspace(0, 2, 5) - 2.0 * np.linspace(0, 1, 5), atol=1e-9
     )

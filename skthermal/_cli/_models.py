@@ -238,8 +238,8 @@ def _prediction_column(df, target, where):
 
 
 def cmd_evaluate(args):
+    from skthermal._markdown import markdown_table
     from skthermal.study import METRIC_COLUMNS, score_runs
-    from skthermal.study._report import markdown_table
 
     if args.model and args.predictions:
         raise UserError("Give either --model or --predictions, not both.")

@@ -9,8 +9,9 @@ holds one record (dict) per run: machine, effects, description;
 file.
 """
 
-import pandas as pd
 from sklearn.utils import check_random_state
+
+from skthermal.datasets._combine import concat_runs
 
 MACHINE_B_TESTS = {
     # name: (hours/speed steps, ambient settings, description, paper's max Y µm)
@@ -54,11 +55,10 @@ MACHINE_B_TESTS = {
 
 
 def _concat(frames, metas):
+    """Join simulated runs, each with its own metadata record."""
     for frame in frames:
         frame.attrs.clear()
-    runs = pd.concat(frames, ignore_index=True)
-    runs.attrs["metadata"] = list(metas)
-    return runs
+    return concat_runs(frames, metadata=list(metas), validate=False)
 
 
 def make_machine_b_tests(

@@ -31,6 +31,7 @@ from skthermal.utils._runs import (
     changes_since_start,
     extract_runs,
     run_slices,
+    warn_unlabelled_runs,
 )
 
 
@@ -266,6 +267,10 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
         modules = self._resolve_modules()
+        # Runs labelled in fit: predict warns when it gets rows without labels.
+        self._fit_runs = (
+            len(run_slices(groups)[0]) if self.relative and groups is not None else None
+        )
         X = self._relative(X, groups)
         y = self._relative(np.asarray(y, dtype=float), groups)
         self._fit(X, y, modules, source)
@@ -395,6 +400,9 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         check_is_fitted(self)
         X, groups = extract_runs(X, groups)
         X = validate_data(self, X, reset=False, dtype=np.float64)
+        warn_unlabelled_runs(
+            type(self).__name__, getattr(self, "_fit_runs", None), groups, X.shape[0]
+        )
         X = self._relative(X, groups)
         return np.stack(
             [

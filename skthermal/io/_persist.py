@@ -50,7 +50,7 @@ class UntrustedTypesError(ValueError):
 
 
 def _skops_io():
-    return import_optional("skops.io", extra="deploy", caller="skthermal.io")
+    return import_optional("skops.io", caller="skthermal.io")
 
 
 def _versions():
@@ -190,7 +190,7 @@ def save(model, path, *, compress=True):
     Raises
     ------
     ImportError
-        If skops is not installed (``pip install "skthermal[deploy]"``).
+        If skops (a dependency of skthermal) is missing from the environment.
 
     See Also
     --------
@@ -308,7 +308,7 @@ def load(path, *, trusted=None):
         If the file holds types outside the default set and ``trusted``;
         the error lists them (``.types``).
     ImportError
-        If skops is not installed (``pip install "skthermal[deploy]"``).
+        If skops (a dependency of skthermal) is missing from the environment.
 
     Warns
     -----

@@ -27,6 +27,7 @@ from sklearn.utils._param_validation import (
     validate_params,
 )
 
+from skthermal._optional import import_optional
 from skthermal.metrics import get_scorer
 from skthermal.model_selection._spaces import (
     _default_space_name,
@@ -46,14 +47,9 @@ ATTR_START = "worker_start"
 
 
 def _import_optuna():
-    try:
-        import optuna
-    except ImportError as exc:
-        raise ImportError(
-            "skthermal.model_selection searches need optuna; install it with "
-            'pip install "skthermal[optuna]".'
-        ) from exc
-    return optuna
+    return import_optional(
+        "optuna", extra="optuna", caller="skthermal.model_selection searches"
+    )
 
 
 @contextlib.contextmanager

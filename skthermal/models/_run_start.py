@@ -11,6 +11,7 @@ from skthermal.utils._runs import (
     changes_since_start,
     extract_runs,
     run_slices,
+    warn_unlabelled_runs,
 )
 
 
@@ -108,6 +109,8 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         slices, _ = run_slices(groups, A.shape[0])
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
         self.estimator_ = clone(self.estimator).fit(self._changes(A, groups), dy)
+        # Runs labelled in fit: predict warns when it gets rows without labels.
+        self._fit_runs = None if groups is None else len(slices)
         return self
 
     def predict(self, X, *, groups=None):
@@ -128,6 +131,9 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         check_is_fitted(self, "estimator_")
         X, groups = extract_runs(X, groups)
         A = validate_data(self, X, reset=False, dtype=np.float64)
+        warn_unlabelled_runs(
+            type(self).__name__, getattr(self, "_fit_runs", None), groups, A.shape[0]
+        )
         pred = np.asarray(self.estimator_.predict(self._changes(A, groups)), float)
         slices, _ = run_slices(groups, A.shape[0])
         return changes_since_start(pred, slices)
