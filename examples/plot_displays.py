@@ -32,6 +32,7 @@ from sklearn.preprocessing import StandardScaler
 
 from skthermal import ANFISRegressor, FCMClusterPicker
 from skthermal.datasets import make_machine_b_tests, split_runs
+from skthermal.gap import label_regimes
 from skthermal.plotting import (
     GapTimelineDisplay,
     MembershipFunctionDisplay,
@@ -81,16 +82,12 @@ plt.tight_layout()
 # Residual by regime
 # ------------------
 # Where does the linear model miss? Label every sample of test IV by what the
-# machine was doing -- spindle running, the first hour after it stops, then
-# standing -- and shade the residual timeline.
+# machine was doing (:func:`skthermal.gap.label_regimes`: spindle running, the
+# first hour after it stops, then standing) and shade the residual timeline.
 test = runs[runs["run"] == "IV"]
 residual = test["disp_y_um"].to_numpy() - model.predict(test[picker.feature_names_in_])
-running = test["spindle_rpm"].to_numpy() > 0
 time_s = test["time_s"].to_numpy()
-last_stop = np.maximum.accumulate(np.where(running, time_s, 0.0))
-regimes = np.where(
-    running, "heating", np.where(time_s - last_stop <= 3600, "cooling", "dwell")
-)
+regimes = label_regimes(time_s, test["spindle_rpm"])["regime"].to_numpy()
 GapTimelineDisplay.from_arrays(time_s, residual, regimes, residual_name="residual (µm)")
 plt.tight_layout()
 plt.show()

@@ -298,20 +298,20 @@ def test_sensor_scores_errors(sensor_data):
 
 def test_gap_timeline_spans_per_regime():
     t = np.arange(12) * 600.0
-    regimes = ["heating"] * 3 + ["cooling"] * 2 + ["heating"] * 2
+    regimes = ["heating"] * 3 + ["after stop"] * 2 + ["heating"] * 2
     regimes += ["dwell", "ambient event", "ambient event", None, "dwell"]
     residual = np.linspace(-1, 1, 12)
     disp = GapTimelineDisplay.from_arrays(t, residual, regimes)
     counts = {k: len(v) for k, v in disp.spans_.items()}
-    assert counts == {"heating": 2, "cooling": 1, "dwell": 2, "ambient event": 1}
+    assert counts == {"heating": 2, "after stop": 1, "dwell": 2, "ambient event": 1}
     assert disp.colors_["heating"] == "tab:red"
     assert disp.colors_["ambient event"] == "tab:purple"
     texts = [t.get_text() for t in disp.legend_.get_texts()]
-    assert texts == ["heating", "cooling", "dwell", "ambient event", "residual"]
+    assert texts == ["heating", "after stop", "dwell", "ambient event", "residual"]
     # A span reaches the first sample of the next block (times in minutes).
-    x = disp.spans_["cooling"][0].get_x()
+    x = disp.spans_["after stop"][0].get_x()
     assert x == pytest.approx(30.0)
-    assert disp.spans_["cooling"][0].get_width() == pytest.approx(20.0)
+    assert disp.spans_["after stop"][0].get_width() == pytest.approx(20.0)
     np.testing.assert_allclose(disp.line_.get_ydata(), residual)
     assert disp.ax_.get_xlabel() == "time (min)"
 

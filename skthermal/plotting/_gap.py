@@ -1,7 +1,7 @@
 """GapTimelineDisplay: a residual over time, shaded by operating regime.
 
 For diagnosing the gap between a simulation (or model) and the measurement:
-where in a test the residual grows -- while heating, cooling, dwelling, during
+where in a test the residual grows -- while heating, after a stop, dwelling, during
 an ambient event -- is the first clue to the missing physics.
 """
 
@@ -13,7 +13,7 @@ from skthermal.plotting._base import _time_scale, check_matplotlib_support
 # Default colours of the common regimes; others cycle through the tab palette.
 REGIME_COLORS = {
     "heating": "tab:red",
-    "cooling": "tab:blue",
+    "after stop": "tab:blue",
     "dwell": "tab:gray",
     "ambient event": "tab:purple",
 }
@@ -62,7 +62,7 @@ class GapTimelineDisplay:
     residual : array-like of shape (n_samples,)
         The gap, e.g. measured minus simulated displacement.
     regimes : array-like of str of shape (n_samples,)
-        Regime label of every sample, e.g. ``"heating"``, ``"cooling"``,
+        Regime label of every sample, e.g. ``"heating"``, ``"after stop"``,
         ``"dwell"``, ``"ambient event"``.
     residual_name : str, default="residual"
         Legend label of the residual line and y-axis label.
@@ -89,10 +89,10 @@ class GapTimelineDisplay:
     >>> import numpy as np
     >>> from skthermal.plotting import GapTimelineDisplay
     >>> t = np.arange(0, 6 * 3600, 300.0)
-    >>> regimes = np.where(t < 3 * 3600, "heating", "cooling")
+    >>> regimes = np.where(t < 3 * 3600, "heating", "after stop")
     >>> disp = GapTimelineDisplay.from_arrays(t, np.sin(t / 3600), regimes)
     >>> {k: len(v) for k, v in disp.spans_.items()}
-    {'heating': 1, 'cooling': 1}
+    {'heating': 1, 'after stop': 1}
     """
 
     def __init__(self, *, time, residual, regimes, residual_name="residual"):
@@ -137,7 +137,7 @@ class GapTimelineDisplay:
             Unit of the time axis (``time`` is in seconds); None plots
             ``time`` as given.
         colors : dict of str to color, default=None
-            Colours of regimes, overriding the defaults (heating red, cooling
+            Colours of regimes, overriding the defaults (heating red, after stop
             blue, dwell grey, ambient event purple, others from the tab
             palette).
         alpha : float, default=0.2
