@@ -110,6 +110,38 @@ def test_a_small_machine_from_a_dict_simulates():
             lambda d: d["nodes"]["spindle"].update(capacity_J_per_K="2 kJ/K"),
             r"node 'spindle': capacity_J_per_K must be a number",
         ),
+        (
+            lambda d: d.update(nodes=3),
+            r"nodes must be a table with one entry per node",
+        ),
+        (
+            lambda d: d.update(links={"between": ["spindle", "housing"]}),
+            r"links must be a list of tables",
+        ),
+        (
+            lambda d: d.update(axes="z"),
+            r"axes must be a list of names",
+        ),
+        (
+            lambda d: d["heat"].update(custom={"pump": {"node": "bse", "W": 5.0}}),
+            r"heat source 'pump': unknown node 'bse'",
+        ),
+        (
+            lambda d: d["heat"].update(custom={"pump": {"node": "air", "Watts": 5.0}}),
+            r"heat source 'pump': unknown field 'Watts'",
+        ),
+        (
+            lambda d: d["heat"].update(custom={"bearing": {"node": "air"}}),
+            r"heat source 'bearing': the name is taken by a built-in source",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(noise_C=-0.1),
+            r"sensor 'T1_C': noise_C must not be negative",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(noise_c=0.1),
+            r"sensor 'T1_C': unknown field 'noise_c' \(did you mean 'noise_C'",
+        ),
     ],
 )
 def test_bad_specs_name_the_entry(edit, message):
@@ -264,3 +296,57 @@ def test_network_and_heat_inputs_are_public():
     heat = rig.heat_inputs([0.0, 1000.0])
     assert heat.loc[1, "front_bearing"] == pytest.approx(rig.params["q.bearing_W"])
     assert heat.loc[0].sum() == 0.0
+
+
+def test_custom_heat_source_heats_its_node_and_round_trips(tmp_path):
+    data = _small()
+    data["heat"]["custom"] = {
+        "pump": {"node": "housing", "W_constant": 6.0, "W_per_m_min": 2.0},
+        "fan": {"node": "spindle", "W_at_1000_rpm": 1.0, "alpha": 2.0},
+    }
+    machine = ThermalMachine.from_spec(data, effects=[])
+    heat = machine.heat_inputs([0.0, 2000.0], feed_mm_min=[3000.0, 0.0])
+    # pump: 6 W always + 2 W per m/min of feed; fan: (n/1000)^2 W, plus the
+    # bearing's 4 W (n/1000)^1.5 on the same node.
+    np.testing.assert_allclose(heat["housing"], [6.0 + 6.0, 6.0])
+    np.testing.assert_allclose(heat["spindle"], [0.0, 4.0 + 4 * 2**1.5])
+    spec = machine.spec
+    assert spec.custom_heat == {"pump": "housing", "fan": "spindle"}
+    assert MachineSpec.from_dict(spec.to_dict()) == spec
+    path = tmp_path / "m.toml"
+    spec.to_toml(path)
+    again = ThermalMachine.from_spec(path, effects=[])
+    pd.testing.assert_frame_equal(
+        again.simulate(DUTY, 20.0, noise=False),
+        machine.simulate(DUTY, 20.0, noise=False),
+    )
+    # The source heats the machine even with the spindle off.
+    idle = machine.simulate(DutyCycle([(7200, 0)]), 20.0, noise=False)
+    assert idle["T1_C"].iloc[-1] > 20.05
+    # It is part of the "drive" response, so the parts still sum up.
+    t = np.arange(61) * 60.0
+    parts = machine.response(t, np.full(61, 2000.0), np.full(61, 20.0), by_source=True)
+    total = machine.response(t, np.full(61, 2000.0), np.full(61, 20.0))
+    np.testing.assert_allclose(sum(parts.values()), total)
+
+
+def test_per_sensor_noise_overrides_the_machine_figures():
+    data = _small()
+    data["sensor_noise"] = {"noise_C": 0.0, "quantization_C": 0.0}
+    data["sensors"]["T2_C"] = {
+        "weights": {"housing": 1.0},
+        "noise_C": 0.5,
+        "quantization_C": 0.25,
+    }
+    machine = ThermalMachine.from_spec(data, effects=[])
+    run = machine.simulate(DUTY, 20.0, random_state=0)
+    quiet = machine.simulate(DUTY, 20.0, noise=False)
+    # T1_C takes the machine's figures (no noise, no step): exact.
+    np.testing.assert_allclose(run["T1_C"], quiet["T1_C"], atol=1e-12)
+    # T2_C has its own noise and reads in steps of 0.25 °C.
+    residual = run["T2_C"] - quiet["T2_C"]
+    assert 0.3 < residual.std() < 0.7
+    np.testing.assert_allclose(run["T2_C"] / 0.25, np.round(run["T2_C"] / 0.25))
+    by_name = {s.name: s for s in machine.spec.sensors}
+    assert by_name["T2_C"].noise_C == 0.5 and by_name["T1_C"].noise_C is None
+    assert MachineSpec.from_dict(machine.spec.to_dict()) == machine.spec

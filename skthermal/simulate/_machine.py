@@ -228,18 +228,18 @@ class ThermalMachine:
                     f"Parameter {key!r} is a heat capacity and must be positive, "
                     f"got {value}."
                 )
-            if kind in ("G", "hA", "q") and value < 0 and key != "q.alpha":
+            if kind in ("G", "hA", "q") and value < 0 and not key.endswith("alpha"):
                 raise ValueError(
                     f"Parameter {key!r} (a conductance or heat input) must not be "
                     f"negative, got {value}."
                 )
             out[key] = value
-        alpha = out.get("q.alpha", 1.5)
-        if not 0.5 <= alpha <= 3.0:
-            raise ValueError(
-                f"Parameter 'q.alpha' (bearing loss ~ speed^alpha) must lie in "
-                f"[0.5, 3], got {alpha}; Palmgren-type friction gives 1 to 1.7."
-            )
+        for key in [k for k in out if k.startswith("q.") and k.endswith("alpha")]:
+            if not 0.5 <= out[key] <= 3.0:
+                raise ValueError(
+                    f"Parameter {key!r} (loss ~ speed^alpha) must lie in [0.5, 3], "
+                    f"got {out[key]}; Palmgren-type friction gives 1 to 1.7."
+                )
         for effect in EFFECTS.values():
             effect.check(out)
         for key, value in out.items():
@@ -623,6 +623,10 @@ class ThermalMachine:
                 cols[spec.cutting] = (
                     cols.get(spec.cutting, 0.0) + p["q.cutting_W"] * running
                 )
+            for source, node in spec.custom_heat.items():
+                cols[node] = cols.get(node, 0.0) + self._custom_power(
+                    source, krpm, running, feed
+                )
         for effect in self._active():
             effect.heat(self, p, rpm, feed, cols, sources)
         nodes = list(cols)
@@ -631,6 +635,21 @@ class ThermalMachine:
             return np.zeros((n, 0)), []
         Q = np.column_stack([np.broadcast_to(cols[k], (n,)) for k in nodes])
         return Q, [self._index[k] for k in nodes]
+
+    def _custom_power(self, source, krpm, running, feed):
+        """Heat (W) of the custom source ``source`` (see ``MachineSpec``)."""
+        p = self._params
+
+        def q(f, default=0.0):
+            return p.get(f"q.{source}.{f}", default)
+
+        power = q("W_constant") + q("W") * running
+        if q("W_at_1000_rpm"):
+            power = power + q("W_at_1000_rpm") * krpm ** q("alpha", 1.5)
+        power = power + q("W_per_1000_rpm") * krpm
+        if q("W_per_m_min"):
+            power = power + q("W_per_m_min") * np.abs(np.asarray(feed, float)) / 1e3
+        return power
 
     def displacement_matrix(self):
         """Thermo-elastic map, DataFrame (axes x nodes) of µm per K of node rise.
@@ -995,9 +1014,22 @@ class ThermalMachine:
             T[a : b + 1] = modal.step(T[a], Q[a:b], to_room, air[a : b + 1], dt, cols)
         return T
 
-    def _quantise(self, x):
-        q = self._params["sensor.quantization_C"]
-        return np.round(x / q) * q if q > 0 else x
+    def _quantise(self, x, step=None):
+        """Round to the quantisation step (per column when ``step`` is given)."""
+        q = self._params["sensor.quantization_C"] if step is None else step
+        q = np.asarray(q, dtype=float)
+        safe = np.where(q > 0, q, 1.0)
+        return np.where(q > 0, np.round(x / safe) * safe, x)
+
+    def _sensor_numbers(self, field):
+        """Per-sensor noise figure ``field``: its own, or the machine's."""
+        shared = self._params[f"sensor.{field}"]
+        return np.array(
+            [
+                shared if getattr(s, field) is None else getattr(s, field)
+                for s in self.spec.sensors
+            ]
+        )
 
     def _sensor_matrix(self, names):
         """Weights (sensors x nodes + room) and the lagged mask, cached."""
@@ -1030,15 +1062,17 @@ class ThermalMachine:
             [
                 np.random.RandomState(
                     zlib.crc32(f"{self.name}/{s.name}".encode())
-                ).normal(0.0, p["sensor.offset_C"])
-                for s in spec.sensors
+                ).normal(0.0, sd)
+                for s, sd in zip(
+                    spec.sensors, self._sensor_numbers("offset_C"), strict=True
+                )
             ]
         )
         x = x + offsets
         for effect in self._active():
             x = effect.noise(self, p, x, t, dt, rng)
-        x = x + rng.normal(0.0, p["sensor.noise_C"], x.shape)
-        return self._quantise(x)
+        x = x + rng.normal(0.0, 1.0, x.shape) * self._sensor_numbers("noise_C")
+        return self._quantise(x, self._sensor_numbers("quantization_C"))
 
 
 def _run_drivers(frame, run):

@@ -40,6 +40,15 @@ HEAT_ROLES = {
     "belt": "belt",
     "cutting": "cutting",
 }
+# Custom heat sources: field -> unit (parameter q.<source>.<field>).
+CUSTOM_HEAT_FIELDS = {
+    "W_constant": "W, always",
+    "W": "W while the spindle turns",
+    "W_at_1000_rpm": "W at 1000 rpm, times (n/1000)^alpha",
+    "alpha": "1",
+    "W_per_1000_rpm": "W per 1000 rpm",
+    "W_per_m_min": "W per m/min of feed",
+}
 SENSOR_FIELDS = {
     "noise_C": "sensor.noise_C",
     "quantization_C": "sensor.quantization_C",
@@ -119,17 +128,21 @@ class SensorSpec:
         Surface sensors lag when the ``sensor_lag`` effect is on.
     location : str
         Where it sits, in words.
-
-    Noise (°C, standard deviation), quantisation step (°C) and calibration
-    offset (°C, standard deviation over sensors) are shared by all sensors of
-    a machine: parameters ``sensor.noise_C``, ``sensor.quantization_C`` and
-    ``sensor.offset_C``.
+    noise_C, quantization_C, offset_C : float or None
+        This sensor's noise (°C, standard deviation), quantisation step (°C)
+        and calibration offset (°C, standard deviation of the offset drawn
+        once per sensor); None (default) takes the machine's
+        ``sensor.noise_C``, ``sensor.quantization_C`` and ``sensor.offset_C``,
+        shared by all sensors without their own.
     """
 
     name: str
     weights: dict
     kind: str = "surface"
     location: str = ""
+    noise_C: float | None = None
+    quantization_C: float | None = None
+    offset_C: float | None = None
 
 
 @dataclass(frozen=True)
@@ -174,6 +187,13 @@ class MachineSpec:
         (W): a belt, or a second bearing.
     cutting : str
         Node heated by cutting while the spindle turns, ``q.cutting_W`` (W).
+    custom_heat : dict
+        Further heat sources, name -> heated node (a coolant pump, a
+        hydraulic unit, a second motor). Source ``s`` gives
+        ``q.s.W_constant + q.s.W * on + q.s.W_at_1000_rpm * (n/1000)^q.s.alpha
+        + q.s.W_per_1000_rpm * n/1000 + q.s.W_per_m_min * |feed|/1000`` (W;
+        ``on``: the spindle turns; absent numbers are zero, ``alpha`` 1.5);
+        it belongs to the ``"drive"`` part of :meth:`ThermalMachine.response`.
     screw_nodes : tuple of str
         Ball-screw segments from the fixed bearing on (``feed_heating``).
     nut, axis_motor : str or None
@@ -206,6 +226,7 @@ class MachineSpec:
     motor: str = "motor"
     belt: str = "carrier2"
     cutting: str = "tool"
+    custom_heat: dict = field(default_factory=dict)
     screw_nodes: tuple = ()
     nut: str | None = None
     axis_motor: str | None = None
@@ -255,6 +276,19 @@ class MachineSpec:
             value = getattr(self, role)
             if value is not None and value not in known:
                 raise _unknown(f"role {role!r}", value, nodes)
+        for source, node in self.custom_heat.items():
+            if not isinstance(source, str) or not source or "." in source:
+                raise ValueError(
+                    f"heat source {source!r}: a source name is a non-empty string "
+                    "without '.'."
+                )
+            if source in HEAT_FIELDS or source == "feed":
+                raise ValueError(
+                    f"heat source {source!r}: the name is taken by a built-in "
+                    "source; name the custom source differently."
+                )
+            if node not in known:
+                raise _unknown(f"heat source {source!r}", node, nodes)
         for role in ("head_nodes", "exposed_nodes", "screw_nodes"):
             for value in getattr(self, role):
                 if value not in known:
@@ -287,6 +321,9 @@ class MachineSpec:
                 )
             if not s.weights:
                 raise ValueError(f"{where} reads no node (weights is empty).")
+            for f in SENSOR_FIELDS:
+                if getattr(s, f) is not None:
+                    _number(f"{where}: {f}", getattr(s, f), nonnegative=True)
             for node, w in s.weights.items():
                 if node != ROOM and node not in known:
                     raise _unknown(where, node, [*nodes, ROOM])
@@ -325,6 +362,19 @@ class MachineSpec:
                         f"{_suggest(rest, [f'{x}-{y}' for x, y in self.edges])}."
                     )
                 _number(f"parameter {key!r}", value, nonnegative=True)
+            elif family == "q" and "." in rest:
+                source, _, f = rest.partition(".")
+                if source not in self.custom_heat:
+                    raise _unknown(
+                        f"parameter {key!r}", source, list(self.custom_heat), "source"
+                    )
+                if f not in CUSTOM_HEAT_FIELDS:
+                    raise ValueError(
+                        f"parameter {key!r}: unknown field {f!r}"
+                        f"{_suggest(f, CUSTOM_HEAT_FIELDS)}; fields: "
+                        f"{list(CUSTOM_HEAT_FIELDS)}."
+                    )
+                _number(f"parameter {key!r}", value, nonnegative=f != "alpha")
             elif family == "k":
                 axis, _, node = rest.partition(".")
                 if axis not in axes:
@@ -404,11 +454,27 @@ class MachineSpec:
             if self.axis_motor is not None:
                 feed["axis_motor"] = self.axis_motor
             heat["feed"] = feed
+        if self.custom_heat:
+            custom = {}
+            for source, node in self.custom_heat.items():
+                entry = {"node": node}
+                for f in CUSTOM_HEAT_FIELDS:
+                    if f"q.{source}.{f}" in p:
+                        entry[f] = p.pop(f"q.{source}.{f}")
+                custom[source] = entry
+            heat["custom"] = custom
         out["heat"] = heat
         noise = {f: p.pop(k) for f, k in SENSOR_FIELDS.items() if k in p}
         out["sensor_noise"] = noise
         out["sensors"] = {
-            s.name: {"weights": dict(s.weights), "kind": s.kind, "location": s.location}
+            s.name: {
+                "weights": dict(s.weights),
+                "kind": s.kind,
+                "location": s.location,
+                **{
+                    f: getattr(s, f) for f in SENSOR_FIELDS if getattr(s, f) is not None
+                },
+            }
             for s in self.sensors
         }
         disp = {}
@@ -572,7 +638,7 @@ class MachineSpec:
             "exposed_nodes": _check_names("roles: exposed", roles.get("exposed", ())),
         }
         heat = data.get("heat", {})
-        _check_fields("heat", heat, (*HEAT_FIELDS, "feed"))
+        _check_fields("heat", heat, (*HEAT_FIELDS, "feed", "custom"))
         for source, fields in HEAT_FIELDS.items():
             entry = heat.get(source, {})
             _check_fields(f"heat source {source!r}", entry, ("node", *fields))
@@ -593,6 +659,20 @@ class MachineSpec:
             kw["axis_motor"] = feed.get("axis_motor")
             if "axis" in feed:
                 kw["feed_axis"] = feed["axis"]
+        custom = heat.get("custom", {})
+        _check_fields("heat.custom", custom, list(custom or ()))
+        kw["custom_heat"] = {}
+        for source, entry in custom.items():
+            where = f"heat source {source!r}"
+            _check_fields(where, entry, ("node", *CUSTOM_HEAT_FIELDS))
+            if "node" not in entry:
+                raise ValueError(f"{where}: node is required.")
+            kw["custom_heat"][source] = entry["node"]
+            for f in CUSTOM_HEAT_FIELDS:
+                if f in entry:
+                    p[f"q.{source}.{f}"] = _number(
+                        f"{where}: {f}", entry[f], nonnegative=f != "alpha"
+                    )
         for source in ("bearing", "drive", "belt", "cutting"):
             if HEAT_ROLES[source] not in kw:
                 # No such source: heat a node that exists, with zero power.
@@ -610,7 +690,11 @@ class MachineSpec:
         sensor_table = data.get("sensors", {})
         _check_fields("sensors", sensor_table, list(sensor_table or ()))
         for name, entry in sensor_table.items():
-            _check_fields(f"sensor {name!r}", entry, ("weights", "kind", "location"))
+            _check_fields(
+                f"sensor {name!r}",
+                entry,
+                ("weights", "kind", "location", *SENSOR_FIELDS),
+            )
             if "weights" not in entry:
                 raise ValueError(f"sensor {name!r}: weights is required.")
             if not isinstance(entry["weights"], dict):
@@ -624,6 +708,11 @@ class MachineSpec:
                     dict(entry["weights"]),
                     entry.get("kind", "surface"),
                     entry.get("location", ""),
+                    **{
+                        f: _number(f"sensor {name!r}: {f}", entry[f], nonnegative=True)
+                        for f in SENSOR_FIELDS
+                        if f in entry
+                    },
                 )
             )
         axes = _check_names("axes", data.get("axes", ("x", "y", "z")))
