@@ -27,10 +27,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import lfilter
 from sklearn.linear_model import LinearRegression
 
-from skthermal.datasets import load_fl_thermal
+from skthermal.datasets import ambient_proxy, load_fl_thermal
 from skthermal.simulate import ThermalMachine
 
 try:
@@ -47,13 +46,8 @@ runs = load_fl_thermal(path)
 
 # %%
 # Ambient proxy: the sensor least correlated with low-passed spindle losses.
-dt = float(runs["time_s"].diff().median())
-loss = (runs["spindle_rpm"].to_numpy() / 1000.0) ** 1.5
-a = np.exp(-dt / 7200.0)
-heating = lfilter([1 - a], [1, -a], loss)
 sensors = [c for c in runs.columns if c.startswith("T")]
-corr = {s: abs(np.corrcoef(runs[s] - runs[s].iloc[0], heating)[0, 1]) for s in sensors}
-proxy = min(corr, key=corr.get)
+proxy = ambient_proxy(runs)
 runs["ambient_C"] = runs[proxy]
 print(f"ambient proxy: {proxy}")
 

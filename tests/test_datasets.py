@@ -801,3 +801,36 @@ def test_split_runs_index_carries_runs_through_cross_validate():
     for labels in seen:
         assert labels is not None and len(labels) in (10, 20)
         assert set(labels) <= set(groups)
+
+
+def test_ambient_proxy_picks_the_sensor_the_spindle_does_not_heat():
+    from skthermal.datasets import ambient_proxy
+
+    rng = np.random.RandomState(0)
+    t = np.arange(0, 6 * 3600, 60.0)
+    rpm = np.where((t // 3600) % 2 == 0, 5000.0, 0.0)
+    warm = np.cumsum(rpm) / 5e5
+    frames = []
+    for run in ("a", "b"):
+        air = 20 + 0.5 * np.sin(t / 9000 + (run == "b")) + rng.normal(0, 0.02, t.size)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": run,
+                    "time_s": t,
+                    "spindle_rpm": rpm,
+                    "T1_C": air + warm,
+                    "T2_C": air,
+                    "T3_C": air + 0.3 * warm,
+                }
+            )
+        )
+    runs = pd.concat(frames, ignore_index=True)
+    name, scores = ambient_proxy(runs, return_scores=True)
+    assert name == "T2_C" and scores.idxmax() == "T1_C"
+    with pytest.raises(ValueError, match="needs a 'spindle_rpm' column"):
+        ambient_proxy(runs.drop(columns="spindle_rpm"))
+    with pytest.raises(ValueError, match="never turns"):
+        ambient_proxy(runs.assign(spindle_rpm=0.0))
+    with pytest.raises(ValueError, match="temperature sensors"):
+        ambient_proxy(runs[["run", "time_s", "spindle_rpm"]])

@@ -16,6 +16,7 @@ from skthermal.datasets._campaigns import (
 from skthermal.datasets._combine import concat_runs
 from skthermal.datasets._generators import make_sensor_groups
 from skthermal.datasets._loaders import load_fl_thermal, read_runs, write_runs
+from skthermal.datasets._proxy import ambient_proxy
 from skthermal.datasets._runtable import (
     changes_since_start,
     driver_columns,
@@ -26,6 +27,7 @@ from skthermal.datasets._runtable import (
 )
 
 __all__ = [
+    "ambient_proxy",
     "changes_since_start",
     "concat_runs",
     "driver_columns",
