@@ -1,9 +1,28 @@
 """Shared fixtures: a fixed seed and the project's reference data folder."""
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _one_blas_thread_per_worker():
+    """With pytest-xdist, one BLAS thread per worker process.
+
+    The workers already use every core; OpenBLAS threads on top of them
+    oversubscribe the cores and slow the linear-algebra-heavy tests several
+    fold (its threads busy-wait).
+    """
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        yield
+        return
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -375,10 +375,10 @@ def diagnose(
     Examples
     --------
     >>> from skthermal.gap import diagnose, make_gap_campaign
-    >>> case = make_gap_campaign("tool_growth", random_state=0)
+    >>> case = make_gap_campaign("tool_growth", n_runs=3, hours=4, random_state=0)
     >>> report = diagnose(case.simulation, case.runs,
     ...                   candidates=["tool_growth", "speed_convection"],
-    ...                   greedy=False)
+    ...                   greedy=False, fine=False, max_samples=150)
     >>> report.best_effect
     'tool_growth'
     """
