@@ -24,10 +24,7 @@ from skthermal.fuzzy._anfis_core import (
     grid_mf_params,
     grid_rules,
 )
-from skthermal.fuzzy._membership import (
-    MF_PARAMS,
-    log_membership,
-)
+from skthermal.fuzzy._membership import MF_PARAMS
 from skthermal.grey._ago import ago, iago
 from skthermal.utils._runs import (
     check_time_order,
@@ -697,7 +694,7 @@ default="fcm"
 
     # ------------------------------------------------------------ predict
 
-    def predict(self, X, groups=None):
+    def predict(self, X, *, groups=None):
         """Predict the targets.
 
         Parameters
@@ -920,6 +917,9 @@ default="fcm"
     def plot_membership_functions(self, ax=None, which="trained", n_points=201):
         """Plot the membership functions of every input (001 Fig. 6-6).
 
+        A shortcut for
+        :meth:`skthermal.plotting.MembershipFunctionDisplay.from_estimator`.
+
         Parameters
         ----------
         ax : matplotlib Axes or sequence of Axes, optional
@@ -933,57 +933,17 @@ default="fcm"
         Returns
         -------
         ndarray of matplotlib Axes
+            One panel per input.
+
+        See Also
+        --------
+        skthermal.plotting.MembershipFunctionDisplay : The display drawn, with
+            the curves and artists as attributes.
         """
         check_is_fitted(self)
-        if which not in ("trained", "initial", "both"):
-            raise ValueError(
-                f"which must be 'trained', 'initial' or 'both', got {which!r}."
-            )
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as exc:  # pragma: no cover - depends on the env
-            raise ImportError(
-                "plot_membership_functions needs matplotlib; install it with "
-                'pip install "skthermal[plot]".'
-            ) from exc
-        d = self.n_features_in_
-        if ax is None:
-            ncols = min(d, 4)
-            nrows = -(-d // ncols)
-            _, axes = plt.subplots(
-                nrows, ncols, figsize=(3.2 * ncols, 2.6 * nrows), squeeze=False
-            )
-            axes = axes.ravel()
-            for extra in axes[d:]:
-                extra.set_visible(False)
-            axes = axes[:d]
-        else:
-            axes = np.atleast_1d(np.asarray(ax, dtype=object)).ravel()
-            if axes.size != d:
-                raise ValueError(f"ax must hold one Axes per input ({d}).")
-        names = self._feature_names()
-        sets = []
-        if which in ("initial", "both"):
-            sets.append((self.initial_mf_params_, "--", "initial"))
-        if which in ("trained", "both"):
-            sets.append((self.mf_params_, "-", "trained"))
-        for j, axis in enumerate(axes):
-            lo, hi = self._input_range[j]
-            pad = 0.05 * (hi - lo) if hi > lo else 1.0
-            x = np.linspace(lo - pad, hi + pad, n_points)
-            used = np.unique(self.rules_[:, j])
-            for params, style, label in sets:
-                mu = np.exp(log_membership(x[:, None], params[j][used], self.mf))
-                for i, m in enumerate(used):
-                    axis.plot(
-                        x,
-                        mu[:, i],
-                        style,
-                        color=f"C{i % 10}",
-                        label=f"in{j + 1}mf{m + 1} ({label})" if j == 0 else None,
-                    )
-            axis.set_xlabel(names[j])
-            axis.set_ylim(-0.02, 1.05)
-        axes[0].set_ylabel("membership")
-        axes[0].legend(fontsize="x-small")
-        return axes
+        from skthermal.plotting import MembershipFunctionDisplay
+
+        display = MembershipFunctionDisplay.from_estimator(
+            self, which=which, n_points=n_points, ax=ax
+        )
+        return display.axes_

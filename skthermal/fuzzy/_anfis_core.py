@@ -18,9 +18,13 @@ import itertools
 import sys
 
 import numpy as np
-from scipy import linalg
-from scipy.linalg import blas, lapack
+from scipy.linalg import blas
 
+from skthermal.fuzzy._anfis_lsq import (
+    NormalEquations,
+    cholesky_ridge,
+    solve_consequents,
+)
 from skthermal.fuzzy._cmeans import fuzzy_cmeans
 from skthermal.fuzzy._membership import (
     log_membership,
@@ -199,30 +203,107 @@ def _firing_from_log(logmu, E, grid=False):
     output stays finite (METHODS §6).
 
     ``grid=True`` (the rules are :func:`grid_rules`) uses the product
-    structure instead: every input's memberships are scaled so that its
-    largest is 1 (the grid holds the rule combining all these largest ones,
-    whose weight is then exactly 1), and the rule weights are the outer
-    products of the inputs' memberships, ``d M`` exponentials instead of
-    ``M^d``.
+    structure instead (:func:`_grid_memberships`, :func:`_grid_firing`):
+    ``d M`` exponentials instead of ``M^d``. ``logmu`` is overwritten.
     """
+    if grid:
+        return _grid_firing(_grid_memberships(logmu))
     d, n_mfs, n = logmu.shape
     # Squared distances of ~1e155 and beyond overflow to -inf; the floor
     # keeps the normalisation well defined.
     np.maximum(logmu, _log_floor(d), out=logmu)
-    if grid:
-        logmu -= logmu.max(axis=1, keepdims=True)
-        mu = np.exp(logmu, out=logmu)
-        w = mu[0]
-        for j in range(1, d):  # a loop over inputs, not samples
-            w = (w[:, None, :] * mu[j][None, :, :]).reshape(-1, n)
-    else:
-        logw = E.T @ logmu.reshape(d * n_mfs, n)
-        # Softmax with the largest log weight subtracted (log-sum-exp): the
-        # largest weight is exp(0) = 1 before normalisation, so the sum
-        # never underflows.
-        logw -= logw.max(axis=0)
-        w = np.exp(logw, out=logw)
+    logw = E.T @ logmu.reshape(d * n_mfs, n)
+    # Softmax with the largest log weight subtracted (log-sum-exp): the
+    # largest weight is exp(0) = 1 before normalisation, so the sum never
+    # underflows.
+    logw -= logw.max(axis=0)
+    w = np.exp(logw, out=logw)
     w /= w.sum(axis=0)
+    return w
+
+
+def _grid_memberships(logmu):
+    """Memberships normalised over every input's functions, ``nu`` (d, M, n).
+
+    ``nu_jm = mu_jm / sum_m' mu_jm'``, from the log-memberships (overwritten)
+    with every input's largest subtracted first, so that the largest ``nu``
+    of an input is at least ``1 / M`` however far the input lies. For a grid
+    rule base the normalised firing strengths are the products
+    ``wbar_r = prod_j nu_{j, rules[r, j]}`` (the sum over the grid of the rule
+    weights is the product over inputs of their sums), so no sum over rules
+    is needed.
+    """
+    d, n_mfs, n = logmu.shape
+    np.maximum(logmu, _log_floor(d), out=logmu)
+    if n_mfs == 2:
+        return _two_memberships(logmu[:, 1] - logmu[:, 0])
+    # Loops over the few functions of an input: numpy reduces a short middle
+    # axis far slower than it combines long rows.
+    top = logmu[:, 0].copy()
+    for m in range(1, n_mfs):
+        np.maximum(top, logmu[:, m], out=top)
+    logmu -= top[:, None, :]
+    nu = np.exp(logmu, out=logmu)
+    total = nu[:, 0].copy()
+    for m in range(1, n_mfs):
+        total += nu[:, m]
+    nu /= total[:, None, :]
+    return nu
+
+
+def _two_memberships(diff):
+    """:func:`_grid_memberships` of two functions per input, from
+    ``diff = log mu_1 - log mu_0`` (d, n) (overwritten).
+
+    One exponential per input and sample (exp is the costly part): with
+    ``e = exp(-|diff|)`` the larger membership is ``1 / (1 + e)`` and the
+    smaller ``e / (1 + e)``, each accurate however small.
+    """
+    first = diff <= 0
+    np.abs(diff, out=diff)
+    np.negative(diff, out=diff)
+    e = np.exp(diff, out=diff)
+    large = e + 1.0
+    np.reciprocal(large, out=large)
+    e *= large
+    nu = np.empty((diff.shape[0], 2, diff.shape[1]))
+    nu[:, 0] = np.where(first, large, e)
+    nu[:, 1] = np.where(first, e, large)
+    return nu
+
+
+def _forward(XT, mf_params, mf, E, grid):
+    """Forward pass of training: ``z``, ``nu`` and ``wbar`` (R, n).
+
+    ``z`` as in :func:`_forward_log` (None for bells), ``nu`` the normalised
+    memberships of a grid rule base (:func:`_grid_memberships`, else None).
+    Two Gaussians per input on a grid go straight from the squared distances
+    to ``nu``, the same numbers without forming the log-memberships.
+    """
+    d, n_mfs = mf_params.shape[:2]
+    if grid and mf == "gaussian" and n_mfs == 2:
+        z = XT[:, None, :] - mf_params[:, :, 1, None]
+        z /= mf_params[:, :, 0, None]
+        with np.errstate(over="ignore"):  # inf far away: capped below
+            sq = z * z
+        # The floor of the log-memberships, -0.5 sq >= _log_floor(d).
+        np.minimum(sq, -2.0 * _log_floor(d), out=sq)
+        diff = sq[:, 0] - sq[:, 1]
+        diff *= 0.5
+        nu = _two_memberships(diff)
+        return z, nu, _grid_firing(nu)
+    logmu, z = _forward_log(XT, mf_params, mf)
+    if grid:
+        nu = _grid_memberships(logmu)
+        return z, nu, _grid_firing(nu)
+    return z, None, _firing_from_log(logmu, E)
+
+
+def _grid_firing(nu):
+    """Normalised firing strengths (R, n) of the grid rules, first input slowest."""
+    w = nu[0]
+    for j in range(1, nu.shape[0]):  # a loop over inputs, not samples
+        w = (w[:, None, :] * nu[j][None, :, :]).reshape(-1, nu.shape[2])
     return w
 
 
@@ -275,41 +356,6 @@ def _design(wbar, X1):
     return (wbar[:, :, None] * X1[:, None, :]).reshape(X1.shape[0], -1)
 
 
-def solve_consequents(A, Y, ridge):
-    """Least-squares consequents for the design matrix ``A`` and targets ``Y``.
-
-    ``ridge > 0`` solves the ridge problem by Cholesky with
-    ``lam = ridge * mean(diag(A^T A))`` (a scale-free ridge that keeps rules
-    that hardly fire, and collinear inputs, well posed): from the normal
-    equations ``(A^T A + lam I) theta = A^T Y`` when ``A`` has more rows than
-    columns, else from the dual ``(A A^T + lam I) alpha = Y``,
-    ``theta = A^T alpha`` (the same solution, and a grid of many rules on few
-    samples never forms a huge ``A^T A``). ``ridge == 0`` (or a failed
-    factorisation) uses LAPACK's SVD-based ``gelsd``, the minimum-norm
-    solution. All outputs are solved at once.
-
-    Returns
-    -------
-    ndarray of shape (n_columns, n_outputs)
-    """
-    n, p = A.shape
-    if ridge > 0:
-        dual = p > n
-        G = _gram(A.T if dual else A)
-        theta = _cholesky_ridge(G, Y if dual else A.T @ Y, ridge, p)
-        if theta is not None:
-            return A.T @ theta if dual else theta
-    theta, *_ = linalg.lstsq(A, Y, lapack_driver="gelsd")
-    return theta
-
-
-def _gram(A):
-    """Upper triangle of ``A^T A`` (BLAS ``syrk``: half the work of a product)."""
-    A = np.ascontiguousarray(A)
-    # A C-ordered A is a Fortran-ordered A^T: syrk(trans=0) on it gives A^T A.
-    return blas.dsyrk(1.0, A.T, trans=0, lower=0)
-
-
 def _solve_transposed(AT, YT, ridge):
     """:func:`solve_consequents` for ``A.T`` (columns, n) and ``Y.T`` (o, n).
 
@@ -321,29 +367,10 @@ def _solve_transposed(AT, YT, ridge):
     if ridge > 0 and p <= n:
         # AT.T is a Fortran-ordered (n, p) view: syrk(trans=1) gives A^T A.
         G = blas.dsyrk(1.0, AT.T, trans=1, lower=0)
-        theta = _cholesky_ridge(G, AT @ YT.T, ridge, p)
+        theta = cholesky_ridge(G, AT @ YT.T, ridge, p)
         if theta is not None:
             return theta
     return solve_consequents(AT.T, YT.T, ridge)
-
-
-def _cholesky_ridge(G, B, ridge, n_columns):
-    """Solve ``(G + lam I) theta = B``, ``lam = ridge * trace(G) / n_columns``.
-
-    Only the upper triangle of ``G`` is read (and ``G`` is overwritten).
-    Returns None when ``lam`` is 0 or the factorisation fails.
-    """
-    lam = ridge * np.trace(G) / max(n_columns, 1)
-    if not lam > 0:
-        return None
-    G.flat[:: G.shape[0] + 1] += lam
-    # LAPACK directly: the scipy wrappers' checks cost more than this small
-    # factorisation.
-    factor, info = lapack.dpotrf(G, lower=0, overwrite_a=1, clean=0)
-    if info != 0:
-        return None
-    theta, info = lapack.dpotrs(factor, B, lower=0)
-    return theta if info == 0 else None
 
 
 def _softmax_gradient(wT, F, yhat, err):
@@ -357,16 +384,49 @@ def _softmax_gradient(wT, F, yhat, err):
     return wT * np.einsum("ron,on->rn", F - yhat, err)
 
 
+def _grid_log_mf_gradient(WF, yhat, err, nu, E):
+    """``dE / dlog mu_jm`` (d M, n) of a grid rule base, without ``dE / dlog w``.
+
+    Summed over the rules using function m of input j, ``wbar_r (f_r - yhat)
+    . err`` is ``err . sum_r wbar_r f_r - (yhat . err) nu_jm``: in a grid the
+    normalised firing strengths of those rules add up to ``nu_jm`` (see
+    :func:`_grid_memberships`). ``WF`` are the rules' shares ``wbar_r f_r``
+    (R, o, n), ``yhat`` and ``err`` (o, n), ``nu`` (d, M, n), ``E`` the rule
+    matrix of :func:`_rule_matrix`.
+    """
+    n_rules, n_out, n = WF.shape
+    nu = nu.reshape(-1, n)
+    if n_out == 1:
+        per_mf = E @ WF[:, 0]
+        per_mf *= err
+        per_mf -= nu * (yhat * err)
+        return per_mf
+    per_mf = np.einsum(
+        "kon,on->kn", (E @ WF.reshape(n_rules, -1)).reshape(-1, n_out, n), err
+    )
+    per_mf -= nu * np.einsum("on,on->n", yhat, err)
+    return per_mf
+
+
 def _premise_gradient_from(g, XT, mf_params, mf, E, z=None):
     """Premise gradient from ``g = dE / dlog w`` (R, n).
 
-    ``E`` is the rule matrix of :func:`_rule_matrix`; ``z`` the standardised
-    distances ``(x - c) / sigma`` (d, M, n) of the forward pass (Gaussian MFs),
-    which give the log-membership derivatives without recomputing them.
+    ``E`` is the rule matrix of :func:`_rule_matrix`; ``z`` as in
+    :func:`_mf_gradient`.
+    """
+    return _mf_gradient(E @ g, XT, mf_params, mf, z)
+
+
+def _mf_gradient(per_mf, XT, mf_params, mf, z=None):
+    """Premise gradient from ``dE / dlog mu`` (d M, n) (overwritten).
+
+    ``z`` are the standardised distances ``(x - c) / sigma`` (d, M, n) of the
+    forward pass (Gaussian MFs), which give the log-membership derivatives
+    without recomputing them.
     """
     d, n = XT.shape
     n_mfs = mf_params.shape[1]
-    per_mf = (E @ g).reshape(d, n_mfs, n)  # dE / dlog mu_jm
+    per_mf = per_mf.reshape(d, n_mfs, n)  # dE / dlog mu_jm
     if mf == "gaussian":
         if z is None:
             z = (XT[:, None, :] - mf_params[:, :, 1, None]) / mf_params[:, :, 0, None]
@@ -431,11 +491,15 @@ class StepSizeRule:
         i = len(errors) - 1
         if i < 4:
             return self.step
-        d = np.sign(np.diff(errors[-5:]))  # oldest move first
-        if i - self._last_dec >= 4 and np.all(d != 0) and np.all(d[1:] == -d[:-1]):
+        # Signs of the last four moves, oldest first (plain floats: this runs
+        # every epoch, on five numbers).
+        e = [float(v) for v in errors[-5:]]
+        d = [(b > a) - (b < a) for a, b in zip(e[:-1], e[1:], strict=True)]
+        alternating = all(d) and all(u == -v for u, v in zip(d[:-1], d[1:]))
+        if i - self._last_dec >= 4 and alternating:
             self.step *= self.decrease
             self._last_dec = i
-        elif i - self._last_inc >= 4 and np.all(d < 0):
+        elif i - self._last_inc >= 4 and all(v < 0 for v in d):
             self.step *= self.increase
             self._last_inc = i
         return self.step
@@ -447,7 +511,10 @@ class StepSizeRule:
 
 
 def _rmse(residual):
-    return float(np.sqrt(np.mean(residual * residual))) if residual.size else 0.0
+    if not residual.size:
+        return 0.0
+    residual = residual.ravel()
+    return float(np.sqrt(residual @ residual / residual.size))
 
 
 class _CheckingSet:
@@ -530,15 +597,17 @@ n_iter_no_change, verbose
     n_rules = rules.shape[0]
     mf_params = np.array(mf_params, dtype=float)
     # Rules x samples layout: every per-sample array has samples along its
-    # last, contiguous axis; the design matrix is built transposed, columns
-    # ordered (input, rule), into one buffer reused every epoch.
+    # last, contiguous axis; consequent columns are ordered (input, rule).
     XT = np.ascontiguousarray(X.T)
     X1T = np.vstack([XT, np.ones((1, n))])
     YT = np.ascontiguousarray(Y.T)
-    E = _rule_matrix(rules, mf_params.shape[1])
-    grid = _is_grid(rules, mf_params.shape[1])
-    AT3 = np.empty((d + 1, n_rules, n))
-    AT = AT3.reshape(-1, n)
+    n_mfs = mf_params.shape[1]
+    E = _rule_matrix(rules, n_mfs)
+    grid = _is_grid(rules, n_mfs)
+    normal = None
+    if learning == "hybrid":
+        normal = NormalEquations.plan(X1T, YT, rules, n_mfs, grid, ridge)
+    AT3 = None  # the transposed design matrix, only when it is needed
     width_floor = _WIDTH_FLOOR * _input_scale(X)
     if learning == "backprop" and consequents is None:
         consequents = np.zeros((n_rules, d + 1, n_out))
@@ -554,21 +623,22 @@ n_iter_no_change, verbose
     report_every = max(1, epochs // 10) if verbose == 1 else 1
 
     for epoch in range(1, epochs + 1):
-        logmu, z = _forward_log(XT, mf_params, mf)
-        wT = _firing_from_log(logmu, E, grid)
-        np.multiply(wT[None], X1T[:, None, :], out=AT3)
+        z, nu, wT = _forward(XT, mf_params, mf, E, grid)
         if learning == "hybrid":
-            theta = _solve_transposed(AT, YT, ridge)
-            consequents = np.ascontiguousarray(
-                theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
-            )
-        F = (consequents.transpose(0, 2, 1).reshape(-1, d + 1) @ X1T).reshape(
-            n_rules, n_out, n
-        )
-        if n_out == 1:
-            yhat = np.einsum("rn,rn->n", wT, F[:, 0])[None]
+            theta = None if normal is None else normal.solve(wT, nu, ridge)
+            if theta is None:
+                if AT3 is None:
+                    AT3 = np.empty((d + 1, n_rules, n))
+                np.multiply(wT[None], X1T[:, None, :], out=AT3)
+                theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge)
+            # theta: rows (input, rule), columns outputs.
+            consequents = theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
+            C = theta.reshape(d + 1, -1)
         else:
-            yhat = np.einsum("rn,ron->on", wT, F)
+            C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)
+        F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
+        WF = wT[:, None, :] * F  # the rules' shares of the output
+        yhat = WF.sum(axis=0)
         err = yhat - YT
         train = _rmse(err)
         history["epoch"].append(epoch)
@@ -604,14 +674,19 @@ n_iter_no_change, verbose
         if epoch == epochs:
             break
         step = rule.update(history["train_rmse"])
-        g = _softmax_gradient(wT, F, yhat, err)
-        grad = _premise_gradient_from(g, XT, mf_params, mf, E, z)
+        if grid:
+            per_mf = _grid_log_mf_gradient(WF, yhat, err, nu, E)
+        else:
+            per_mf = E @ _softmax_gradient(wT, F, yhat, err)
+        grad = _mf_gradient(per_mf, XT, mf_params, mf, z)
         if learning == "hybrid":
             norm = np.sqrt(np.vdot(grad, grad))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
         else:
-            grad_c = (AT @ err.T).reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
+            # dE / d consequent (a, r) = sum_n x~_a wbar_r err
+            XE = (X1T[:, None, :] * err[None]).reshape(-1, n)
+            grad_c = (XE @ wT.T).reshape(d + 1, n_out, n_rules).transpose(2, 0, 1)
             norm = np.sqrt(np.vdot(grad, grad) + np.vdot(grad_c, grad_c))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
