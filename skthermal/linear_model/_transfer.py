@@ -12,11 +12,11 @@ from numbers import Integral, Real
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import lfilter
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
     TIME_COLUMN,
     changes_since_start,
@@ -63,12 +63,9 @@ def first_order_lags(U, time_constants, dt, slices):
     >>> z.ravel().round(3)
     array([0.632, 0.865, 0.95 , 0.982])
     """
-    Z = np.empty_like(U, dtype=float)
-    for sl, step in zip(slices, dt, strict=True):
-        poles = np.exp(-step / np.asarray(time_constants, dtype=float))
-        for j, a in enumerate(poles):
-            Z[sl, j] = lfilter([1.0 - a], [1.0, -a], U[sl, j])
-    return Z
+    return exponential_filter(
+        np.asarray(U, dtype=float), time_constants, dt, slices, initial="rest"
+    )
 
 
 def _ridge_with_intercept(Phi, y, alpha):
@@ -106,9 +103,10 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
     rest at every run boundary. For fixed time constants the model is linear
     in the gains ``g`` and ``c``, solved exactly by (ridge) least squares; the
     time constants are found by variable projection: a search over a common
-    time constant on a log grid, one sweep of 1-D grid searches over each
-    lag's own time constant, then a bounded nonlinear least-squares
-    refinement of all of them.
+    time constant on a log grid, sweeps of 1-D grid searches over each lag's
+    own time constant (all from lags filtered once per grid point, sharing
+    one Gram matrix), then a bounded nonlinear least-squares refinement of
+    all of them.
 
     Parameters
     ----------
@@ -312,35 +310,93 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         tau = np.exp(log_tau).reshape(-1)
         return first_order_lags(np.repeat(U, self.order, axis=1), tau, dts, slices)
 
-    def _fit_one(self, U, y, dts, slices, bounds):
-        lo, hi = np.log(bounds)
-        n_lags = U.shape[1] * self.order
-        grid = np.linspace(lo, hi, self.n_grid)
+    def _grid_search(self, U, Y, dts, slices, grid):
+        """Time constants on the log grid, for every output, from shared lags.
+
+        Every input is filtered once per grid time constant; the centred Gram
+        matrix of all these lags then gives the ridge cost of any choice of
+        one grid time constant per lag from a small solve, without filtering
+        again: a common time constant (pair, for ``order=2``), then sweeps of
+        1-D searches over each lag's own time constant until none improves.
+        """
+        n, n_in = U.shape
+        n_grid = grid.size
+        # Columns ordered (input, grid point): column i * n_grid + g.
+        lags = np.stack(
+            [exponential_filter(U, t, dts, slices, initial="rest") for t in grid],
+            axis=2,
+        ).reshape(n, n_in * n_grid)
+        lags -= lags.mean(axis=0)
+        gram = lags.T @ lags
+        scale = np.sqrt(np.diag(gram) / n)
+        scale[scale < 1e-12] = 1.0
+        gram /= np.outer(scale, scale)
+        Yc = Y - Y.mean(axis=0)
+        cross = (lags.T @ Yc) / scale[:, None]
+        yy = np.sum(Yc**2, axis=0)
+        base = np.repeat(np.arange(n_in) * n_grid, self.order)
         if self.order == 1:
-            starts = [np.full(n_lags, g) for g in grid]
+            starts = [np.full(n_in, g) for g in range(n_grid)]
         else:
             starts = [
-                np.tile([g1, g2], U.shape[1])
-                for i, g1 in enumerate(grid)
-                for g2 in grid[i + 1 :]
+                np.tile([g1, g2], n_in)
+                for g1 in range(n_grid)
+                for g2 in range(g1 + 1, n_grid)
             ]
+        eye = self.alpha * np.eye(base.size)
+
+        def cost(pick, k):
+            cols = base + pick
+            b = cross[cols, k]
+            w = np.linalg.lstsq(gram[np.ix_(cols, cols)] + eye, b, rcond=1e-12)[0]
+            return float(yy[k] - w @ b)
+
+        out = []
+        for k in range(Y.shape[1]):
+            costs = [cost(p, k) for p in starts]
+            pick = starts[int(np.argmin(costs))].copy()
+            best = min(costs)
+            for _ in range(5):
+                improved = False
+                for i in range(pick.size):
+                    for g in range(n_grid):
+                        if g == pick[i]:
+                            continue
+                        trial = pick.copy()
+                        trial[i] = g
+                        c = cost(trial, k)
+                        if c < best * (1 - 1e-9):
+                            best, pick, improved = c, trial, True
+                if not improved:
+                    break
+            out.append(grid[pick])
+        return out
+
+    def _fit_one(self, U, y, dts, slices, bounds, log_tau):
+        lo, hi = np.log(bounds)
+
+        U_lags = np.repeat(U, self.order, axis=1)
 
         def residual(log_tau):
             Phi = self._features(U, log_tau, dts, slices)
             return _ridge_with_intercept(Phi, y, self.alpha)[2]
 
-        costs = [float(np.sum(residual(s) ** 2)) for s in starts]
-        log_tau = starts[int(np.argmin(costs))]
-        best = min(costs)
-        # One sweep of 1-D searches, every lag's time constant in turn, so that
-        # inputs with different dynamics start the refinement apart.
-        for i in range(n_lags):
-            for g in grid:
-                trial = log_tau.copy()
-                trial[i] = g
-                cost = float(np.sum(residual(trial) ** 2))
-                if cost < best:
-                    best, log_tau = cost, trial
+        def jacobian(log_tau):
+            # Forward differences, refiltering only the lag whose time
+            # constant moves (the other columns of the design are unchanged).
+            Phi = self._features(U, log_tau, dts, slices)
+            r0 = _ridge_with_intercept(Phi, y, self.alpha)[2]
+            J = np.empty((r0.size, log_tau.size))
+            for j, x in enumerate(log_tau):
+                h = 1e-3 * max(1.0, abs(x))
+                h = h if x + h <= hi else -h
+                trial = Phi.copy()
+                trial[:, j] = exponential_filter(
+                    U_lags[:, j], np.exp(x + h), dts, slices, initial="rest"
+                )
+                J[:, j] = (_ridge_with_intercept(trial, y, self.alpha)[2] - r0) / h
+            return J
+
         n_iter = 1  # the grid search
         if self.max_iter > 0:
             # Keep the start strictly inside the bounds for the trust region.
@@ -349,12 +405,12 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 residual,
                 x0,
                 bounds=(lo, hi),
+                jac=jacobian,
                 max_nfev=self.max_iter,
                 x_scale=1.0,
-                diff_step=1e-3,
             )
             n_iter += int(sol.nfev)
-            if np.sum(sol.fun**2) <= best:
+            if np.sum(sol.fun**2) <= np.sum(residual(log_tau) ** 2):
                 log_tau = sol.x
         Phi = self._features(U, log_tau, dts, slices)
         coef, intercept, _ = _ridge_with_intercept(Phi, y, self.alpha)
@@ -362,7 +418,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         return np.exp(log_tau).reshape(shape), coef.reshape(shape), intercept, n_iter
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y, groups=None):
+    def fit(self, X, y, *, groups=None):
         """Identify the time constants and gains.
 
         Parameters
@@ -408,8 +464,11 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 )
         U = self._inputs(X, slices)
         Y = y.reshape(X.shape[0], -1)
+        grid = np.exp(np.linspace(*np.log(bounds), self.n_grid))
+        starts = self._grid_search(U, Y, dts, slices, grid)
         fits = [
-            self._fit_one(U, Y[:, k], dts, slices, bounds) for k in range(Y.shape[1])
+            self._fit_one(U, Y[:, k], dts, slices, bounds, np.log(start))
+            for k, start in enumerate(starts)
         ]
         taus, coefs, intercepts, n_iter = (
             np.array(part) for part in zip(*fits, strict=True)
@@ -422,7 +481,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self.intercept_ = intercepts
         return self
 
-    def predict(self, X, groups=None):
+    def predict(self, X, *, groups=None):
         """Predict the thermal error, run by run from rest.
 
         Parameters

@@ -3,14 +3,14 @@
 from numbers import Integral, Real
 
 import numpy as np
-from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.linear_model import Ridge
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ..utils._runs import extract_runs, run_slices
-from ._lags import LagFeatures
+from skthermal.preprocessing._lags import LagFeatures
+from skthermal.utils._runs import extract_runs, run_slices, warn_unlabelled_runs
 
 DEFAULT_TIME_CONSTANT_SETS = (
     (),
@@ -26,6 +26,17 @@ def _forward_folds(n, n_splits, first_fraction):
         (np.arange(0, edges[i]), np.arange(edges[i], edges[i + 1]))
         for i in range(n_splits)
         if edges[i] > 1 and edges[i + 1] > edges[i]
+    ]
+
+
+def _block_folds(n, n_splits):
+    """Contiguous-block folds: leave each of n_splits equal blocks out."""
+    edges = np.linspace(0, n, n_splits + 1).astype(int)
+    rows = np.arange(n)
+    return [
+        (np.r_[rows[: edges[i]], rows[edges[i + 1] :]], rows[edges[i] : edges[i + 1]])
+        for i in range(n_splits)
+        if edges[i + 1] > edges[i]
     ]
 
 
@@ -45,10 +56,14 @@ def _group_folds(slices, n_splits):
     return folds
 
 
-def _ridge_path_sse(F, y, folds, alphas):
-    """Total squared validation error for every alpha (one SVD per fold)."""
-    sse = np.zeros(alphas.size)
-    for tr, va in folds:
+def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
+    """Squared validation error for every alpha (one SVD per fold).
+
+    The total over the folds, shape (n_alphas,), or with ``per_fold`` one row
+    per fold, shape (n_folds, n_alphas).
+    """
+    sse = np.zeros((len(folds), alphas.size))
+    for k, (tr, va) in enumerate(folds):
         A, B = F[tr], F[va]
         mu, sd = A.mean(0), A.std(0)
         sd[sd == 0] = 1.0
@@ -59,8 +74,8 @@ def _ridge_path_sse(F, y, folds, alphas):
         uty = U.T @ (y[tr] - ym)
         d = s / (s**2 + alphas[:, None])  # (n_alpha, r)
         pred = (B @ Vt.T) @ (d * uty).T + ym  # (n_val, n_alpha)
-        sse += ((pred - y[va][:, None]) ** 2).sum(0)
-    return sse
+        sse[k] = ((pred - y[va][:, None]) ** 2).sum(0)
+    return sse if per_fold else sse.sum(0)
 
 
 class LagRidgeCV(RegressorMixin, BaseEstimator):
@@ -101,13 +116,19 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     alpha_ : float
         Chosen ridge penalty.
     cv_results_ : dict
-        ``"time_constants"``, ``"use_drivers"`` (one per candidate) and
+        ``"time_constants"``, ``"use_drivers"``, ``"relative"`` (one per
+        candidate) and
         ``"sse"`` of shape (n_candidates, n_alphas).
     best_score_ : float
         Mean squared validation error of the chosen settings.
     lag_features_ : LagFeatures
     scaler_ : StandardScaler
     ridge_ : Ridge
+    relative_ : bool
+        Whether the chosen features are changes since each run's start.
+    n_fitted_runs_ : int or None
+        Labelled runs seen in ``fit`` (None when ``fit`` got no run labels);
+        ``predict`` then warns when given rows without run labels.
     n_features_in_ : int
 
     Examples
@@ -126,7 +147,11 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         "time_constant_sets": [None, list, tuple],
         "drivers": [StrOptions({"auto"}), None, "array-like"],
         "try_without_drivers": ["boolean"],
+        "relative": ["boolean", StrOptions({"auto"})],
+        "driver_initial": [StrOptions({"steady", "rest"})],
         "alphas": [None, "array-like"],
+        "cv": [StrOptions({"auto", "forward", "blocks", "runs"})],
+        "selection": [StrOptions({"min", "1se"})],
         "n_splits": [Interval(Integral, 2, None, closed="left")],
         "first_fraction": [Interval(Real, 0, 1, closed="neither")],
         "dt": [Interval(Real, 0, None, closed="neither")],
@@ -138,27 +163,62 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         *,
         drivers="auto",
         try_without_drivers=True,
+        relative="auto",
+        driver_initial="steady",
         alphas=None,
+        cv="auto",
+        selection="min",
         n_splits=4,
         first_fraction=0.4,
         dt=1.0,
     ):
+        self.cv = cv
+        self.selection = selection
         self.time_constant_sets = time_constant_sets
         self.drivers = drivers
         self.try_without_drivers = try_without_drivers
+        self.relative = relative
+        self.driver_initial = driver_initial
         self.alphas = alphas
         self.n_splits = n_splits
         self.first_fraction = first_fraction
         self.dt = dt
 
-    def _features(self, taus, use_drivers):
+    def _features(self, taus, use_drivers, relative):
         return LagFeatures(
             time_constants=tuple(taus),
+            relative=relative,
             drivers=self.drivers if use_drivers else None,
+            driver_initial=self.driver_initial,
             dt=self.dt,
         )
 
-    def fit(self, X, y, groups=None):
+    def _select(self, fold_sse, folds, n_feat):
+        """Candidate and alpha chosen from the per-fold errors.
+
+        ``fold_sse`` has shape (n_candidates, n_folds, n_alphas). ``"min"``:
+        least total error. ``"1se"``: the one-standard-error rule (Hastie,
+        Tibshirani and Friedman, The Elements of Statistical Learning, 7.10):
+        among settings whose mean fold error is within one standard error of
+        the least, the largest penalty, then the fewest features.
+        """
+        total = fold_sse.sum(axis=1)
+        c, j = np.unravel_index(int(np.argmin(total)), total.shape)
+        k = fold_sse.shape[1]
+        if self.selection == "min" or k < 2:
+            return int(c), int(j)
+        sizes = np.array([va.size for _, va in folds], dtype=float)
+        mse = fold_sse / sizes[None, :, None]
+        mean = mse.mean(axis=1)
+        se = mse[c, :, j].std(ddof=1) / np.sqrt(k)
+        ok = np.argwhere(mean <= mean[c, j] + se)
+        # Largest alpha index (alphas sorted below), then fewest features.
+        order = np.lexsort((n_feat[ok[:, 0]], -self._alpha_rank[ok[:, 1]]))
+        c, j = ok[order[0]]
+        return int(c), int(j)
+
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y, *, groups=None):
         """Choose the settings by time-ordered CV, then refit on all rows.
 
         Parameters
@@ -172,12 +232,12 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         -------
         self : LagRidgeCV
         """
-        self._validate_params()
         X_raw, groups = extract_runs(X, groups)
         _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
         slices, _ = run_slices(groups, n)
+        self.n_fitted_runs_ = None if groups is None else len(slices)
         sets = (
             DEFAULT_TIME_CONSTANT_SETS
             if self.time_constant_sets is None
@@ -192,51 +252,71 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             raise ValueError(
                 "time_constant_sets and alphas must be non-empty, alphas > 0."
             )
-        if len(slices) > 1:
+        self._alpha_rank = np.argsort(np.argsort(alphas))
+        cv = self.cv
+        if cv == "auto":
+            cv = "runs" if len(slices) > 1 else "forward"
+        if cv == "runs" and len(slices) > 1:
             folds = _group_folds(slices, self.n_splits)
+        elif cv == "blocks":
+            folds = _block_folds(n, self.n_splits)
         else:
             folds = _forward_folds(n, self.n_splits, self.first_fraction)
+        if self.relative == "auto":
+            # Within one run both give the same fit (they differ by a
+            # constant); only between runs can the data tell them apart.
+            relatives = (True, False) if len(slices) > 1 else (False,)
+        else:
+            relatives = (bool(self.relative),)
         cands = []
         for taus in sets:
-            cands.append((tuple(float(t) for t in taus), True))
-            if self.try_without_drivers and self.drivers is not None:
-                cands.append((tuple(float(t) for t in taus), False))
-        results = {"time_constants": [], "use_drivers": [], "sse": []}
-        best = (np.inf, None, None)
-        for taus, use in cands:
+            taus = tuple(float(t) for t in taus)
+            for rel in relatives:
+                cands.append((taus, True, rel))
+                if self.try_without_drivers and self.drivers is not None:
+                    cands.append((taus, False, rel))
+        results = {"time_constants": [], "use_drivers": [], "relative": [], "sse": []}
+        fold_sse, n_feat, kept = [], [], []
+        for taus, use, rel in cands:
             try:
-                lf = self._features(taus, use).fit(X_raw, groups=groups)
+                lf = self._features(taus, use, rel).fit(X_raw, groups=groups)
             except ValueError:
                 continue  # e.g. no features (no changes, no filters)
             if use and self.drivers is not None and lf.driver_indices_.size == 0:
-                if (taus, False) in cands:
+                if (taus, False, rel) in cands:
                     continue  # same model as without drivers
             F = lf.transform(X_raw, groups=groups)
-            sse = (
-                _ridge_path_sse(F, y, folds, alphas) if folds else np.zeros(alphas.size)
+            per = (
+                _ridge_path_sse(F, y, folds, alphas, per_fold=True)
+                if folds
+                else np.zeros((1, alphas.size))
             )
             results["time_constants"].append(taus)
             results["use_drivers"].append(use and lf.driver_indices_.size > 0)
-            results["sse"].append(sse)
-            j = int(np.argmin(sse))
-            if sse[j] < best[0]:
-                best = (sse[j], (taus, use), alphas[j])
-        if best[1] is None:
+            results["relative"].append(rel)
+            results["sse"].append(per.sum(0))
+            fold_sse.append(per)
+            n_feat.append(F.shape[1])
+            kept.append((taus, use, rel))
+        if not kept:
             raise ValueError("No candidate setting produced any feature.")
         results["sse"] = np.asarray(results["sse"])
         self.cv_results_ = results
+        c, j = self._select(np.asarray(fold_sse), folds, np.asarray(n_feat))
         n_scored = sum(va.size for _, va in folds)
-        self.best_score_ = float(best[0] / n_scored) if n_scored else float("nan")
-        (taus, use), self.alpha_ = best[1], float(best[2])
+        score = results["sse"][c, j]
+        self.best_score_ = float(score / n_scored) if n_scored else float("nan")
+        (taus, use, rel), self.alpha_ = kept[c], float(alphas[j])
         self.time_constants_ = taus
-        self.lag_features_ = self._features(taus, use).fit(X_raw, groups=groups)
+        self.relative_ = rel
+        self.lag_features_ = self._features(taus, use, rel).fit(X_raw, groups=groups)
         self.use_drivers_ = bool(self.lag_features_.driver_indices_.size)
         F = self.lag_features_.transform(X_raw, groups=groups)
         self.scaler_ = StandardScaler().fit(F)
         self.ridge_ = Ridge(alpha=self.alpha_).fit(self.scaler_.transform(F), y)
         return self
 
-    def predict(self, X, groups=None):
+    def predict(self, X, *, groups=None):
         """Predict, restarting the lag features at every run.
 
         Parameters
@@ -250,7 +330,12 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self, "ridge_")
         X_raw, groups = extract_runs(X, groups)
-        validate_data(self, X_raw, dtype=np.float64, reset=False)
+        X_arr = validate_data(self, X_raw, dtype=np.float64, reset=False)
+        warn_unlabelled_runs(
+            type(self).__name__, self.n_fitted_runs_, groups, X_arr.shape[0]
+        )
+        if groups is None and self.n_fitted_runs_ is not None:
+            groups = np.zeros(X_arr.shape[0])  # one run, as just warned
         F = self.lag_features_.transform(X_raw, groups=groups)
         return self.ridge_.predict(self.scaler_.transform(F))
 

@@ -10,38 +10,45 @@ from numbers import Integral, Real
 
 import numpy as np
 from scipy.signal import lfilter
-from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ..utils._runs import (
+from skthermal.utils._runs import (
     TIME_COLUMN,
+    changes_since_start,
     check_time_order,
     extract_runs,
     run_slices,
+    warn_unlabelled_runs,
 )
 
 DEFAULT_DRIVER_NAMES = ("spindle_rpm",)
 
 
-def exponential_filter(U, time_constant, dt, slices=None):
+def exponential_filter(U, time_constant, dt, slices=None, *, initial="steady"):
     """First-order exponential (low-pass) filter, restarting at every run.
 
-    ``z[k] = a z[k-1] + (1 - a) u[k]`` with ``a = exp(-dt / time_constant)``.
-    Each run's filter starts in steady state at the run's first value, so a
-    constant input gives a constant output.
+    ``z[k] = a z[k-1] + (1 - a) u[k]`` with ``a = exp(-dt / time_constant)``:
+    the step-invariant discretisation of ``1 / (tau s + 1)``. Each run's filter
+    starts either in steady state at the run's first value (``z[-1] = u[0]``,
+    so a constant input gives a constant output) or at rest (``z[-1] = 0``).
 
     Parameters
     ----------
     U : array-like of shape (n_samples,) or (n_samples, n_features)
         Input signals, rows in time order.
-    time_constant : float
-        Time constant in the unit of ``dt`` (seconds), > 0.
+    time_constant : float or array-like of shape (n_features,)
+        Time constant in the unit of ``dt`` (seconds), > 0; one for all
+        columns or one per column.
     dt : float or array-like of shape (n_runs,)
         Sampling period of every run (one value for all runs, or one per run).
     slices : list of slice, optional
         Runs as returned by :func:`skthermal.utils._runs.run_slices`
         (default: all rows are one run).
+    initial : {"steady", "rest"}, default="steady"
+        State before each run's first row: steady state at its first value,
+        or zero.
 
     Returns
     -------
@@ -54,22 +61,41 @@ def exponential_filter(U, time_constant, dt, slices=None):
     >>> z = exponential_filter(np.r_[0.0, 1.0, 1.0, 1.0], 1.0, 1.0)
     >>> np.round(z, 3).tolist()
     [0.0, 0.632, 0.865, 0.95]
+    >>> z = exponential_filter(np.ones(3), 1.0, 1.0, initial="rest")
+    >>> np.round(z, 3).tolist()
+    [0.632, 0.865, 0.95]
     """
     U = np.asarray(U, dtype=float)
-    if not time_constant > 0:
-        raise ValueError(f"time_constant must be > 0, got {time_constant!r}.")
+    if initial not in ("steady", "rest"):
+        raise ValueError(f"initial must be 'steady' or 'rest', got {initial!r}.")
+    U2 = U.reshape(U.shape[0], -1)
+    taus = np.asarray(time_constant, dtype=float)
+    if taus.ndim > 1 or (taus.ndim == 1 and taus.size != U2.shape[1]):
+        raise ValueError(
+            f"time_constant must be a number or one per column of U, got shape "
+            f"{taus.shape} for U of shape {U.shape}."
+        )
+    if not (np.all(np.isfinite(taus)) and np.all(taus > 0)):
+        raise ValueError(
+            f"time_constant must be finite and > 0, got {time_constant!r}."
+        )
     if slices is None:
         slices = [slice(0, U.shape[0])]
     dts = np.broadcast_to(np.asarray(dt, dtype=float), (len(slices),))
-    Z = np.empty_like(U)
+    # One lfilter call per run and distinct time constant: the columns that
+    # share it are filtered together along the time axis.
+    uniq, which = np.unique(np.broadcast_to(taus, (U2.shape[1],)), return_inverse=True)
+    Z = np.empty_like(U2)
     for sl, step in zip(slices, dts, strict=True):
         if sl.stop <= sl.start:
             continue
-        a = float(np.exp(-step / time_constant))
-        u = U[sl]
-        zi = a * u[:1]
-        Z[sl] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
-    return Z
+        for j, tau in enumerate(uniq):
+            a = float(np.exp(-step / tau))
+            cols = np.flatnonzero(which == j)
+            u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
+            zi = a * u[:1] if initial == "steady" else np.zeros_like(u[:1])
+            Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
+    return Z.reshape(U.shape)
 
 
 def _run_spacing(X, groups, slices, default):
@@ -88,13 +114,20 @@ def _run_spacing(X, groups, slices, default):
 
 
 class LagFeatures(TransformerMixin, BaseEstimator):
-    """Causal lag features: temperature changes and their low-pass filters.
+    """Causal lag features: temperatures and their low-pass filters.
 
     For every run (restarting at each run start) the transformer returns the
-    temperature changes since the run start ``dT``, ``dT`` through first-order
-    exponential filters with the given time constants (each starting in steady
-    state), and the same filters applied to the drivers (e.g. spindle speed)
-    as ``(u / driver_scale) ** p`` for every power ``p``.
+    temperatures, as changes since the run start ``dT`` (``relative=True``) or
+    as absolute readings ``T``, the same through first-order exponential
+    filters with the given time constants (each starting in steady state),
+    and these filters applied to the drivers (e.g. spindle speed) as
+    ``(u / driver_scale) ** p`` for every power ``p``.
+
+    Within one run both choices give the same model up to a constant (the
+    filters are linear and start in steady state), so they differ only
+    between runs: changes suit runs that each start from rest with the error
+    measured from the run start; absolute readings suit runs that start warm
+    or cut from a longer record.
 
     Run labels are taken from ``groups``, a ``run`` column or a ``run`` index
     level; with a ``time_s`` index level the sampling period of each run is
@@ -105,7 +138,10 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     time_constants : sequence of float, default=(900.0, 3600.0, 14400.0)
         Filter time constants in seconds. May be empty.
     include_changes : bool, default=True
-        Include the unfiltered changes ``dT`` themselves.
+        Include the unfiltered temperatures (``dT`` or ``T``) themselves.
+    relative : bool, default=True
+        Temperatures as changes since the run start (True) or as absolute
+        readings (False).
     drivers : "auto", None or sequence of str or int, default="auto"
         Driver columns (names or positions), filtered but not differenced.
         ``"auto"`` uses the columns named ``spindle_rpm`` when present.
@@ -114,6 +150,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         Powers applied to the scaled drivers (sign kept).
     driver_scale : float, default=1000.0
         Drivers are divided by this before the power.
+    driver_initial : {"steady", "rest"}, default="steady"
+        State of the driver filters before each run: steady state at the
+        run's first value, or zero (the heat source off before the run).
     dt : float, default=1.0
         Seconds per row when there is no ``time_s`` index level.
 
@@ -124,6 +163,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         Only when fitted on a DataFrame with string column names.
     driver_indices_ : ndarray of int
         Positions of the driver columns.
+    n_fitted_runs_ : int or None
+        Labelled runs seen in ``fit`` (None when ``fit`` got no run labels);
+        ``transform`` then warns when given rows without run labels.
 
     Examples
     --------
@@ -137,9 +179,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     _parameter_constraints = {
         "time_constants": ["array-like"],
         "include_changes": ["boolean"],
+        "relative": ["boolean"],
         "drivers": [StrOptions({"auto"}), None, "array-like"],
         "driver_powers": ["array-like"],
         "driver_scale": [Interval(Real, 0, None, closed="neither")],
+        "driver_initial": [StrOptions({"steady", "rest"})],
         "dt": [Interval(Real, 0, None, closed="neither")],
     }
 
@@ -148,13 +192,17 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         time_constants=(900.0, 3600.0, 14400.0),
         *,
         include_changes=True,
+        relative=True,
         drivers="auto",
         driver_powers=(1.0, 1.5),
         driver_scale=1000.0,
+        driver_initial="steady",
         dt=1.0,
     ):
         self.time_constants = time_constants
         self.include_changes = include_changes
+        self.relative = relative
+        self.driver_initial = driver_initial
         self.drivers = drivers
         self.driver_powers = driver_powers
         self.driver_scale = driver_scale
@@ -195,7 +243,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 out.append(list(names).index(str(d)))
         return np.array(sorted(set(out)), dtype=int)
 
-    def fit(self, X, y=None, groups=None):
+    @_fit_context(prefer_skip_nested_validation=True)
+    def fit(self, X, y=None, *, groups=None):
         """Check the input and find the driver columns.
 
         Parameters
@@ -209,9 +258,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         -------
         self : LagFeatures
         """
-        self._validate_params()
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64)
+        self.n_fitted_runs_ = (
+            None if groups is None else len(run_slices(groups, X_arr.shape[0])[0])
+        )
         self._taus()
         names = getattr(self, "feature_names_in_", None)
         self.driver_indices_ = self._resolve_drivers(names, X_arr.shape[1])
@@ -226,7 +277,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             )
         return self
 
-    def transform(self, X, groups=None):
+    def transform(self, X, *, groups=None):
         """Compute the lag features, restarting at every run.
 
         Parameters
@@ -242,22 +293,48 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         check_is_fitted(self, "driver_indices_")
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64, reset=False)
+        warn_unlabelled_runs(
+            type(self).__name__,
+            getattr(self, "n_fitted_runs_", None),
+            groups,
+            X_arr.shape[0],
+        )
         slices, _ = run_slices(groups, X_arr.shape[0])
         dts = _run_spacing(X_raw, groups, slices, self.dt)
         taus = self._taus()
         temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
         T = X_arr[:, temp]
-        dT = np.empty_like(T)
-        for sl in slices:
-            dT[sl] = T[sl] - T[sl.start]
-        blocks = [dT] if self.include_changes else []
-        blocks += [exponential_filter(dT, tau, dts, slices) for tau in taus]
+        if self.relative:
+            T = changes_since_start(T, slices)
+        blocks = [T] if self.include_changes else []
+        blocks += [exponential_filter(T, tau, dts, slices) for tau in taus]
         if self.driver_indices_.size:
             D = X_arr[:, self.driver_indices_] / self.driver_scale
             for p in np.asarray(self.driver_powers, dtype=float).ravel():
                 Dp = np.sign(D) * np.abs(D) ** p
-                blocks += [exponential_filter(Dp, tau, dts, slices) for tau in taus]
+                blocks += [
+                    exponential_filter(
+                        Dp, tau, dts, slices, initial=self.driver_initial
+                    )
+                    for tau in taus
+                ]
         return np.hstack(blocks)
+
+    def fit_transform(self, X, y=None, *, groups=None):
+        """Fit, then transform the same rows (with the same run labels).
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+        y : ignored
+        groups : array-like of shape (n_samples,), optional
+            Run label of every row.
+
+        Returns
+        -------
+        F : ndarray of shape (n_samples, n_features_out)
+        """
+        return self.fit(X, y, groups=groups).transform(X, groups=groups)
 
     def get_feature_names_out(self, input_features=None):
         """Names of the output features.
@@ -278,10 +355,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         input_features = np.asarray(input_features, dtype=object)
         temp = np.setdiff1d(np.arange(self.n_features_in_), self.driver_indices_)
         tnames = [str(c) for c in input_features[temp]]
-        out = [f"d_{c}" for c in tnames] if self.include_changes else []
+        if self.relative:
+            tnames = [f"d_{c}" for c in tnames]
+        out = list(tnames) if self.include_changes else []
         taus = self._taus()
         for tau in taus:
-            out += [f"d_{c}_lp{tau:g}" for c in tnames]
+            out += [f"{c}_lp{tau:g}" for c in tnames]
         for p in np.asarray(self.driver_powers, dtype=float).ravel():
             for tau in taus:
                 out += [
