@@ -430,9 +430,16 @@ def _add_gap(sub):
         "which candidate physical effects close the gap.",
         "  skthermal gap --runs real.csv --preset vmc-b\n"
         "  skthermal gap --runs real.csv --preset vmc-a --report gap/ \\\n"
-        "      --candidates tool_growth,ambient_transient\n",
+        "      --candidates tool_growth,ambient_transient\n"
+        "  skthermal gap --simulated sim.csv --runs real.csv --report gap/\n",
     )
     p.add_argument("--runs", metavar="FILE", required=True, help="real run table")
+    p.add_argument(
+        "--simulated",
+        metavar="FILE",
+        help="run table of your own simulation of the same runs (same times and "
+        "drivers); replaces --preset/--machine (see docs/gap_external.md)",
+    )
     p.add_argument(
         "--preset",
         choices=["vmc-b", "vmc-a", "spindle-rig"],

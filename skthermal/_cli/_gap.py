@@ -35,9 +35,56 @@ def log_progress(quiet=False, stream=None):
     return handler
 
 
+def cmd_gap_external(args):
+    """``skthermal gap --simulated sim.csv --runs real.csv``: the gap between
+    an external simulation's run table and the measured runs."""
+    from skthermal.gap import diagnose_runs
+
+    log_progress(args.quiet)
+    for option in ("machine", "effects"):
+        if getattr(args, option, None):
+            raise UserError(
+                f"--{option} is not used with --simulated: the simulation is the "
+                "run table given there."
+            )
+    simulated = read_table(args.simulated, what="--simulated")
+    measured = read_table(args.runs)
+    candidates = parse_effects(args.candidates)
+    if candidates == []:
+        raise UserError("--candidates: give at least one effect.")
+    print(
+        f"Diagnosing {args.runs} ({measured['run'].nunique()} run(s)) against the "
+        f"simulation {args.simulated} ...",
+        flush=True,
+    )
+    try:
+        report = diagnose_runs(simulated, measured, candidates=candidates)
+    except ValueError as exc:
+        raise UserError(f"--simulated/--runs: {exc}") from exc
+    print(report.verdict())
+    shown = [
+        "effect",
+        "gap_before",
+        "gap_after",
+        "shrink",
+        "share_of_explainable",
+        "p_value",
+        "lr_p_value",
+        "explains",
+    ]
+    with pd.option_context("display.width", 140, "display.precision", 3):
+        print(report.ranking[shown].to_string(index=False))
+    if args.report:
+        report.save(args.report)
+        print(f"Report: {args.report}")
+    return 0
+
+
 def cmd_gap(args):
     from skthermal.gap import diagnose
 
+    if getattr(args, "simulated", None):
+        return cmd_gap_external(args)
     log_progress(args.quiet)
 
     df = read_table(args.runs)

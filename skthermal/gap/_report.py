@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from skthermal._markdown import markdown_table
 from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
 
 
@@ -325,7 +326,7 @@ class GapReport:
     def to_markdown(self):
         """The report as Markdown."""
 
-        table = _markdown_table
+        table = gap_table
 
         where = self.where
         parts = [
@@ -508,24 +509,16 @@ def _with_units(df):
     return df.rename(columns=_DISPLAY_UNITS)
 
 
-def _markdown_table(df):
-    """A DataFrame as a Markdown pipe table (no extra dependency)."""
-    if not len(df):
-        return "(none)"
+def _gap_cell(v):
+    if isinstance(v, float | np.floating):
+        return f"{v:.3g}"
+    return str(v).replace("|", "/")
 
-    def cell(v):
-        if isinstance(v, float | np.floating):
-            return f"{v:.3g}"
-        return str(v).replace("|", "/")
 
-    df = _with_units(df)
-    head = "| " + " | ".join(map(str, df.columns)) + " |"
-    rule = "|" + "|".join("---" for _ in df.columns) + "|"
-    rows = [
-        "| " + " | ".join(cell(v) for v in row) + " |"
-        for row in df.itertuples(index=False)
-    ]
-    return "\n".join([head, rule, *rows])
+def gap_table(df):
+    """A gap table as Markdown, with units in the headers, ``(none)`` when
+    empty."""
+    return markdown_table(_with_units(df), cell=_gap_cell, empty="(none)")
 
 
 def _pyplot():

@@ -180,7 +180,7 @@ class ValidationReport:
         return all(self.targets.values())
 
     def to_markdown(self):
-        from skthermal.gap._report import _markdown_table
+        from skthermal.gap._report import gap_table
 
         lines = ["# Gap diagnosis validation", ""]
         for k, v in self.rates.items():
@@ -193,11 +193,11 @@ class ValidationReport:
             "",
             "## Confusion (rows: truth, columns: diagnosis)",
             "",
-            _markdown_table(self.confusion.reset_index()),
+            gap_table(self.confusion.reset_index()),
             "",
             "## Cases",
             "",
-            _markdown_table(self.cases),
+            gap_table(self.cases),
         ]
         return "\n".join(lines) + "\n"
 

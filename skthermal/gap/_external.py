@@ -1,0 +1,731 @@
+"""Gap diagnosis between two run tables: an external simulation and
+measurements of the same runs.
+
+The simulation may come from any tool (finite elements, a lumped model of
+another package): only its exported run table is needed, with the same runs,
+times and drivers as the measured one. Each effect of the vocabulary is then
+tested as a discrepancy term added to the simulated channels
+(:mod:`skthermal.gap._terms`), calibrated on training runs and scored on
+held-out runs, beside the evidence grey-box identification uses to select a
+model structure (:mod:`skthermal.gap._evidence`).
+"""
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from joblib import Parallel, delayed
+
+from skthermal.gap._diagnose import _block_test, _folds, _gap, _regime_gaps
+from skthermal.gap._evidence import (
+    effective_samples,
+    explainable_gap,
+    likelihood_ratio,
+    ridge_heldout,
+    whiteness,
+)
+from skthermal.gap._problem import (
+    START_SAMPLES,
+    MeasuredRun,
+    Problem,
+    floor_squared,
+    noise_floor,
+)
+from skthermal.gap._regimes import label_regimes
+from skthermal.gap._report import GapReport, gap_table
+from skthermal.gap._scores import excess_shrink
+from skthermal.gap._terms import TERMS, Base, FlexibleFeatures, RunSignals, Signals
+
+logger = logging.getLogger("skthermal.gap")
+
+DRIVERS = ("time_s", "spindle_rpm", "ambient_C")
+
+
+def _is_channel(col):
+    return (col.endswith("_C") and col != "ambient_C") or (
+        col.startswith("disp_") and col.endswith("_um")
+    )
+
+
+def _numeric(frame, col, label, run):
+    values = pd.to_numeric(frame[col], errors="coerce").to_numpy(float)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"{col} is missing or not finite in run {run!r} of the {label} table "
+            f"at row {k} ({frame[col].iloc[k]!r})."
+        )
+    return values
+
+
+def _check_table(df, label):
+    if not isinstance(df, pd.DataFrame):
+        raise TypeError(f"The {label} runs must be a DataFrame, got {type(df)}.")
+    if df.shape[0] == 0:
+        raise ValueError(f"The {label} run table is empty (no rows).")
+    missing = [c for c in ("run", *DRIVERS) if c not in df.columns]
+    if missing:
+        raise ValueError(
+            f"The {label} run table has no {missing} column(s); both tables need "
+            "run, time_s, spindle_rpm and ambient_C (and feed_mm_min if the axis "
+            "moved)."
+        )
+
+
+def _align(simulated, measured, channels, mapping, max_samples):
+    """Runs of both tables, checked against each other, as RunSignals."""
+    _check_table(simulated, "simulated")
+    _check_table(measured, "measured")
+    mapping = dict(mapping or {})
+    if channels is None:
+        channels = [
+            c
+            for c in measured.columns
+            if _is_channel(c) and mapping.get(c, c) in simulated.columns
+        ]
+    channels = list(channels)
+    bad = [c for c in channels if c not in measured.columns]
+    if bad:
+        raise ValueError(f"Channel(s) {bad} are not columns of the measured table.")
+    bad = [mapping.get(c, c) for c in channels if mapping.get(c, c) not in simulated]
+    if bad:
+        raise ValueError(
+            f"Column(s) {bad} are not in the simulated table; map measured "
+            "columns to simulated ones with mapping={'measured': 'simulated'}."
+        )
+    if not channels:
+        raise ValueError(
+            "No measured channel (T*_C sensors or disp_*_um displacements) has a "
+            "column of the same name in the simulated table; pass channels= or "
+            "mapping=."
+        )
+    sim_cols = [mapping.get(c, c) for c in channels]
+    sim_runs = dict(tuple(simulated.groupby("run", sort=False)))
+    meas_runs = list(measured.groupby("run", sort=False))
+    missing = [name for name, _ in meas_runs if name not in sim_runs]
+    if missing:
+        raise ValueError(
+            f"Run(s) {missing} of the measured table are missing from the "
+            f"simulated table (it has {list(sim_runs)})."
+        )
+    out = []
+    for name, meas in meas_runs:
+        sim = sim_runs[name]
+        if len(sim) != len(meas):
+            raise ValueError(
+                f"Run {name!r} has {len(meas)} samples in the measured table and "
+                f"{len(sim)} in the simulated one: export the simulation at the "
+                "measurement's times."
+            )
+        if len(meas) < START_SAMPLES + 3:
+            raise ValueError(
+                f"Run {name!r} has {len(meas)} samples; at least "
+                f"{START_SAMPLES + 3} are needed."
+            )
+        t = _numeric(meas, "time_s", "measured", name)
+        ts = _numeric(sim, "time_s", "simulated", name)
+        tol = 1e-6 * max(1.0, float(np.max(np.abs(t))))
+        off = np.flatnonzero(np.abs(t - ts) > tol)
+        if off.size:
+            k = int(off[0])
+            raise ValueError(
+                f"time_s differs between the tables in run {name!r} at row {k} "
+                f"(measured {t[k]:g} s, simulated {ts[k]:g} s)."
+            )
+        if np.any(np.diff(t) <= 0):
+            k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+            raise ValueError(
+                f"time_s is not strictly increasing in run {name!r} at row {k}."
+            )
+        drivers = {}
+        for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
+            in_m, in_s = col in meas.columns, col in sim.columns
+            m = _numeric(meas, col, "measured", name) if in_m else np.zeros(t.size)
+            s = _numeric(sim, col, "simulated", name) if in_s else np.zeros(t.size)
+            tol = 1e-3 * max(1.0, float(np.max(np.abs(m))))
+            if col == "ambient_C":
+                tol = max(tol, 0.05)  # the air as logged, quantised
+            off = np.flatnonzero(np.abs(m - s) > tol)
+            if off.size:
+                k = int(off[0])
+                where = "" if in_m and in_s else " (absent from one table: 0)"
+                raise ValueError(
+                    f"The drivers differ: {col} in run {name!r} at row {k} "
+                    f"(time {t[k]:g} s) is {m[k]:g} measured and {s[k]:g} "
+                    f"simulated{where}; simulate the measured drivers."
+                )
+            drivers[col] = m
+        y_meas = meas[channels].to_numpy(float)
+        y_sim = sim[sim_cols].to_numpy(float)
+        for label, Y, cols in (
+            ("measured", y_meas, channels),
+            ("simulated", y_sim, sim_cols),
+        ):
+            bad = ~np.isfinite(Y)
+            if bad.any():
+                r, c = map(int, np.argwhere(bad)[0])
+                raise ValueError(
+                    f"{cols[c]} is missing or not finite in run {name!r} of the "
+                    f"{label} table at row {r}."
+                )
+        step = max(1, int(np.ceil(t.size / max_samples)))
+        rows = np.arange(0, t.size, step)
+        y = y_meas[rows] - y_meas[rows][:START_SAMPLES].mean(axis=0)
+        out.append(
+            RunSignals(
+                name,
+                t - t[0],
+                drivers["spindle_rpm"],
+                drivers["ambient_C"],
+                drivers["feed_mm_min"],
+                y_sim,
+                rows,
+                y,
+            )
+        )
+    if len(out) < 2:
+        raise ValueError(
+            "The diagnosis scores effects on held-out runs: give at least 2 runs "
+            f"(got {len(out)})."
+        )
+    noise = np.sqrt(
+        np.mean(
+            [
+                noise_floor(frame[channels].to_numpy(float)) ** 2
+                for _, frame in meas_runs
+            ],
+            axis=0,
+        )
+    )
+    return out, channels, sim_cols, noise
+
+
+def _problem(runs, channels, sim_cols, noise):
+    """The measured side as a :class:`Problem` (scales, weights, noise)."""
+    is_disp = np.array([c.startswith("disp_") for c in sim_cols])
+    Y = np.vstack([r.y for r in runs])
+    scale = np.empty(len(channels))
+    weight = np.empty(len(channels))
+    groups = [g for g in (is_disp, ~is_disp) if g.any()]
+    for g in groups:
+        scale[g] = max(float(np.sqrt(np.mean(Y[:, g].var(axis=0)))), 1e-9)
+        weight[g] = 1.0 / len(groups) / g.sum()
+    measured = [
+        MeasuredRun(
+            name=r.name,
+            time_s=r.time_s,
+            spindle_rpm=r.spindle_rpm,
+            ambient_C=r.ambient_C,
+            feed_mm_min=r.feed_mm_min,
+            rows=r.rows,
+            y=r.y,
+        )
+        for r in runs
+    ]
+    return Problem(measured, channels, sim_cols, is_disp, scale, weight, noise)
+
+
+def _residuals(signals, preds, idx):
+    """Normalised, weighted residuals (prediction minus measurement)."""
+    return [(p - signals.runs[i].y) * signals.w for p, i in zip(preds, idx)]
+
+
+def _heldout(signals, folds, make):
+    """Held-out residuals of every run and the fold models: ``make()``
+    returns an unfitted model (term with its ``with_terms``)."""
+    out = [None] * len(signals.runs)
+    models = []
+    for train, test in folds:
+        model = make(train).fit(signals, train)
+        models.append(model)
+        for i, R in zip(test, _residuals(signals, model.apply(signals, test), test)):
+            out[i] = R
+    return out, models
+
+
+def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
+    """Held-out score and in-sample evidence of adding term ``name``."""
+    regimes, floor2, min_shrink, alpha, all_idx, before_regimes = ctx
+    after_R, models = _heldout(
+        signals,
+        folds,
+        lambda train: TERMS[name]([t[train_key(train)] for t in with_terms]),
+    )
+    gap_b, ms_b = _gap(before_R)
+    gap_a, ms_a = _gap(after_R)
+    shrink = excess_shrink(gap_b, gap_a, floor2)
+    p = _block_test(before_R, after_R)
+    full = TERMS[name]([t["all"] for t in with_terms]).fit(signals, all_idx)
+    after_in = _residuals(signals, full.apply(signals, all_idx), all_idx)
+    # Per channel (each with its own noise), effective samples corrected for
+    # the residual's autocorrelation.
+    rss0 = np.maximum(sum(np.sum(R * R, axis=0) for R in before_in), 1e-300)
+    rss1 = np.maximum(sum(np.sum(R * R, axis=0) for R in after_in), 1e-300)
+    lr = likelihood_ratio(
+        rss0,
+        np.minimum(rss1, rss0),
+        effective_samples(before_in, per_channel=True),
+        max(full.n_params(signals), 1),
+    )
+    white_b, white_a = whiteness(before_R), whiteness(after_R)
+    thetas = [m.theta_ for m in models]
+    row = {
+        "effect": name,
+        "gap_before": gap_b,
+        "gap_after": gap_a,
+        "shrink": shrink,
+        "shrink_raw": 1.0 - gap_a / gap_b if gap_b > 0 else 0.0,
+        "p_value": p,
+        "runs_improved": int(np.sum(ms_b - ms_a > 0)),
+        "n_runs": int(ms_b.size),
+        "extra_params": full.n_params(signals),
+        "lr_statistic": lr.statistic,
+        "lr_p_value": lr.p_value,
+        "delta_aic": lr.delta_aic,
+        "delta_bic": lr.delta_bic,
+        "whiteness_before": white_b["max_deviation"],
+        "whiteness_after": white_a["max_deviation"],
+        "white_band": white_a["band"],
+        "white_after": white_a["white"],
+        "fitted": {k: float(np.median([t[k] for t in thetas])) for k in full.theta_},
+    }
+    row["explains"] = bool(shrink >= min_shrink and p < alpha)
+    rb = _regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
+    ra = _regime_gaps(after_R, regimes)
+    return row, (rb, ra), after_R, {"folds": models, "all": full}
+
+
+def _share(shrink, explainable):
+    """A shrink (above noise) as a share of the explainable part, which is
+    taken at least as large as the shrink itself (the flexible model is
+    regularised and may fall short of a term it contains)."""
+    if shrink <= 0:
+        return float(shrink)
+    return float(shrink / max(explainable, shrink))
+
+
+def _flexible_heldout(signals, folds, fitted):
+    """Held-out residuals of the flexible discrepancy model.
+
+    Per channel, a ridge regression (penalty chosen by leave-one-run-out on
+    the training runs) on the simulated channel (not penalised), low-passes
+    of the drivers, of the channel's own lag and speed-weighted rise and the
+    time since the start (:class:`FlexibleFeatures`), and the signals of
+    every candidate term with its parameters fitted on the fold's training
+    runs (``fitted``: per candidate, ``{"folds": [...]}``).
+    """
+    flex = FlexibleFeatures()
+    generic = [flex.features(signals, r) for r in signals.runs]
+    w = signals.w[None, :, None]
+    targets = [r.y * signals.w for r in signals.runs]
+    out = [None] * len(signals.runs)
+    for k, (train, test) in enumerate(folds):
+        feats = []
+        for i, run in enumerate(signals.runs):
+            parts = [generic[i]]
+            for fit in fitted:
+                term = fit["folds"][k]
+                if term.n_signals:
+                    parts.append(term.features(signals, run, term.theta_))
+            feats.append(np.concatenate(parts, axis=2) * w)
+        pen = np.ones(feats[0].shape[2], dtype=bool)
+        pen[0] = False  # the base gain is not penalised
+        R = ridge_heldout(targets, feats, [(train, test)], penalize=pen)
+        for i in test:
+            out[i] = -R[i]  # prediction minus measurement
+    return out
+
+
+def _parsimonious_order(ranking, jobs, alpha):
+    """Candidates best first: by ``explains``, then held-out shrink; a
+    candidate with fewer extra parameters goes before a larger one that is
+    not significantly better on the held-out runs (paired block test at
+    ``alpha``), as forward selection keeps the smaller model unless the
+    larger one is significantly better."""
+    ranking = ranking.sort_values(
+        ["explains", "shrink"], ascending=False, kind="stable"
+    ).reset_index(drop=True)
+    order = list(ranking["effect"])
+    rows = ranking.set_index("effect")
+    top = order[0]
+    simpler = [
+        e
+        for e in order[1:]
+        if rows.loc[e, "extra_params"] < rows.loc[top, "extra_params"]
+        and rows.loc[e, "explains"] == rows.loc[top, "explains"]
+        and rows.loc[e, "shrink"] > 0
+        and _block_test(jobs[e][2], jobs[top][2]) >= alpha
+    ]
+    if simpler:
+        first = simpler[0]  # the best of them by shrink
+        order.remove(first)
+        order.insert(0, first)
+    return ranking.set_index("effect").loc[order].reset_index()
+
+
+def train_key(train):
+    """Key of a fold's fitted terms: its training runs."""
+    return tuple(int(i) for i in train)
+
+
+@dataclass(repr=False)
+class ExternalGapReport(GapReport):
+    """Result of :func:`skthermal.gap.diagnose_runs`.
+
+    As :class:`GapReport`, with the simulation given as a run table; the
+    ranking also holds, per candidate discrepancy term, the likelihood-ratio
+    test of the model with the term against the base (in sample, Gaussian
+    residuals, effective samples corrected for autocorrelation:
+    ``lr_statistic``, ``lr_p_value``, ``extra_params``, ``delta_aic``,
+    ``delta_bic``), the whiteness of the held-out residual before and after
+    (largest deviation of the cumulated periodogram from the diagonal, the
+    95% Kolmogorov-Smirnov ``white_band``, ``white_after``) and
+    ``share_of_explainable``.
+
+    Attributes
+    ----------
+    explainable : dict
+        The flexible discrepancy model of the drivers: held-out ``gap_after``
+        and ``share`` (share of the base's held-out gap above the noise floor
+        it removes: what any added term could close), and its whiteness.
+    """
+
+    explainable: dict = field(default_factory=dict)
+
+    def verdict(self):
+        """One sentence: which effect explains the gap, or that none does."""
+        row = self.how_far_evidence
+        if not row:
+            return "No candidate effect was tested."
+        share = self.explainable.get("share", np.nan)
+        evidence = (
+            f"held-out gap {row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
+            f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
+            f"p = {row['p_value']:.2g}; likelihood ratio p = "
+            f"{row['lr_p_value']:.2g}; a flexible model of the drivers removes "
+            f"{share:.0%}"
+        )
+        if self.best_effect is None:
+            return (
+                "No candidate effect explains the gap beyond noise (best "
+                f"candidate {row['effect']!r} removes {row['shrink']:.0%} of the "
+                f"excess held-out gap: {evidence})."
+            )
+        text = (
+            f"{self.best_effect!r} explains the gap: adding it removes "
+            f"{row['shrink']:.0%} of the held-out gap above the noise floor "
+            f"({evidence})."
+        )
+        if len(self.steps) > 1:
+            text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
+        return text
+
+    def __repr__(self):
+        return f"ExternalGapReport(best_effect={self.best_effect!r}): {self.verdict()}"
+
+    def to_dict(self):
+        out = super().to_dict()
+        out["explainable"] = self.explainable
+        return out
+
+    def to_markdown(self):
+        text = super().to_markdown()
+        extra = [
+            "",
+            "## How much any added term could close",
+            gap_table(pd.DataFrame([self.explainable])),
+        ]
+        return text + "\n".join(extra) + "\n"
+
+
+def diagnose_runs(
+    simulated,
+    measured,
+    candidates=None,
+    cv=None,
+    *,
+    channels=None,
+    mapping=None,
+    min_shrink=0.5,
+    alpha=0.05,
+    greedy=True,
+    max_samples=600,
+    n_jobs=None,
+):
+    """Diagnose the gap between a simulation's run table and measured runs.
+
+    The simulation can come from any tool: its run table has the same runs,
+    times and drivers as the measured one, and the channels it predicts.
+
+    1. **Where**: the gap of the simulation as given and with the base
+       calibrated (one gain per channel, on all runs), per run, regime,
+       channel and frequency band.
+    2. **Which**: every candidate effect, written as a discrepancy term added
+       to the simulated channels (a lag of the simulated temperatures for
+       ``sensor_lag``, a speed-weighted filtered rise for
+       ``speed_convection``, a response that relaxes after each spindle stop
+       for ``tool_growth``, a band-pass of the air for
+       ``ambient_transient``, a filtered |feed| for ``feed_heating``, a trend
+       per sensor for ``sensor_drift``), is calibrated with the base on
+       training runs (its time constants by a bounded search, its gains by
+       least squares per channel) and scored on held-out runs. An effect
+       explains the gap when it removes at least ``min_shrink`` of the
+       held-out gap above the noise floor and the improvement is significant
+       (one-sided paired t-test over blocks of the held-out runs at
+       ``alpha``). Beside it: the likelihood-ratio test against the base (in
+       sample, effective samples corrected for autocorrelation), the change
+       of AIC and BIC, and the whiteness of the held-out residual before and
+       after. A flexible discrepancy model of the drivers (ridge regression
+       on their lag features, fitted on training runs) bounds how much of
+       the held-out gap any added term could close; every effect's shrink is
+       also given as a share of that.
+    3. **How far**: the held-out gap before and after the best effect (or
+       the best candidate), per regime; then, with ``greedy``, further
+       effects while one still explains what remains.
+
+    Parameters
+    ----------
+    simulated, measured : DataFrame
+        Run tables (``run``, ``time_s``, ``spindle_rpm``, ``ambient_C``,
+        optional ``feed_mm_min``; channels ``T*_C`` and ``disp_*_um``) with
+        the same runs, times and drivers.
+    candidates : sequence of str, optional
+        Effects to test (default: every discrepancy term).
+    cv : int or splitter, optional
+        Held-out scheme over runs: default leave-one-run-out for up to 3
+        runs, else 3-fold GroupKFold.
+    channels : sequence of str, optional
+        Measured columns compared (default: every measured channel with a
+        simulated column of the same name).
+    mapping : dict, optional
+        ``{measured column: simulated column}`` when the names differ.
+    min_shrink : float, default=0.5
+        Share of the excess held-out gap an effect must remove to explain it.
+    alpha : float, default=0.05
+        Significance level of the held-out improvement.
+    greedy : bool, default=True
+        After the best effect, add further effects while they explain more.
+    max_samples : int, default=600
+        Samples per run compared (the terms are computed at the full rate).
+    n_jobs : int, optional
+        Candidates evaluated in parallel (joblib).
+
+    Returns
+    -------
+    ExternalGapReport
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from scipy.signal import lfilter
+    >>> from skthermal.gap import diagnose_runs
+    >>> rng = np.random.default_rng(0)
+    >>> frames_s, frames_m = [], []
+    >>> for r in range(4):
+    ...     t = np.arange(0, 6 * 3600, 60.0)
+    ...     rpm = np.where((t // 3600) % 2 == r % 2, 4000.0, 0.0)
+    ...     heat = lfilter([0.02], [1, -0.98], rpm / 1000)
+    ...     sim = 20 + np.column_stack([heat, 0.5 * heat])
+    ...     a = np.exp(-60 / 900)
+    ...     lag = lfilter([1 - a], [1, -a], sim - 20, axis=0) + 20
+    ...     meas = lag + 0.01 * rng.standard_normal(sim.shape)
+    ...     base = {"run": r, "time_s": t, "spindle_rpm": rpm, "ambient_C": 20.0}
+    ...     frames_s.append(pd.DataFrame({**base, "T1_C": sim[:, 0],
+    ...                                   "T2_C": sim[:, 1]}))
+    ...     frames_m.append(pd.DataFrame({**base, "T1_C": meas[:, 0],
+    ...                                   "T2_C": meas[:, 1]}))
+    >>> report = diagnose_runs(pd.concat(frames_s), pd.concat(frames_m),
+    ...                        candidates=["sensor_lag", "feed_heating"])
+    >>> report.best_effect
+    'sensor_lag'
+    """
+    if candidates is None:
+        candidates = list(TERMS)
+    candidates = [candidates] if isinstance(candidates, str) else list(candidates)
+    unknown = [c for c in candidates if c not in TERMS]
+    if unknown:
+        raise ValueError(
+            f"Unknown effect(s) {unknown}; the vocabulary is {list(TERMS)}."
+        )
+    if not candidates:
+        raise ValueError("Give at least one candidate effect.")
+    candidates = [c for c in TERMS if c in candidates]
+    runs, channels, sim_cols, noise = _align(
+        simulated, measured, channels, mapping, max_samples
+    )
+    problem = _problem(runs, channels, sim_cols, noise)
+    problem.meta["source"] = "run table"
+    w = np.sqrt(problem.weight) / problem.scale
+    signals = Signals(runs, ~problem.is_disp, w)
+    n = len(runs)
+    all_idx = list(range(n))
+    folds = [(list(tr), list(te)) for tr, te in _folds(n, cv)]
+    floor2 = floor_squared(problem)
+    regimes = [
+        label_regimes(r.time_s, r.spindle_rpm, r.ambient_C, r.feed_mm_min)
+        .iloc[r.rows]
+        .reset_index(drop=True)
+        for r in runs
+    ]
+    logger.info(
+        "Prepared %d run(s), %d channel(s); %d candidate(s): %s.",
+        n,
+        len(channels),
+        len(candidates),
+        ", ".join(candidates),
+    )
+
+    # Where: as given, and with the base calibrated on all runs.
+    as_given = [
+        (r.compared(r.sim) - r.y) * w for r in runs
+    ]  # prediction minus measurement
+    base_all = Base().fit(signals, all_idx)
+    calibrated = _residuals(signals, base_all.apply(signals, all_idx), all_idx)
+
+    # Which: the base held out, then every candidate.
+    base_R, _ = _heldout(signals, folds, lambda train: Base())
+    gap_base = _gap(base_R)[0]
+    ctx = (regimes, floor2, min_shrink, alpha, all_idx, _regime_gaps(base_R, regimes))
+    jobs = Parallel(n_jobs=n_jobs)(
+        delayed(_evaluate)(signals, folds, (), base_R, calibrated, c, ctx)
+        for c in candidates
+    )
+    # How much any added term could close: the flexible model.
+    flex_R = _flexible_heldout(signals, folds, [j[3] for j in jobs])
+    gap_flex = _gap(flex_R)[0]
+    explainable = explainable_gap(gap_base, gap_flex, floor2)
+    white_flex = whiteness(flex_R)
+    logger.info(
+        "Base held-out gap %.3g; a flexible model of the drivers reaches %.3g "
+        "(%.0f%% of the excess above noise).",
+        gap_base,
+        gap_flex,
+        100 * explainable,
+    )
+    rows = [j[0] for j in jobs]
+    for row in rows:
+        row["share_of_explainable"] = _share(row["shrink"], explainable)
+        logger.info(
+            "Which: %s: held-out gap %.3g -> %.3g, shrink %.0f%% above noise "
+            "(%.0f%% of the explainable), p = %.2g, likelihood ratio p = %.2g%s.",
+            row["effect"],
+            row["gap_before"],
+            row["gap_after"],
+            100 * row["shrink"],
+            100 * row["share_of_explainable"],
+            row["p_value"],
+            row["lr_p_value"],
+            " (explains)" if row["explains"] else "",
+        )
+    by_name = {j[0]["effect"]: j for j in jobs}
+    ranking = _parsimonious_order(pd.DataFrame(rows), by_name, alpha)
+    regime_shrink = pd.concat(
+        [
+            (1.0 - ra / rb.reindex(ra.index)).rename(row["effect"])
+            for row, (rb, ra), _, _ in jobs
+        ],
+        axis=1,
+    )
+    focus = ranking.iloc[0]["effect"]
+    focus_row, (rb, ra), focus_R, _ = by_name[focus]
+    best = focus if focus_row["explains"] else None
+
+    # How far: the best effect, then greedily more.
+    steps = []
+    if best is not None:
+        added = [by_name[best][3]]
+        steps.append(
+            {
+                "added": best,
+                "gap": focus_row["gap_after"],
+                "shrink": focus_row["shrink"],
+                "calibration": "discrepancy term",
+            }
+        )
+        current_R = focus_R
+        current_in = _residuals(
+            signals, added[0]["all"].apply(signals, all_idx), all_idx
+        )
+        remaining = [c for c in candidates if c != best]
+        while greedy and remaining:
+            ctx = (*ctx[:-1], _regime_gaps(current_R, regimes))
+            more = Parallel(n_jobs=n_jobs)(
+                delayed(_evaluate_more)(
+                    signals, folds, added, current_R, current_in, c, ctx
+                )
+                for c in remaining
+            )
+            more.sort(key=lambda j: (j[0]["explains"], j[0]["shrink"]), reverse=True)
+            top = more[0]
+            if not top[0]["explains"]:
+                break
+            added.append(top[3])
+            current_R = top[2]
+            current_in = _residuals(
+                signals, top[3]["all"].apply(signals, all_idx), all_idx
+            )
+            steps.append(
+                {
+                    "added": top[0]["effect"],
+                    "gap": top[0]["gap_after"],
+                    "shrink": top[0]["shrink"],
+                    "calibration": "discrepancy term",
+                }
+            )
+            remaining.remove(top[0]["effect"])
+    fine_row = dict(focus_row, calibration="discrepancy term")
+    report = ExternalGapReport._build(
+        problem=problem,
+        machine=_Named("external simulation (run table)"),
+        candidates=candidates,
+        ranking=ranking,
+        regime_shrink=regime_shrink,
+        best_effect=best,
+        steps=steps,
+        base_R=base_R,
+        best_R=focus_R if best is not None else None,
+        fine_row=fine_row,
+        fine_regimes=(rb, ra),
+        fine_before_R=base_R,
+        fine_after_R=focus_R,
+        as_given=as_given,
+        calibrated=calibrated,
+        regimes=regimes,
+        floor2=floor2,
+        settings={
+            "min_shrink": min_shrink,
+            "alpha": alpha,
+            "folds": len(folds),
+            "mode": "external",
+        },
+    )
+    report.explainable = {
+        "gap_before": gap_base,
+        "gap_after": gap_flex,
+        "share": explainable,
+        "whiteness_after": white_flex["max_deviation"],
+        "white_band": white_flex["band"],
+        "white_after": white_flex["white"],
+    }
+    report.machines = {"base calibrated": base_all}
+    logger.info("Verdict: %s", report.verdict())
+    return report
+
+
+def _evaluate_more(signals, folds, added, before_R, before_in, name, ctx):
+    """:func:`_evaluate` on top of already added terms (``added``: their
+    fold and all-run fits)."""
+    with_terms = [
+        {**{train_key(tr): m for (tr, _), m in zip(folds, a["folds"])}, "all": a["all"]}
+        for a in added
+    ]
+    # Each earlier term carries its own earlier terms: only the last is
+    # needed as the chain, but the features of all of them are used.
+    return _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx)
+
+
+@dataclass
+class _Named:
+    name: str

@@ -1,0 +1,453 @@
+"""Discrepancy terms: the effects of the vocabulary as corrections that can be
+added to any simulation's output.
+
+When the simulation is not a :class:`~skthermal.simulate.ThermalMachine` but
+a run table from another tool, an unmodelled effect cannot be switched on
+inside it. Each effect is then written as a *discrepancy term*: a signal
+built from the simulated channels and the drivers (a first-order lag of the
+simulated temperatures, a filtered |feed|, a post-stop response, ...) with a
+few nonlinear parameters (time constants, searched in bounded ranges) and one
+linear gain per channel (least squares). Every model also has the *base*: a
+gain per channel on the simulated channel itself, so that a scale error of
+the simulation is not mistaken for a missing effect (offsets are removed by
+comparing changes since the start of each run).
+
+All signals are computed at the run's own sample rate and then compared at
+the run's ``rows`` as changes since the start (the mean of the first
+``START_SAMPLES`` compared samples), like the measurements.
+"""
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from skthermal.gap._problem import START_SAMPLES
+from skthermal.preprocessing import exponential_filter
+
+
+@dataclass
+class RunSignals:
+    """One run of the two tables, aligned.
+
+    Attributes
+    ----------
+    name : label
+    time_s, spindle_rpm, ambient_C, feed_mm_min : ndarray of shape (n,)
+        Drivers at the full sample rate (time from 0).
+    sim : ndarray of shape (n, c)
+        Simulated channels (absolute values).
+    rows : ndarray of int
+        Samples compared.
+    y : ndarray of shape (len(rows), c)
+        Measured channels at ``rows``, change since start.
+    """
+
+    name: object
+    time_s: np.ndarray
+    spindle_rpm: np.ndarray
+    ambient_C: np.ndarray
+    feed_mm_min: np.ndarray
+    sim: np.ndarray
+    rows: np.ndarray
+    y: np.ndarray
+
+    def __post_init__(self):
+        self.dt = float(np.median(np.diff(self.time_s)))  # sample period (s)
+
+    def compared(self, X):
+        """``X`` (full rate, ``(n, ...)``) at ``rows``, change since start."""
+        x = np.asarray(X, dtype=float)[self.rows]
+        return x - x[:START_SAMPLES].mean(axis=0)
+
+
+@dataclass
+class Signals:
+    """All runs, which channels are temperatures, and the channel weights
+    (``sqrt(weight) / scale``) with which squared errors are summed."""
+
+    runs: list
+    is_temp: np.ndarray
+    w: np.ndarray
+
+    @property
+    def n_channels(self):
+        return self.is_temp.size
+
+
+def lowpass(x, tau, dt):
+    """First-order low-pass of ``x`` (time along axis 0), started in steady
+    state. ``tau`` 0 returns ``x``."""
+    x = np.asarray(x, dtype=float)
+    return x if tau <= 0 else exponential_filter(x, float(tau), dt)
+
+
+def _solve_gains(design, targets, idx, sign=None):
+    """Per-channel least-squares gains of ``design[i]`` (n, c, k) for the
+    ``targets[i]`` (n, c) of runs ``idx``; a tiny ridge keeps channels on
+    which a feature is zero well posed. Returns (c, k).
+
+    ``sign`` (shape (c,), entries -1, 0 or +1) constrains the sign of the
+    last feature's gain per channel: where the unconstrained gain has the
+    wrong sign, the constrained optimum of this convex problem has that gain
+    at zero, so those channels are solved again without the feature."""
+    G = sum(np.einsum("nck,ncl->ckl", design[i], design[i]) for i in idx)
+    b = sum(np.einsum("nck,nc->ck", design[i], targets[i]) for i in idx)
+    diag = np.einsum("ckk->ck", G)
+    k = G.shape[-1]
+    A = G + (1e-8 * diag + 1e-12)[:, :, None] * np.eye(k)
+    gains = np.linalg.solve(A, b[..., None])[..., 0]
+    if sign is not None and k > 1:
+        wrong = sign * gains[:, -1] < 0
+        if wrong.any():
+            gains[wrong, -1] = 0.0
+            gains[wrong, :-1] = np.linalg.solve(
+                A[wrong][:, :-1, :-1], b[wrong][:, :-1, None]
+            )[..., 0]
+    return gains
+
+
+def _predict(design, gains):
+    return np.einsum("nck,ck->nc", design, gains)
+
+
+class DiscrepancyTerm:
+    """A correction added to the simulation (the base: none).
+
+    Subclasses set ``name``, ``bounds`` (nonlinear parameters and their
+    search ranges, searched on a log grid and refined), ``channels``
+    (``"all"``, ``"temperature"`` or ``"displacement"``) and implement
+    ``_signal(run, theta)`` returning the term's signals at the full rate,
+    shape ``(n, c, k)`` or ``(n, k)`` (shared by all channels).
+
+    Attributes (after ``fit``)
+    --------------------------
+    theta_ : dict
+        Fitted nonlinear parameters.
+    gains_ : ndarray of shape (n_channels, n_features)
+        Gains of the base and of every term of the model, per channel.
+    """
+
+    name = "base"
+    bounds = {}
+    channels = "all"
+    n_signals = 0
+    grid = 9
+    # The sign physics gives the term's gain on temperature sensors (+1: the
+    # effect can only warm them, -1: only cool them, 0: either).
+    temperature_sign = 0
+
+    def __init__(self, with_terms=()):
+        self.with_terms = tuple(with_terms)
+
+    # --- signals ---------------------------------------------------------------
+
+    def _signal(self, run, theta):
+        return np.zeros((run.time_s.size, 0))
+
+    def _mask(self, signals):
+        if self.channels == "temperature":
+            return signals.is_temp
+        if self.channels == "displacement":
+            return ~signals.is_temp
+        return np.ones(signals.n_channels, dtype=bool)
+
+    def features(self, signals, run, theta):
+        """The term's features at the compared rows, ``(n_rows, c, k)``,
+        zero on channels the term does not act on."""
+        s = self._signal(run, theta)
+        c = signals.n_channels
+        if s.ndim == 2:
+            s = np.broadcast_to(s[:, None, :], (s.shape[0], c, s.shape[1]))
+        out = run.compared(s) * self._mask(signals)[None, :, None]
+        return out
+
+    def _signs(self, signals):
+        """Sign constraint of the term's gain per channel (None: free)."""
+        if not self.n_signals or not self.temperature_sign:
+            return None
+        return np.where(signals.is_temp, float(self.temperature_sign), 0.0)
+
+    def n_params(self, signals):
+        """Free parameters the term adds to the base: its nonlinear
+        parameters and one gain per signal and channel it acts on."""
+        return len(self.bounds) + self.n_signals * int(self._mask(signals).sum())
+
+    # --- fit and apply ---------------------------------------------------------
+
+    def _fixed(self, signals, i):
+        """The base and the earlier terms' features of run ``i``."""
+        run = signals.runs[i]
+        parts = [run.compared(run.sim)[:, :, None]]
+        for term in self.with_terms:
+            parts.append(term.features(signals, run, term.theta_))
+        return np.concatenate(parts, axis=2)
+
+    def _design(self, signals, i, theta, fixed=None):
+        fixed = self._fixed(signals, i) if fixed is None else fixed[i]
+        if not self.n_signals:
+            return fixed
+        own = self.features(signals, signals.runs[i], theta)
+        return np.concatenate([fixed, own], axis=2)
+
+    def _cost(self, signals, idx, theta, fixed=None):
+        design = {i: self._design(signals, i, theta, fixed) for i in idx}
+        targets = {i: signals.runs[i].y for i in idx}
+        gains = _solve_gains(design, targets, idx, self._signs(signals))
+        sse = sum(
+            np.sum(((_predict(design[i], gains) - targets[i]) * signals.w) ** 2)
+            for i in idx
+        )
+        return float(sse), gains
+
+    def fit(self, signals, idx):
+        """Search the nonlinear parameters and solve the gains on runs
+        ``idx`` (the terms in ``with_terms`` keep their fitted parameters)."""
+        idx = list(idx)
+        names = list(self.bounds)
+        fixed = {i: self._fixed(signals, i) for i in idx}
+        if not names:
+            self.theta_ = {}
+            self.cost_, self.gains_ = self._cost(signals, idx, {}, fixed)
+            return self
+        axes = [
+            np.geomspace(*self.bounds[n], self.grid)
+            if self.bounds[n][0] > 0
+            else np.linspace(*self.bounds[n], self.grid)
+            for n in names
+        ]
+        best = None
+        for combo in itertools.product(*axes):
+            theta = dict(zip(names, combo, strict=True))
+            if not self._valid(theta):
+                continue
+            cost, _ = self._cost(signals, idx, theta, fixed)
+            if best is None or cost < best[0]:
+                best = (cost, theta)
+        cost, theta = best
+        # Refine every parameter between its grid neighbours, one at a time
+        # (log scale for time constants), the others held.
+        for _ in range(min(len(names), 2)):
+            for name, ax in zip(names, axes, strict=True):
+                log = self.bounds[name][0] > 0
+                grid = np.log(ax) if log else ax
+                x0 = np.log(theta[name]) if log else theta[name]
+                k = int(np.argmin(np.abs(grid - x0)))
+                lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+                if not hi > lo:
+                    continue
+
+                def f(x, name=name, log=log):
+                    trial = dict(theta, **{name: float(np.exp(x) if log else x)})
+                    if not self._valid(trial):
+                        return 2.0 * cost + 1.0  # outside: worse than any
+                    return self._cost(signals, idx, trial, fixed)[0]
+
+                res = minimize_scalar(
+                    f, bounds=(lo, hi), method="bounded", options={"xatol": 0.02}
+                )
+                if res.fun < cost:
+                    cost = float(res.fun)
+                    theta = dict(
+                        theta, **{name: float(np.exp(res.x) if log else res.x)}
+                    )
+        self.theta_ = {k: float(v) for k, v in theta.items()}
+        self.cost_, self.gains_ = self._cost(signals, idx, self.theta_, fixed)
+        return self
+
+    def _valid(self, theta):
+        return True
+
+    def apply(self, signals, idx):
+        """Predictions (change since start, ``(n_rows, c)``) of runs ``idx``."""
+        return [
+            _predict(self._design(signals, i, self.theta_), self.gains_) for i in idx
+        ]
+
+    def __repr__(self):
+        theta = getattr(self, "theta_", None)
+        inner = "" if not theta else ", ".join(f"{k}={v:.3g}" for k, v in theta.items())
+        return f"{type(self).__name__}({inner})"
+
+
+class Base(DiscrepancyTerm):
+    """The base: one gain per channel on the simulated channel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skthermal.gap._terms import Base, RunSignals, Signals
+    >>> t = np.arange(0, 7200, 60.0)
+    >>> sim = (1 - np.exp(-t / 1800))[:, None]
+    >>> run = RunSignals("a", t, np.full(t.size, 3000.0), np.full(t.size, 20.0),
+    ...                  np.zeros(t.size), sim, np.arange(t.size),
+    ...                  2 * (sim - sim[:5].mean(axis=0)))
+    >>> base = Base().fit(Signals([run], np.array([True]), np.ones(1)), [0])
+    >>> round(float(base.gains_[0, 0]), 3)
+    2.0
+    """
+
+
+class SensorLag(DiscrepancyTerm):
+    """``sensor_lag``: temperature sensors read a first-order lag of the
+    simulated temperature, ``T + g (lag(T, tau) - T)`` per sensor (``g`` 1 for
+    a fully lagged sensor, 0 for one without lag)."""
+
+    name = "sensor_lag"
+    bounds = {"tau_s": (30.0, 7200.0)}
+    channels = "temperature"
+    n_signals = 1
+    temperature_sign = 1  # a sensor can lag, not lead
+
+    def features(self, signals, run, theta):
+        lagged = lowpass(run.sim, theta["tau_s"], run.dt)
+        out = run.compared(lagged - run.sim)
+        return (out * self._mask(signals)[None, :])[:, :, None]
+
+
+class SpeedConvection(DiscrepancyTerm):
+    """``speed_convection``: convection grows with spindle speed, so every
+    channel loses a share of its simulated rise that grows with speed:
+    ``g lag((n / 1000 rpm)^e * rise, tau)``, rise the simulated change since
+    the run's start."""
+
+    name = "speed_convection"
+    bounds = {"tau_s": (120.0, 14400.0), "exponent": (0.5, 1.5)}
+    channels = "all"
+    n_signals = 1
+    temperature_sign = -1  # more convection only cools
+    grid = 7
+
+    def features(self, signals, run, theta):
+        speed = (run.spindle_rpm / 1000.0) ** theta["exponent"]
+        rise = run.sim - run.sim[:1]
+        x = lowpass(speed[:, None] * rise, theta["tau_s"], run.dt)
+        return (run.compared(x) * self._mask(signals)[None, :])[:, :, None]
+
+
+class ToolGrowth(DiscrepancyTerm):
+    """``tool_growth``: the turning tool is cooled by the air it churns and
+    grows back after every stop. Only the displacements see it (the tool
+    carries no sensor): ``g lag((n / 1000 rpm)^e * rise, tau)`` with a short
+    time constant (a tool's), rise the simulated displacement change since
+    the start; after each stop the term relaxes exponentially with ``tau``.
+    """
+
+    name = "tool_growth"
+    bounds = {"tau_s": (60.0, 3600.0), "exponent": (0.5, 1.0)}
+    channels = "displacement"
+    n_signals = 1
+    grid = 7
+
+    def features(self, signals, run, theta):
+        speed = (np.clip(run.spindle_rpm, 0.0, None) / 1000.0) ** theta["exponent"]
+        rise = run.sim - run.sim[:1]
+        x = lowpass(speed[:, None] * rise, theta["tau_s"], run.dt)
+        return (run.compared(x) * self._mask(signals)[None, :])[:, :, None]
+
+
+class AmbientTransient(DiscrepancyTerm):
+    """``ambient_transient``: exposed surfaces follow the air faster than the
+    simulation lets them: a band-pass of the air temperature,
+    ``g (lag(T_air, tau_fast) - lag(T_air, tau_slow))``."""
+
+    name = "ambient_transient"
+    bounds = {"tau_fast_s": (60.0, 3600.0), "tau_slow_s": (600.0, 28800.0)}
+    channels = "all"
+    n_signals = 1
+    temperature_sign = 1  # surfaces follow the air more closely, not less
+    grid = 6
+
+    def _valid(self, theta):
+        return theta["tau_slow_s"] > 1.5 * theta["tau_fast_s"]
+
+    def _signal(self, run, theta):
+        a = run.ambient_C
+        x = lowpass(a, theta["tau_fast_s"], run.dt) - lowpass(
+            a, theta["tau_slow_s"], run.dt
+        )
+        return x[:, None]
+
+
+class FeedHeating(DiscrepancyTerm):
+    """``feed_heating``: friction heat of the feed axis, ``g lag(|feed| /
+    1000 mm/min, tau)``."""
+
+    name = "feed_heating"
+    bounds = {"tau_s": (60.0, 14400.0)}
+    channels = "all"
+    n_signals = 1
+    temperature_sign = 1  # friction heat only warms
+
+    def _signal(self, run, theta):
+        return lowpass(np.abs(run.feed_mm_min) / 1000.0, theta["tau_s"], run.dt)[
+            :, None
+        ]
+
+
+class SensorDrift(DiscrepancyTerm):
+    """``sensor_drift``: every temperature sensor drifts linearly at its own
+    rate (°C per hour since the run's start)."""
+
+    name = "sensor_drift"
+    bounds = {}
+    channels = "temperature"
+    n_signals = 1
+
+    def _signal(self, run, theta):
+        return (run.time_s / 3600.0)[:, None]
+
+
+TERMS = {
+    cls.name: cls
+    for cls in (
+        SensorLag,
+        SpeedConvection,
+        ToolGrowth,
+        AmbientTransient,
+        FeedHeating,
+        SensorDrift,
+    )
+}
+
+
+@dataclass
+class FlexibleFeatures:
+    """Lag features of the drivers (and of every simulated channel) for the
+    flexible discrepancy model that bounds what any added term could
+    explain."""
+
+    time_constants_s: tuple = (300.0, 1200.0, 4800.0, 14400.0)
+    extra: list = field(default_factory=list)
+
+    def features(self, signals, run):
+        """``(n_rows, c, k)``: the simulated channel, and low-passes of the
+        speed, the spindle state, |feed|, the air change, the speed times
+        the simulated rise and of the simulated channel, and the time."""
+        dt = run.dt
+        speed = run.spindle_rpm / 1000.0
+        shared = np.column_stack(
+            [
+                speed,
+                (run.spindle_rpm > 0).astype(float),
+                np.abs(run.feed_mm_min) / 1000.0,
+                run.ambient_C - run.ambient_C[0],
+            ]
+        )
+        rise = run.sim - run.sim[:1]
+        parts = [run.compared(run.sim)[:, :, None]]
+        c = signals.n_channels
+        for tau in self.time_constants_s:
+            z = run.compared(lowpass(shared, tau, dt))
+            parts.append(np.broadcast_to(z[:, None, :], (z.shape[0], c, z.shape[1])))
+            # The channel's own lag (as a difference, so that a small lag is
+            # a small coefficient) and its speed-weighted rise.
+            lag = lowpass(run.sim, tau, dt) - run.sim
+            parts.append(run.compared(lag)[:, :, None])
+            parts.append(
+                run.compared(lowpass(speed[:, None] * rise, tau, dt))[..., None]
+            )
+        clock = run.compared(run.time_s / 3600.0)
+        parts.append(np.broadcast_to(clock[:, None, None], (clock.size, c, 1)))
+        return np.concatenate(parts, axis=2)

@@ -1,0 +1,257 @@
+"""Tests of the gap diagnosis between two run tables (skthermal.gap.diagnose_runs),
+its discrepancy terms and its structure-selection evidence."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.signal import lfilter
+
+from skthermal.gap import ExternalGapReport, diagnose_runs
+from skthermal.gap._evidence import (
+    cumulated_periodogram,
+    effective_samples,
+    explainable_gap,
+    likelihood_ratio,
+    whiteness,
+)
+from skthermal.gap._terms import TERMS, RunSignals, Signals, ToolGrowth
+
+
+def _lowpass(x, tau, dt=60.0):
+    a = np.exp(-dt / tau)
+    x = np.asarray(x, dtype=float)
+    return lfilter([1 - a], [1, -a], x, axis=0, zi=a * x[:1])[0]
+
+
+def _tables(rng, truth="null", n_runs=4, hours=6.0, noise=0.01):
+    """A plain-numpy simulation (two temperatures, one displacement) and its
+    'measurement' with ``truth`` added."""
+    sims, meas = [], []
+    for r in range(n_runs):
+        t = np.arange(0, hours * 3600, 60.0)
+        # Random on/off blocks of 30-90 min at random speeds.
+        edges = np.cumsum(rng.uniform(1800, 5400, 20))
+        block = np.searchsorted(edges, t)
+        speeds = rng.choice([2000.0, 4000.0, 6000.0, 8000.0], 20)
+        rpm = np.where(block % 2 == r % 2, speeds[block], 0.0)
+        air = (
+            20
+            + 0.5 * np.sin(2 * np.pi * t / 86400 + r)
+            + 0.05 * np.cumsum(rng.standard_normal(t.size)) / np.sqrt(t.size)
+        )
+        heat = _lowpass((rpm / 1000) ** 1.3, 2400.0)
+        T1 = air + 0.8 * heat
+        T2 = air + 0.3 * _lowpass(heat, 3600.0)
+        dz = 4.0 * heat + 2.0 * _lowpass(heat, 7200.0)
+        sim = np.column_stack([T1, T2, dz])
+        true = 1.1 * sim + np.array([0.3, -0.2, 5.0])
+        if truth == "tool_growth":
+            rise = dz - dz[0]
+            true[:, 2] -= 0.3 * _lowpass(np.sqrt(rpm / 1000) * rise, 600.0)
+        elif truth == "sensor_lag":
+            true[:, :2] = _lowpass(true[:, :2], 900.0)
+        y = true + noise * rng.standard_normal(true.shape) * [1, 1, 10]
+        base = {"run": f"r{r}", "time_s": t, "spindle_rpm": rpm, "ambient_C": air}
+        cols = ["T1_C", "T2_C", "disp_z_um"]
+        sims.append(pd.DataFrame({**base, **dict(zip(cols, sim.T))}))
+        meas.append(pd.DataFrame({**base, **dict(zip(cols, y.T))}))
+    return pd.concat(sims, ignore_index=True), pd.concat(meas, ignore_index=True)
+
+
+# --- evidence ---------------------------------------------------------------
+
+
+def test_whiteness_flags_ar1_and_passes_white_noise(rng):
+    e = rng.standard_normal(2000)
+    ar = lfilter([1.0], [1.0, -0.7], e)
+    assert whiteness(e)["white"]
+    w = whiteness(ar)
+    assert not w["white"] and w["max_deviation"] > 3 * w["band"]
+    assert w["lag1"] > 0.6
+    # Pooled over runs of different amplitude, white stays white.
+    assert whiteness([e[:700], 50 * e[700:]])["white"]
+
+
+def test_cumulated_periodogram_ends_at_one_and_rises(rng):
+    f, c = cumulated_periodogram([rng.standard_normal(100), rng.standard_normal(51)])
+    assert f.size == 50 + 25 and np.all(np.diff(c) >= 0) and c[-1] == 1.0
+    assert np.all((f > 0) & (f <= 1))
+    with pytest.raises(ValueError, match="non-constant"):
+        cumulated_periodogram(np.ones(10))
+
+
+def test_effective_samples_shrinks_with_autocorrelation(rng):
+    e = rng.standard_normal(5000)
+    assert effective_samples(e) == pytest.approx(5000, rel=0.1)
+    slow = lfilter([1.0], [1.0, -0.95], e)
+    assert effective_samples(slow) == pytest.approx(5000 * 0.05 / 1.95, rel=0.3)
+    per = effective_samples(np.column_stack([e, slow]), per_channel=True)
+    assert per.shape == (2,) and per[0] > 10 * per[1]
+
+
+def test_likelihood_ratio_p_value_behaviour():
+    strong = likelihood_ratio(10.0, 5.0, n=200, extra_params=1)
+    weak = likelihood_ratio(10.0, 9.9, n=200, extra_params=1)
+    assert strong.p_value < 1e-10 < 0.05 < weak.p_value
+    assert strong.statistic == pytest.approx(200 * np.log(2))
+    # More extra parameters for the same gain: a larger p-value.
+    assert (
+        likelihood_ratio(10.0, 9.0, 200, 10).p_value
+        > likelihood_ratio(10.0, 9.0, 200, 1).p_value
+    )
+    # Fewer effective samples: less evidence.
+    assert (
+        likelihood_ratio(10.0, 9.0, 20, 1).p_value
+        > likelihood_ratio(10.0, 9.0, 200, 1).p_value
+    )
+    # No gain: p = 1, AIC and BIC prefer the smaller model.
+    none = likelihood_ratio(10.0, 10.0, 200, 2)
+    assert none.p_value == 1.0 and none.delta_aic > 0 and none.delta_bic > 0
+    with pytest.raises(ValueError, match="positive"):
+        likelihood_ratio(0.0, 1.0, 10, 1)
+    with pytest.raises(ValueError, match="extra_params"):
+        likelihood_ratio(2.0, 1.0, 10, 0)
+
+
+def test_explainable_gap_is_a_share_above_noise():
+    assert explainable_gap(1.0, 0.6, 0.0) == pytest.approx(0.4)
+    assert explainable_gap(1.0, 1.2, 0.0) == 0.0  # a worse flexible model
+    # Against the noise floor: closing down to noise is everything.
+    assert explainable_gap(0.5, 0.3, 0.09) == pytest.approx(1.0)
+
+
+# --- terms ------------------------------------------------------------------
+
+
+def test_terms_cover_the_vocabulary():
+    from skthermal.simulate import EFFECTS
+
+    assert set(TERMS) == set(EFFECTS)
+
+
+def test_tool_growth_term_recovers_its_time_constant(rng):
+    t = np.arange(0, 6 * 3600, 60.0)
+    rpm = np.where((t // 3600) % 2 == 0, 4000.0, 0.0)
+    sim = np.column_stack([5 * _lowpass(rpm / 1000, 1800.0)])
+    rise = sim - sim[0]
+    y_full = 1.5 * sim - 0.2 * _lowpass(np.sqrt(rpm / 1000)[:, None] * rise, 900.0)
+    rows = np.arange(t.size)
+    y = y_full - y_full[:5].mean(axis=0)
+    run = RunSignals("a", t, rpm, np.full(t.size, 20.0), 0 * t, sim, rows, y)
+    term = ToolGrowth().fit(Signals([run], np.array([False]), np.ones(1)), [0])
+    assert term.theta_["tau_s"] == pytest.approx(900.0, rel=0.1)
+    assert 0.5 <= term.theta_["exponent"] <= 0.7
+    assert term.gains_[0, 0] == pytest.approx(1.5, rel=0.01)
+    assert term.gains_[0, 1] < 0
+    assert term.cost_ < 1e-4 * float(np.sum(y**2))
+
+
+# --- diagnosis --------------------------------------------------------------
+
+
+def test_post_stop_term_is_ranked_first_and_named(rng):
+    sim, meas = _tables(rng, "tool_growth")
+    report = diagnose_runs(sim, meas, greedy=False)
+    assert isinstance(report, ExternalGapReport)
+    assert report.ranking["effect"].iloc[0] == "tool_growth"
+    assert report.best_effect == "tool_growth"
+    top = report.ranking.iloc[0]
+    assert top["shrink"] > 0.8 and top["p_value"] < 0.05
+    assert top["lr_p_value"] < 0.05
+    assert top["fitted"]["tau_s"] == pytest.approx(600.0, rel=0.3)
+    # How far: per regime, and the after-stop gap shrinks.
+    hf = report.how_far.set_index("regime")
+    assert hf.loc["overall", "gap_after"] < 0.5 * hf.loc["overall", "gap_before"]
+    assert hf.loc["after stop", "shrink"] > 0.5
+    assert "tool_growth" in report.verdict()
+    assert 0 < report.explainable["share"] <= 1
+
+
+def test_sensor_lag_is_named(rng):
+    sim, meas = _tables(rng, "sensor_lag")
+    report = diagnose_runs(
+        sim,
+        meas,
+        candidates=["sensor_lag", "feed_heating", "sensor_drift"],
+        greedy=False,
+    )
+    assert report.best_effect == "sensor_lag"
+    assert report.ranking.iloc[0]["fitted"]["tau_s"] == pytest.approx(900, rel=0.3)
+
+
+def test_null_gain_and_offset_call_none(rng):
+    sim, meas = _tables(rng, "null")
+    report = diagnose_runs(sim, meas)
+    assert report.best_effect is None
+    assert "No candidate effect explains" in report.verdict()
+    assert not report.ranking["explains"].any()
+    # The base (gain per channel, offsets as change since start) closes the
+    # gap down to the noise.
+    where = report.where["runs"]
+    calibrated = where[where["model"] == "base calibrated"]["gap"].mean()
+    given = where[where["model"] == "as given"]["gap"].mean()
+    assert calibrated < 0.5 * given
+    text = report.to_markdown()
+    assert "How much any added term could close" in text
+    data = json.loads(report.to_json())
+    assert data["explainable"]["share"] >= 0
+    assert {"lr_p_value", "whiteness_after"} <= set(data["ranking"][0])
+
+
+# --- errors -----------------------------------------------------------------
+
+
+@pytest.fixture
+def pair():
+    return _tables(np.random.default_rng(0), "null", n_runs=3, hours=2.0)
+
+
+def test_different_drivers_are_named(pair):
+    sim, meas = pair
+    sim = sim.copy()
+    sim.loc[sim.index[sim["run"] == "r1"][10], "spindle_rpm"] += 500
+    with pytest.raises(ValueError, match=r"spindle_rpm in run 'r1' at row 10"):
+        diagnose_runs(sim, meas)
+    sim2 = pair[0].assign(feed_mm_min=1000.0)
+    with pytest.raises(ValueError, match="feed_mm_min.*absent from one table"):
+        diagnose_runs(sim2, meas)
+
+
+def test_missing_runs_and_columns_are_named(pair):
+    sim, meas = pair
+    with pytest.raises(ValueError, match=r"\['r2'\].*missing from the simulated"):
+        diagnose_runs(sim[sim["run"] != "r2"], meas)
+    with pytest.raises(ValueError, match="no \\['ambient_C'\\] column"):
+        diagnose_runs(sim.drop(columns="ambient_C"), meas)
+    with pytest.raises(ValueError, match="No measured channel"):
+        renamed = {"T1_C": "T1_K", "T2_C": "T2_K", "disp_z_um": "dz"}
+        diagnose_runs(sim.rename(columns=renamed), meas)
+    with pytest.raises(ValueError, match="Unknown effect"):
+        diagnose_runs(sim, meas, candidates=["coolant"])
+
+
+def test_mismatched_times_are_named(pair):
+    sim, meas = pair
+    sim = sim.copy()
+    sim.loc[sim.index[sim["run"] == "r0"][7], "time_s"] += 30.0
+    with pytest.raises(ValueError, match=r"time_s differs .* run 'r0' at row 7"):
+        diagnose_runs(sim, meas)
+    short = pair[0].drop(index=pair[0].index[pair[0]["run"] == "r1"][-1])
+    with pytest.raises(ValueError, match="Run 'r1' has .* samples in the measured"):
+        diagnose_runs(short, meas)
+
+
+def test_empty_tables_and_missing_values(pair):
+    sim, meas = pair
+    with pytest.raises(ValueError, match="simulated run table is empty"):
+        diagnose_runs(sim.iloc[:0], meas)
+    with pytest.raises(ValueError, match="measured run table is empty"):
+        diagnose_runs(sim, meas.iloc[:0])
+    bad = meas.copy()
+    bad.loc[bad.index[5], "T1_C"] = np.nan
+    with pytest.raises(ValueError, match="T1_C is missing .* run 'r0' of the measured"):
+        diagnose_runs(sim, bad)
+    with pytest.raises(ValueError, match="at least 2 runs"):
+        diagnose_runs(sim[sim["run"] == "r0"], meas[meas["run"] == "r0"])
