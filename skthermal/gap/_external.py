@@ -12,10 +12,12 @@ model structure (:mod:`skthermal.gap._evidence`).
 
 import logging
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
+from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal.gap._diagnose import _block_test, _folds, _gap, _regime_gaps
 from skthermal.gap._evidence import (
@@ -440,6 +442,22 @@ class ExternalGapReport(GapReport):
         return text + "\n".join(extra) + "\n"
 
 
+@validate_params(
+    {
+        "simulated": [pd.DataFrame],
+        "measured": [pd.DataFrame],
+        "candidates": [None, str, list, tuple],
+        "cv": [None, Interval(Integral, 2, None, closed="left"), "cv_object"],
+        "channels": [None, list, tuple],
+        "mapping": [None, dict],
+        "min_shrink": [Interval(Real, 0, 1, closed="right")],
+        "alpha": [Interval(Real, 0, 1, closed="neither")],
+        "greedy": ["boolean"],
+        "max_samples": [Interval(Integral, 10, None, closed="left")],
+        "n_jobs": [None, Integral],
+    },
+    prefer_skip_nested_validation=True,
+)
 def diagnose_runs(
     simulated,
     measured,
