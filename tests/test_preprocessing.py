@@ -187,7 +187,7 @@ def test_cv_schemes_and_the_one_standard_error_rule():
     T = np.cumsum(rng.normal(size=(n, 3)), axis=0)
     y = T @ [1.0, 0.5, 0.0] + rng.normal(size=n)
     alphas = np.logspace(-3, 3, 13)
-    kw = dict(time_constant_sets=[(), (5.0,)], alphas=alphas, cv="blocks")
+    kw = {"time_constant_sets": [(), (5.0,)], "alphas": alphas, "cv": "blocks"}
     best = LagRidgeCV(**kw).fit(T, y)
     simple = LagRidgeCV(**kw, selection="1se").fit(T, y)
     # within one standard error of the best: a penalty at least as large
