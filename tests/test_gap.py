@@ -235,6 +235,28 @@ def test_where_tables(tool_report):
 
 
 @ONE_WORKER
+def test_timeline_and_overlay_plots(tool_report):
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = tool_report.plot_timeline()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "before" in labels and "with tool_growth" in labels
+    assert "after stop" in labels  # the regimes shaded
+    assert ax.get_xlabel() == "time (h)"
+    ax = tool_report.plot_overlay()
+    assert [line.get_label() for line in ax.get_lines()] == [
+        "measured",
+        "simulated",
+        "simulated + tool_growth",
+    ]
+    plt.close("all")
+
+
+@ONE_WORKER
 def test_report_files_and_formats(tool_report, tmp_path):
     data = json.loads(tool_report.to_json())
     assert data["best_effect"] == "tool_growth"

@@ -400,39 +400,49 @@ class GapReport:
 
     def plot_timeline(self, run=None, channel=None, ax=None):
         """Residual timeline of a run shaded by regime, before (and after) the
-        best effect. Returns the matplotlib Axes."""
-        plt = _pyplot()
+        best effect.
+
+        A :class:`skthermal.plotting.GapTimelineDisplay` of the residual
+        before, with the residual after the best effect drawn on top.
+
+        Parameters
+        ----------
+        run : run label, optional
+            Default: the first run.
+        channel : str, optional
+            Default: the displacement channel with the largest gap.
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib Axes
+        """
+        from skthermal.plotting import GapTimelineDisplay
+
         run = next(iter(self.timelines)) if run is None else run
         frame = self.timelines[run]
         channel = channel or self._default_channel(frame)
-        if ax is None:
-            _, ax = plt.subplots(figsize=(9, 3))
-        t = frame["time_s"].to_numpy() / 3600.0
-        colours = {"heating": "#f4cccc", "after stop": "#fff2cc", "dwell": "#d9ead3"}
-        regime = frame["regime"].to_numpy()
-        edges = np.flatnonzero(regime[1:] != regime[:-1]) + 1
-        starts = np.r_[0, edges]
-        stops = np.r_[edges, regime.size]
-        seen = set()
-        for a, b in zip(starts, stops, strict=True):
-            lab = regime[a]
-            ax.axvspan(
-                t[a],
-                t[min(b, t.size - 1)],
-                color=colours.get(lab, "#eeeeee"),
-                label=None if lab in seen else lab,
-                lw=0,
-            )
-            seen.add(lab)
-        ax.plot(t, frame[f"residual_before:{channel}"], color="C3", label="before")
+        display = GapTimelineDisplay.from_arrays(
+            frame["time_s"].to_numpy(),
+            frame[f"residual_before:{channel}"].to_numpy(),
+            frame["regime"].to_numpy(),
+            residual_name="before",
+            ax=ax,
+            time_unit="h",
+            line_kwargs={"color": "C3"},
+        )
+        ax = display.ax_
         col = f"residual_after:{channel}"
         if col in frame:
-            ax.plot(t, frame[col], color="C0", label=f"with {self.best_effect}")
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_xlabel("time (h)")
+            ax.plot(
+                frame["time_s"].to_numpy() / 3600.0,
+                frame[col],
+                color="C0",
+                label=f"with {self.best_effect}",
+            )
+            ax.legend(fontsize="small", ncol=3)
         ax.set_ylabel(f"residual {channel}")
         ax.set_title(f"Run {run}: measured - simulated")
-        ax.legend(fontsize=7, ncol=3)
         return ax
 
     def plot_overlay(self, run=None, channel=None, ax=None):
