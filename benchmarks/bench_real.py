@@ -113,8 +113,8 @@ REGRESSORS = {
         False,
     ),
     "ANFISRegressor": (
-        lambda **p: ANFISRegressor(epochs=50, random_state=0, **p),
-        [{"n_clusters": c} for c in (2, 3)],
+        lambda **p: ANFISRegressor(epochs=50, ridge="auto", random_state=0, **p),
+        [{"n_clusters": c} for c in (1, 2, 3)],
         False,
     ),
     "GreyPSORegressor": (
