@@ -2,12 +2,14 @@
 explains it, and how far the gap shrinks once that effect is added."""
 
 import logging
+from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 from scipy import stats
 from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
+from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal.gap._problem import (
     EFFECT_PARAMETER,
@@ -23,7 +25,7 @@ from skthermal.gap._problem import (
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
 from skthermal.gap._scores import excess_shrink
-from skthermal.simulate import EFFECTS
+from skthermal.simulate import EFFECTS, ThermalMachine
 
 logger = logging.getLogger("skthermal.gap")
 
@@ -284,6 +286,25 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
     return row, (rb, ra)
 
 
+@validate_params(
+    {
+        "machine": [ThermalMachine],
+        "runs": [pd.DataFrame],
+        "candidates": [None, str, list, tuple],
+        "cv": [None, Interval(Integral, 2, None, closed="left"), "cv_object"],
+        "channels": [None, list, tuple],
+        "mapping": [None, dict],
+        "min_shrink": [Interval(Real, 0, 1, closed="right")],
+        "alpha": [Interval(Real, 0, 1, closed="neither")],
+        "greedy": ["boolean"],
+        "max_samples": [Interval(Integral, 10, None, closed="left")],
+        "max_nfev": [Interval(Integral, 1, None, closed="left")],
+        "block_hours": [None, Interval(Real, 0, None, closed="neither")],
+        "fine": ["boolean"],
+        "n_jobs": [None, Integral],
+    },
+    prefer_skip_nested_validation=True,
+)
 def diagnose(
     machine,
     runs,
