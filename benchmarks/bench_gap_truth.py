@@ -31,6 +31,7 @@ from joblib import Parallel, delayed
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _gap_targets import summarise  # noqa: E402
 from truth import CASES, make_truth_campaign  # noqa: E402
 
 from skthermal.gap import diagnose  # noqa: E402
@@ -80,35 +81,6 @@ def one_case(case, seed, n_runs, diagnose_jobs):
             row["true_shrink_from"] = "screening"
     row["seconds"] = time.perf_counter() - t0
     return row
-
-
-def summarise(df):
-    """Confusion table and target rates of a results table."""
-    vocabulary = [c for c in CASES if c not in ("null", "coolant")]
-    confusion = pd.crosstab(df["case"], df["named"]).reindex(
-        index=[c for c in CASES if c in set(df["case"])],
-        columns=[*vocabulary, "none"],
-        fill_value=0,
-    )
-    eff = df[~df["case"].isin(["null", "coolant"])]
-    null = df[df["case"] == "null"]
-    oov = df[df["case"] == "coolant"]
-    rates = {}
-    if len(eff):
-        rates["withheld effect ranked first (>= 90%)"] = (
-            eff["ranked_first"] == eff["case"]
-        ).mean()
-        rates["withheld effect named"] = (eff["named"] == eff["case"]).mean()
-        rates["mean held-out shrink of the withheld effect (>= 0.70)"] = eff[
-            "true_shrink"
-        ].mean()
-    if len(null):
-        rates["null called none (>= 90%)"] = (null["named"] == "none").mean()
-    if len(oov):
-        rates["out-of-vocabulary not blamed on an effect (100%)"] = (
-            oov["named"] == "none"
-        ).mean()
-    return confusion, rates
 
 
 def main(argv=None):
