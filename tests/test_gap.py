@@ -14,7 +14,7 @@ from skthermal.gap import (
     make_gap_campaign,
     validate,
 )
-from skthermal.gap._diagnose import _Context, _folds, _gap
+from skthermal.gap._diagnose import _Context
 from skthermal.gap._problem import (
     Problem,
     build_problem,
@@ -25,6 +25,7 @@ from skthermal.gap._problem import (
     predict_run,
     residuals,
 )
+from skthermal.gap._scores import gap_of, heldout_folds
 from skthermal.simulate import ThermalMachine
 
 
@@ -138,11 +139,11 @@ def test_fine_calibration_recovers_the_spindle_heads_dynamics():
         )
     runs = pd.concat(frames, ignore_index=True)
     problem = build_problem(sim, runs)
-    ctx = _Context(problem, sim, sim.params, _folds(len(problem.runs), None), 30)
+    ctx = _Context(problem, sim, sim.params, heldout_folds(len(problem.runs), None), 30)
     screening = [ctx.fold(k, ()) for k in range(len(ctx.folds))]
     fine = [ctx.fold(k, (), fine=True) for k in range(len(ctx.folds))]
-    gap_screening = _gap(ctx.assemble((), screening)[0])[0]
-    gap_fine = _gap(ctx.assemble((), fine)[0])[0]
+    gap_screening = gap_of(ctx.assemble((), screening)[0])[0]
+    gap_fine = gap_of(ctx.assemble((), fine)[0])[0]
     assert gap_fine < 0.8 * gap_screening
     # The calibrated multipliers (family scales times fine ones) follow the
     # truth's.

@@ -2,13 +2,12 @@
 explains it, and how far the gap shrinks once that effect is added."""
 
 import logging
+from dataclasses import dataclass
 from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
-from scipy import stats
-from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal.gap._problem import (
@@ -24,31 +23,16 @@ from skthermal.gap._problem import (
 )
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
-from skthermal.gap._scores import excess_shrink
+from skthermal.gap._scores import (
+    block_test,
+    excess_shrink,
+    gap_of,
+    heldout_folds,
+    regime_gaps,
+)
 from skthermal.simulate import EFFECTS, ThermalMachine
 
 logger = logging.getLogger("skthermal.gap")
-
-
-def _folds(n_runs, cv):
-    groups = np.arange(n_runs)
-    if cv is None:
-        cv = LeaveOneGroupOut() if n_runs <= 3 else GroupKFold(n_splits=3)
-    elif isinstance(cv, int):
-        cv = GroupKFold(n_splits=cv)
-    X = np.zeros((n_runs, 1))
-    return [(tr, te) for tr, te in cv.split(X, groups=groups)]
-
-
-def _run_ms(R):
-    """Mean over samples of the weighted squared normalised residual."""
-    return float(np.mean(np.sum(R * R, axis=1))) if R.size else 0.0
-
-
-def _gap(Rs):
-    n = np.array([R.shape[0] for R in Rs], dtype=float)
-    ms = np.array([_run_ms(R) for R in Rs])
-    return float(np.sqrt(np.sum(n * ms) / n.sum())), ms
 
 
 def _detrend_first_half(R, is_temp):
@@ -66,25 +50,6 @@ def _detrend_first_half(R, is_temp):
 
 def _second_half(R):
     return R[R.shape[0] // 2 :]
-
-
-def _block_test(before, after, n_blocks=3):
-    """One-sided paired t-test of the squared-error reduction over time blocks.
-
-    Each held-out run is cut into ``n_blocks`` contiguous blocks (hours long,
-    so nearly independent); the test asks whether the candidate lowers the
-    mean squared residual across blocks more than block-to-block noise would.
-    """
-    d = []
-    for Rb, Ra in zip(before, after, strict=True):
-        edges = np.linspace(0, Rb.shape[0], n_blocks + 1).astype(int)
-        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
-            if hi > lo:
-                d.append(_run_ms(Rb[lo:hi]) - _run_ms(Ra[lo:hi]))
-    d = np.asarray(d)
-    if d.size < 2 or np.std(d) == 0:
-        return 0.0 if d.size and np.all(d > 0) else 1.0
-    return float(stats.ttest_1samp(d, 0.0, alternative="greater").pvalue)
 
 
 def _xcorr(problem, Rs, max_lag=10):
@@ -126,32 +91,6 @@ def _regimes_of(problem):
         lab = label_regimes(run.time_s, run.spindle_rpm, run.ambient_C, run.feed_mm_min)
         out.append(lab.iloc[run.rows].reset_index(drop=True))
     return out
-
-
-def _regime_gaps(Rs, regimes):
-    """Gap per regime label (primary regime, ambient event, feed motion)."""
-    rows = []
-    for R, lab in zip(Rs, regimes, strict=True):
-        e = np.sum(R * R, axis=1)
-        keys = lab["regime"].to_numpy().astype(object)
-        rows.append(pd.DataFrame({"regime": keys, "e": e}))
-        if lab["ambient_event"].any():
-            rows.append(
-                pd.DataFrame(
-                    {"regime": "ambient event", "e": e[lab["ambient_event"].to_numpy()]}
-                )
-            )
-        if lab["feed_motion"].any():
-            rows.append(
-                pd.DataFrame(
-                    {"regime": "feed motion", "e": e[lab["feed_motion"].to_numpy()]}
-                )
-            )
-        for speed, idx in lab.groupby("speed").groups.items():
-            if speed != "0 rpm":
-                rows.append(pd.DataFrame({"regime": f"at {speed}", "e": e[idx]}))
-    frame = pd.concat(rows, ignore_index=True)
-    return frame.groupby("regime", sort=False)["e"].mean().pow(0.5)
 
 
 class _Context:
@@ -207,6 +146,25 @@ class _Context:
         return self.assemble(effects, results)
 
 
+@dataclass
+class Evaluation:
+    """One candidate added on top of ``effects``, scored on held-out runs."""
+
+    row: dict  # the ranking row
+    regime_shrink: pd.Series  # shrink per regime
+    residuals: list  # held-out residuals of every run, with the candidate
+    fits: list  # the folds' calibrations
+
+    @property
+    def effect(self):
+        return self.row["effect"]
+
+    @property
+    def rank_key(self):
+        """Sort key, best first with ``reverse=True``."""
+        return (self.row["explains"], self.row["shrink"])
+
+
 def _evaluate(
     ctx,
     before_effects,
@@ -234,7 +192,7 @@ def _evaluate(
         )
     else:
         row["fitted"] = np.nan
-    return row, regime_shrink, after_R, fits
+    return Evaluation(row, regime_shrink, after_R, fits)
 
 
 def _log_row(step, row):
@@ -262,13 +220,13 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         regimes = [r.iloc[r.shape[0] // 2 :].reset_index(drop=True) for r in regimes]
     else:
         b, a = before_R, after_R
-    gap_b, ms_b = _gap(b)
-    gap_a, ms_a = _gap(a)
+    gap_b, ms_b = gap_of(b)
+    gap_a, ms_a = gap_of(a)
     shrink = excess_shrink(gap_b, gap_a, floor2)
     d = ms_b - ms_a  # per held-out run
-    p = _block_test(b, a)
-    rb = _regime_gaps(b, regimes)
-    ra = _regime_gaps(a, regimes)
+    p = block_test(b, a)
+    rb = regime_gaps(b, regimes)
+    ra = regime_gaps(a, regimes)
     row = {
         "effect": candidate,
         "gap_before": gap_b,
@@ -439,149 +397,27 @@ def diagnose(
         ", ".join(candidates),
     )
     reference = machine.params
-    folds = _folds(len(problem.runs), cv)
+    folds = heldout_folds(len(problem.runs), cv)
     ctx = _Context(problem, machine, reference, folds, max_nfev)
-    regimes = _regimes_of(problem)
-    floor2 = floor_squared(problem)
-
-    # Where: as given, and with the base calibrated on all runs (in sample).
-    logger.info("Where: simulating the runs and calibrating the base.")
-    as_given = residuals(
-        problem,
-        {i: predict_run(machine, problem, r) for i, r in enumerate(problem.runs)},
-        None,
-        range(len(problem.runs)),
-    )
-    all_idx = np.arange(len(problem.runs))
-    base_all = calibrate(problem, machine, reference, (), all_idx, max_nfev=max_nfev)
-    calibrated = residuals(
-        problem,
-        {
-            i: predict_run(base_all.machine, problem, r, parts=True)
-            for i, r in enumerate(problem.runs)
-        },
-        base_all.gain,
-        all_idx,
-    )
-
-    # Which: held-out gap of the base, then of every candidate.
-    logger.info("Which: calibrating the base on %d fold(s).", len(folds))
-    base_R, base_fits = ctx.heldout(())
-    jobs = Parallel(n_jobs=n_jobs)(
-        delayed(_evaluate)(
-            ctx, (), base_R, base_fits, c, regimes, floor2, min_shrink, alpha
-        )
-        for c in candidates
-    )
-    rows = [j[0] for j in jobs]
-    if n_jobs not in (None, 1):  # workers' log records stay in the workers
-        for row in rows:
-            _log_row("Which", row)
-    ranking = pd.DataFrame(rows)
-    ranking = ranking.sort_values(
-        ["explains", "shrink"], ascending=False, kind="stable"
-    )
-    ranking = ranking.reset_index(drop=True)
-    regime_shrink = pd.concat([j[1] for j in jobs], axis=1)
-    after_R = {j[0]["effect"]: j[2] for j in jobs}
-    after_fits = {j[0]["effect"]: j[3] for j in jobs}
-
-    # How far, finely: the top candidate against the base, both with the
-    # spindle head's nodes freed. This comparison decides whether the top
-    # candidate explains the gap (the screening only ranks).
-    focus = ranking.iloc[0]["effect"] if len(ranking) else None
-    fine_row = fine_regimes = fine_before_R = fine_after_R = None
-    if focus is not None:
-        n_folds = len(folds)
-        logger.info(
-            "How far: %s against the base, %s calibration.",
-            focus,
-            "fine" if fine else "screening",
-        )
-        if fine:
-            results = Parallel(n_jobs=n_jobs)(
-                delayed(ctx.fold)(k, effects, start, True)
-                for effects, starts in (
-                    ((), [None] * n_folds),
-                    ((focus,), [f.values for f in base_fits]),
-                )
-                for k, start in enumerate(starts)
-            )
-            fine_before_R, _ = ctx.assemble((), results[:n_folds])
-            fine_after_R, _ = ctx.assemble((focus,), results[n_folds:])
-        else:
-            fine_before_R, fine_after_R = base_R, after_R[focus]
-        fine_row, fine_regimes = _score(
-            ctx,
-            fine_before_R,
-            fine_after_R,
-            focus,
-            regimes,
-            floor2,
-            min_shrink,
-            alpha,
-        )
-        fine_row["calibration"] = "fine" if fine else "screening"
-        _log_row("How far", fine_row)
-    best = focus if fine_row is not None and fine_row["explains"] else None
-
-    # How far: the best effect, then greedily more.
-    steps = []
-    if best is not None:
-        added = [best]
-        current_R, current_fits = after_R[best], after_fits[best]
-        steps.append(
-            {
-                "added": best,
-                "gap": fine_row["gap_after"],
-                "shrink": fine_row["shrink"],
-                "calibration": fine_row["calibration"],
-            }
-        )
-        remaining = [c for c in candidates if c != best]
-        while greedy and remaining:
-            more = Parallel(n_jobs=n_jobs)(
-                delayed(_evaluate)(
-                    ctx,
-                    tuple(added),
-                    current_R,
-                    current_fits,
-                    c,
-                    regimes,
-                    floor2,
-                    min_shrink,
-                    alpha,
-                )
-                for c in remaining
-            )
-            more.sort(key=lambda j: (j[0]["explains"], j[0]["shrink"]), reverse=True)
-            top = more[0]
-            if not top[0]["explains"]:
-                break
-            added.append(top[0]["effect"])
-            current_R, current_fits = top[2], top[3]
-            steps.append(
-                {
-                    "added": top[0]["effect"],
-                    "gap": _gap(current_R)[0],
-                    "shrink": top[0]["shrink"],
-                    "calibration": "screening",
-                }
-            )
-            remaining.remove(top[0]["effect"])
-    machines = {"base calibrated": base_all.machine}
+    rules = (_regimes_of(problem), floor_squared(problem), min_shrink, alpha)
+    where = _where(ctx)
+    screen = _screen(ctx, candidates, rules, n_jobs)
+    how_far = _how_far(ctx, screen, rules, fine, n_jobs)
+    best = how_far.effect if how_far is not None and how_far.explains else None
+    added, steps = _greedy(ctx, screen, how_far, candidates, rules, greedy, n_jobs)
     logger.info(
         "Verdict: %s.",
         f"{' + '.join(added)} explain(s) the gap" if best else "no effect explains",
     )
+    machines = {"base calibrated": where.base.machine}
     if best is not None:
         with_best = calibrate(
             problem,
             machine,
             reference,
             tuple(added),
-            all_idx,
-            start=base_all.values,
+            np.arange(len(problem.runs)),
+            start=where.base.values,
             max_nfev=max_nfev,
         )
         machines["+ " + " + ".join(added)] = with_best.machine
@@ -589,20 +425,20 @@ def diagnose(
         problem=problem,
         machine=machine,
         candidates=candidates,
-        ranking=ranking,
-        regime_shrink=regime_shrink,
+        ranking=screen.ranking,
+        regime_shrink=screen.regime_shrink,
         best_effect=best,
         steps=steps,
-        base_R=base_R,
-        best_R=after_R.get(best) if best is not None else None,
-        fine_row=fine_row,
-        fine_regimes=fine_regimes,
-        fine_before_R=fine_before_R,
-        fine_after_R=fine_after_R,
-        as_given=as_given,
-        calibrated=calibrated,
-        regimes=regimes,
-        floor2=floor2,
+        base_R=screen.base_R,
+        best_R=screen.evaluations[best].residuals if best is not None else None,
+        fine_row=None if how_far is None else how_far.row,
+        fine_regimes=None if how_far is None else how_far.regimes,
+        fine_before_R=None if how_far is None else how_far.before_R,
+        fine_after_R=None if how_far is None else how_far.after_R,
+        as_given=where.as_given,
+        calibrated=where.calibrated,
+        regimes=rules[0],
+        floor2=rules[1],
         settings={
             "min_shrink": min_shrink,
             "alpha": alpha,
@@ -613,3 +449,164 @@ def diagnose(
     )
     report.machines = machines
     return report
+
+
+@dataclass
+class Where:
+    """Step 1: the simulation's residuals as given and with the base
+    calibrated on all runs (in sample)."""
+
+    as_given: list
+    calibrated: list
+    base: object  # the calibration on all runs (a Fit)
+
+
+def _where(ctx):
+    logger.info("Where: simulating the runs and calibrating the base.")
+    problem, machine = ctx.problem, ctx.machine
+    n = len(problem.runs)
+    as_given = residuals(
+        problem,
+        {i: predict_run(machine, problem, r) for i, r in enumerate(problem.runs)},
+        None,
+        range(n),
+    )
+    all_idx = np.arange(n)
+    base = calibrate(
+        problem, machine, ctx.reference, (), all_idx, max_nfev=ctx.max_nfev
+    )
+    calibrated = residuals(
+        problem,
+        {
+            i: predict_run(base.machine, problem, r, parts=True)
+            for i, r in enumerate(problem.runs)
+        },
+        base.gain,
+        all_idx,
+    )
+    return Where(as_given, calibrated, base)
+
+
+@dataclass
+class Screen:
+    """Step 2: the base and every candidate on held-out runs."""
+
+    base_R: list  # held-out residuals of the base
+    base_fits: list
+    ranking: pd.DataFrame  # best first
+    regime_shrink: pd.DataFrame  # candidates x regimes
+    evaluations: dict  # effect name -> Evaluation
+
+
+def _screen(ctx, candidates, rules, n_jobs):
+    logger.info("Which: calibrating the base on %d fold(s).", len(ctx.folds))
+    base_R, base_fits = ctx.heldout(())
+    evaluations = Parallel(n_jobs=n_jobs)(
+        delayed(_evaluate)(ctx, (), base_R, base_fits, c, *rules) for c in candidates
+    )
+    if n_jobs not in (None, 1):  # workers' log records stay in the workers
+        for ev in evaluations:
+            _log_row("Which", ev.row)
+    ranking = pd.DataFrame([ev.row for ev in evaluations])
+    ranking = ranking.sort_values(
+        ["explains", "shrink"], ascending=False, kind="stable"
+    ).reset_index(drop=True)
+    return Screen(
+        base_R,
+        base_fits,
+        ranking,
+        pd.concat([ev.regime_shrink for ev in evaluations], axis=1),
+        {ev.effect: ev for ev in evaluations},
+    )
+
+
+@dataclass
+class HowFar:
+    """Step 3: the top candidate against the base, the comparison that
+    decides whether it explains the gap."""
+
+    row: dict
+    regimes: tuple  # gap per regime, before and after
+    before_R: list
+    after_R: list
+
+    @property
+    def effect(self):
+        return self.row["effect"]
+
+    @property
+    def explains(self):
+        return bool(self.row["explains"])
+
+
+def _how_far(ctx, screen, rules, fine, n_jobs):
+    """The top candidate against the base; with ``fine``, both with the
+    spindle head's nodes freed (the screening only ranks)."""
+    if not len(screen.ranking):
+        return None
+    focus = screen.ranking.iloc[0]["effect"]
+    logger.info(
+        "How far: %s against the base, %s calibration.",
+        focus,
+        "fine" if fine else "screening",
+    )
+    if fine:
+        n_folds = len(ctx.folds)
+        results = Parallel(n_jobs=n_jobs)(
+            delayed(ctx.fold)(k, effects, start, True)
+            for effects, starts in (
+                ((), [None] * n_folds),
+                ((focus,), [f.values for f in screen.base_fits]),
+            )
+            for k, start in enumerate(starts)
+        )
+        before_R, _ = ctx.assemble((), results[:n_folds])
+        after_R, _ = ctx.assemble((focus,), results[n_folds:])
+    else:
+        before_R, after_R = screen.base_R, screen.evaluations[focus].residuals
+    row, regimes = _score(ctx, before_R, after_R, focus, *rules)
+    row["calibration"] = "fine" if fine else "screening"
+    _log_row("How far", row)
+    return HowFar(row, regimes, before_R, after_R)
+
+
+def _greedy(ctx, screen, how_far, candidates, rules, greedy, n_jobs):
+    """Step 4: the explaining effect, then (with ``greedy``) the next one on
+    top while one still explains what remains. Returns the effects added
+    and one step row each."""
+    if how_far is None or not how_far.explains:
+        return [], []
+    best = how_far.effect
+    added = [best]
+    current = screen.evaluations[best]
+    steps = [
+        {
+            "added": best,
+            "gap": how_far.row["gap_after"],
+            "shrink": how_far.row["shrink"],
+            "calibration": how_far.row["calibration"],
+        }
+    ]
+    remaining = [c for c in candidates if c != best]
+    while greedy and remaining:
+        more = Parallel(n_jobs=n_jobs)(
+            delayed(_evaluate)(
+                ctx, tuple(added), current.residuals, current.fits, c, *rules
+            )
+            for c in remaining
+        )
+        top = max(more, key=lambda ev: ev.rank_key)
+        if not top.row["explains"]:
+            break
+        added.append(top.effect)
+        current = top
+        steps.append(
+            {
+                "added": top.effect,
+                "gap": gap_of(top.residuals)[0],
+                "shrink": top.row["shrink"],
+                "calibration": "screening",
+            }
+        )
+        remaining.remove(top.effect)
+    return added, steps

@@ -19,7 +19,6 @@ import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.utils._param_validation import Interval, validate_params
 
-from skthermal.gap._diagnose import _block_test, _folds, _gap, _regime_gaps
 from skthermal.gap._evidence import (
     effective_samples,
     explainable_gap,
@@ -36,7 +35,13 @@ from skthermal.gap._problem import (
 )
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport, gap_table
-from skthermal.gap._scores import excess_shrink
+from skthermal.gap._scores import (
+    block_test,
+    excess_shrink,
+    gap_of,
+    heldout_folds,
+    regime_gaps,
+)
 from skthermal.gap._terms import TERMS, Base, FlexibleFeatures, RunSignals, Signals
 
 logger = logging.getLogger("skthermal.gap")
@@ -255,10 +260,10 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         folds,
         lambda train: TERMS[name]([t[train_key(train)] for t in with_terms]),
     )
-    gap_b, ms_b = _gap(before_R)
-    gap_a, ms_a = _gap(after_R)
+    gap_b, ms_b = gap_of(before_R)
+    gap_a, ms_a = gap_of(after_R)
     shrink = excess_shrink(gap_b, gap_a, floor2)
-    p = _block_test(before_R, after_R)
+    p = block_test(before_R, after_R)
     full = TERMS[name]([t["all"] for t in with_terms]).fit(signals, all_idx)
     after_in = _residuals(signals, full.apply(signals, all_idx), all_idx)
     # Per channel (each with its own noise), effective samples corrected for
@@ -294,8 +299,8 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         "fitted": {k: float(np.median([t[k] for t in thetas])) for k in full.theta_},
     }
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
-    rb = _regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
-    ra = _regime_gaps(after_R, regimes)
+    rb = regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
+    ra = regime_gaps(after_R, regimes)
     return row, (rb, ra), after_R, {"folds": models, "all": full}
 
 
@@ -358,7 +363,7 @@ def _parsimonious_order(ranking, jobs, alpha):
         if rows.loc[e, "extra_params"] < rows.loc[top, "extra_params"]
         and rows.loc[e, "explains"] == rows.loc[top, "explains"]
         and rows.loc[e, "shrink"] > 0
-        and _block_test(jobs[e][2], jobs[top][2]) >= alpha
+        and block_test(jobs[e][2], jobs[top][2]) >= alpha
     ]
     if simpler:
         first = simpler[0]  # the best of them by shrink
@@ -579,7 +584,7 @@ def diagnose_runs(
     signals = Signals(runs, ~problem.is_disp, w)
     n = len(runs)
     all_idx = list(range(n))
-    folds = [(list(tr), list(te)) for tr, te in _folds(n, cv)]
+    folds = [(list(tr), list(te)) for tr, te in heldout_folds(n, cv)]
     floor2 = floor_squared(problem)
     regimes = [
         label_regimes(r.time_s, r.spindle_rpm, r.ambient_C, r.feed_mm_min)
@@ -604,15 +609,15 @@ def diagnose_runs(
 
     # Which: the base held out, then every candidate.
     base_R, _ = _heldout(signals, folds, lambda train: Base())
-    gap_base = _gap(base_R)[0]
-    ctx = (regimes, floor2, min_shrink, alpha, all_idx, _regime_gaps(base_R, regimes))
+    gap_base = gap_of(base_R)[0]
+    ctx = (regimes, floor2, min_shrink, alpha, all_idx, regime_gaps(base_R, regimes))
     jobs = Parallel(n_jobs=n_jobs)(
         delayed(_evaluate)(signals, folds, (), base_R, calibrated, c, ctx)
         for c in candidates
     )
     # How much any added term could close: the flexible model.
     flex_R = _flexible_heldout(signals, folds, [j[3] for j in jobs])
-    gap_flex = _gap(flex_R)[0]
+    gap_flex = gap_of(flex_R)[0]
     explainable = explainable_gap(gap_base, gap_flex, floor2)
     white_flex = whiteness(flex_R)
     logger.info(
@@ -668,7 +673,7 @@ def diagnose_runs(
         )
         remaining = [c for c in candidates if c != best]
         while greedy and remaining:
-            ctx = (*ctx[:-1], _regime_gaps(current_R, regimes))
+            ctx = (*ctx[:-1], regime_gaps(current_R, regimes))
             more = Parallel(n_jobs=n_jobs)(
                 delayed(_evaluate_more)(
                     signals, folds, added, current_R, current_in, c, ctx
