@@ -90,10 +90,6 @@ def loop_train(X, y, mf_params, epochs, step_size, ridge=1e-8):
     rules = list(itertools.product(range(n_mfs), repeat=d))
     rule = StepSizeRule(step_size, 1.2, 0.9)
     errors = []
-    # Consequents solved for centred inputs and targets, as skthermal does
-    # with a ridge, then moved back to the original coordinates.
-    xm = [sum(X[i, j] for i in range(n)) / n for j in range(d)]
-    ym = sum(y) / n
     for epoch in range(epochs):
         # Forward pass, one sample at a time.
         rows, mus, ws = [], [], []
@@ -110,18 +106,12 @@ def loop_train(X, y, mf_params, epochs, step_size, ridge=1e-8):
             total = sum(w)
             row = []
             for wr in w:
-                row.extend(
-                    [wr / total * (X[i, j] - xm[j]) for j in range(d)] + [wr / total]
-                )
+                row.extend([wr / total * X[i, j] for j in range(d)] + [wr / total])
             rows.append(row)
             mus.append(mu)
             ws.append(w)
-        theta = solve_consequents(np.array(rows), (y - ym)[:, None], ridge)[:, 0]
-        cons = []
-        for k in range(len(rules)):
-            c = list(theta[k * (d + 1) : (k + 1) * (d + 1)])
-            c[d] += ym - sum(c[j] * xm[j] for j in range(d))
-            cons.append(c)
+        theta = solve_consequents(np.array(rows), y[:, None], ridge)[:, 0]
+        cons = [theta[k * (d + 1) : (k + 1) * (d + 1)] for k in range(len(rules))]
         # Error and backward pass, one sample at a time.
         grad = [[[0.0, 0.0, 0.0] for _ in range(n_mfs)] for _ in range(d)]
         sse = 0.0

@@ -539,16 +539,6 @@ class _CheckingSet:
         return _rmse(pred[self.mask] - self.y[self.mask])
 
 
-def _uncentre(theta, x_mean, y_mean, n_rules):
-    """Consequents solved for centred inputs and targets, in the original
-    coordinates: each rule's offset takes ``y_mean - slope . x_mean`` (the
-    normalised firing strengths sum to 1)."""
-    d = x_mean.size
-    T = theta.reshape(d + 1, n_rules, -1).copy()
-    T[d] += y_mean[None, :] - np.einsum("a,aro->ro", x_mean, T[:d])
-    return T.reshape(theta.shape)
-
-
 def anfis_train(
     X,
     Y,
@@ -611,24 +601,12 @@ n_iter_no_change, verbose
     XT = np.ascontiguousarray(X.T)
     X1T = np.vstack([XT, np.ones((1, n))])
     YT = np.ascontiguousarray(Y.T)
-    # With a ridge, the consequents are solved in centred coordinates
-    # (inputs and targets minus their means), then moved back: the ridge
-    # then shrinks slopes and each rule's offset from the mean output, not
-    # the overall level (the normalised firing strengths sum to 1, so a
-    # common offset is an unpenalised intercept), whatever the inputs'
-    # and targets' origins, e.g. absolute temperatures. Without a ridge the
-    # fit is the same in either coordinates.
-    centre = learning == "hybrid" and ridge > 0
-    x_mean = XT.mean(axis=1) if centre else np.zeros(d)
-    y_mean = YT.mean(axis=1) if centre else np.zeros(n_out)
-    X1Tc = np.vstack([XT - x_mean[:, None], np.ones((1, n))]) if centre else X1T
-    YTc = YT - y_mean[:, None] if centre else YT
     n_mfs = mf_params.shape[1]
     E = _rule_matrix(rules, n_mfs)
     grid = _is_grid(rules, n_mfs)
     normal = None
     if learning == "hybrid":
-        normal = NormalEquations.plan(X1Tc, YTc, rules, n_mfs, grid, ridge)
+        normal = NormalEquations.plan(X1T, YT, rules, n_mfs, grid, ridge)
     AT3 = None  # the transposed design matrix, only when it is needed
     width_floor = _WIDTH_FLOOR * _input_scale(X)
     if learning == "backprop" and consequents is None:
@@ -651,10 +629,8 @@ n_iter_no_change, verbose
             if theta is None:
                 if AT3 is None:
                     AT3 = np.empty((d + 1, n_rules, n))
-                np.multiply(wT[None], X1Tc[:, None, :], out=AT3)
-                theta = _solve_transposed(AT3.reshape(-1, n), YTc, ridge)
-            if centre:
-                theta = _uncentre(theta, x_mean, y_mean, n_rules)
+                np.multiply(wT[None], X1T[:, None, :], out=AT3)
+                theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge)
             # theta: rows (input, rule), columns outputs.
             consequents = theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
             C = theta.reshape(d + 1, -1)
