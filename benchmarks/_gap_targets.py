@@ -1,8 +1,13 @@
-"""The confusion table and target rates of issue-13's truth-machine protocol,
-shared by ``bench_gap_truth.py`` (ThermalMachine mode) and
-``bench_gap_external.py`` (run-table mode)."""
+"""The truth-machine protocol shared by ``bench_gap_truth.py``
+(ThermalMachine mode) and ``bench_gap_external.py`` (run-table mode): the
+cases run in parallel, the per-case table, the confusion table and the
+target rates."""
+
+import argparse
+import time
 
 import pandas as pd
+from joblib import Parallel, delayed
 from truth import CASES
 
 NOT_IN_VOCABULARY = ("null", "coolant")
@@ -44,3 +49,59 @@ def summarise(df):
             oov["named"] == "none"
         ).mean()
     return confusion, rates
+
+
+def run_cases(one_case, jobs, n_jobs):
+    """Run ``one_case(case, seed)`` for every ``(case, seed)`` of ``jobs`` in
+    parallel, printing each as it ends; the results table in (seed, case)
+    order and the seconds taken."""
+    t0 = time.perf_counter()
+    rows = []
+    for row in Parallel(n_jobs=n_jobs, return_as="generator_unordered")(
+        delayed(one_case)(c, s) for c, s in jobs
+    ):
+        rows.append(row)
+        print(
+            f"[{len(rows)}/{len(jobs)}] {row['case']} seed {row['seed']}: "
+            f"first {row['ranked_first']}, named {row['named']} "
+            f"({row['seconds']:.0f} s)",
+            flush=True,
+        )
+    rows.sort(key=lambda r: (r["seed"], CASES.index(r["case"])))
+    return pd.DataFrame(rows), time.perf_counter() - t0
+
+
+def print_results(df, columns):
+    """The per-case table (``columns``), the confusion table and the
+    target rates."""
+    with pd.option_context("display.width", 220, "display.max_columns", 30):
+        print("Per case:")
+        print(df[columns].to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+        confusion, rates = summarise(df)
+        print("\nConfusion (rows: truth; columns: named):")
+        print(confusion.to_string())
+        print("\nTargets:")
+        for k, v in rates.items():
+            print(f"  {k}: {v:.2f}")
+
+
+def parse_args(description, argv=None):
+    """The protocol's command line: ``--seeds``, ``--effects`` (cases),
+    ``--n-runs``, ``--n-jobs``, ``--out``; returns the arguments and the
+    list of (case, seed) jobs."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument(
+        "--effects",
+        default=",".join(CASES),
+        help=f"comma-separated cases among {', '.join(CASES)}",
+    )
+    parser.add_argument("--n-runs", type=int, default=4)
+    parser.add_argument("--n-jobs", type=int, default=1, help="cases in parallel")
+    parser.add_argument("--out", help="write the per-case results to this CSV")
+    args = parser.parse_args(argv)
+    cases = [c.strip() for c in args.effects.split(",") if c.strip()]
+    unknown = sorted(set(cases) - set(CASES))
+    if unknown:
+        parser.error(f"unknown case(s) {unknown}; choose among {list(CASES)}")
+    return args, [(c, s) for s in range(args.seeds) for c in cases]

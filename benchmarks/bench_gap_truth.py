@@ -20,18 +20,16 @@ Run:  python benchmarks/bench_gap_truth.py [--seeds 5] [--effects a,b]
       [--n-jobs 2] [--out results.csv]
 """
 
-import argparse
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
-from joblib import Parallel, delayed
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _gap_targets import summarise  # noqa: E402
+from _gap_targets import parse_args, print_results, run_cases  # noqa: E402
 from truth import CASES, make_truth_campaign  # noqa: E402
 
 from skthermal.gap import diagnose  # noqa: E402
@@ -84,71 +82,31 @@ def one_case(case, seed, n_runs, diagnose_jobs):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument(
-        "--effects",
-        default=",".join(CASES),
-        help=f"comma-separated cases among {', '.join(CASES)}",
-    )
-    parser.add_argument("--n-runs", type=int, default=4)
-    parser.add_argument(
-        "--n-jobs", type=int, default=1, help="cases diagnosed in parallel"
-    )
-    parser.add_argument("--out", help="write the per-case results to this CSV")
-    args = parser.parse_args(argv)
-    cases = [c.strip() for c in args.effects.split(",") if c.strip()]
-    unknown = sorted(set(cases) - set(CASES))
-    if unknown:
-        parser.error(f"unknown case(s) {unknown}; choose among {list(CASES)}")
-
-    t0 = time.perf_counter()
-    jobs = [(c, s) for s in range(args.seeds) for c in cases]
+    args, jobs = parse_args(__doc__.splitlines()[0], argv)
     # Parallel over cases; each diagnosis then runs its candidates serially.
-    rows = []
-    for row in Parallel(n_jobs=args.n_jobs, return_as="generator_unordered")(
-        delayed(one_case)(c, s, args.n_runs, 1) for c, s in jobs
-    ):
-        rows.append(row)
-        print(
-            f"[{len(rows)}/{len(jobs)}] {row['case']} seed {row['seed']}: "
-            f"first {row['ranked_first']}, named {row['named']} "
-            f"({row['seconds']:.0f} s)",
-            flush=True,
-        )
-    rows.sort(key=lambda r: (r["seed"], CASES.index(r["case"])))
-    elapsed = time.perf_counter() - t0
-    df = pd.DataFrame(rows)
+    df, elapsed = run_cases(
+        partial(one_case, n_runs=args.n_runs, diagnose_jobs=1), jobs, args.n_jobs
+    )
     if args.out:
         df.to_csv(args.out, index=False)
-
-    with pd.option_context("display.width", 200, "display.max_columns", 30):
-        print("Per case:")
-        print(
-            df[
-                [
-                    "case",
-                    "seed",
-                    "ranked_first",
-                    "named",
-                    "true_rank",
-                    "true_shrink",
-                    "true_p",
-                    "true_shrink_from",
-                    "top_shrink",
-                    "top_p",
-                    "base_gap",
-                    "noise_floor",
-                    "seconds",
-                ]
-            ].to_string(index=False, float_format=lambda v: f"{v:.3g}")
-        )
-        confusion, rates = summarise(df)
-        print("\nConfusion (rows: truth; columns: named):")
-        print(confusion.to_string())
-        print("\nTargets:")
-        for k, v in rates.items():
-            print(f"  {k}: {v:.2f}")
+    print_results(
+        df,
+        [
+            "case",
+            "seed",
+            "ranked_first",
+            "named",
+            "true_rank",
+            "true_shrink",
+            "true_p",
+            "true_shrink_from",
+            "top_shrink",
+            "top_p",
+            "base_gap",
+            "noise_floor",
+            "seconds",
+        ],
+    )
     print(
         f"\n{len(jobs)} diagnoses on vmc-b against the truth machine in "
         f"{elapsed / 60:.1f} min (n_jobs={args.n_jobs})"
