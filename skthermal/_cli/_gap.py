@@ -35,6 +35,16 @@ def log_progress(quiet=False, stream=None):
     return handler
 
 
+def _show(report, columns, folder):
+    """Print the verdict's ranking table and save the report to ``folder``."""
+    with pd.option_context("display.width", 140, "display.precision", 3):
+        print(report.ranking[columns].to_string(index=False))
+    if folder:
+        report.save(folder)
+        print(f"Report: {folder}")
+    return 0
+
+
 def cmd_gap_external(args):
     """``skthermal gap --simulated sim.csv --runs real.csv``: the gap between
     an external simulation's run table and the measured runs."""
@@ -72,12 +82,7 @@ def cmd_gap_external(args):
         "lr_p_value",
         "explains",
     ]
-    with pd.option_context("display.width", 140, "display.precision", 3):
-        print(report.ranking[shown].to_string(index=False))
-    if args.report:
-        report.save(args.report)
-        print(f"Report: {args.report}")
-    return 0
+    return _show(report, shown, args.report)
 
 
 def cmd_gap(args):
@@ -103,12 +108,7 @@ def cmd_gap(args):
         for c in ("effect", "gap_before", "gap_after", "shrink", "p_value", "explains")
         if c in report.ranking.columns
     ]
-    with pd.option_context("display.width", 120, "display.precision", 3):
-        print(report.ranking[shown].to_string(index=False))
-    if args.report:
-        report.save(args.report)
-        print(f"Report: {args.report}")
-    return 0
+    return _show(report, shown, args.report)
 
 
 def cmd_gap_check(args):

@@ -24,6 +24,7 @@ from skthermal.gap._problem import (
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
 from skthermal.gap._scores import (
+    DIAGNOSIS_PARAMS,
     block_test,
     excess_shrink,
     gap_of,
@@ -248,18 +249,10 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
     {
         "machine": [ThermalMachine],
         "runs": [pd.DataFrame],
-        "candidates": [None, str, list, tuple],
-        "cv": [None, Interval(Integral, 2, None, closed="left"), "cv_object"],
-        "channels": [None, list, tuple],
-        "mapping": [None, dict],
-        "min_shrink": [Interval(Real, 0, 1, closed="right")],
-        "alpha": [Interval(Real, 0, 1, closed="neither")],
-        "greedy": ["boolean"],
-        "max_samples": [Interval(Integral, 10, None, closed="left")],
+        **DIAGNOSIS_PARAMS,
         "max_nfev": [Interval(Integral, 1, None, closed="left")],
         "block_hours": [None, Interval(Real, 0, None, closed="neither")],
         "fine": ["boolean"],
-        "n_jobs": [None, Integral],
     },
     prefer_skip_nested_validation=True,
 )

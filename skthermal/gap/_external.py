@@ -12,12 +12,11 @@ model structure (:mod:`skthermal.gap._evidence`).
 
 import logging
 from dataclasses import dataclass, field
-from numbers import Integral, Real
 
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
-from sklearn.utils._param_validation import Interval, validate_params
+from sklearn.utils._param_validation import validate_params
 
 from skthermal.gap._evidence import (
     effective_samples,
@@ -31,11 +30,13 @@ from skthermal.gap._problem import (
     MeasuredRun,
     Problem,
     floor_squared,
-    noise_floor,
+    group_scales,
+    pooled_noise,
 )
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport, gap_table
 from skthermal.gap._scores import (
+    DIAGNOSIS_PARAMS,
     block_test,
     excess_shrink,
     gap_of,
@@ -197,28 +198,14 @@ def _align(simulated, measured, channels, mapping, max_samples):
             "The diagnosis scores effects on held-out runs: give at least 2 runs "
             f"(got {len(out)})."
         )
-    noise = np.sqrt(
-        np.mean(
-            [
-                noise_floor(frame[channels].to_numpy(float)) ** 2
-                for _, frame in meas_runs
-            ],
-            axis=0,
-        )
-    )
+    noise = pooled_noise([frame for _, frame in meas_runs], channels)
     return out, channels, sim_cols, noise
 
 
 def _problem(runs, channels, sim_cols, noise):
     """The measured side as a :class:`Problem` (scales, weights, noise)."""
     is_disp = np.array([c.startswith("disp_") for c in sim_cols])
-    Y = np.vstack([r.y for r in runs])
-    scale = np.empty(len(channels))
-    weight = np.empty(len(channels))
-    groups = [g for g in (is_disp, ~is_disp) if g.any()]
-    for g in groups:
-        scale[g] = max(float(np.sqrt(np.mean(Y[:, g].var(axis=0)))), 1e-9)
-        weight[g] = 1.0 / len(groups) / g.sum()
+    scale, weight = group_scales(np.vstack([r.y for r in runs]), is_disp)
     measured = [
         MeasuredRun(
             name=r.name,
@@ -451,15 +438,7 @@ class ExternalGapReport(GapReport):
     {
         "simulated": [pd.DataFrame],
         "measured": [pd.DataFrame],
-        "candidates": [None, str, list, tuple],
-        "cv": [None, Interval(Integral, 2, None, closed="left"), "cv_object"],
-        "channels": [None, list, tuple],
-        "mapping": [None, dict],
-        "min_shrink": [Interval(Real, 0, 1, closed="right")],
-        "alpha": [Interval(Real, 0, 1, closed="neither")],
-        "greedy": ["boolean"],
-        "max_samples": [Interval(Integral, 10, None, closed="left")],
-        "n_jobs": [None, Integral],
+        **DIAGNOSIS_PARAMS,
     },
     prefer_skip_nested_validation=True,
 )

@@ -226,30 +226,39 @@ def build_problem(
                 )
             )
     Y = np.vstack([r.y for r in prepared])
-    # Noise from the full-rate measurement of every run.
-    noise = np.sqrt(
+    noise = pooled_noise(
+        [frame for _, frame in runs.groupby("run", sort=False)], channels
+    )
+    scale, weight = group_scales(Y, is_disp)
+    return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
+
+
+def pooled_noise(frames, channels):
+    """White-noise level of every channel, pooled over the runs' full-rate
+    measurements (``frames``: one DataFrame per run)."""
+    return np.sqrt(
         np.mean(
-            [
-                noise_floor(frame[channels].to_numpy(float)) ** 2
-                for _, frame in runs.groupby("run", sort=False)
-            ],
+            [noise_floor(frame[channels].to_numpy(float)) ** 2 for frame in frames],
             axis=0,
         )
     )
-    # One scale per group (µm for displacements, °C for temperatures): errors
-    # in the same unit count alike, so a nearly flat, noisy channel (a small
-    # X error) does not weigh as much as the axis that actually moves.
-    scale = np.empty(len(channels))
-    groups = [is_disp, ~is_disp]
+
+
+def group_scales(Y, is_disp):
+    """Scale and weight of every channel for the normalised gap.
+
+    One scale per group (µm for displacements, °C for temperatures): errors
+    in the same unit count alike, so a nearly flat, noisy channel (a small
+    X error) does not weigh as much as the axis that actually moves. Each
+    group present weighs alike, shared by its channels.
+    """
+    scale = np.empty(Y.shape[1])
+    weight = np.empty(Y.shape[1])
+    groups = [g for g in (is_disp, ~is_disp) if g.any()]
     for g in groups:
-        if g.any():
-            scale[g] = max(float(np.sqrt(np.mean(Y[:, g].var(axis=0)))), 1e-9)
-    weight = np.empty(len(channels))
-    n_groups = sum(g.any() for g in groups)
-    for g in groups:
-        if g.any():
-            weight[g] = 1.0 / n_groups / g.sum()
-    return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
+        scale[g] = max(float(np.sqrt(np.mean(Y[:, g].var(axis=0)))), 1e-9)
+        weight[g] = 1.0 / len(groups) / g.sum()
+    return scale, weight
 
 
 def with_scales(machine, reference, values):

@@ -3,10 +3,13 @@ report): frequency bands, held-out folds over runs, the gap of a set of
 runs, its shrink above the noise floor, the paired block test, the gap per
 regime."""
 
+from numbers import Integral, Real
+
 import numpy as np
 import pandas as pd
 from scipy import stats
 from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
+from sklearn.utils._param_validation import Interval
 
 # Frequency bands of the "where" analysis: (label, shortest, longest period
 # in hours).
@@ -22,6 +25,21 @@ BANDS_H = [
 # displacements, °C for temperatures), so a gap of 1 is as large as the
 # measured signal itself.
 GAP_UNIT = "normalised (1 = spread of the measured signal)"
+
+
+# Parameter constraints both diagnoses share (candidates, held-out scheme,
+# channels, decision rule, sampling, parallelism), for validate_params.
+DIAGNOSIS_PARAMS = {
+    "candidates": [None, str, list, tuple],
+    "cv": [None, Interval(Integral, 2, None, closed="left"), "cv_object"],
+    "channels": [None, list, tuple],
+    "mapping": [None, dict],
+    "min_shrink": [Interval(Real, 0, 1, closed="right")],
+    "alpha": [Interval(Real, 0, 1, closed="neither")],
+    "greedy": ["boolean"],
+    "max_samples": [Interval(Integral, 10, None, closed="left")],
+    "n_jobs": [None, Integral],
+}
 
 
 def excess_shrink(gap_b, gap_a, floor2):

@@ -193,7 +193,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             dt=self.dt,
         )
 
-    def _select(self, fold_sse, folds, n_feat):
+    def _select(self, fold_sse, folds, n_feat, alphas):
         """Candidate and alpha chosen from the per-fold errors.
 
         ``fold_sse`` has shape (n_candidates, n_folds, n_alphas). ``"min"``:
@@ -212,8 +212,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         mean = mse.mean(axis=1)
         se = mse[c, :, j].std(ddof=1) / np.sqrt(k)
         ok = np.argwhere(mean <= mean[c, j] + se)
-        # Largest alpha index (alphas sorted below), then fewest features.
-        order = np.lexsort((n_feat[ok[:, 0]], -self._alpha_rank[ok[:, 1]]))
+        # The largest alpha, then the fewest features.
+        order = np.lexsort((n_feat[ok[:, 0]], -alphas[ok[:, 1]]))
         c, j = ok[order[0]]
         return int(c), int(j)
 
@@ -252,7 +252,6 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             raise ValueError(
                 "time_constant_sets and alphas must be non-empty, alphas > 0."
             )
-        self._alpha_rank = np.argsort(np.argsort(alphas))
         cv = self.cv
         if cv == "auto":
             cv = "runs" if len(slices) > 1 else "forward"
@@ -302,7 +301,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             raise ValueError("No candidate setting produced any feature.")
         results["sse"] = np.asarray(results["sse"])
         self.cv_results_ = results
-        c, j = self._select(np.asarray(fold_sse), folds, np.asarray(n_feat))
+        c, j = self._select(np.asarray(fold_sse), folds, np.asarray(n_feat), alphas)
         n_scored = sum(va.size for _, va in folds)
         score = results["sse"][c, j]
         self.best_score_ = float(score / n_scored) if n_scored else float("nan")
