@@ -41,7 +41,7 @@ INSTANCES = [
     FuzzyEquivalenceSelector(),
     FuzzyEquivalenceSelector(n_groups=2),
     ANFISRegressor(epochs=5),
-    ANFISRegressor(init="grid", mf="gbell", epochs=5),
+    ANFISRegressor(init="grid", mf="gbell", epochs=5, penalize_intercepts=False),
     ANFISRegressor(learning="backprop", validation_fraction=0.2, epochs=5),
     GreyPSORegressor(n_particles=10, epochs=5, random_state=0),
     GreyPSORegressor(calibration="ls"),

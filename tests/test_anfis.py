@@ -544,6 +544,70 @@ def test_solve_consequents_primal_and_dual_agree(rng):
     assert_allclose(solve_consequents(A, Y, 0.0), exact, rtol=1e-10)
 
 
+def test_solve_consequents_leaves_free_columns_unshrunk(rng):
+    """Free columns get the stabilising ridge only, in the primal and the
+    dual form alike."""
+    from skthermal.fuzzy._anfis_lsq import FREE_RIDGE
+
+    A = rng.normal(size=(30, 12)) + 3.0
+    Y = rng.normal(size=(30, 2)) + 10.0
+    free = np.zeros(12, dtype=bool)
+    free[-3:] = True
+    ridge = 0.5
+    for rows in (A, A[:8]):  # primal, then dual (more columns than rows)
+        lam = ridge * np.sum(rows * rows) / 12
+        D = np.where(free, lam * FREE_RIDGE / ridge, lam)
+        expected = np.linalg.solve(rows.T @ rows + np.diag(D), rows.T @ Y[: len(rows)])
+        got = solve_consequents(rows, Y[: len(rows)], ridge, free)
+        assert_allclose(got, expected, rtol=1e-7, atol=1e-9)
+        shrunk = solve_consequents(rows, Y[: len(rows)], ridge)
+        assert not np.allclose(got, shrunk)
+
+
+def test_one_rule_with_free_intercept_is_a_ridge_regression(rng):
+    """One rule, slopes-only ridge: scikit-learn's Ridge with the same
+    penalty; with the intercept shrunk too, the mean is pulled to zero."""
+    from sklearn.linear_model import Ridge
+
+    X = rng.normal(size=(200, 4))
+    y = X @ [1.0, 2.0, 0.0, -1.0] + 50.0 + rng.normal(size=200)
+    ridge = 0.3
+    lam = ridge * (np.sum(X**2) + 200) / 5  # scale-free: mean diagonal
+    reference = Ridge(alpha=lam).fit(X, y).predict(X)
+    free = ANFISRegressor(n_clusters=1, ridge=ridge, penalize_intercepts=False)
+    assert_allclose(free.fit(X, y).predict(X), reference, atol=1e-5)
+    shrunk = ANFISRegressor(n_clusters=1, ridge=ridge).fit(X, y).predict(X)
+    assert abs(shrunk.mean() - y.mean()) > 5.0
+    assert abs(reference.mean() - y.mean()) < 1e-6
+
+
+@pytest.mark.parametrize("init", ["fcm", "grid"])
+def test_free_intercepts_agree_between_the_solve_routes(rng, init):
+    """The normal equations without the design matrix and the syrk route
+    leave the same columns free."""
+    from skthermal.fuzzy._anfis_core import _forward, _rule_matrix, _solve_transposed
+    from skthermal.fuzzy._anfis_lsq import NormalEquations
+
+    X = rng.uniform(-1, 1, size=(300, 3))
+    Y = rng.normal(size=(300, 1)) + 5.0
+    params = np.stack([np.full((3, 2), 0.6), np.tile([-0.5, 0.5], (3, 1))], -1)
+    grid = init == "grid"
+    rules = grid_rules(2, 3) if grid else grid_rules(2, 3)[:3]
+    XT = np.ascontiguousarray(X.T)
+    _, nu, wT = _forward(XT, params, "gaussian", _rule_matrix(rules, 2), grid)
+    X1T = _with_ones(X).T
+    n_rules = rules.shape[0]
+    free = np.zeros(4 * n_rules, dtype=bool)
+    free[3 * n_rules :] = True
+    AT = (X1T[:, None, :] * wT[None]).reshape(-1, 300)
+    expected = _solve_transposed(AT, Y.T, 0.1, free)
+    normal = NormalEquations(X1T, np.ascontiguousarray(Y.T), rules, 2, grid)
+    got = normal.solve(wT, nu, 0.1, free)
+    assert_allclose(got, expected, rtol=1e-8, atol=1e-10)
+    shrunk = _solve_transposed(AT, Y.T, 0.1)
+    assert not np.allclose(got, shrunk)
+
+
 def test_fcm_rules_beat_a_243_rule_grid_on_simulated_machine_b():
     """000's finding on the simulated campaign: trained on Test IV, ANFIS-FCM
     with 3 rules predicts the held-out Tests I, II, III, V, VI better than

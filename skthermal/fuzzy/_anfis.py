@@ -186,6 +186,17 @@ default="fcm"
     ridge_grid : array-like of float, default=(1e-8, 1e-6, 1e-4, 1e-3, 1e-2, \
 0.1, 1.0)
         Candidate values for ``ridge="auto"``.
+    penalize_intercepts : bool, default=True
+        Whether the ridge also shrinks every rule's constant term. True
+        shrinks all consequents towards zero: the prior of the papers'
+        set-up, where inputs and target are changes since the run start and
+        the error is zero where the temperature changes are. False shrinks
+        the slopes only and leaves the constant terms free (with a
+        stabilising ridge of 1e-8), as scikit-learn's ``Ridge`` leaves its
+        intercept: use it with absolute readings, or any target that is far
+        from zero where the inputs are, best on standardised inputs (a
+        ``StandardScaler`` in front), where one rule then is exactly a
+        ridge regression.
     validation_fraction : float in (0, 1) or None, default=None
         Hold out the last ``validation_fraction`` of the rows of every run
         (of all rows without runs) as checking data. The split is deterministic
@@ -307,6 +318,7 @@ default="fcm"
         "step_decrease": [Interval(numbers.Real, 0, 1, closed="right")],
         "ridge": [Interval(numbers.Real, 0, None, closed="left"), StrOptions({"auto"})],
         "ridge_grid": ["array-like"],
+        "penalize_intercepts": ["boolean"],
         "validation_fraction": [
             Interval(numbers.Real, 0, 1, closed="neither"),
             None,
@@ -334,6 +346,7 @@ default="fcm"
         step_decrease=0.9,
         ridge=1e-8,
         ridge_grid=(1e-8, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 1.0),
+        penalize_intercepts=True,
         validation_fraction=None,
         tol=0.0,
         n_iter_no_change=None,
@@ -354,6 +367,7 @@ default="fcm"
         self.step_decrease = step_decrease
         self.ridge = ridge
         self.ridge_grid = ridge_grid
+        self.penalize_intercepts = penalize_intercepts
         self.validation_fraction = validation_fraction
         self.tol = tol
         self.n_iter_no_change = n_iter_no_change
@@ -508,6 +522,7 @@ default="fcm"
                 step_increase=self.step_increase,
                 step_decrease=self.step_decrease,
                 ridge=ridge,
+                penalize_intercepts=self.penalize_intercepts,
                 checking=checking,
                 tol=self.tol,
                 n_iter_no_change=self.n_iter_no_change,

@@ -356,7 +356,7 @@ def _design(wbar, X1):
     return (wbar[:, :, None] * X1[:, None, :]).reshape(X1.shape[0], -1)
 
 
-def _solve_transposed(AT, YT, ridge):
+def _solve_transposed(AT, YT, ridge, free=None):
     """:func:`solve_consequents` for ``A.T`` (columns, n) and ``Y.T`` (o, n).
 
     Forms the normal equations straight from the transposed design matrix
@@ -367,10 +367,10 @@ def _solve_transposed(AT, YT, ridge):
     if ridge > 0 and p <= n:
         # AT.T is a Fortran-ordered (n, p) view: syrk(trans=1) gives A^T A.
         G = blas.dsyrk(1.0, AT.T, trans=1, lower=0)
-        theta = cholesky_ridge(G, AT @ YT.T, ridge, p)
+        theta = cholesky_ridge(G, AT @ YT.T, ridge, p, free)
         if theta is not None:
             return theta
-    return solve_consequents(AT.T, YT.T, ridge)
+    return solve_consequents(AT.T, YT.T, ridge, free)
 
 
 def _softmax_gradient(wT, F, yhat, err):
@@ -552,6 +552,7 @@ def anfis_train(
     step_increase=1.2,
     step_decrease=0.9,
     ridge=1e-8,
+    penalize_intercepts=True,
     checking=None,
     tol=0.0,
     n_iter_no_change=None,
@@ -578,8 +579,8 @@ def anfis_train(
         Initial premise parameters (copied).
     rules : ndarray of shape (n_rules, n_features)
     mf : {"gaussian", "gbell"}
-    epochs, learning, step_size, step_increase, step_decrease, ridge, tol, \
-n_iter_no_change, verbose
+    epochs, learning, step_size, step_increase, step_decrease, ridge, \
+penalize_intercepts, tol, n_iter_no_change, verbose
         See :class:`ANFISRegressor`.
     checking : _CheckingSet, optional
     consequents : ndarray of shape (n_rules, n_features + 1, n_outputs), optional
@@ -604,6 +605,11 @@ n_iter_no_change, verbose
     n_mfs = mf_params.shape[1]
     E = _rule_matrix(rules, n_mfs)
     grid = _is_grid(rules, n_mfs)
+    # Columns (input, rule): the rules' constant terms are the last n_rules.
+    free = None
+    if not penalize_intercepts:
+        free = np.zeros((d + 1) * n_rules, dtype=bool)
+        free[d * n_rules :] = True
     normal = None
     if learning == "hybrid":
         normal = NormalEquations.plan(X1T, YT, rules, n_mfs, grid, ridge)
@@ -625,12 +631,12 @@ n_iter_no_change, verbose
     for epoch in range(1, epochs + 1):
         z, nu, wT = _forward(XT, mf_params, mf, E, grid)
         if learning == "hybrid":
-            theta = None if normal is None else normal.solve(wT, nu, ridge)
+            theta = None if normal is None else normal.solve(wT, nu, ridge, free)
             if theta is None:
                 if AT3 is None:
                     AT3 = np.empty((d + 1, n_rules, n))
                 np.multiply(wT[None], X1T[:, None, :], out=AT3)
-                theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge)
+                theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge, free)
             # theta: rows (input, rule), columns outputs.
             consequents = theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
             C = theta.reshape(d + 1, -1)

@@ -16,9 +16,13 @@ from scipy.linalg import blas, lapack
 # memory of :class:`NormalEquations` for large rule bases, whatever the
 # number of samples.
 _BLOCK_ELEMENTS = 1 << 21
+# Relative ridge of the columns a ridge leaves free (the rules' constant terms
+# with ``penalize_intercepts=False``): enough to keep a rule that hardly fires
+# well posed, too little to shrink anything.
+FREE_RIDGE = 1e-8
 
 
-def solve_consequents(A, Y, ridge):
+def solve_consequents(A, Y, ridge, free=None):
     """Least-squares consequents for the design matrix ``A`` and targets ``Y``.
 
     ``ridge > 0`` solves the ridge problem by Cholesky with
@@ -27,9 +31,11 @@ def solve_consequents(A, Y, ridge):
     equations ``(A^T A + lam I) theta = A^T Y`` when ``A`` has more rows than
     columns, else from the dual ``(A A^T + lam I) alpha = Y``,
     ``theta = A^T alpha`` (the same solution, and a grid of many rules on few
-    samples never forms a huge ``A^T A``). ``ridge == 0`` (or a failed
-    factorisation) uses LAPACK's SVD-based ``gelsd``, the minimum-norm
-    solution. All outputs are solved at once.
+    samples never forms a huge ``A^T A``). Columns marked in ``free`` (the
+    rules' constant terms, when the ridge should shrink slopes only) get
+    only the stabilising ridge :data:`FREE_RIDGE` instead of ``ridge``.
+    ``ridge == 0`` (or a failed factorisation) uses LAPACK's SVD-based
+    ``gelsd``, the minimum-norm solution. All outputs are solved at once.
 
     Returns
     -------
@@ -37,11 +43,17 @@ def solve_consequents(A, Y, ridge):
     """
     n, p = A.shape
     if ridge > 0:
-        dual = p > n
-        G = _gram(A.T if dual else A)
-        theta = cholesky_ridge(G, Y if dual else A.T @ Y, ridge, p)
-        if theta is not None:
-            return A.T @ theta if dual else theta
+        if p > n:  # the dual, on columns scaled so that every penalty is lam
+            weights = np.sqrt(penalty_weights(ridge, p, free))
+            lam = ridge * float(np.einsum("ij,ij->", A, A)) / max(p, 1)
+            As = A / weights
+            theta = _cholesky(_gram(As.T), Y, np.full(n, lam))
+            if theta is not None:
+                return (As.T @ theta) / weights[:, None]
+        else:
+            theta = cholesky_ridge(_gram(A), A.T @ Y, ridge, p, free)
+            if theta is not None:
+                return theta
     theta, *_ = linalg.lstsq(A, Y, lapack_driver="gelsd")
     return theta
 
@@ -53,16 +65,31 @@ def _gram(A):
     return blas.dsyrk(1.0, A.T, trans=0, lower=0)
 
 
-def cholesky_ridge(G, B, ridge, n_columns):
-    """Solve ``(G + lam I) theta = B``, ``lam = ridge * trace(G) / n_columns``.
+def penalty_weights(ridge, n_columns, free=None):
+    """Relative ridge of every column: 1, or ``FREE_RIDGE / ridge`` if free."""
+    weights = np.ones(n_columns)
+    if free is not None:
+        weights[np.asarray(free, dtype=bool)] = min(1.0, FREE_RIDGE / ridge)
+    return weights
 
-    Only the upper triangle of ``G`` is read (and ``G`` is overwritten).
-    Returns None when ``lam`` is 0 or the factorisation fails.
+
+def cholesky_ridge(G, B, ridge, n_columns, free=None):
+    """Solve ``(G + lam D) theta = B``, ``lam = ridge * trace(G) / n_columns``.
+
+    ``D`` is the identity, except that columns marked in ``free`` get the
+    stabilising ridge :data:`FREE_RIDGE` in place of ``ridge``. Only the
+    upper triangle of ``G`` is read (and ``G`` is overwritten). Returns None
+    when ``lam`` is 0 or the factorisation fails.
     """
     lam = ridge * np.trace(G) / max(n_columns, 1)
     if not lam > 0:
         return None
-    G.flat[:: G.shape[0] + 1] += lam
+    return _cholesky(G, B, lam * penalty_weights(ridge, G.shape[0], free))
+
+
+def _cholesky(G, B, diagonal):
+    """``(G + diag(diagonal))^-1 B`` from the upper triangle of ``G``, or None."""
+    G.flat[:: G.shape[0] + 1] += diagonal
     # LAPACK directly: the scipy wrappers' checks cost more than this small
     # factorisation.
     factor, info = lapack.dpotrf(G, lower=0, overwrite_a=1, clean=0)
@@ -253,6 +280,11 @@ class NormalEquations:
         B = (self.XY @ wT.T).reshape(-1, self.n_outputs, self.n_rules)
         return B.transpose(0, 2, 1).reshape(self.n_columns, self.n_outputs)
 
-    def solve(self, wT, nu, ridge):
-        """Ridge consequents ``(n_columns, n_outputs)``, or None on failure."""
-        return cholesky_ridge(self.gram(wT, nu), self.rhs(wT), ridge, self.n_columns)
+    def solve(self, wT, nu, ridge, free=None):
+        """Ridge consequents ``(n_columns, n_outputs)``, or None on failure.
+
+        ``free`` marks the columns :func:`cholesky_ridge` leaves unshrunk.
+        """
+        return cholesky_ridge(
+            self.gram(wT, nu), self.rhs(wT), ridge, self.n_columns, free
+        )
