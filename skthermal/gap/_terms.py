@@ -310,10 +310,18 @@ class SpeedConvection(DiscrepancyTerm):
     """``speed_convection``: convection grows with spindle speed, so every
     channel loses a share of its simulated rise that grows with speed:
     ``g lag((n / 1000 rpm)^e * rise, tau)``, rise the simulated change since
-    the run's start."""
+    the run's start.
+
+    The convection changes on the spindle head's large masses, so ``tau`` is
+    a structure's time constant, 20 min to 8 h. :class:`ToolGrowth` has the
+    same form with a tool's time constant (up to 20 min): the ranges do not
+    overlap, so neither term can stand in for the other, and a term acting
+    on every channel cannot win the tool's signature through the base
+    mismatch it also absorbs on the temperature sensors.
+    """
 
     name = "speed_convection"
-    bounds = {"tau_s": (120.0, 14400.0), "exponent": (0.5, 1.5)}
+    bounds = {"tau_s": (1200.0, 28800.0), "exponent": (0.5, 1.5)}
     channels = "all"
     n_signals = 1
     temperature_sign = -1  # more convection only cools
@@ -330,12 +338,13 @@ class ToolGrowth(DiscrepancyTerm):
     """``tool_growth``: the turning tool is cooled by the air it churns and
     grows back after every stop. Only the displacements see it (the tool
     carries no sensor): ``g lag((n / 1000 rpm)^e * rise, tau)`` with a short
-    time constant (a tool's), rise the simulated displacement change since
+    time constant (a tool's: a test bar or tool of a few kilograms on the
+    spindle nose, 1 to 20 min), rise the simulated displacement change since
     the start; after each stop the term relaxes exponentially with ``tau``.
     """
 
     name = "tool_growth"
-    bounds = {"tau_s": (60.0, 3600.0), "exponent": (0.5, 1.0)}
+    bounds = {"tau_s": (60.0, 1200.0), "exponent": (0.5, 1.0)}
     channels = "displacement"
     n_signals = 1
     grid = 7
