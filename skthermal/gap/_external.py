@@ -332,31 +332,19 @@ def _flexible_heldout(signals, folds, fitted):
     return out
 
 
-def _parsimonious_order(ranking, jobs, alpha):
-    """Candidates best first: by ``explains``, then held-out shrink; a
-    candidate with fewer extra parameters goes before a larger one that is
-    not significantly better on the held-out runs (paired block test at
-    ``alpha``), as forward selection keeps the smaller model unless the
-    larger one is significantly better."""
-    ranking = ranking.sort_values(
+def _order(ranking):
+    """Candidates best first: by ``explains``, then by held-out shrink.
+
+    The candidates are alternatives, not nested models: each adds its own
+    term to the same base, and how many parameters it adds mostly counts the
+    channels it acts on. Parsimony is already in each candidate's own tests
+    against the base (the likelihood ratio's degrees of freedom; the
+    held-out score, which an over-fitted term does not win), so there is no
+    second rule that prefers the candidate with fewer parameters.
+    """
+    return ranking.sort_values(
         ["explains", "shrink"], ascending=False, kind="stable"
     ).reset_index(drop=True)
-    order = list(ranking["effect"])
-    rows = ranking.set_index("effect")
-    top = order[0]
-    simpler = [
-        e
-        for e in order[1:]
-        if rows.loc[e, "extra_params"] < rows.loc[top, "extra_params"]
-        and rows.loc[e, "explains"] == rows.loc[top, "explains"]
-        and rows.loc[e, "shrink"] > 0
-        and block_test(jobs[e][2], jobs[top][2]) >= alpha
-    ]
-    if simpler:
-        first = simpler[0]  # the best of them by shrink
-        order.remove(first)
-        order.insert(0, first)
-    return ranking.set_index("effect").loc[order].reset_index()
 
 
 def train_key(train):
@@ -622,7 +610,7 @@ def diagnose_runs(
             " (explains)" if row["explains"] else "",
         )
     by_name = {j[0]["effect"]: j for j in jobs}
-    ranking = _parsimonious_order(pd.DataFrame(rows), by_name, alpha)
+    ranking = _order(pd.DataFrame(rows))
     regime_shrink = pd.concat(
         [
             (1.0 - ra / rb.reindex(ra.index)).rename(row["effect"])
