@@ -133,7 +133,10 @@ def test_terms_cover_the_vocabulary():
 
 def test_tool_growth_term_recovers_its_time_constant(rng):
     t = np.arange(0, 6 * 3600, 60.0)
-    rpm = np.where((t // 3600) % 2 == 0, 4000.0, 0.0)
+    # Three speeds, each followed by a stop: at one speed the exponent and
+    # the gain could not be told apart.
+    speeds = np.array([2000.0, 0.0, 6000.0, 0.0, 4000.0, 0.0])
+    rpm = speeds[(t // 3600).astype(int)]
     sim = np.column_stack([5 * _lowpass(rpm / 1000, 1800.0)])
     rise = sim - sim[0]
     y_full = 1.5 * sim - 0.2 * _lowpass(np.sqrt(rpm / 1000)[:, None] * rise, 900.0)
