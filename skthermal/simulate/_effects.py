@@ -146,7 +146,8 @@ class ToolGrowth(Effect):
         "The test bar (tool) is cooled by the air it churns while it turns. "
         "When the spindle stops, that cooling stops while heat from the hot "
         "spindle nose keeps flowing in, so the tool keeps growing after the "
-        "stop (001 §4.4). Without this effect the tool is taken as rigid."
+        "stop (001 §4.4). Without this effect the tool still expands, but "
+        "only still air cools it, turning or not."
     )
     params = {"hA_rotating": 2.5}
     units = {"hA_rotating": "W/K at 1000 rpm"}
@@ -158,9 +159,6 @@ class ToolGrowth(Effect):
                 p["tool_growth.hA_rotating"] * (rpm / 1000.0) ** 0.8
             )
         return h
-
-    def displacement_off(self, machine, p, M):
-        M[:, machine.node_index[machine.spec.tool]] = 0.0
 
 
 class AmbientTransient(Effect):
