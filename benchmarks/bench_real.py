@@ -29,8 +29,11 @@ Splits.
 Model choice. Hyper-parameters come from a small grid scored by time-ordered
 cross-validation on the training rows only: two expanding-window folds (fit on
 the first 50% / 75% of the training rows, predict from the start through the
-next 25%, score those 25%), keeping run labels. Behind a selector the number
-of sensors (4 or 8) is chosen the same way, with the regressor at its
+next 25%, score those 25%), keeping run labels. ANFIS (behind a
+StandardScaler, slopes-only ridge as the ridge baseline) gets the same joint
+grid search over its rule count (1, 2, 3) and the ridge baseline's alphas
+(``ANFISRidge``): one rule is exactly that baseline. Behind a selector the
+number of sensors (4 or 8) is chosen the same way, with the regressor at its
 benchmark settings (``BASE`` below). LASSO selection (Tanaka et al., IJAT
 2025) is ``SelectFromModel(LassoCV)`` on standardised temperatures, LassoCV
 with ``TimeSeriesSplit(5)``; the script prints how many sensors it keeps.
@@ -60,6 +63,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.feature_selection import SelectFromModel
 from sklearn.linear_model import LassoCV, LinearRegression, Ridge
 from sklearn.model_selection import TimeSeriesSplit
@@ -92,24 +96,49 @@ CV_FOLDS = ((0.5, 0.75), (0.75, 1.0))
 # whether the estimator also reads the spindle speed.
 
 
+RIDGE_ALPHAS = [float(a) for a in np.logspace(-2, 4, 7)]
+
+
 def _ridge(alpha=1.0):
     return make_pipeline(StandardScaler(), Ridge(alpha=alpha))
 
 
-def _anfis(**params):
-    # Standardised inputs and slopes-only ridge, like the ridge baseline (one
-    # rule is then exactly a ridge regression); pandas output keeps the run
-    # index the checking folds of ridge="auto" read.
-    return make_pipeline(
-        StandardScaler(),
-        ANFISRegressor(
-            epochs=50,
-            ridge="auto",
-            penalize_intercepts=False,
-            random_state=0,
-            **params,
-        ),
-    ).set_output(transform="pandas")
+class ANFISRidge(RegressorMixin, BaseEstimator):
+    """ANFIS-FCM behind a StandardScaler, its consequents' ridge given as the
+    ``alpha`` of scikit-learn's ``Ridge`` (slopes shrunk, constants free).
+
+    ``ANFISRegressor``'s ridge is relative to the mean diagonal of the normal
+    equations, which for one rule on standardised inputs is the number of
+    rows: ``ridge = alpha / n_rows`` makes one rule exactly the ridge
+    baseline ``_ridge(alpha)``, at every training size, so a grid over
+    ``n_clusters`` (with 1) and the ridge baseline's alphas holds that
+    baseline. ``alpha="auto"``: ANFIS's own ``ridge="auto"`` (its checking
+    folds inside the training rows; pandas output keeps the run index they
+    read).
+    """
+
+    def __init__(self, n_clusters=3, alpha="auto", epochs=50):
+        self.n_clusters = n_clusters
+        self.alpha = alpha
+        self.epochs = epochs
+
+    def fit(self, X, y):
+        auto = isinstance(self.alpha, str) and self.alpha == "auto"
+        self.pipeline_ = make_pipeline(
+            StandardScaler(),
+            ANFISRegressor(
+                n_clusters=self.n_clusters,
+                epochs=self.epochs,
+                ridge="auto" if auto else self.alpha / len(X),
+                penalize_intercepts=False,
+                random_state=0,
+            ),
+        ).set_output(transform="pandas")
+        self.pipeline_.fit(X, y)
+        return self
+
+    def predict(self, X):
+        return self.pipeline_.predict(X)
 
 
 def _tf(alpha=10.0):
@@ -122,15 +151,16 @@ def _tf(alpha=10.0):
 REGRESSORS = {
     # name: (factory, grid, reads speed)
     "LinearRegression": (LinearRegression, [{}], False),
-    "Ridge (CV)": (_ridge, [{"alpha": float(a)} for a in np.logspace(-2, 4, 7)], False),
+    "Ridge (CV)": (_ridge, [{"alpha": a} for a in RIDGE_ALPHAS], False),
     "UpdateRegressor": (
         UpdateRegressor,
         [{"alpha": a} for a in (0.1, 25.0, 1e3, 1e4)],
         False,
     ),
+    # The ridge baseline's grid (one rule) and 2 or 3 rules, same alphas.
     "ANFISRegressor": (
-        lambda **p: _anfis(**p),
-        [{"n_clusters": c} for c in (1, 2, 3)],
+        ANFISRidge,
+        [{"n_clusters": c, "alpha": a} for c in (1, 2, 3) for a in RIDGE_ALPHAS],
         False,
     ),
     "GreyPSORegressor": (
@@ -155,7 +185,7 @@ BASE = {
     "LinearRegression": {},
     "Ridge (CV)": {"alpha": 1.0},
     "UpdateRegressor": {"alpha": 25.0},
-    "ANFISRegressor": {"n_clusters": 3},
+    "ANFISRegressor": {"n_clusters": 3, "alpha": "auto"},
     "GreyPSORegressor": {},
     "GNNMCIRegressor": {},
     "ModularRegressor": {"relative": True},
