@@ -45,7 +45,7 @@ def solve_consequents(A, Y, ridge, free=None):
     if ridge > 0:
         if p > n:  # the dual, on columns scaled so that every penalty is lam
             weights = np.sqrt(penalty_weights(ridge, p, free))
-            lam = ridge * float(np.einsum("ij,ij->", A, A)) / max(p, 1)
+            lam = relative_lambda(ridge, float(np.einsum("ij,ij->", A, A)), p)
             As = A / weights
             theta = _cholesky(_gram(As.T), Y, np.full(n, lam))
             if theta is not None:
@@ -65,6 +65,12 @@ def _gram(A):
     return blas.dsyrk(1.0, A.T, trans=0, lower=0)
 
 
+def relative_lambda(ridge, trace, n_columns):
+    """The ridge's penalty ``lam``: ``ridge`` times the mean diagonal of the
+    normal equations (``trace`` of ``A^T A`` over its ``n_columns``)."""
+    return ridge * trace / max(n_columns, 1)
+
+
 def penalty_weights(ridge, n_columns, free=None):
     """Relative ridge of every column: 1, or ``FREE_RIDGE / ridge`` if free."""
     weights = np.ones(n_columns)
@@ -81,7 +87,7 @@ def cholesky_ridge(G, B, ridge, n_columns, free=None):
     upper triangle of ``G`` is read (and ``G`` is overwritten). Returns None
     when ``lam`` is 0 or the factorisation fails.
     """
-    lam = ridge * np.trace(G) / max(n_columns, 1)
+    lam = relative_lambda(ridge, np.trace(G), n_columns)
     if not lam > 0:
         return None
     return _cholesky(G, B, lam * penalty_weights(ridge, G.shape[0], free))

@@ -18,7 +18,7 @@ class Effect:
     An effect owns everything about itself: default parameters and units,
     their valid ranges, the parameter the gap diagnosis frees when it tests
     the effect, and its change to the machine, through hooks the simulator
-    calls while the effect is on (or, for :meth:`displacement_off`, off).
+    calls while the effect is on.
     Adding an effect to the vocabulary is one new subclass registered in
     ``EFFECTS``.
 
@@ -78,9 +78,6 @@ class Effect:
 
     def displacement(self, machine, p, M):
         """Change the thermo-elastic map ``M`` (axes x nodes), in place."""
-
-    def displacement_off(self, machine, p, M):
-        """Change ``M`` while the effect is off, in place."""
 
     def read(self, machine, p, x, lagged, dt):
         """Change noise-free sensor readings ``x`` (n x sensors)."""

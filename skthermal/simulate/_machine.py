@@ -691,8 +691,6 @@ class ThermalMachine:
         for name, effect in EFFECTS.items():
             if self._on(name):
                 effect.displacement(self, p, M)
-            else:
-                effect.displacement_off(self, p, M)
         self._cache["displacement"] = M
         return M
 
