@@ -29,7 +29,9 @@ Splits.
 Model choice. Hyper-parameters come from a small grid scored by time-ordered
 cross-validation on the training rows only: two expanding-window folds (fit on
 the first 50% / 75% of the training rows, predict from the start through the
-next 25%, score those 25%), keeping run labels. ANFIS (behind a
+next 25%, score those 25%), keeping run labels; ``--cv-folds 4`` uses
+four (fit on 40/55/70/85%, score the next 15%) to show how much a verdict
+hangs on that choice. ANFIS (behind a
 StandardScaler, slopes-only ridge as the ridge baseline) gets the same joint
 grid search over its rule count (1, 2, 3) and the ridge baseline's alphas
 (``ANFISRidge``): one rule is exactly that baseline. Behind a selector the
@@ -46,7 +48,7 @@ first one after it). The recommended lag pipeline
 when the module exists.
 
 Run:  python benchmarks/bench_real.py [--data ../shared/data] [--quick]
-      [--split chrono|lobo|both] [--models NAME,NAME]
+      [--split chrono|lobo|both] [--models NAME,NAME] [--cv-folds 2|4]
 ``--quick`` runs the chronological split only, on a subset of models (the
 baselines, UpdateRegressor, ANFISRegressor, TransferFunctionRegressor and the
 LASSO selector), with the same grids (under 3 minutes). ``--models`` keeps
@@ -89,7 +91,13 @@ TEMPS = [f"T{i}_C" for i in range(1, 17)]
 SPEED = "spindle_rpm"
 CHANNELS = [f"disp_ch{i}_um" for i in range(1, 6)]
 RUN = "fl_thermal"
-CV_FOLDS = ((0.5, 0.75), (0.75, 1.0))
+# Expanding-window folds (fit on the first a, score a..b of the training
+# rows). ``--cv-folds 4`` checks how much the verdicts hang on this choice.
+CV_PROTOCOLS = {
+    2: ((0.5, 0.75), (0.75, 1.0)),
+    4: ((0.4, 0.55), (0.55, 0.7), (0.7, 0.85), (0.85, 1.0)),
+}
+CV_FOLDS = CV_PROTOCOLS[2]
 
 # --------------------------------------------------------------------------
 # Models: a factory of a fresh estimator from grid parameters, the grid, and
@@ -494,8 +502,11 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--split", choices=("chrono", "lobo", "both"), default=None)
     parser.add_argument("--models", default=None)
+    parser.add_argument("--cv-folds", type=int, choices=sorted(CV_PROTOCOLS), default=2)
     args = parser.parse_args(argv)
     split = args.split or ("chrono" if args.quick else "both")
+    global CV_FOLDS
+    CV_FOLDS = CV_PROTOCOLS[args.cv_folds]
 
     df = load_fl_thermal(args.data)
     data = df.reset_index(drop=True)
@@ -507,6 +518,7 @@ def main(argv=None):
         f"RMSE in um on held-out rows (ratio to LinearRegression)"
     )
     print("make_lag_pipeline: " + ("available" if lag_ok else "unavailable"))
+    print(f"CV folds (fit on the first a, score a..b of the training rows): {CV_FOLDS}")
     rows = table_rows(args.models, args.quick, lag_ok)
     t0 = time.perf_counter()
     for name in ("chrono", "lobo") if split == "both" else (split,):

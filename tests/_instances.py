@@ -71,10 +71,10 @@ INSTANCES = [
     GuardedRegressor(ANFISRegressor(epochs=5, random_state=0), jump=None, flat=None),
     TransferFunctionRegressor(n_grid=3, max_iter=2),
     TransferFunctionRegressor(order=2, alpha=1.0, n_grid=3, max_iter=0),
-    LagFeatures(time_constants=(2.0, 5.0)),
+    LagFeatures(time_constants=(2.0, 5.0), dt=1.0),
     # One set with lags: CV cannot pick the static model, so the sequence
     # behaviour the checks below expect to fail is always there.
-    LagRidgeCV(time_constant_sets=[(2.0, 5.0)], alphas=[0.1, 10.0]),
+    LagRidgeCV(time_constant_sets=[(2.0, 5.0)], alphas=[0.1, 10.0], dt=1.0),
     RunStartRegressor(LinearRegression()),
     RunStartRegressor(ANFISRegressor(epochs=5, random_state=0)),
 ]

@@ -56,8 +56,10 @@ ESTIMATORS = [
     TransferFunctionRegressor(n_grid=3, max_iter=2),
     ModularRegressor(),
     GuardedRegressor(GreyPSORegressor(n_particles=6, epochs=3), mode="clip"),
-    LagRidgeCV(time_constant_sets=[(), (2.0, 5.0)], alphas=[0.1, 10.0]),
-    make_pipeline(LagFeatures(time_constants=(3.0,)), StandardScaler(), Ridge()),
+    LagRidgeCV(time_constant_sets=[(), (2.0, 5.0)], alphas=[0.1, 10.0], dt=1.0),
+    make_pipeline(
+        LagFeatures(time_constants=(3.0,), dt=1.0), StandardScaler(), Ridge()
+    ),
     make_pipeline(
         GreyInfluenceSelector(n_features_to_select=2),
         StandardScaler(),

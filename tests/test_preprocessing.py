@@ -4,6 +4,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.base import clone
 from sklearn.linear_model import LinearRegression
 
 from skthermal.preprocessing import (
@@ -78,6 +79,66 @@ def test_runs_restart_and_names_and_pandas_output():
     assert F["d_T1_C_lp60"].iloc[1] == pytest.approx((1 - a) * dT[1])
 
 
+@pytest.mark.parametrize(
+    "model",
+    [
+        LagFeatures(time_constants=[60.0]),
+        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
+    ],
+    ids=["LagFeatures", "LagRidgeCV"],
+)
+def test_run_table_columns_give_runs_and_times(model):
+    # The run table as it is stored (run and time_s as columns) is read as
+    # the (run, time_s) index of split_runs: time_s is the time base, not a
+    # feature.
+    X = _frame()
+    y = np.arange(len(X), dtype=float)
+    flat = X.reset_index()
+    use = "transform" if hasattr(model, "transform") else "predict"
+    a = getattr(clone(model).fit(X, y), use)(X)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fitted = clone(model).fit(flat, y)
+        b = getattr(fitted, use)(flat)
+    np.testing.assert_allclose(b, a)
+    assert fitted.n_features_in_ == 2  # T1_C and spindle_rpm
+    # A bad time_s column is named.
+    bad = flat.assign(time_s=flat["time_s"].astype(object))
+    bad.loc[3, "time_s"] = "late"
+    with pytest.raises(ValueError, match="'time_s'.*'late'"):
+        clone(model).fit(bad, y)
+
+
+@pytest.mark.parametrize(
+    "model",
+    [
+        LagFeatures(time_constants=[60.0]),
+        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
+    ],
+    ids=["LagFeatures", "LagRidgeCV"],
+)
+def test_rows_without_times_warn_unless_dt_is_given(model):
+    X = _frame()
+    y = np.arange(len(X), dtype=float)
+    bare = X.reset_index(drop=True)  # no run labels, no times
+    with pytest.warns(UserWarning, match="no time_s.*dt=") as record:
+        clone(model).fit(bare, y)
+    assert len(record) == 1  # once, not once per candidate
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        explicit = clone(model).set_params(dt=30.0).fit(bare, y)
+    # dt=30 on the bare rows is the same model as a 30 s time index.
+    timed_rows = bare.set_axis(pd.Index(np.arange(len(X)) * 30.0, name="time_s"))
+    timed = clone(model).fit(timed_rows, y)
+    use = "transform" if hasattr(model, "transform") else "predict"
+    expected = getattr(timed, use)(timed_rows)
+    np.testing.assert_allclose(getattr(explicit, use)(bare), expected)
+    # Fitted with times, rows without times are taken at the fitted period.
+    lags = getattr(timed, "lag_features_", timed)
+    assert lags.sample_period_s_ == pytest.approx(30.0)
+    np.testing.assert_allclose(getattr(timed, use)(bare), expected)
+
+
 def test_bad_driver_and_time_order():
     X = _frame()
     with pytest.raises(ValueError, match="'rpm'"):
@@ -109,7 +170,7 @@ def test_rows_without_run_labels_warn_with_the_fix(model):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         use(X)  # the run labels of the index: no warning
-        model.fit(X.to_numpy(), y)
+        model.set_params(dt=30.0).fit(X.to_numpy(), y)
         use(X.to_numpy())  # fitted without labels: nothing to warn about
 
 
@@ -123,7 +184,7 @@ def test_cv_uses_training_rows_only():
     n = 300
     T = np.cumsum(rng.normal(size=(n, 2)), axis=0)
     y = T[:, 0] + 0.1 * rng.normal(size=n)
-    lf = LagFeatures(time_constants=[5.0]).fit(T)
+    lf = LagFeatures(time_constants=[5.0], dt=1.0).fit(T)
     F = lf.transform(T)
     # causal: features of a prefix equal the prefix of the features, so
     # slicing once-computed features per forward fold sees no later rows
@@ -139,9 +200,9 @@ def test_cv_uses_training_rows_only():
             expected[j] += np.sum((m.predict(sc.transform(F[va])) - y[va]) ** 2)
     np.testing.assert_allclose(_ridge_path_sse(F, y, folds, alphas), expected)
     # fit's CV scores come from the rows given to fit, in the same folds
-    m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)], alphas=alphas).fit(T, y)
+    m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)], alphas=alphas, dt=1.0).fit(T, y)
     np.testing.assert_allclose(m1.cv_results_["sse"][1], expected)
-    m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)]).fit(T[:200], y[:200])
+    m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)], dt=1.0).fit(T[:200], y[:200])
     assert m1.cv_results_["sse"].shape == (2, 15)
     assert np.isfinite(m1.predict(T)).all()
 
@@ -187,7 +248,12 @@ def test_cv_schemes_and_the_one_standard_error_rule():
     T = np.cumsum(rng.normal(size=(n, 3)), axis=0)
     y = T @ [1.0, 0.5, 0.0] + rng.normal(size=n)
     alphas = np.logspace(-3, 3, 13)
-    kw = {"time_constant_sets": [(), (5.0,)], "alphas": alphas, "cv": "blocks"}
+    kw = {
+        "time_constant_sets": [(), (5.0,)],
+        "alphas": alphas,
+        "cv": "blocks",
+        "dt": 1.0,
+    }
     best = LagRidgeCV(**kw).fit(T, y)
     simple = LagRidgeCV(**kw, selection="1se").fit(T, y)
     # within one standard error of the best: a penalty at least as large
@@ -196,7 +262,9 @@ def test_cv_schemes_and_the_one_standard_error_rule():
     assert simple.best_score_ >= mse - 1e-12
     # several runs: changes and absolute readings are both tried
     groups = np.repeat([0, 1, 2, 3], n // 4)
-    m = LagRidgeCV(time_constant_sets=[(5.0,)], alphas=[1.0]).fit(T, y, groups=groups)
+    m = LagRidgeCV(time_constant_sets=[(5.0,)], alphas=[1.0], dt=1.0).fit(
+        T, y, groups=groups
+    )
     assert set(m.cv_results_["relative"]) == {True, False}
     assert m.relative_ in (True, False)
 

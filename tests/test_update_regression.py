@@ -316,3 +316,30 @@ def test_cross_batch_rmse(data):
     r12 = np.sqrt(np.mean((m1.predict(X[20:]) - y[20:]) ** 2))
     assert lv.per_batch.loc[("ridge", "B1"), "B2"] == pytest.approx(r12)
     assert lv.per_method.shape == (1, 1)
+
+
+def test_takes_the_run_table_as_stored():
+    # run and time_s are the table's labels and clock, not features.
+    rng = np.random.default_rng(0)
+    T = rng.normal(size=(20, 2))
+    y = T @ [1.0, -2.0] + 0.5
+    table = pd.DataFrame(
+        {
+            "run": ["a"] * 10 + ["b"] * 10,
+            "time_s": np.r_[np.arange(10), np.arange(10)] * 60.0,
+            "T1_C": T[:, 0],
+            "T2_C": T[:, 1],
+        }
+    )
+    model = UpdateRegressor(alpha=1e-6).fit(table, y)
+    assert model.n_features_in_ == 2
+    assert list(model.feature_names_in_) == ["T1_C", "T2_C"]
+    plain = UpdateRegressor(alpha=1e-6).fit(table[["T1_C", "T2_C"]], y)
+    np.testing.assert_allclose(
+        model.predict(table), plain.predict(table[["T1_C", "T2_C"]])
+    )
+    model.partial_fit(table.iloc[:5], y[:5])
+    bad = table.assign(T2_C=table["T2_C"].astype(object))
+    bad.loc[4, "T2_C"] = "open"
+    with pytest.raises(ValueError, match="'T2_C'.*'open'"):
+        UpdateRegressor().fit(bad, y)

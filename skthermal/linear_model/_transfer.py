@@ -18,10 +18,9 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
-    TIME_COLUMN,
     changes_since_start,
-    check_time_order,
     extract_runs,
+    run_sample_periods,
     run_slices,
     warn_unlabelled_runs,
 )
@@ -277,28 +276,15 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         """Sampling interval of every run."""
         if self.dt is not None:
             return np.full(len(slices), float(self.dt))
-        index = getattr(X_raw, "index", None)
-        names = getattr(index, "names", None)
-        if names is None or TIME_COLUMN not in names:
-            return np.ones(len(slices))
-        check_time_order(X_raw, groups)
-        t = np.asarray(index.get_level_values(TIME_COLUMN), dtype=float)
-        dts = np.ones(len(slices))
-        for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
-            steps = np.diff(t[sl])
-            if steps.size == 0:
-                continue
-            step = float(np.median(steps))
-            if np.max(np.abs(steps - step)) > _DT_RTOL * step:
-                where = "the run" if lab is None else f"run {lab!r}"
-                raise ValueError(
-                    f"TransferFunctionRegressor needs a constant sampling interval "
-                    f"within each run, but the time_s steps of {where} range from "
-                    f"{steps.min():g} to {steps.max():g}; resample the run or pass "
-                    "dt=..."
-                )
-            dts[r] = step
-        return dts
+        return run_sample_periods(
+            X_raw,
+            groups,
+            slices,
+            labels,
+            1.0,
+            regular="TransferFunctionRegressor",
+            rtol=_DT_RTOL,
+        )
 
     def _inputs(self, X, slices):
         U = changes_since_start(X, slices)

@@ -22,6 +22,8 @@ from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from skthermal.utils._runs import extract_runs
+
 
 def _design(X):
     """``A = [1, T_1 .. T_S]``."""
@@ -249,6 +251,12 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     return int(np.argmax(ok)) + 1 if ok.any() else None
 
 
+def _features(X):
+    """``X`` without the run table's ``run`` and ``time_s`` columns: the
+    model is static, but takes a run table as stored."""
+    return extract_runs(X)[0]
+
+
 class UpdateRegressor(RegressorMixin, BaseEstimator):
     """Ridge thermal-error model that updates itself from a few new samples.
 
@@ -355,7 +363,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         self : object
         """
         X, y = validate_data(
-            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+            self, _features(X), y, multi_output=True, y_numeric=True, dtype=np.float64
         )
         coef = ridge_coef(
             X,
@@ -431,7 +439,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         y_pred : ndarray of shape (n_samples,) or (n_samples, n_targets)
         """
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False, dtype=np.float64)
+        X = validate_data(self, _features(X), reset=False, dtype=np.float64)
         return X @ self.coef_.T + self.intercept_
 
     def _new_samples(self, X, y, *, first, hint=""):
@@ -439,7 +447,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         (zeros for the first ``partial_fit``)."""
         X, y = validate_data(
             self,
-            X,
+            _features(X),
             y,
             multi_output=True,
             y_numeric=True,

@@ -10,7 +10,13 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.preprocessing._lags import LagFeatures
-from skthermal.utils._runs import extract_runs, run_slices, warn_unlabelled_runs
+from skthermal.utils._runs import (
+    extract_runs,
+    has_time_index,
+    run_slices,
+    warn_no_time,
+    warn_unlabelled_runs,
+)
 
 DEFAULT_TIME_CONSTANT_SETS = (
     (),
@@ -104,8 +110,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         Number of folds.
     first_fraction : float, default=0.4
         Forward folds: the first cut, as a fraction of the training rows.
-    dt : float, default=1.0
-        Seconds per row when there is no ``time_s`` index level.
+    dt : float or None, default=None
+        Seconds per row when ``X`` has no times (no ``time_s`` column or
+        index level). None: one second per row, with a warning, since the
+        time constants are in seconds.
 
     Attributes
     ----------
@@ -154,7 +162,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         "selection": [StrOptions({"min", "1se"})],
         "n_splits": [Interval(Integral, 2, None, closed="left")],
         "first_fraction": [Interval(Real, 0, 1, closed="neither")],
-        "dt": [Interval(Real, 0, None, closed="neither")],
+        "dt": [None, Interval(Real, 0, None, closed="neither")],
     }
 
     def __init__(
@@ -170,7 +178,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         selection="min",
         n_splits=4,
         first_fraction=0.4,
-        dt=1.0,
+        dt=None,
     ):
         self.cv = cv
         self.selection = selection
@@ -184,13 +192,13 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.first_fraction = first_fraction
         self.dt = dt
 
-    def _features(self, taus, use_drivers, relative):
+    def _features(self, taus, use_drivers, relative, dt=None):
         return LagFeatures(
             time_constants=tuple(taus),
             relative=relative,
             drivers=self.drivers if use_drivers else None,
             driver_initial=self.driver_initial,
-            dt=self.dt,
+            dt=dt,
         )
 
     def _select(self, fold_sse, folds, n_feat, alphas):
@@ -234,15 +242,28 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         """
         X_raw, groups = extract_runs(X, groups)
         _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
-        y = np.asarray(y, dtype=float)
-        n = y.shape[0]
-        slices, _ = run_slices(groups, n)
-        self.n_fitted_runs_ = None if groups is None else len(slices)
         sets = (
             DEFAULT_TIME_CONSTANT_SETS
             if self.time_constant_sets is None
             else self.time_constant_sets
         )
+        # Without times, warn once here (not once per candidate), then give
+        # the candidates one second per row explicitly.
+        warn_no_time(
+            type(self).__name__,
+            X_raw,
+            self.dt,
+            sorted({float(t) for taus in sets for t in taus}),
+        )
+        # The candidates read the times themselves (and keep their sampling
+        # period for predict); without times, one second per row.
+        dt = self.dt
+        if dt is None and not has_time_index(X_raw):
+            dt = 1.0
+        y = np.asarray(y, dtype=float)
+        n = y.shape[0]
+        slices, _ = run_slices(groups, n)
+        self.n_fitted_runs_ = None if groups is None else len(slices)
         alphas = (
             np.logspace(-2, 5, 15)
             if self.alphas is None
@@ -278,7 +299,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         fold_sse, n_feat, kept = [], [], []
         for taus, use, rel in cands:
             try:
-                lf = self._features(taus, use, rel).fit(X_raw, groups=groups)
+                lf = self._features(taus, use, rel, dt).fit(X_raw, groups=groups)
             except ValueError:
                 continue  # e.g. no features (no changes, no filters)
             if use and self.drivers is not None and lf.driver_indices_.size == 0:
@@ -308,7 +329,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         (taus, use, rel), self.alpha_ = kept[c], float(alphas[j])
         self.time_constants_ = taus
         self.relative_ = rel
-        self.lag_features_ = self._features(taus, use, rel).fit(X_raw, groups=groups)
+        self.lag_features_ = self._features(taus, use, rel, dt).fit(
+            X_raw, groups=groups
+        )
         self.use_drivers_ = bool(self.lag_features_.driver_indices_.size)
         F = self.lag_features_.transform(X_raw, groups=groups)
         self.scaler_ = StandardScaler().fit(F)
@@ -340,7 +363,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
 
 
 def make_lag_pipeline(
-    time_constant_sets=None, *, drivers="auto", alphas=None, n_splits=4, dt=1.0
+    time_constant_sets=None, *, drivers="auto", alphas=None, n_splits=4, dt=None
 ):
     """The recommended dynamic compensation model, unfitted.
 

@@ -15,11 +15,11 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
-    TIME_COLUMN,
     changes_since_start,
-    check_time_order,
     extract_runs,
+    run_sample_periods,
     run_slices,
+    warn_no_time,
     warn_unlabelled_runs,
 )
 
@@ -99,18 +99,12 @@ def exponential_filter(U, time_constant, dt, slices=None, *, initial="steady"):
 
 
 def _run_spacing(X, groups, slices, default):
-    """Sampling period of every run: from a ``time_s`` index level, else dt."""
-    index = getattr(X, "index", None)
-    names = getattr(index, "names", None)
-    if names is None or TIME_COLUMN not in names:
-        return np.full(len(slices), float(default))
-    check_time_order(X, groups)
-    t = np.asarray(index.get_level_values(TIME_COLUMN), dtype=float)
-    out = np.full(len(slices), float(default))
-    for i, sl in enumerate(slices):
-        if sl.stop - sl.start > 1:
-            out[i] = float(np.median(np.diff(t[sl])))
-    return out
+    """Sampling period of every run: from the times, else ``default``
+    (None: one second per row)."""
+    labels = [None] * len(slices)
+    return run_sample_periods(
+        X, groups, slices, labels, 1.0 if default is None else default
+    )
 
 
 class LagFeatures(TransformerMixin, BaseEstimator):
@@ -130,8 +124,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     or cut from a longer record.
 
     Run labels are taken from ``groups``, a ``run`` column or a ``run`` index
-    level; with a ``time_s`` index level the sampling period of each run is
-    the median spacing of its times, otherwise ``dt``.
+    level; with times (a ``time_s`` column or index level, as in a run table)
+    the sampling period of each run is the median spacing of its times,
+    otherwise ``dt``.
 
     Parameters
     ----------
@@ -153,11 +148,18 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     driver_initial : {"steady", "rest"}, default="steady"
         State of the driver filters before each run: steady state at the
         run's first value, or zero (the heat source off before the run).
-    dt : float, default=1.0
-        Seconds per row when there is no ``time_s`` index level.
+    dt : float or None, default=None
+        Seconds per row when ``X`` has no times (no ``time_s`` column or
+        index level). None: in ``fit``, one second per row, with a warning,
+        since the time constants are in seconds; in ``transform``, the
+        sampling period found in ``fit``.
 
     Attributes
     ----------
+    sample_period_s_ : float
+        Sampling period (s) in ``fit``: the median spacing of the runs'
+        times, or ``dt`` (1 when None) without times. ``transform`` uses it
+        for rows without times.
     n_features_in_ : int
     feature_names_in_ : ndarray of str
         Only when fitted on a DataFrame with string column names.
@@ -184,7 +186,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         "driver_powers": ["array-like"],
         "driver_scale": [Interval(Real, 0, None, closed="neither")],
         "driver_initial": [StrOptions({"steady", "rest"})],
-        "dt": [Interval(Real, 0, None, closed="neither")],
+        "dt": [None, Interval(Real, 0, None, closed="neither")],
     }
 
     def __init__(
@@ -197,7 +199,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         driver_powers=(1.0, 1.5),
         driver_scale=1000.0,
         driver_initial="steady",
-        dt=1.0,
+        dt=None,
     ):
         self.time_constants = time_constants
         self.include_changes = include_changes
@@ -263,7 +265,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self.n_fitted_runs_ = (
             None if groups is None else len(run_slices(groups, X_arr.shape[0])[0])
         )
-        self._taus()
+        warn_no_time(type(self).__name__, X_raw, self.dt, self._taus())
+        slices, _ = run_slices(groups, X_arr.shape[0])
+        self.sample_period_s_ = float(
+            np.median(_run_spacing(X_raw, groups, slices, self.dt))
+        )
         names = getattr(self, "feature_names_in_", None)
         self.driver_indices_ = self._resolve_drivers(names, X_arr.shape[1])
         powers = np.asarray(self.driver_powers, dtype=float).ravel()
@@ -300,7 +306,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             X_arr.shape[0],
         )
         slices, _ = run_slices(groups, X_arr.shape[0])
-        dts = _run_spacing(X_raw, groups, slices, self.dt)
+        dts = _run_spacing(
+            X_raw, groups, slices, getattr(self, "sample_period_s_", self.dt)
+        )
         taus = self._taus()
         temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
         T = X_arr[:, temp]

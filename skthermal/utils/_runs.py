@@ -11,6 +11,7 @@ level of a DataFrame's index.
 import numpy as np
 
 RUN_COLUMN = "run"
+TIME_COLUMN = "time_s"
 
 
 def run_slices(groups, n_samples=None):
@@ -103,23 +104,30 @@ def run_first_rows(groups, n_samples):
 
 
 def extract_runs(X, groups=None):
-    """Separate run labels from the features of ``X``.
+    """Separate run labels (and times) from the features of ``X``.
 
     The labels are taken, in this order, from ``groups``, from a ``run`` column
     of a DataFrame (which is then removed from the features), or from a ``run``
     level of a DataFrame's index. Without any of them, all rows are one run.
 
+    A ``time_s`` column (the run table's time since the run start) is not a
+    feature either: it is removed from the features and becomes the
+    ``time_s`` level of the index (with the run labels as a ``run`` level),
+    which is where the time-aware estimators read it, as from
+    :func:`skthermal.datasets.split_runs`.
+
     Returns
     -------
     X : array-like
-        ``X`` without a ``run`` column.
+        ``X`` without a ``run`` or ``time_s`` column.
     groups : ndarray of shape (n_samples,) or None
 
     Raises
     ------
     ValueError
-        If a feature column of a DataFrame is not numeric (naming the column
-        and an offending value).
+        If a feature column of a DataFrame is not numeric, or a ``time_s``
+        column holds something other than numbers (naming the column and an
+        offending value).
     """
     columns = getattr(X, "columns", None)
     has_column = columns is not None and RUN_COLUMN in list(columns)
@@ -133,10 +141,27 @@ def extract_runs(X, groups=None):
         names = getattr(index, "names", None)
         if names is not None and RUN_COLUMN in names:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
+    if columns is not None and TIME_COLUMN in list(columns):
+        import pandas as pd
+
+        time = X[[TIME_COLUMN]]
+        check_numeric_columns(time)
+        X = X.drop(columns=TIME_COLUMN)
+        arrays = [] if groups is None else [np.asarray(groups)]
+        arrays.append(pd.to_numeric(time[TIME_COLUMN]).to_numpy(dtype=float))
+        names = ([] if groups is None else [RUN_COLUMN]) + [TIME_COLUMN]
+        X = X.set_axis(pd.MultiIndex.from_arrays(arrays, names=names), axis=0)
     check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
     return X, groups
+
+
+def has_time_index(X):
+    """Whether ``X`` carries times: a ``time_s`` index level (after
+    :func:`extract_runs`, also what was a ``time_s`` column)."""
+    names = getattr(getattr(X, "index", None), "names", None)
+    return names is not None and TIME_COLUMN in names
 
 
 def changes_since_start(X, slices):
@@ -157,9 +182,6 @@ def changes_since_start(X, slices):
     for sl in slices:
         out[sl] = X[sl] - X[sl.start]
     return out
-
-
-TIME_COLUMN = "time_s"
 
 
 def check_time_order(X, groups):
@@ -188,6 +210,51 @@ def check_time_order(X, groups):
                 f"time_s must increase strictly within a run, but{where} row {row} "
                 f"has time_s={t[row]:g} after {t[row - 1]:g}."
             )
+
+
+def run_sample_periods(X, groups, slices, labels, default, *, regular=None, rtol=0.01):
+    """Sampling period of every run: the median spacing of its times.
+
+    Parameters
+    ----------
+    X : array-like or DataFrame
+        Rows; times come from a ``time_s`` index level (checked to increase
+        within each run).
+    groups, slices, labels
+        Run labels of the rows, and the runs' slices and labels
+        (:func:`run_slices`).
+    default : float
+        Period of runs without times (a run of one row, or ``X`` without a
+        ``time_s`` level).
+    regular : str, optional
+        The method that needs a constant period within each run: a run whose
+        steps differ from its median by more than ``rtol`` is then an error
+        naming the run and the method.
+
+    Returns
+    -------
+    ndarray of shape (n_runs,)
+    """
+    out = np.full(len(slices), float(default))
+    if not has_time_index(X):
+        return out
+    check_time_order(X, groups)
+    t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
+    for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
+        steps = np.diff(t[sl])
+        if steps.size == 0:
+            continue
+        step = float(np.median(steps))
+        if regular is not None and np.max(np.abs(steps - step)) > rtol * step:
+            where = "the run" if lab is None else f"run {lab!r}"
+            raise ValueError(
+                f"{regular} needs a constant sampling interval within each "
+                f"run, but the time_s steps of {where} range from "
+                f"{steps.min():g} to {steps.max():g}; resample the run or pass "
+                "dt=..."
+            )
+        out[r] = step
+    return out
 
 
 def check_run_lengths(slices, labels, what, min_samples=2):
@@ -238,6 +305,26 @@ def warn_unlabelled_runs(name, n_fitted_runs, groups, n_samples):
         "makes.",
         UserWarning,
         stacklevel=3,
+    )
+
+
+def warn_no_time(name, X, dt, time_constants):
+    """Warn that ``X`` has no times and no ``dt`` was given: the time
+    constants (seconds) are then counted in rows. Call from a ``fit``
+    wrapped by scikit-learn's ``_fit_context`` (the warning points at the
+    user's call)."""
+    if dt is not None or len(time_constants) == 0 or has_time_index(X):
+        return
+    import warnings
+
+    warnings.warn(
+        f"{name}: X has no time_s (no time_s column or index level) and no "
+        "dt was given, so rows are taken as 1 s apart and the time constants "
+        f"({', '.join(f'{t:g}' for t in time_constants)} s) as that many "
+        "rows. Pass dt=<sample period in s>, or a run table with its time_s "
+        "column (or the (run, time_s) index of skthermal.datasets.split_runs).",
+        UserWarning,
+        stacklevel=4,
     )
 
 
