@@ -125,7 +125,7 @@ def _add_reproduce(sub):
         "--models",
         metavar="LIST",
         help="comma-separated subset of anfis-fcm, anfis-grid, gnnmci, grey-pso, "
-        "mlp (default all)",
+        "mlp (default: these, the papers' models), ridge, lag-ridge",
     )
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.set_defaults(func="_study:cmd_reproduce")
@@ -269,7 +269,11 @@ def _add_fit(sub):
         "fit",
         "fit a named model on a run table and save it",
         "Fit a named model on the runs: anfis-fcm (3 rules), anfis-grid (3 MFs per "
-        "input), gnnmci, grey-pso or mlp (10 hidden). Inputs and target are "
+        "input), gnnmci, grey-pso or mlp (10 hidden), the papers' models; or "
+        "the baselines ridge (the tuned linear baseline) and lag-ridge (the "
+        "recommended dynamic model: lag features of the temperatures and the "
+        "spindle speed, settings by time-ordered CV; it also reads spindle_rpm "
+        "when the table has it). Inputs and target are "
         "taken as changes since the start of each run; the model predicts the "
         "change of the displacement since the run started. Inputs: --sensors "
         "(names or a file from 'skthermal select'), a --selector, or every "
@@ -280,14 +284,15 @@ def _add_fit(sub):
         "  skthermal fit --runs tests.csv --train-runs IV --model gnnmci \\\n"
         "      --selector fcm --n-sensors 5 --out gnnmci.joblib\n"
         "  skthermal fit --runs runs.csv --model anfis-grid --sensors T05_C,T40_C \\\n"
-        "      --set epochs=30 --set n_mfs=2\n",
+        "      --set epochs=30 --set n_mfs=2\n"
+        "  skthermal fit --runs spindle.csv --model lag-ridge --out lag.joblib\n",
     )
     p.add_argument("--runs", metavar="FILE", required=True, help="run table")
     p.add_argument(
         "--model",
         required=True,
         metavar="NAME",
-        help="anfis-fcm, anfis-grid, gnnmci, grey-pso or mlp",
+        help="anfis-fcm, anfis-grid, gnnmci, grey-pso, mlp, ridge or lag-ridge",
     )
     p.add_argument(
         "--target", help="displacement column (default: the only one, or disp_y_um)"
@@ -389,7 +394,8 @@ def _add_search(sub):
         "--model",
         required=True,
         metavar="NAME",
-        help="anfis-fcm, anfis-grid, gnnmci, grey-pso or mlp",
+        help="anfis-fcm, anfis-grid, gnnmci, grey-pso or mlp (ridge and "
+        "lag-ridge tune themselves in fit)",
     )
     p.add_argument("--trials", type=int, default=20, help="default 20")
     p.add_argument(

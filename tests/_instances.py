@@ -76,6 +76,7 @@ INSTANCES = [
     # behaviour the checks below expect to fail is always there.
     LagRidgeCV(time_constant_sets=[(2.0, 5.0)], alphas=[0.1, 10.0], dt=1.0),
     RunStartRegressor(LinearRegression()),
+    RunStartRegressor(LinearRegression(), drivers=[0]),
     RunStartRegressor(ANFISRegressor(epochs=5, random_state=0)),
 ]
 

@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -267,6 +268,29 @@ def test_fit_every_model_with_a_selector(capsys, workdir, name):
     )
     assert status == 0, err
     assert "grey selected" in text and out.is_file()
+
+
+def test_fit_the_baselines_and_predict(capsys, workdir):
+    # The tuned linear baseline, and the recommended dynamic model, which
+    # also reads the spindle speed from the table.
+    import joblib
+
+    for name in ("ridge", "lag-ridge"):
+        out = workdir / f"{name}.joblib"
+        argv = ["fit", "--runs", workdir / "tests.csv", "--train-runs", "IV"]
+        status, text, err = _run(capsys, *argv, "--model", name, "--out", out)
+        assert status == 0, err
+        bundle = joblib.load(out)
+        assert ("spindle_rpm" in bundle["sensors"]) == (name == "lag-ridge")
+        pred = workdir / f"{name}.csv"
+        argv = ["predict", "--model", out, "--runs", workdir / "tests.csv"]
+        status, _, err = _run(capsys, *argv, "--out", pred)
+        assert status == 0, err
+        assert np.isfinite(pd.read_csv(pred)["pred_disp_y_um"]).all()
+    status, _, err = _run(
+        capsys, "search", "--runs", workdir / "tests.csv", "--model", "ridge"
+    )
+    assert status != 0 and "nothing to search" in err
 
 
 def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):

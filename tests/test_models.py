@@ -53,6 +53,43 @@ def test_run_start_regressor_hands_runs_and_names_to_the_inner_model():
         model.predict(frame[["T1_C", "run"]])
 
 
+def test_run_start_regressor_keeps_drivers_and_times():
+    X, y, groups = _two_runs()
+    t = np.r_[np.arange(30), np.arange(30)] * 60.0
+    rpm = np.r_[np.full(30, 2000.0), np.full(30, 3000.0)]
+    frame = pd.DataFrame(
+        {"run": groups, "time_s": t, "T1_C": X[:, 0], "spindle_rpm": rpm}
+    )
+
+    class Spy(LinearRegression):
+        def fit(self, X, y):
+            self.seen_ = X.copy()
+            return super().fit(X, y)
+
+    model = RunStartRegressor(Spy(), drivers=["spindle_rpm"]).fit(frame, y)
+    seen = model.estimator_.seen_
+    # Temperatures as changes, the driver as it is, indexed by run and time.
+    np.testing.assert_allclose(seen["T1_C"].iloc[[0, 30]], 0.0)
+    np.testing.assert_allclose(seen["spindle_rpm"], rpm)
+    assert seen.index.names == ["run", "time_s"]
+    np.testing.assert_allclose(seen.index.get_level_values("time_s"), t)
+    # A time-aware inner model reads the sampling period from those times.
+    from skthermal.preprocessing import LagRidgeCV
+
+    lag = RunStartRegressor(
+        LagRidgeCV(time_constant_sets=[(600.0,)], alphas=[1.0]),
+        drivers=["spindle_rpm"],
+    )
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "no time_s" warning
+        lag.fit(frame, y)
+    assert lag.estimator_.lag_features_.sample_period_s_ == pytest.approx(60.0)
+    with pytest.raises(ValueError, match="drivers: 'rpm' is not a column"):
+        RunStartRegressor(LinearRegression(), drivers=["rpm"]).fit(frame, y)
+
+
 def test_run_start_regressor_warns_when_runs_lose_their_labels():
     X, y, groups = _two_runs()
     model = RunStartRegressor(LinearRegression()).fit(X, y, groups=groups)
@@ -70,7 +107,11 @@ def test_every_named_model_is_wrapped_and_has_a_search_space():
     for name in MODELS:
         model = make_model(name, random_state=0, quick=True)
         assert isinstance(model, RunStartRegressor)
-        assert callable(model_search_space(name))
+        if MODELS[name].paper:
+            assert callable(model_search_space(name))
+        else:  # the baselines tune themselves; asking for a space says so
+            with pytest.raises(ValueError, match="own time-ordered"):
+                model_search_space(name)
     with pytest.raises(InvalidParameterError, match="name"):
         make_model("svm")
     with pytest.raises(InvalidParameterError, match="n_sensors"):

@@ -153,8 +153,21 @@ def cmd_fit(args):
         print(f"{args.selector} selected {', '.join(sensors)}")
     else:
         sensors = sensor_columns(df)
-    X, y, groups = split_runs(df, sensors=sensors, targets=target)
     model = make_model(args.model, random_state=args.seed, quick=args.quick)
+    drivers = MODELS[args.model].drivers
+    if drivers:
+        have = [d for d in drivers if d in df.columns]
+        sensors = [s for s in sensors if s not in have] + have
+        if have != list(drivers):
+            missing = [d for d in drivers if d not in have]
+            print(
+                f"Note: the run table has no {', '.join(missing)} column; "
+                f"{MODELS[args.model].label} uses the sensors"
+                + (f" and {', '.join(have)}" if have else "")
+                + " only."
+            )
+            model.set_params(drivers=have or None)
+    X, y, groups = split_runs(df, sensors=sensors, targets=target)
     params = _resolve_params(model, _parse_params(args.set))
     if params:
         model.set_params(**params)
@@ -306,6 +319,11 @@ def cmd_search(args):
     if args.model not in MODELS:
         raise UserError(
             f"--model: unknown model {args.model!r}; choose one of {', '.join(MODELS)}."
+        )
+    if not MODELS[args.model].paper:
+        raise UserError(
+            f"--model {args.model}: nothing to search; it chooses its settings "
+            "by its own time-ordered cross-validation in 'skthermal fit'."
         )
     if args.trials < 1:
         raise UserError(f"--trials must be at least 1, got {args.trials}.")

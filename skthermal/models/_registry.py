@@ -18,10 +18,17 @@ N_SENSORS = 5
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """A named model: its label in tables and a one-line description."""
+    """A named model: its label in tables and a one-line description.
+
+    ``paper``: one of the papers' models (the Machine B study runs these by
+    default); ``drivers``: driver columns the model reads besides the
+    sensors (``skthermal fit`` adds them when the run table has them).
+    """
 
     label: str
     description: str
+    paper: bool = True
+    drivers: tuple = ()
 
 
 MODELS = {
@@ -34,6 +41,20 @@ MODELS = {
     "gnnmci": ModelSpec("GNNMCI", "grey neural network GNNMCI(1,N), PSO-trained"),
     "grey-pso": ModelSpec("Grey-PSO", "grey model GMC(1,N) calibrated by PSO"),
     "mlp": ModelSpec("MLP", "neural network, 10 hidden neurons (001 §6.3)"),
+    "ridge": ModelSpec(
+        "Ridge",
+        "the tuned linear baseline: standardised ridge regression, its "
+        "penalty chosen by time-ordered CV",
+        paper=False,
+    ),
+    "lag-ridge": ModelSpec(
+        "Lag-ridge",
+        "the recommended dynamic model (make_lag_pipeline): ridge on lag "
+        "features of the temperatures and the spindle speed, time constants "
+        "and penalty chosen by time-ordered CV",
+        paper=False,
+        drivers=("spindle_rpm",),
+    ),
 }
 
 SELECTORS = {
@@ -106,11 +127,18 @@ def _mlp(quick, random_state):
     prefer_skip_nested_validation=True,
 )
 def make_model(name, *, random_state=None, quick=False):
-    """A named model of the papers, wrapped in :class:`RunStartRegressor`.
+    """A named model, wrapped in :class:`RunStartRegressor`.
+
+    The papers' models, and two baselines a compensation model must beat on
+    real records: ``"ridge"`` (the tuned linear baseline) and
+    ``"lag-ridge"`` (the recommended dynamic model,
+    :func:`skthermal.preprocessing.make_lag_pipeline`; it also reads the
+    spindle speed, passed through as it is, not as a change).
 
     Parameters
     ----------
-    name : {"anfis-fcm", "anfis-grid", "gnnmci", "grey-pso", "mlp"}
+    name : {"anfis-fcm", "anfis-grid", "gnnmci", "grey-pso", "mlp", \
+            "ridge", "lag-ridge"}
         The model (:data:`MODELS` describes each).
     random_state : int, RandomState instance or None, default=None
         Seeds the model.
@@ -151,9 +179,18 @@ def make_model(name, *, random_state=None, quick=False):
         inner = GreyPSORegressor(
             calibration="pso", alpha=0.0, random_state=random_state
         )
-    else:
+    elif name == "mlp":
         inner = _mlp(quick, random_state)
-    return RunStartRegressor(inner)
+    else:
+        from skthermal.preprocessing import LagRidgeCV, make_lag_pipeline
+
+        if name == "ridge":
+            # No lags, no drivers: standardised ridge on the temperatures,
+            # its penalty by the same time-ordered CV.
+            inner = LagRidgeCV(time_constant_sets=[()], drivers=None)
+        else:
+            inner = make_lag_pipeline()
+    return RunStartRegressor(inner, drivers=list(MODELS[name].drivers) or None)
 
 
 class _MLPSpace:
@@ -183,11 +220,14 @@ def model_search_space(name):
     ANFIS: rules or MFs per input, MF shape, epochs and step size (with the
     model's partition fixed); grey models: the PSO settings; MLP: hidden
     neurons, L2 penalty and activation. Keys are ``set_params`` names of the
-    wrapped model (``estimator__...``).
+    wrapped model (``estimator__...``). ``"ridge"`` and ``"lag-ridge"``
+    choose their settings by their own time-ordered CV and have no search
+    space (a ValueError says so).
 
     Parameters
     ----------
-    name : {"anfis-fcm", "anfis-grid", "gnnmci", "grey-pso", "mlp"}
+    name : {"anfis-fcm", "anfis-grid", "gnnmci", "grey-pso", "mlp", \
+            "ridge", "lag-ridge"}
 
     Returns
     -------
@@ -211,7 +251,12 @@ def model_search_space(name):
         return search_space("gnnmci", prefix="estimator")
     if name == "grey-pso":
         return search_space("grey_pso", prefix="estimator")
-    return _MLPSpace()
+    if name == "mlp":
+        return _MLPSpace()
+    raise ValueError(
+        f"{name!r} has no search space: it chooses its settings (penalty, "
+        "time constants) by its own time-ordered cross-validation in fit."
+    )
 
 
 @validate_params(

@@ -1,5 +1,7 @@
 """A regressor fitted and applied on changes since the start of each run."""
 
+from numbers import Integral
+
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
@@ -8,8 +10,10 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
     RUN_COLUMN,
+    TIME_COLUMN,
     changes_since_start,
     extract_runs,
+    has_time_index,
     run_slices,
     warn_unlabelled_runs,
 )
@@ -25,14 +29,20 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
 
     Run labels come from ``groups``, a ``run`` column or a ``run`` index level
     (as returned by :func:`skthermal.datasets.split_runs`); without any, all
-    rows are one run. The inner estimator sees a DataFrame indexed by run, so
-    run-aware estimators (grey models, ANFIS checking sets) keep the run
-    boundaries.
+    rows are one run. The inner estimator sees a DataFrame indexed by run
+    (and by ``time_s`` when ``X`` has times: a ``time_s`` column or index
+    level), so run-aware estimators (grey models, ANFIS checking sets, lag
+    features) keep the run boundaries and the times.
 
     Parameters
     ----------
     estimator : regressor
         The model, cloned by ``fit``.
+    drivers : sequence of str or int, default=None
+        Columns passed through as they are, not as changes: drivers such as
+        the spindle speed are set-points, not readings offset from their run
+        start (``1250 rpm`` at the first row is heat, not zero). Names of
+        DataFrame columns, or positions.
 
     Attributes
     ----------
@@ -74,18 +84,48 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
 
     _parameter_constraints: dict = {
         "estimator": [HasMethods(["fit", "predict"])],
+        "drivers": [None, "array-like"],
     }
 
-    def __init__(self, estimator):
+    def __init__(self, estimator, *, drivers=None):
         self.estimator = estimator
+        self.drivers = drivers
 
-    def _changes(self, A, groups):
-        """``A`` minus the first row of its run, as a DataFrame indexed by run."""
-        slices, _ = run_slices(groups, A.shape[0])
-        index = None if groups is None else pd.Index(groups, name=RUN_COLUMN)
+    def _driver_columns(self, n_features):
+        """Positions of the ``drivers`` columns."""
         names = getattr(self, "feature_names_in_", None)
+        out = []
+        for d in [] if self.drivers is None else list(self.drivers):
+            if isinstance(d, Integral | np.integer) and 0 <= int(d) < n_features:
+                out.append(int(d))
+            elif names is not None and str(d) in list(names):
+                out.append(list(names).index(str(d)))
+            else:
+                known = "" if names is None else f"; columns: {list(names)}"
+                raise ValueError(
+                    f"drivers: {d!r} is not a column of X ({n_features} "
+                    f"feature(s){known})."
+                )
+        return np.array(sorted(set(out)), dtype=int)
+
+    def _changes(self, A, groups, X):
+        """``A`` minus the first row of its run (drivers kept as they are),
+        as a DataFrame indexed by run (and time, when ``X`` has times)."""
+        slices, _ = run_slices(groups, A.shape[0])
+        levels, names = [], []
+        if groups is not None:
+            levels.append(np.asarray(groups))
+            names.append(RUN_COLUMN)
+        if has_time_index(X):
+            levels.append(np.asarray(X.index.get_level_values(TIME_COLUMN)))
+            names.append(TIME_COLUMN)
+        index = pd.MultiIndex.from_arrays(levels, names=names) if levels else None
+        changes = changes_since_start(A, slices)
+        keep = self._driver_columns(A.shape[1])
+        changes[:, keep] = A[:, keep]
+        columns = getattr(self, "feature_names_in_", None)
         # Integer column labels when unnamed: the inner model records no names.
-        return pd.DataFrame(changes_since_start(A, slices), index=index, columns=names)
+        return pd.DataFrame(changes, index=index, columns=columns)
 
     @_fit_context(prefer_skip_nested_validation=False)
     def fit(self, X, y, *, groups=None):
@@ -108,7 +148,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         slices, _ = run_slices(groups, A.shape[0])
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
-        self.estimator_ = clone(self.estimator).fit(self._changes(A, groups), dy)
+        self.estimator_ = clone(self.estimator).fit(self._changes(A, groups, X), dy)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = None if groups is None else len(slices)
         return self
@@ -134,6 +174,6 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, getattr(self, "_fit_runs", None), groups, A.shape[0]
         )
-        pred = np.asarray(self.estimator_.predict(self._changes(A, groups)), float)
+        pred = np.asarray(self.estimator_.predict(self._changes(A, groups, X)), float)
         slices, _ = run_slices(groups, A.shape[0])
         return changes_since_start(pred, slices)

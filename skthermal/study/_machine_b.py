@@ -60,9 +60,17 @@ def _model_params(model):
 
 
 def _fitted_choices(model):
-    """What training chose for a fitted ANFIS (ridge, checking scores, epoch)."""
+    """What training chose: for ANFIS the ridge, its checking scores and the
+    epoch; for the lag-feature baselines the time constants, drivers and
+    penalty."""
     inner = getattr(model, "estimator_", None)
-    if not hasattr(inner, "ridge_"):
+    if hasattr(inner, "lag_features_"):
+        return {
+            "time_constants_s": [float(t) for t in inner.time_constants_],
+            "use_drivers": bool(inner.use_drivers_),
+            "alpha": float(inner.alpha_),
+        }
+    if not hasattr(inner, "ridge_scores_"):
         return None
     return {
         "ridge": inner.ridge_,
@@ -129,7 +137,8 @@ def reproduce(
     figures : bool
         Draw PNG figures (needs matplotlib; skipped with a note without it).
     models : sequence of str, optional
-        Subset of :data:`MODELS` (default all, in that order).
+        Subset of :data:`MODELS` (default the papers' models, in that order;
+        the baselines ``"ridge"`` and ``"lag-ridge"`` on request).
     progress : callable, optional
         Called with progress messages (default: lines on stderr).
     command : str, optional
@@ -143,7 +152,11 @@ def reproduce(
     from skthermal.simulate import ThermalMachine
 
     progress = Progress() if progress is None else progress
-    models = list(MODELS) if models is None else list(models)
+    models = (
+        [n for n, spec in MODELS.items() if spec.paper]
+        if models is None
+        else list(models)
+    )
     if sample_period_s is None:
         sample_period_s = QUICK_SAMPLE_PERIOD_S if quick else DEFAULT_SAMPLE_PERIOD_S
     timings = {}
@@ -171,10 +184,13 @@ def reproduce(
     timings["select_s"] = time.perf_counter() - t
     progress(f"selected {', '.join(selected)}")
 
-    Xs = X[selected]
     fitted, fit_s, train_rmse, preds = {}, {}, {}, {}
     for name in models:
         model = make_model(name, random_state=seed, quick=quick)
+        # The selected sensors, and the drivers a model reads (spindle speed).
+        Xs, _, _ = split_runs(
+            runs, sensors=selected + list(MODELS[name].drivers), targets=TARGET
+        )
         label = MODELS[name].label
         progress(f"training {label} on Test {TRAIN_TEST}")
         t = time.perf_counter()
