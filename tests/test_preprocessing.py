@@ -45,6 +45,17 @@ def test_bad_time_constant():
         LagFeatures(time_constants=[-1.0]).fit(np.ones((3, 1)))
 
 
+# The lag transformer and the lag regressor, for the tests both must pass.
+LAG_MODELS = pytest.mark.parametrize(
+    "model",
+    [
+        LagFeatures(time_constants=[60.0]),
+        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
+    ],
+    ids=["LagFeatures", "LagRidgeCV"],
+)
+
+
 def _frame():
     t = np.r_[np.arange(6) * 30.0, np.arange(4) * 30.0]
     idx = pd.MultiIndex.from_arrays([["a"] * 6 + ["b"] * 4, t], names=["run", "time_s"])
@@ -79,14 +90,7 @@ def test_runs_restart_and_names_and_pandas_output():
     assert F["d_T1_C_lp60"].iloc[1] == pytest.approx((1 - a) * dT[1])
 
 
-@pytest.mark.parametrize(
-    "model",
-    [
-        LagFeatures(time_constants=[60.0]),
-        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
-    ],
-    ids=["LagFeatures", "LagRidgeCV"],
-)
+@LAG_MODELS
 def test_run_table_columns_give_runs_and_times(model):
     # The run table as it is stored (run and time_s as columns) is read as
     # the (run, time_s) index of split_runs: time_s is the time base, not a
@@ -109,14 +113,7 @@ def test_run_table_columns_give_runs_and_times(model):
         clone(model).fit(bad, y)
 
 
-@pytest.mark.parametrize(
-    "model",
-    [
-        LagFeatures(time_constants=[60.0]),
-        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
-    ],
-    ids=["LagFeatures", "LagRidgeCV"],
-)
+@LAG_MODELS
 def test_rows_without_times_warn_unless_dt_is_given(model):
     X = _frame()
     y = np.arange(len(X), dtype=float)
@@ -148,14 +145,7 @@ def test_bad_driver_and_time_order():
         LagFeatures().fit(bad).transform(bad)
 
 
-@pytest.mark.parametrize(
-    "model",
-    [
-        LagFeatures(time_constants=[60.0]),
-        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0]),
-    ],
-    ids=["LagFeatures", "LagRidgeCV"],
-)
+@LAG_MODELS
 def test_rows_without_run_labels_warn_with_the_fix(model):
     X = _frame()
     y = np.arange(len(X), dtype=float)
