@@ -136,6 +136,56 @@ def test_rows_without_times_warn_unless_dt_is_given(model):
     np.testing.assert_allclose(getattr(timed, use)(bare), expected)
 
 
+def _long_run(n=80, run="r"):
+    t = np.arange(n) * 30.0
+    rpm = np.where((t // 600) % 2 == 0, 3000.0, 0.0)
+    heat = np.cumsum(rpm) / 4e4
+    return pd.DataFrame(
+        {
+            "run": run,
+            "time_s": t,
+            "T1_C": 20 + heat + np.sin(t / 400.0),
+            "T2_C": 21 + 0.5 * heat,
+            "spindle_rpm": rpm,
+        }
+    )
+
+
+def test_exponential_filter_continues_from_a_state():
+    u = np.random.default_rng(0).normal(size=(50, 2))
+    whole = exponential_filter(u, 7.0, 2.0)
+    head = exponential_filter(u[:20], 7.0, 2.0)
+    tail = exponential_filter(u[20:], 7.0, 2.0, state=head[-1:])
+    np.testing.assert_allclose(tail, whole[20:], rtol=1e-12)
+    # A row of NaN starts that run afresh.
+    fresh = exponential_filter(u[20:], 7.0, 2.0, state=np.full((1, 2), np.nan))
+    np.testing.assert_allclose(fresh, exponential_filter(u[20:], 7.0, 2.0))
+
+
+@LAG_MODELS
+def test_the_later_rows_of_a_training_run_continue_it(model):
+    table = _long_run()
+    y = table["T1_C"].to_numpy() * 2.0 + table["spindle_rpm"].to_numpy() / 1e3
+    cut = 50
+    fitted = clone(model).fit(table.iloc[:cut], y[:cut])
+    use = getattr(fitted, "transform" if hasattr(fitted, "transform") else "predict")
+    whole = use(table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tail = use(table.iloc[cut:])
+    np.testing.assert_allclose(tail, whole[cut:], rtol=1e-10, atol=1e-10)
+    # The training rows again: predicted from the run's start.
+    np.testing.assert_allclose(use(table.iloc[:cut]), whole[:cut])
+    # Starting inside the training span is neither reading: an error.
+    with pytest.raises(ValueError, match="neither at the start"):
+        use(table.iloc[20:])
+    # A run not seen in fit that does not start at 0 is a run of its own,
+    # with a warning.
+    other = table.iloc[cut:].assign(run="other")
+    with pytest.warns(UserWarning, match="not 0"):
+        use(other)
+
+
 def test_bad_driver_and_time_order():
     X = _frame()
     with pytest.raises(ValueError, match="'rpm'"):

@@ -95,6 +95,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     training data and sliced per fold (exact for these folds). The chosen
     model is then refitted on all the training rows.
 
+    In ``predict`` a run label seen in ``fit`` continues that run (see
+    :class:`LagFeatures`): the later rows of a training run, given alone,
+    are predicted as they would be inside the whole run.
+
     Parameters
     ----------
     time_constant_sets : sequence of sequences of float, default=None

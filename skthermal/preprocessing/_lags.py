@@ -16,9 +16,12 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
     changes_since_start,
+    continued_runs,
     extract_runs,
+    run_memory,
     run_sample_periods,
     run_slices,
+    run_times,
     warn_no_time,
     warn_unlabelled_runs,
 )
@@ -26,7 +29,9 @@ from skthermal.utils._runs import (
 DEFAULT_DRIVER_NAMES = ("spindle_rpm",)
 
 
-def exponential_filter(U, time_constant, dt, slices=None, *, initial="steady"):
+def exponential_filter(
+    U, time_constant, dt, slices=None, *, initial="steady", state=None
+):
     """First-order exponential (low-pass) filter, restarting at every run.
 
     ``z[k] = a z[k-1] + (1 - a) u[k]`` with ``a = exp(-dt / time_constant)``:
@@ -49,6 +54,10 @@ def exponential_filter(U, time_constant, dt, slices=None, *, initial="steady"):
     initial : {"steady", "rest"}, default="steady"
         State before each run's first row: steady state at its first value,
         or zero.
+    state : array-like of shape (n_runs, n_features), optional
+        The filter output before each run's first row (``z[-1]``), e.g. the
+        last output of the same run's earlier rows, to continue it; a row of
+        NaN starts that run as ``initial`` says.
 
     Returns
     -------
@@ -82,11 +91,13 @@ def exponential_filter(U, time_constant, dt, slices=None, *, initial="steady"):
     if slices is None:
         slices = [slice(0, U.shape[0])]
     dts = np.broadcast_to(np.asarray(dt, dtype=float), (len(slices),))
+    if state is not None:
+        state = np.asarray(state, dtype=float).reshape(len(slices), U2.shape[1])
     # One lfilter call per run and distinct time constant: the columns that
     # share it are filtered together along the time axis.
     uniq, which = np.unique(np.broadcast_to(taus, (U2.shape[1],)), return_inverse=True)
     Z = np.empty_like(U2)
-    for sl, step in zip(slices, dts, strict=True):
+    for r, (sl, step) in enumerate(zip(slices, dts, strict=True)):
         if sl.stop <= sl.start:
             continue
         for j, tau in enumerate(uniq):
@@ -94,6 +105,8 @@ def exponential_filter(U, time_constant, dt, slices=None, *, initial="steady"):
             cols = np.flatnonzero(which == j)
             u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
             zi = a * u[:1] if initial == "steady" else np.zeros_like(u[:1])
+            if state is not None and np.all(np.isfinite(state[r, cols])):
+                zi = a * state[r, cols][None, :]
             Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
     return Z.reshape(U.shape)
 
@@ -127,6 +140,16 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     level; with times (a ``time_s`` column or index level, as in a run table)
     the sampling period of each run is the median spacing of its times,
     otherwise ``dt``.
+
+    *Runs across fit and transform.* A run label seen in ``fit`` continues
+    that run: after a chronological split of a labelled table, transforming
+    the later rows alone gives what transforming the whole run gives on
+    them (changes since the run's first training row, filters continued
+    from their last training outputs, kept in ``run_states_``). A labelled
+    run that starts where its training rows started is transformed again
+    from its start; one that starts inside the training span is an error.
+    A run not seen in ``fit`` starts at its first row, with a warning if its
+    ``time_s`` does not start at 0. The same rules as the grey regressors.
 
     Parameters
     ----------
@@ -168,6 +191,10 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     n_fitted_runs_ : int or None
         Labelled runs seen in ``fit`` (None when ``fit`` got no run labels);
         ``transform`` then warns when given rows without run labels.
+    run_states_ : dict
+        Per run label seen in ``fit``: what continuing that run needs (its
+        length, first row, first and last ``time_s`` and the filters' last
+        outputs). Empty when ``fit`` got no run labels.
 
     Examples
     --------
@@ -281,7 +308,55 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 "LagFeatures would produce no features: set include_changes=True "
                 "or give time_constants (and drivers) to filter."
             )
+        # What continuing each labelled run in transform needs: its first
+        # row (the base of the changes) and times, and the filters' last
+        # outputs.
+        slices, labels = run_slices(groups, X_arr.shape[0])
+        memory = run_memory(X_arr, slices, labels, run_times(X_raw, slices))
+        if memory:
+            F = self._compute(X_arr, slices, self._spacing(X_raw, groups, slices))
+            skip = n_temp if self.include_changes else 0
+            for sl, lab in zip(slices, labels, strict=True):
+                if lab in memory:
+                    memory[lab]["state"] = F[sl.stop - 1, skip:].copy()
+        self.run_states_ = memory
         return self
+
+    def _spacing(self, X_raw, groups, slices):
+        return _run_spacing(
+            X_raw, groups, slices, getattr(self, "sample_period_s_", self.dt)
+        )
+
+    def _compute(self, X_arr, slices, dts, bases=None, states=None):
+        """The features; ``bases`` (n_runs, n_temperatures): the first
+        temperatures of the continued runs (NaN rows: the run's own first
+        row); ``states`` (n_runs, n_filtered): the filters' outputs before
+        each run (NaN rows: a fresh start)."""
+        taus = self._taus()
+        temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
+        T = X_arr[:, temp]
+        if self.relative:
+            T = changes_since_start(T, slices)
+            if bases is not None:
+                for r, sl in enumerate(slices):
+                    if np.all(np.isfinite(bases[r])):
+                        T[sl] = X_arr[sl][:, temp] - bases[r]
+        blocks = [T] if self.include_changes else []
+        filtered = [(T, tau, "steady") for tau in taus]
+        if self.driver_indices_.size:
+            D = X_arr[:, self.driver_indices_] / self.driver_scale
+            for p in np.asarray(self.driver_powers, dtype=float).ravel():
+                Dp = np.sign(D) * np.abs(D) ** p
+                filtered += [(Dp, tau, self.driver_initial) for tau in taus]
+        start = 0
+        for U, tau, initial in filtered:
+            width = U.shape[1]
+            state = None if states is None else states[:, start : start + width]
+            blocks.append(
+                exponential_filter(U, tau, dts, slices, initial=initial, state=state)
+            )
+            start += width
+        return np.hstack(blocks)
 
     def transform(self, X, *, groups=None):
         """Compute the lag features, restarting at every run.
@@ -305,28 +380,29 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             groups,
             X_arr.shape[0],
         )
-        slices, _ = run_slices(groups, X_arr.shape[0])
-        dts = _run_spacing(
-            X_raw, groups, slices, getattr(self, "sample_period_s_", self.dt)
+        slices, labels = run_slices(groups, X_arr.shape[0])
+        memory = getattr(self, "run_states_", {})
+        cont = continued_runs(
+            type(self).__name__,
+            X_arr,
+            slices,
+            labels,
+            run_times(X_raw, slices),
+            memory,
         )
-        taus = self._taus()
-        temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
-        T = X_arr[:, temp]
-        if self.relative:
-            T = changes_since_start(T, slices)
-        blocks = [T] if self.include_changes else []
-        blocks += [exponential_filter(T, tau, dts, slices) for tau in taus]
-        if self.driver_indices_.size:
-            D = X_arr[:, self.driver_indices_] / self.driver_scale
-            for p in np.asarray(self.driver_powers, dtype=float).ravel():
-                Dp = np.sign(D) * np.abs(D) ** p
-                blocks += [
-                    exponential_filter(
-                        Dp, tau, dts, slices, initial=self.driver_initial
-                    )
-                    for tau in taus
-                ]
-        return np.hstack(blocks)
+        bases = states = None
+        if any(lab is not None for lab in cont):
+            temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
+            width = len(memory[next(lab for lab in cont if lab is not None)]["state"])
+            bases = np.full((len(slices), temp.size), np.nan)
+            states = np.full((len(slices), width), np.nan)
+            for r, lab in enumerate(cont):
+                if lab is not None:
+                    bases[r] = memory[lab]["x_first"][temp]
+                    states[r] = memory[lab]["state"]
+        return self._compute(
+            X_arr, slices, self._spacing(X_raw, groups, slices), bases, states
+        )
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).
