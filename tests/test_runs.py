@@ -85,3 +85,58 @@ def test_without_time_the_first_row_tells_restart_from_continuation():
     pred = pd.DataFrame({"T1": [4.0, 5.0], "run": "a"})
     assert memory_and_plan(fit, pred) == ["a"]
     assert memory_and_plan(fit, fit) == [None]
+
+
+def _split_record(n=90, cut=55):
+    """One labelled run with times, cut chronologically."""
+    t = np.arange(n) * 60.0
+    rpm = np.where((t // 900) % 2 == 0, 4000.0, 0.0)
+    heat = np.cumsum(rpm) / 5e4
+    table = pd.DataFrame(
+        {
+            "run": "rec",
+            "time_s": t,
+            "T1_C": 20 + heat + 0.3 * np.sin(t / 500.0),
+            "T2_C": 21 + 0.6 * heat,
+            "spindle_rpm": rpm,
+        }
+    )
+    y = 2.0 * table["T1_C"].to_numpy() - 1.5 * table["T2_C"].to_numpy() + heat**0.5
+    return table, y, cut
+
+
+def _sequence_models():
+    from sklearn.linear_model import LinearRegression
+
+    from skthermal.ensemble import ModularRegressor
+    from skthermal.linear_model import TransferFunctionRegressor
+    from skthermal.models import RunStartRegressor, make_model
+
+    return {
+        "TransferFunctionRegressor": TransferFunctionRegressor(
+            speed_column="spindle_rpm", n_grid=4, max_iter=3
+        ),
+        "ModularRegressor": ModularRegressor(),
+        "RunStartRegressor": RunStartRegressor(LinearRegression()),
+        "lag-ridge": make_model("lag-ridge"),
+    }
+
+
+@pytest.mark.parametrize("name", list(_sequence_models()))
+def test_sequence_models_continue_a_training_run(name):
+    # After a chronological split, the later rows predicted alone are what
+    # predicting the whole run gives on them.
+    import warnings
+
+    model = _sequence_models()[name]
+    table, y, cut = _split_record()
+    model.fit(table.iloc[:cut], y[:cut])
+    whole = model.predict(table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tail = model.predict(table.iloc[cut:])
+    np.testing.assert_allclose(tail, whole[cut:], rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match="neither at the start"):
+        model.predict(table.iloc[10:])
+    with pytest.warns(UserWarning, match="not 0"):
+        model.predict(table.iloc[cut:].assign(run="new"))

@@ -29,8 +29,11 @@ from skthermal.datasets._runtable import (
 from skthermal.utils._runs import (
     RUN_COLUMN,
     changes_since_start,
+    continued_runs,
     extract_runs,
+    run_memory,
     run_slices,
+    run_times,
     warn_unlabelled_runs,
 )
 
@@ -59,7 +62,11 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         "thermal drift": the prediction is then the displacement *change*
         since the start of the run. Runs come from ``groups``, a ``run``
         column or a ``run`` index level (:func:`skthermal.datasets.split_runs`);
-        without them all rows are one run.
+        without them all rows are one run. A run label seen in ``fit``
+        continues that run in ``predict`` (changes since its first training
+        row, so its later rows given alone are predicted as inside the whole
+        run); a labelled run starting inside its training span is an error;
+        a run not seen in ``fit`` whose ``time_s`` does not start at 0 warns.
     max_iter : int, default=20
         Backfitting sweeps when training without ``source``.
     tol : float, default=1e-6
@@ -70,6 +77,10 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
     ----------
     estimators_ : list of estimator
         The fitted modules, in order.
+    run_states_ : dict
+        With ``relative=True``, per run label seen in ``fit``: its length,
+        first row and first and last ``time_s`` (to continue it). Empty
+        otherwise.
     named_estimators_ : Bunch
         The fitted modules by name.
     module_columns_ : list of ndarray of int
@@ -232,11 +243,17 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             raise ValueError(f"Module {name!r} lists a column twice.")
         return idx
 
-    def _relative(self, A, groups):
+    def _relative(self, A, groups, bases=None):
+        """``A`` as changes since each run's first row (``bases``: per run,
+        the first row to use instead, or None), with ``relative``."""
         if not self.relative:
             return A
         slices, _ = run_slices(groups, A.shape[0])
-        return changes_since_start(A, slices)
+        out = changes_since_start(A, slices)
+        for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
+            if base is not None:
+                out[sl] = A[sl] - base
+        return out
 
     # --- fit / predict ------------------------------------------------------
 
@@ -262,14 +279,22 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         -------
         self : ModularRegressor
         """
-        X, groups = extract_runs(X, groups)
+        X_raw, groups = extract_runs(X, groups)
         X, y = validate_data(
-            self, X, y, multi_output=True, y_numeric=True, dtype=np.float64
+            self, X_raw, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
         modules = self._resolve_modules()
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = (
             len(run_slices(groups)[0]) if self.relative and groups is not None else None
+        )
+        # With relative=True, a labelled run continues in predict from its
+        # first training row.
+        slices, labels = run_slices(groups, X.shape[0])
+        self.run_states_ = (
+            run_memory(X, slices, labels, run_times(X_raw, slices))
+            if self.relative
+            else {}
         )
         X = self._relative(X, groups)
         y = self._relative(np.asarray(y, dtype=float), groups)
@@ -398,12 +423,20 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
 
     def _module_outputs(self, X, groups):
         check_is_fitted(self)
-        X, groups = extract_runs(X, groups)
-        X = validate_data(self, X, reset=False, dtype=np.float64)
+        X_raw, groups = extract_runs(X, groups)
+        X = validate_data(self, X_raw, reset=False, dtype=np.float64)
         warn_unlabelled_runs(
             type(self).__name__, getattr(self, "_fit_runs", None), groups, X.shape[0]
         )
-        X = self._relative(X, groups)
+        bases = None
+        if self.relative:
+            slices, labels = run_slices(groups, X.shape[0])
+            memory = getattr(self, "run_states_", {})
+            cont = continued_runs(
+                type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
+            )
+            bases = [None if lab is None else memory[lab]["x_first"] for lab in cont]
+        X = self._relative(X, groups, bases)
         return np.stack(
             [
                 np.asarray(est.predict(X[:, cols]), dtype=float).reshape(

@@ -19,9 +19,12 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
     changes_since_start,
+    continued_runs,
     extract_runs,
+    run_memory,
     run_sample_periods,
     run_slices,
+    run_times,
     warn_unlabelled_runs,
 )
 
@@ -30,7 +33,7 @@ from skthermal.utils._runs import (
 _DT_RTOL = 0.01
 
 
-def first_order_lags(U, time_constants, dt, slices):
+def first_order_lags(U, time_constants, dt, slices, state=None):
     """Discrete first-order lags of the columns of ``U``, restarting per run.
 
     ``z[k] = a z[k-1] + (1 - a) u[k]`` with ``a = exp(-dt / tau)`` and
@@ -48,6 +51,9 @@ def first_order_lags(U, time_constants, dt, slices):
         Sampling interval of each run.
     slices : list of slice
         Runs, as returned by :func:`skthermal.utils.run_slices`.
+    state : ndarray of shape (n_runs, n_columns), optional
+        Lag outputs before each run's first row, to continue a run (NaN
+        rows: from rest).
 
     Returns
     -------
@@ -63,7 +69,12 @@ def first_order_lags(U, time_constants, dt, slices):
     array([0.632, 0.865, 0.95 , 0.982])
     """
     return exponential_filter(
-        np.asarray(U, dtype=float), time_constants, dt, slices, initial="rest"
+        np.asarray(U, dtype=float),
+        time_constants,
+        dt,
+        slices,
+        initial="rest",
+        state=state,
     )
 
 
@@ -157,6 +168,10 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         Positions of the speed drivers.
     n_fitted_runs_ : int or None
         Labelled runs seen in ``fit`` (None when ``fit`` got no run labels).
+    run_states_ : dict
+        Per run label seen in ``fit``: what continuing that run in
+        ``predict`` needs (its length, first row, first and last ``time_s``
+        and every lag's last output). Empty when ``fit`` got no run labels.
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (n_features_in_,)
         Defined only when ``X`` has string column names.
@@ -286,15 +301,33 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             rtol=_DT_RTOL,
         )
 
-    def _inputs(self, X, slices):
+    def _inputs(self, X, slices, bases=None):
+        """Temperature changes since each run's first row (``bases``: per
+        run, the first row to use instead, or None) and speed powers."""
         U = changes_since_start(X, slices)
+        for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
+            if base is not None:
+                U[sl] = X[sl] - base
         speed = self.speed_columns_
         U[:, speed] = np.abs(X[:, speed]) ** self.speed_exponent
         return U
 
-    def _features(self, U, log_tau, dts, slices):
+    def _features(self, U, log_tau, dts, slices, state=None):
         tau = np.exp(log_tau).reshape(-1)
-        return first_order_lags(np.repeat(U, self.order, axis=1), tau, dts, slices)
+        return first_order_lags(
+            np.repeat(U, self.order, axis=1), tau, dts, slices, state
+        )
+
+    def _lag_states(self, U, dts, slices, states=None):
+        """Lag features of every output (a list), given the lag outputs
+        before each run (``states``: per output, (n_runs, n_lags) or None)."""
+        taus = self.time_constants_.reshape(-1, U.shape[1] * self.order)
+        return [
+            self._features(
+                U, np.log(tau), dts, slices, None if states is None else states[k]
+            )
+            for k, tau in enumerate(taus)
+        ]
 
     def _grid_search(self, U, Y, dts, slices, grid):
         """Time constants on the log grid, for every output, from shared lags.
@@ -465,16 +498,32 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self.time_constants_ = taus
         self.coef_ = coefs
         self.intercept_ = intercepts
+        # What continuing a labelled run in predict needs: its first row and
+        # times, and every lag's last output.
+        memory = run_memory(X, slices, labels, run_times(X_raw, slices))
+        if memory:
+            F = self._lag_states(U, dts, slices)
+            for sl, lab in zip(slices, labels, strict=True):
+                if lab in memory:
+                    memory[lab]["state"] = np.stack([f[sl.stop - 1] for f in F])
+        self.run_states_ = memory
         return self
 
     def predict(self, X, *, groups=None):
         """Predict the thermal error, run by run from rest.
 
+        A run label seen in ``fit`` continues that run (its later rows given
+        alone are predicted as inside the whole run); a labelled run that
+        starts inside its training span is an error; a run not seen in
+        ``fit`` starts from rest at its first row, with a warning if its
+        ``time_s`` does not start at 0. The same rules as the grey
+        regressors.
+
         Parameters
         ----------
         X : array-like of shape (n_samples, n_features)
-            Rows of whole runs, from their first sample (the lags start from
-            rest at every run's first row).
+            Rows of runs: whole runs from their first sample (the lags start
+            from rest), or the later rows of training runs.
         groups : array-like of shape (n_samples,), optional
             Run label of every row; overrides a ``run`` column or index level.
 
@@ -490,13 +539,28 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         )
         slices, labels = run_slices(groups, X.shape[0])
         dts = self._intervals(X_raw, groups, slices, labels)
-        U = self._inputs(X, slices)
-        taus = self.time_constants_.reshape(-1, U.shape[1] * self.order)
-        coefs = self.coef_.reshape(taus.shape)
+        memory = getattr(self, "run_states_", {})
+        cont = continued_runs(
+            type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
+        )
+        bases = [None if lab is None else memory[lab]["x_first"] for lab in cont]
+        U = self._inputs(X, slices, bases)
+        states = None
+        if any(lab is not None for lab in cont):
+            n_out, width = next(
+                memory[lab]["state"].shape for lab in cont if lab is not None
+            )
+            states = np.full((n_out, len(slices), width), np.nan)
+            for r, lab in enumerate(cont):
+                if lab is not None:
+                    states[:, r] = memory[lab]["state"]
+        coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
         out = np.column_stack(
             [
-                self._features(U, np.log(tau), dts, slices) @ coef
-                for tau, coef in zip(taus, coefs, strict=True)
+                F @ coef
+                for F, coef in zip(
+                    self._lag_states(U, dts, slices, states), coefs, strict=True
+                )
             ]
         ) + np.atleast_1d(self.intercept_)
         return out[:, 0] if np.ndim(self.coef_) == 2 else out

@@ -12,9 +12,12 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
+    continued_runs,
     extract_runs,
     has_time_index,
+    run_memory,
     run_slices,
+    run_times,
     warn_unlabelled_runs,
 )
 
@@ -44,10 +47,21 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         start (``1250 rpm`` at the first row is heat, not zero). Names of
         DataFrame columns, or positions.
 
+    *Runs across fit and predict*, as the grey regressors: a run label seen
+    in ``fit`` continues that run, so its later rows given alone are
+    predicted as the change since the run's first *training* row (what
+    predicting the whole run gives on them); a labelled run that starts
+    inside its training span is an error; a run not seen in ``fit`` starts
+    at its first row, with a warning if its ``time_s`` does not start at 0.
+
     Attributes
     ----------
     estimator_ : regressor
         The fitted clone.
+    run_states_ : dict
+        Per run label seen in ``fit``: its length, first row, first and last
+        ``time_s`` and the inner model's prediction at its first row. Empty
+        when ``fit`` got no run labels.
     n_features_in_ : int
         Number of features seen during ``fit``.
     feature_names_in_ : ndarray of shape (n_features_in_,)
@@ -108,9 +122,11 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
                 )
         return np.array(sorted(set(out)), dtype=int)
 
-    def _changes(self, A, groups, X):
+    def _changes(self, A, groups, X, bases=None):
         """``A`` minus the first row of its run (drivers kept as they are),
-        as a DataFrame indexed by run (and time, when ``X`` has times)."""
+        as a DataFrame indexed by run (and time, when ``X`` has times).
+        ``bases``: per run, the first row to subtract instead (None: the
+        run's own)."""
         slices, _ = run_slices(groups, A.shape[0])
         levels, names = [], []
         if groups is not None:
@@ -121,6 +137,9 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
             names.append(TIME_COLUMN)
         index = pd.MultiIndex.from_arrays(levels, names=names) if levels else None
         changes = changes_since_start(A, slices)
+        for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
+            if base is not None:
+                changes[sl] = A[sl] - base
         keep = self._driver_columns(A.shape[1])
         changes[:, keep] = A[:, keep]
         columns = getattr(self, "feature_names_in_", None)
@@ -148,9 +167,21 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         slices, _ = run_slices(groups, A.shape[0])
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
-        self.estimator_ = clone(self.estimator).fit(self._changes(A, groups, X), dy)
+        changes = self._changes(A, groups, X)
+        self.estimator_ = clone(self.estimator).fit(changes, dy)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = None if groups is None else len(slices)
+        # What continuing a labelled run in predict needs: its first row and
+        # times, and the inner model's prediction there (the zero of the
+        # run's predicted change).
+        _, labels = run_slices(groups, A.shape[0])
+        memory = run_memory(A, slices, labels, run_times(X, slices))
+        if memory:
+            first = np.asarray(self.estimator_.predict(changes), dtype=float)
+            for sl, lab in zip(slices, labels, strict=True):
+                if lab in memory:
+                    memory[lab]["pred_first"] = first[sl.start].copy()
+        self.run_states_ = memory
         return self
 
     def predict(self, X, *, groups=None):
@@ -174,6 +205,16 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, getattr(self, "_fit_runs", None), groups, A.shape[0]
         )
-        pred = np.asarray(self.estimator_.predict(self._changes(A, groups, X)), float)
-        slices, _ = run_slices(groups, A.shape[0])
-        return changes_since_start(pred, slices)
+        slices, labels = run_slices(groups, A.shape[0])
+        memory = getattr(self, "run_states_", {})
+        cont = continued_runs(
+            type(self).__name__, A, slices, labels, run_times(X, slices), memory
+        )
+        bases = [None if lab is None else memory[lab]["x_first"] for lab in cont]
+        pred = self.estimator_.predict(self._changes(A, groups, X, bases))
+        pred = np.asarray(pred, dtype=float)
+        out = changes_since_start(pred, slices)
+        for sl, lab in zip(slices, cont, strict=True):
+            if lab is not None:
+                out[sl] = pred[sl] - memory[lab]["pred_first"]
+        return out
