@@ -69,7 +69,7 @@ def gas_furnace():
     base = rmse(LinearRegression().fit(u[:cut], y[:cut]).predict(u[cut:]), y[cut:])
     # One sample per step (dt=1); time constants in samples.
     model = make_lag_pipeline(
-        time_constant_sets=[(), (1.0, 3.0, 9.0), (2.0, 6.0, 18.0, 54.0)]
+        time_constant_sets=[(), (1.0, 3.0, 9.0), (2.0, 6.0, 18.0, 54.0)], dt=1.0
     ).fit(u[:cut], y[:cut])
     r = rmse(model.predict(u)[cut:], y[cut:])
     print(
