@@ -235,15 +235,28 @@ def test_missing_runs_and_columns_are_named(pair):
         diagnose_runs(sim, meas, candidates=["coolant"])
 
 
-def test_mismatched_times_are_named(pair):
+def test_a_simulation_at_other_times_is_interpolated(pair):
+    # Another tool's export at its own time step is interpolated onto the
+    # measured times; it must cover them, with the measured drivers.
     sim, meas = pair
-    sim = sim.copy()
-    sim.loc[sim.index[sim["run"] == "r0"][7], "time_s"] += 30.0
-    with pytest.raises(ValueError, match=r"time_s differs .* run 'r0' at row 7"):
-        diagnose_runs(sim, meas)
-    short = pair[0].drop(index=pair[0].index[pair[0]["run"] == "r1"][-1])
-    with pytest.raises(ValueError, match="Run 'r1' has .* samples in the measured"):
+    coarse = pd.concat(
+        [f.iloc[np.r_[0 : len(f) - 1 : 3, len(f) - 1]] for _, f in sim.groupby("run")],
+        ignore_index=True,
+    )  # every third sample, and the last
+    given = diagnose_runs(sim, meas, greedy=False).where["runs"]
+    again = diagnose_runs(coarse, meas, greedy=False).where["runs"]
+    np.testing.assert_allclose(again["gap"], given["gap"], rtol=0.1, atol=0.01)
+    short = sim.drop(index=sim.index[sim["run"] == "r1"][-1])
+    with pytest.raises(ValueError, match="Run 'r1': the simulated table covers"):
         diagnose_runs(short, meas)
+    wrong = coarse.copy()
+    wrong.loc[wrong.index[wrong["run"] == "r2"][4], "spindle_rpm"] += 500
+    with pytest.raises(ValueError, match="spindle_rpm in run 'r2' at simulated row 4"):
+        diagnose_runs(wrong, meas)
+    back = sim.copy()
+    back.loc[back.index[back["run"] == "r0"][7], "time_s"] -= 90.0
+    with pytest.raises(ValueError, match="not strictly increasing in run 'r0' of the"):
+        diagnose_runs(back, meas)
 
 
 def test_empty_tables_and_missing_values(pair):

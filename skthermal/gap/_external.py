@@ -2,8 +2,9 @@
 measurements of the same runs.
 
 The simulation may come from any tool (finite elements, a lumped model of
-another package): only its exported run table is needed, with the same runs,
-times and drivers as the measured one. Each effect of the vocabulary is then
+another package): only its exported run table is needed, with the same runs
+and drivers as the measured one (at the measured times, or at its own time
+step, then interpolated onto them). Each effect of the vocabulary is then
 tested as a discrepancy term added to the simulated channels
 (:mod:`skthermal.gap._terms`), calibrated on training runs and scored on
 held-out runs, beside the evidence grey-box identification uses to select a
@@ -121,12 +122,6 @@ def _align(simulated, measured, channels, mapping, max_samples):
     out = []
     for name, meas in meas_runs:
         sim = sim_runs[name]
-        if len(sim) != len(meas):
-            raise ValueError(
-                f"Run {name!r} has {len(meas)} samples in the measured table and "
-                f"{len(sim)} in the simulated one: export the simulation at the "
-                "measurement's times."
-            )
         if len(meas) < START_SAMPLES + 3:
             raise ValueError(
                 f"Run {name!r} has {len(meas)} samples; at least "
@@ -134,34 +129,51 @@ def _align(simulated, measured, channels, mapping, max_samples):
             )
         t = _numeric(meas, "time_s", "measured", name)
         ts = _numeric(sim, "time_s", "simulated", name)
+        for label, times in (("measured", t), ("simulated", ts)):
+            if np.any(np.diff(times) <= 0):
+                k = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
+                raise ValueError(
+                    f"time_s is not strictly increasing in run {name!r} of the "
+                    f"{label} table at row {k}."
+                )
         tol = 1e-6 * max(1.0, float(np.max(np.abs(t))))
-        off = np.flatnonzero(np.abs(t - ts) > tol)
-        if off.size:
-            k = int(off[0])
-            raise ValueError(
-                f"time_s differs between the tables in run {name!r} at row {k} "
-                f"(measured {t[k]:g} s, simulated {ts[k]:g} s)."
-            )
-        if np.any(np.diff(t) <= 0):
-            k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
-            raise ValueError(
-                f"time_s is not strictly increasing in run {name!r} at row {k}."
-            )
+        # The simulation at the measured times, or (another tool's export
+        # at its own time step) interpolated linearly onto them.
+        same = ts.size == t.size and not np.any(np.abs(t - ts) > tol)
+        if not same:
+            if ts.size < 2 or ts[0] > t[0] + tol or ts[-1] < t[-1] - tol:
+                raise ValueError(
+                    f"Run {name!r}: the simulated table covers time_s "
+                    f"{ts[0]:g}-{ts[-1]:g} s, the measured one {t[0]:g}-"
+                    f"{t[-1]:g} s. A simulation at other times than the "
+                    "measurement's is interpolated onto them, so it must cover "
+                    "the measured span."
+                )
+        # Where the simulation was computed: its rows, and the measured
+        # driver in force at each (zero-order hold).
+        at = (
+            np.arange(t.size)
+            if same
+            else np.clip(np.searchsorted(t, ts, side="right") - 1, 0, t.size - 1)
+        )
         drivers = {}
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
             m = _numeric(meas, col, "measured", name) if in_m else np.zeros(t.size)
-            s = _numeric(sim, col, "simulated", name) if in_s else np.zeros(t.size)
-            tol = 1e-3 * max(1.0, float(np.max(np.abs(m))))
+            s_ = _numeric(sim, col, "simulated", name) if in_s else np.zeros(ts.size)
+            tol_d = 1e-3 * max(1.0, float(np.max(np.abs(m))))
             if col == "ambient_C":
-                tol = max(tol, 0.05)  # the air as logged, quantised
-            off = np.flatnonzero(np.abs(m - s) > tol)
+                tol_d = max(tol_d, 0.05)  # the air as logged, quantised
+                if not same:  # between samples the logged air moves on
+                    tol_d = max(tol_d, float(np.max(np.abs(np.diff(m)), initial=0)))
+            off = np.flatnonzero(np.abs(m[at] - s_) > tol_d)
             if off.size:
                 k = int(off[0])
                 where = "" if in_m and in_s else " (absent from one table: 0)"
+                row = f"row {k}" if same else f"simulated row {k}"
                 raise ValueError(
-                    f"The drivers differ: {col} in run {name!r} at row {k} "
-                    f"(time {t[k]:g} s) is {m[k]:g} measured and {s[k]:g} "
+                    f"The drivers differ: {col} in run {name!r} at {row} "
+                    f"(time {ts[k]:g} s) is {m[at[k]]:g} measured and {s_[k]:g} "
                     f"simulated{where}; simulate the measured drivers."
                 )
             drivers[col] = m
@@ -178,6 +190,10 @@ def _align(simulated, measured, channels, mapping, max_samples):
                     f"{cols[c]} is missing or not finite in run {name!r} of the "
                     f"{label} table at row {r}."
                 )
+        if not same:
+            y_sim = np.column_stack(
+                [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
+            )
         step = max(1, int(np.ceil(t.size / max_samples)))
         rows = np.arange(0, t.size, step)
         y = y_meas[rows] - y_meas[rows][:START_SAMPLES].mean(axis=0)
@@ -446,8 +462,11 @@ def diagnose_runs(
 ):
     """Diagnose the gap between a simulation's run table and measured runs.
 
-    The simulation can come from any tool: its run table has the same runs,
-    times and drivers as the measured one, and the channels it predicts.
+    The simulation can come from any tool: its run table has the same runs
+    and drivers as the measured one, and the channels it predicts. At the
+    measured times, or at its own time step covering each measured run: it
+    is then interpolated linearly onto the measured times (its drivers are
+    checked against the measured ones in force at its own rows).
 
     1. **Where**: the gap of the simulation as given and with the base
        calibrated (one gain per channel, on all runs), per run, regime,
@@ -480,7 +499,8 @@ def diagnose_runs(
     simulated, measured : DataFrame
         Run tables (``run``, ``time_s``, ``spindle_rpm``, ``ambient_C``,
         optional ``feed_mm_min``; channels ``T*_C`` and ``disp_*_um``) with
-        the same runs, times and drivers.
+        the same runs and drivers; the simulated times may differ (see
+        above).
     candidates : sequence of str, optional
         Effects to test (default: every discrepancy term).
     cv : int or splitter, optional
