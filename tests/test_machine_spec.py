@@ -52,6 +52,14 @@ def test_presets_round_trip_through_dict_and_toml(name, tmp_path):
     pd.testing.assert_frame_equal(a, b, check_exact=True)
 
 
+def test_a_sensor_on_one_node_is_a_node_name():
+    data = _small()
+    data["sensors"]["T1_C"] = {"node": "spindle"}
+    spec = MachineSpec.from_dict(data)
+    assert spec.sensors[0].weights == {"spindle": 1.0}
+    assert MachineSpec.from_dict(spec.to_dict()) == spec
+
+
 def test_a_small_machine_from_a_dict_simulates():
     machine = ThermalMachine.from_spec(_small(), effects=[])
     run = machine.simulate(DUTY, 20.0, noise=False)
@@ -141,6 +149,18 @@ def test_a_small_machine_from_a_dict_simulates():
         (
             lambda d: d["sensors"]["T1_C"].update(noise_c=0.1),
             r"sensor 'T1_C': unknown field 'noise_c' \(did you mean 'noise_C'",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(node="spindle"),
+            r"sensor 'T1_C': give either node .* or weights",
+        ),
+        (
+            lambda d: d["sensors"].update(T2_C={"node": "spindel"}),
+            r"sensor 'T2_C': unknown node 'spindel' \(did you mean 'spindle'",
+        ),
+        (
+            lambda d: d["sensors"].update(T2_C={"node": ["spindle"]}),
+            r"sensor 'T2_C': node must be a node name",
         ),
     ],
 )

@@ -549,6 +549,9 @@ class MachineSpec:
             kind = "surface"                 # surface, embedded or air
             location = "front housing"
 
+            [sensors.T2_C]
+            node = "motor"                   # one node: weights = { motor = 1 }
+
             [displacement]
             noise_um = 0.3
             [displacement.z]                 # µm per K of node rise
@@ -693,10 +696,23 @@ class MachineSpec:
             _check_fields(
                 f"sensor {name!r}",
                 entry,
-                ("weights", "kind", "location", *SENSOR_FIELDS),
+                ("weights", "node", "kind", "location", *SENSOR_FIELDS),
             )
+            if "node" in entry:
+                # Shorthand for a sensor on one node: node = "housing".
+                if "weights" in entry:
+                    raise ValueError(
+                        f"sensor {name!r}: give either node (one node) or "
+                        "weights (a mix of nodes), not both."
+                    )
+                if not isinstance(entry["node"], str):
+                    raise ValueError(
+                        f"sensor {name!r}: node must be a node name, got "
+                        f"{entry['node']!r}."
+                    )
+                entry = {**entry, "weights": {entry["node"]: 1.0}}
             if "weights" not in entry:
-                raise ValueError(f"sensor {name!r}: weights is required.")
+                raise ValueError(f"sensor {name!r}: weights (or node) is required.")
             if not isinstance(entry["weights"], dict):
                 raise ValueError(
                     f"sensor {name!r}: weights must be a table of node weights "
