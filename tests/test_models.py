@@ -88,6 +88,13 @@ def test_run_start_regressor_keeps_drivers_and_times():
     assert lag.estimator_.lag_features_.sample_period_s_ == pytest.approx(60.0)
     with pytest.raises(ValueError, match="drivers: 'rpm' is not a column"):
         RunStartRegressor(LinearRegression(), drivers=["rpm"]).fit(frame, y)
+    # "auto": the run table's drivers present among the columns.
+    auto = RunStartRegressor(Spy(), drivers="auto").fit(frame, y)
+    pd.testing.assert_frame_equal(auto.estimator_.seen_, seen)
+    alone = RunStartRegressor(Spy(), drivers="auto").fit(
+        frame.drop(columns="spindle_rpm"), y
+    )
+    np.testing.assert_allclose(alone.estimator_.seen_["T1_C"], seen["T1_C"])
 
 
 def test_run_start_regressor_warns_when_runs_lose_their_labels():

@@ -186,6 +186,16 @@ def test_the_later_rows_of_a_training_run_continue_it(model):
         use(other)
 
 
+def test_feed_is_a_driver_and_direction_does_not_matter():
+    X = _frame().assign(feed_mm_min=np.r_[np.full(5, 2000.0), np.full(5, -2000.0)])
+    lf = LagFeatures(time_constants=[60.0]).set_output(transform="pandas")
+    F = lf.fit_transform(X)
+    assert "feed_mm_min_pow1_lp60" in F.columns
+    assert "d_feed_mm_min" not in F.columns  # a driver, not a temperature
+    # Travelling back heats as travelling forward.
+    np.testing.assert_allclose(F["feed_mm_min_pow1_lp60"].iloc[5:], 2.0)
+
+
 def test_bad_driver_and_time_order():
     X = _frame()
     with pytest.raises(ValueError, match="'rpm'"):

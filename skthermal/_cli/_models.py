@@ -158,15 +158,11 @@ def cmd_fit(args):
     if drivers:
         have = [d for d in drivers if d in df.columns]
         sensors = [s for s in sensors if s not in have] + have
-        if have != list(drivers):
-            missing = [d for d in drivers if d not in have]
+        if not have:
             print(
-                f"Note: the run table has no {', '.join(missing)} column; "
-                f"{MODELS[args.model].label} uses the sensors"
-                + (f" and {', '.join(have)}" if have else "")
-                + " only."
+                f"Note: the run table has none of {', '.join(drivers)}; "
+                f"{MODELS[args.model].label} uses the sensors only."
             )
-            model.set_params(drivers=have or None)
     X, y, groups = split_runs(df, sensors=sensors, targets=target)
     params = _resolve_params(model, _parse_params(args.set))
     if params:

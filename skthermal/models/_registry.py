@@ -50,10 +50,10 @@ MODELS = {
     "lag-ridge": ModelSpec(
         "Lag-ridge",
         "the recommended dynamic model (make_lag_pipeline): ridge on lag "
-        "features of the temperatures and the spindle speed, time constants "
-        "and penalty chosen by time-ordered CV",
+        "features of the temperatures, the spindle speed and the feed, time "
+        "constants and penalty chosen by time-ordered CV",
         paper=False,
-        drivers=("spindle_rpm",),
+        drivers=("spindle_rpm", "feed_mm_min"),
     ),
 }
 
@@ -190,7 +190,7 @@ def make_model(name, *, random_state=None, quick=False):
             inner = LagRidgeCV(time_constant_sets=[()], drivers=None)
         else:
             inner = make_lag_pipeline()
-    return RunStartRegressor(inner, drivers=list(MODELS[name].drivers) or None)
+    return RunStartRegressor(inner, drivers="auto" if MODELS[name].drivers else None)
 
 
 class _MLPSpace:

@@ -5,10 +5,11 @@ from numbers import Integral
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
-from sklearn.utils._param_validation import HasMethods
+from sklearn.utils._param_validation import HasMethods, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
+    POWER_DRIVERS,
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
@@ -41,11 +42,12 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
     ----------
     estimator : regressor
         The model, cloned by ``fit``.
-    drivers : sequence of str or int, default=None
+    drivers : "auto", sequence of str or int, default=None
         Columns passed through as they are, not as changes: drivers such as
         the spindle speed are set-points, not readings offset from their run
         start (``1250 rpm`` at the first row is heat, not zero). Names of
-        DataFrame columns, or positions.
+        DataFrame columns, or positions; ``"auto"``: the run table's drivers
+        ``spindle_rpm`` and ``feed_mm_min`` among the columns of ``X``.
 
     *Runs across fit and predict*, as the grey regressors: a run label seen
     in ``fit`` continues that run, so its later rows given alone are
@@ -98,7 +100,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
 
     _parameter_constraints: dict = {
         "estimator": [HasMethods(["fit", "predict"])],
-        "drivers": [None, "array-like"],
+        "drivers": [None, StrOptions({"auto"}), "array-like"],
     }
 
     def __init__(self, estimator, *, drivers=None):
@@ -108,6 +110,13 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
     def _driver_columns(self, n_features):
         """Positions of the ``drivers`` columns."""
         names = getattr(self, "feature_names_in_", None)
+        if isinstance(self.drivers, str):  # "auto"
+            return np.array(
+                []
+                if names is None
+                else [i for i, c in enumerate(names) if str(c) in POWER_DRIVERS],
+                dtype=int,
+            )
         out = []
         for d in [] if self.drivers is None else list(self.drivers):
             if isinstance(d, Integral | np.integer) and 0 <= int(d) < n_features:

@@ -15,6 +15,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
+    POWER_DRIVERS,
     changes_since_start,
     continued_runs,
     extract_runs,
@@ -26,7 +27,7 @@ from skthermal.utils._runs import (
     warn_unlabelled_runs,
 )
 
-DEFAULT_DRIVER_NAMES = ("spindle_rpm",)
+DEFAULT_DRIVER_NAMES = POWER_DRIVERS
 
 
 def exponential_filter(
@@ -162,10 +163,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         readings (False).
     drivers : "auto", None or sequence of str or int, default="auto"
         Driver columns (names or positions), filtered but not differenced.
-        ``"auto"`` uses the columns named ``spindle_rpm`` when present.
-        All other columns are temperatures.
+        ``"auto"`` uses the run table's drivers ``spindle_rpm`` and
+        ``feed_mm_min`` when present. All other columns are temperatures.
     driver_powers : sequence of float, default=(1.0, 1.5)
-        Powers applied to the scaled drivers (sign kept).
+        Powers applied to the magnitude of the scaled drivers (a spindle
+        turning either way, an axis travelling either way, heats alike).
     driver_scale : float, default=1000.0
         Drivers are divided by this before the power.
     driver_initial : {"steady", "rest"}, default="steady"
@@ -346,7 +348,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         if self.driver_indices_.size:
             D = X_arr[:, self.driver_indices_] / self.driver_scale
             for p in np.asarray(self.driver_powers, dtype=float).ravel():
-                Dp = np.sign(D) * np.abs(D) ** p
+                Dp = np.abs(D) ** p
                 filtered += [(Dp, tau, self.driver_initial) for tau in taus]
         start = 0
         for U, tau, initial in filtered:

@@ -12,6 +12,10 @@ import numpy as np
 
 RUN_COLUMN = "run"
 TIME_COLUMN = "time_s"
+# The run table's heat-source drivers: set-points whose losses grow with
+# their magnitude (not readings: a model takes them as they are, not as
+# changes since the run start).
+POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
 
 
 def run_slices(groups, n_samples=None):
