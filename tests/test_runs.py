@@ -109,6 +109,7 @@ def _sequence_models():
     from sklearn.linear_model import LinearRegression
 
     from skthermal.ensemble import ModularRegressor
+    from skthermal.fuzzy import ANFISRegressor
     from skthermal.linear_model import TransferFunctionRegressor
     from skthermal.models import RunStartRegressor, make_model
 
@@ -119,6 +120,7 @@ def _sequence_models():
         "ModularRegressor": ModularRegressor(),
         "RunStartRegressor": RunStartRegressor(LinearRegression()),
         "lag-ridge": make_model("lag-ridge"),
+        "Grey-ANFIS": ANFISRegressor(grey=True, n_clusters=2, epochs=3, random_state=0),
     }
 
 

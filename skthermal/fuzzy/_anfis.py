@@ -28,8 +28,11 @@ from skthermal.fuzzy._membership import MF_PARAMS
 from skthermal.grey._ago import ago, iago
 from skthermal.utils._runs import (
     check_time_order,
+    continued_runs,
     extract_runs,
+    run_memory,
     run_slices,
+    run_times,
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
@@ -214,7 +217,10 @@ default="fcm"
         inputs and the target and return predictions through the inverse AGO.
         Accumulation restarts at every run (``groups``, a ``run`` column or a
         ``run`` index level); every run is predicted from its own start, so a
-        run's prediction does not depend on the other rows passed with it.
+        run's prediction does not depend on the other rows passed with it. A
+        run label seen in ``fit`` continues that run (its later rows given
+        alone are predicted as inside the whole run), with the grey
+        regressors' rules.
         A model fitted with run labels warns when ``predict`` gets rows
         without them (they would be taken as one run). Whenever the rows of a
         run are read in order (``grey``, ``validation_fraction``,
@@ -262,6 +268,10 @@ default="fcm"
         Ridge used for the consequents (the chosen one with ``ridge="auto"``).
     ridge_scores_ : dict of float to float
         With ``ridge="auto"``: the checking RMSE of every candidate ridge.
+    run_states_ : dict
+        With ``grey=True``, per run label seen in ``fit``: what continuing
+        that run in ``predict`` needs (its first row and times, the
+        accumulated inputs and prediction at its last row). Empty otherwise.
     best_epoch_ : int
         Epoch whose parameters were kept: least checking RMSE, or least
         training RMSE without a checking set.
@@ -500,6 +510,21 @@ default="fcm"
         self.best_epoch_ = int(result["best_epoch"])
         self.n_iter_ = len(self.history_["epoch"])
         self._input_range = np.c_[X_train.min(axis=0), X_train.max(axis=0)]
+        # Grey-ANFIS is a sequence model: what continuing a labelled run in
+        # predict needs (its first row and times, the accumulated inputs and
+        # the accumulated prediction at its last row).
+        self.run_states_ = {}
+        if self.grey:
+            slices, labels = run_slices(groups, n)
+            memory = run_memory(X, slices, labels, run_times(frame, slices))
+            for sl, lab in zip(slices, labels, strict=True):
+                if lab in memory:
+                    last = X_model[sl.stop - 1 : sl.stop]
+                    memory[lab]["ago_last"] = last[0].copy()
+                    memory[lab]["pred_ago_last"] = anfis_predict(
+                        last, self.mf_params_, self.rules_, self._consequents, self.mf
+                    )[0]
+            self.run_states_ = memory
         return self
 
     def _uses_runs(self):
@@ -726,9 +751,11 @@ default="fcm"
         """
         check_is_fitted(self)
         X, groups = extract_runs(X, groups)
+        frame = X
         if self.grey:
             check_time_order(X, groups)
         X = validate_data(self, X, reset=False, dtype=np.float64)
+        cont = []
         if self.grey:
             warn_unlabelled_runs(
                 type(self).__name__,
@@ -736,12 +763,25 @@ default="fcm"
                 groups,
                 X.shape[0],
             )
-            X = _ago_by_run(X, groups)
+            slices, labels = run_slices(groups, X.shape[0])
+            memory = getattr(self, "run_states_", {})
+            cont = continued_runs(
+                type(self).__name__, X, slices, labels, run_times(frame, slices), memory
+            )
+            A = _ago_by_run(X, groups)
+            for sl, lab in zip(slices, cont, strict=True):
+                if lab is not None:  # accumulate on from the training rows
+                    A[sl] += memory[lab]["ago_last"]
+            X = A
         pred = anfis_predict(
             X, self.mf_params_, self.rules_, self._consequents, self.mf
         )
         if self.grey:
+            first = pred.copy()
             pred = iago(pred, groups)
+            for sl, lab in zip(slices, cont, strict=True):
+                if lab is not None:
+                    pred[sl.start] = first[sl.start] - memory[lab]["pred_ago_last"]
         return pred[:, 0] if self._single_output else pred
 
     # ------------------------------------------------- parameters and text
@@ -853,6 +893,7 @@ default="fcm"
         est.n_iter_ = 0
         est.ridge_ = 0.0 if est.ridge == "auto" else float(est.ridge)
         est.ridge_scores_ = {}
+        est.run_states_ = {}
         est._n_fitted_runs = None
         spread = mf_params[..., 0] * (1.0 if mf == "gbell" else _HALF)
         centres = mf_params[..., -1]
