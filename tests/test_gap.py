@@ -16,6 +16,7 @@ from skthermal.gap import (
 )
 from skthermal.gap._diagnose import _Context
 from skthermal.gap._problem import (
+    BroydenJacobian,
     Problem,
     build_problem,
     fine_keys,
@@ -471,3 +472,37 @@ def test_downstream_view(tool_report, tool_case):
     assert overall["+ tool_growth"] < overall["base calibrated"]
     with pytest.raises(ValueError, match="share no sensor"):
         downstream_error(Ridge(), machines, tool_case.runs[["run", "time_s"]])
+
+
+def test_broyden_jacobian_starts_as_forward_differences_then_updates():
+    from scipy.optimize import least_squares
+    from scipy.optimize._numdiff import approx_derivative
+
+    t = np.linspace(0.0, 4.0, 40)
+    y = 3.0 * np.exp(-0.7 * t) + 0.5
+
+    def resid(x):
+        return x[0] * np.exp(-x[1] * t) + x[2] - y
+
+    lo, hi = np.array([0.0, 0.0, -5.0]), np.array([10.0, 5.0, 5.0])
+    jac = BroydenJacobian(resid, (lo, hi))
+    x0 = np.array([1.0, 1.0, 0.0])
+    J0 = jac(x0)
+    h = 1e-3 * np.maximum(1.0, np.abs(x0))
+    ref = np.column_stack(
+        [(resid(x0 + h[k] * np.eye(3)[k]) - resid(x0)) / h[k] for k in range(3)]
+    )
+    np.testing.assert_allclose(J0, ref, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(J0, approx_derivative(resid, x0), atol=2e-3)
+    # At a bound the step turns back into the box.
+    at_top = BroydenJacobian(resid, (lo, hi))(np.array([10.0, 1.0, 0.0]))
+    back = resid(np.array([10.0 - 1e-2, 1.0, 0.0])) - resid(np.array([10.0, 1.0, 0.0]))
+    np.testing.assert_allclose(at_top[:, 0], back / -1e-2, rtol=1e-8)
+    # A later point: the secant condition J dx = df holds.
+    x1 = x0 + np.array([0.2, -0.1, 0.05])
+    J1 = jac(x1)
+    np.testing.assert_allclose(J1 @ (x1 - x0), resid(x1) - resid(x0), atol=1e-12)
+    # In least_squares it finds the same optimum as forward differences.
+    fresh = BroydenJacobian(resid, (lo, hi))
+    fit = least_squares(fresh.fun, x0, jac=fresh, bounds=(lo, hi))
+    np.testing.assert_allclose(fit.x, [3.0, 0.7, 0.5], atol=1e-5)

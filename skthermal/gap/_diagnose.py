@@ -104,21 +104,22 @@ class _Context:
         self.folds = folds
         self.max_nfev = max_nfev
 
-    def fold(self, k, effects, start=None, fine=False):
-        """Calibrate fold ``k`` with ``effects`` added (and, with ``fine``,
-        refine it); returns the held-out residuals of its test runs and the
-        fit."""
+    def fold(self, k, effects, start=None, fine=False, fit=None):
+        """Calibrate fold ``k`` with ``effects`` added (or take ``fit``, a
+        calibration of that fold done before) and, with ``fine``, refine it;
+        returns the held-out residuals of its test runs and the fit."""
         problem = self.problem
         train, test = self.folds[k]
-        fit = calibrate(
-            problem,
-            self.machine,
-            self.reference,
-            tuple(effects),
-            train,
-            start=start,
-            max_nfev=self.max_nfev,
-        )
+        if fit is None:
+            fit = calibrate(
+                problem,
+                self.machine,
+                self.reference,
+                tuple(effects),
+                train,
+                start=start,
+                max_nfev=self.max_nfev,
+            )
         if fine:
             fit = refine(problem, fit, train)
         preds = {
@@ -545,13 +546,15 @@ def _how_far(ctx, screen, rules, fine, n_jobs):
     )
     if fine:
         n_folds = len(ctx.folds)
+        # The base's screening calibrations are refined as they are; the
+        # top candidate is calibrated from them, then refined.
         results = Parallel(n_jobs=n_jobs)(
-            delayed(ctx.fold)(k, effects, start, True)
-            for effects, starts in (
-                ((), [None] * n_folds),
-                ((focus,), [f.values for f in screen.base_fits]),
+            delayed(ctx.fold)(k, effects, start, True, fit)
+            for effects, starts, fits in (
+                ((), [None] * n_folds, screen.base_fits),
+                ((focus,), [f.values for f in screen.base_fits], [None] * n_folds),
             )
-            for k, start in enumerate(starts)
+            for k, (start, fit) in enumerate(zip(starts, fits, strict=True))
         )
         before_R, _ = ctx.assemble((), results[:n_folds])
         after_R, _ = ctx.assemble((focus,), results[n_folds:])

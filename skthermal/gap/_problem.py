@@ -490,8 +490,9 @@ def calibrate(
             [r.ravel() for r in residuals(problem, preds, gain, train_idx, drift)]
         )
 
+    jac = BroydenJacobian(vector, (lo, hi))
     res = least_squares(
-        vector, x0, bounds=(lo, hi), max_nfev=max_nfev, diff_step=1e-3, x_scale=1.0
+        jac.fun, x0, jac=jac, bounds=(lo, hi), max_nfev=max_nfev, x_scale=1.0
     )
     m = model(res.x)
     preds = {i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx}
@@ -606,12 +607,10 @@ def refine(
         )
 
     bound = np.log(4.0)
+    lo, hi = np.full(len(keys), -bound), np.full(len(keys), bound)
+    jac = BroydenJacobian(vector, (lo, hi))
     res = least_squares(
-        vector,
-        np.zeros(len(keys)),
-        bounds=(-bound, bound),
-        max_nfev=max_nfev,
-        diff_step=1e-3,
+        jac.fun, np.zeros(len(keys)), jac=jac, bounds=(lo, hi), max_nfev=max_nfev
     )
     _, gain, m = data(res.x)
     return Fit(
@@ -623,6 +622,62 @@ def refine(
         fit.nfev + int(res.nfev),
         dict(zip(keys, np.exp(res.x), strict=True)),
     )
+
+
+class _Memo:
+    """``fun`` remembering its last point and value (least_squares asks for
+    the Jacobian at the point it has just evaluated)."""
+
+    def __init__(self, fun):
+        self.fun = fun
+        self.x = self.f = None
+
+    def __call__(self, x):
+        if self.x is None or not np.array_equal(x, self.x):
+            self.f = self.fun(x)
+            self.x = np.array(x, copy=True)
+        return self.f
+
+
+class BroydenJacobian:
+    """A Jacobian for ``least_squares`` that simulates little.
+
+    At the first point: forward differences with steps ``rel_step *
+    max(1, |x|)``, turned back at a bound (scipy's ``approx_derivative``
+    with that ``abs_step``). At every later point (the
+    accepted steps): Broyden's rank-one update from the step and the change
+    of the residuals, ``J += (df - J dx) dx^T / (dx^T dx)``, which costs no
+    simulation. Exact along the steps taken, approximate across them.
+    """
+
+    def __init__(self, fun, bounds, rel_step=1e-3):
+        self.fun = _Memo(fun)
+        self.lo, self.hi = (np.asarray(b, dtype=float) for b in bounds)
+        self.rel_step = rel_step
+        self.x = self.f = self.J = None
+
+    def __call__(self, x):
+        f = self.fun(x)
+        if self.J is None:
+            sign = np.where(x >= 0, 1.0, -1.0)
+            h = self.rel_step * sign * np.maximum(1.0, np.abs(x))
+            out = (x + h < self.lo) | (x + h > self.hi)
+            fits = np.abs(h) <= np.maximum(x - self.lo, self.hi - x)
+            h = np.where(out & fits, -h, h)
+            h = (x + h) - x
+            J = np.empty((f.size, x.size))
+            for k in range(x.size):
+                step = np.array(x, dtype=float, copy=True)
+                step[k] += h[k]
+                J[:, k] = (self.fun.fun(step) - f) / h[k]
+        else:
+            dx = x - self.x
+            norm = float(dx @ dx)
+            J = self.J
+            if norm > 0:
+                J = J + np.outer(f - self.f - J @ dx, dx / norm)
+        self.x, self.f, self.J = np.array(x, dtype=float, copy=True), f, J
+        return J
 
 
 def effect_parameters(effects):
