@@ -444,8 +444,9 @@ def _add_gap(sub):
     p.add_argument(
         "--simulated",
         metavar="FILE",
-        help="run table of your own simulation of the same runs (same times and "
-        "drivers); replaces --preset/--machine (see docs/gap_external.md)",
+        help="run table of your own simulation of the same runs (same drivers; "
+        "at the measured times, or at its own step, then interpolated onto "
+        "them); replaces --preset/--machine (see docs/gap_external.md)",
     )
     p.add_argument(
         "--preset",
