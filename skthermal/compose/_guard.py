@@ -31,6 +31,7 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     extract_runs,
+    has_time_index,
     run_first_rows,
 )
 
@@ -673,11 +674,9 @@ class _Where:
         self.X = X
         self.runs = runs
         self.sensors = sensors
-        index = getattr(X, "index", None)
-        names = getattr(index, "names", None) or []
         self.times = (
-            np.asarray(index.get_level_values(TIME_COLUMN))
-            if TIME_COLUMN in names
+            np.asarray(X.index.get_level_values(TIME_COLUMN))
+            if has_time_index(X)
             else None
         )
 

@@ -30,6 +30,7 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     changes_since_start,
     continued_runs,
+    continued_values,
     extract_runs,
     run_memory,
     run_slices,
@@ -249,11 +250,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         if not self.relative:
             return A
         slices, _ = run_slices(groups, A.shape[0])
-        out = changes_since_start(A, slices)
-        for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
-            if base is not None:
-                out[sl] = A[sl] - base
-        return out
+        return changes_since_start(A, slices, bases)
 
     # --- fit / predict ------------------------------------------------------
 
@@ -284,13 +281,11 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             self, X_raw, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
         modules = self._resolve_modules()
+        slices, labels = run_slices(groups, X.shape[0])
         # Runs labelled in fit: predict warns when it gets rows without labels.
-        self._fit_runs = (
-            len(run_slices(groups)[0]) if self.relative and groups is not None else None
-        )
+        self._fit_runs = len(slices) if self.relative and groups is not None else None
         # With relative=True, a labelled run continues in predict from its
         # first training row.
-        slices, labels = run_slices(groups, X.shape[0])
         self.run_states_ = (
             run_memory(X, slices, labels, run_times(X_raw, slices))
             if self.relative
@@ -435,7 +430,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             cont = continued_runs(
                 type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
             )
-            bases = [None if lab is None else memory[lab]["x_first"] for lab in cont]
+            bases = continued_values(cont, memory, "x_first")
         X = self._relative(X, groups, bases)
         return np.stack(
             [

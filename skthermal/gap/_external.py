@@ -160,20 +160,20 @@ def _align(simulated, measured, channels, mapping, max_samples):
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
             m = _numeric(meas, col, "measured", name) if in_m else np.zeros(t.size)
-            s_ = _numeric(sim, col, "simulated", name) if in_s else np.zeros(ts.size)
+            sim_d = _numeric(sim, col, "simulated", name) if in_s else np.zeros(ts.size)
             tol_d = 1e-3 * max(1.0, float(np.max(np.abs(m))))
             if col == "ambient_C":
                 tol_d = max(tol_d, 0.05)  # the air as logged, quantised
                 if not same:  # between samples the logged air moves on
                     tol_d = max(tol_d, float(np.max(np.abs(np.diff(m)), initial=0)))
-            off = np.flatnonzero(np.abs(m[at] - s_) > tol_d)
+            off = np.flatnonzero(np.abs(m[at] - sim_d) > tol_d)
             if off.size:
                 k = int(off[0])
                 where = "" if in_m and in_s else " (absent from one table: 0)"
                 row = f"row {k}" if same else f"simulated row {k}"
                 raise ValueError(
                     f"The drivers differ: {col} in run {name!r} at {row} "
-                    f"(time {ts[k]:g} s) is {m[at[k]]:g} measured and {s_[k]:g} "
+                    f"(time {ts[k]:g} s) is {m[at[k]]:g} measured and {sim_d[k]:g} "
                     f"simulated{where}; simulate the measured drivers."
                 )
             drivers[col] = m

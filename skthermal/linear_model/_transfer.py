@@ -20,6 +20,7 @@ from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
     changes_since_start,
     continued_runs,
+    continued_values,
     extract_runs,
     run_memory,
     run_sample_periods,
@@ -51,9 +52,9 @@ def first_order_lags(U, time_constants, dt, slices, state=None):
         Sampling interval of each run.
     slices : list of slice
         Runs, as returned by :func:`skthermal.utils.run_slices`.
-    state : ndarray of shape (n_runs, n_columns), optional
-        Lag outputs before each run's first row, to continue a run (NaN
-        rows: from rest).
+    state : sequence, optional
+        Per run, the lag outputs before its first row, to continue it, or
+        None (from rest); see :func:`skthermal.preprocessing.exponential_filter`.
 
     Returns
     -------
@@ -295,8 +296,8 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             X_raw,
             groups,
             slices,
-            labels,
             1.0,
+            labels=labels,
             regular="TransferFunctionRegressor",
             rtol=_DT_RTOL,
         )
@@ -304,10 +305,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
     def _inputs(self, X, slices, bases=None):
         """Temperature changes since each run's first row (``bases``: per
         run, the first row to use instead, or None) and speed powers."""
-        U = changes_since_start(X, slices)
-        for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
-            if base is not None:
-                U[sl] = X[sl] - base
+        U = changes_since_start(X, slices, bases)
         speed = self.speed_columns_
         U[:, speed] = np.abs(X[:, speed]) ** self.speed_exponent
         return U
@@ -320,11 +318,17 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
 
     def _lag_states(self, U, dts, slices, states=None):
         """Lag features of every output (a list), given the lag outputs
-        before each run (``states``: per output, (n_runs, n_lags) or None)."""
+        before each run (``states``: per run, None or an array (n_outputs,
+        n_lags) of a continued run)."""
         taus = self.time_constants_.reshape(-1, U.shape[1] * self.order)
+        states = [None] * len(slices) if states is None else states
         return [
             self._features(
-                U, np.log(tau), dts, slices, None if states is None else states[k]
+                U,
+                np.log(tau),
+                dts,
+                slices,
+                [None if st is None else st[k] for st in states],
             )
             for k, tau in enumerate(taus)
         ]
@@ -543,17 +547,8 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         cont = continued_runs(
             type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
         )
-        bases = [None if lab is None else memory[lab]["x_first"] for lab in cont]
-        U = self._inputs(X, slices, bases)
-        states = None
-        if any(lab is not None for lab in cont):
-            n_out, width = next(
-                memory[lab]["state"].shape for lab in cont if lab is not None
-            )
-            states = np.full((n_out, len(slices), width), np.nan)
-            for r, lab in enumerate(cont):
-                if lab is not None:
-                    states[:, r] = memory[lab]["state"]
+        U = self._inputs(X, slices, continued_values(cont, memory, "x_first"))
+        states = continued_values(cont, memory, "state")
         coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
         out = np.column_stack(
             [

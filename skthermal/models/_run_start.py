@@ -1,7 +1,5 @@
 """A regressor fitted and applied on changes since the start of each run."""
 
-from numbers import Integral
-
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
@@ -9,11 +7,12 @@ from sklearn.utils._param_validation import HasMethods, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
-    POWER_DRIVERS,
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
     continued_runs,
+    continued_values,
+    driver_positions,
     extract_runs,
     has_time_index,
     run_memory,
@@ -107,30 +106,6 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         self.estimator = estimator
         self.drivers = drivers
 
-    def _driver_columns(self, n_features):
-        """Positions of the ``drivers`` columns."""
-        names = getattr(self, "feature_names_in_", None)
-        if isinstance(self.drivers, str):  # "auto"
-            return np.array(
-                []
-                if names is None
-                else [i for i, c in enumerate(names) if str(c) in POWER_DRIVERS],
-                dtype=int,
-            )
-        out = []
-        for d in [] if self.drivers is None else list(self.drivers):
-            if isinstance(d, Integral | np.integer) and 0 <= int(d) < n_features:
-                out.append(int(d))
-            elif names is not None and str(d) in list(names):
-                out.append(list(names).index(str(d)))
-            else:
-                known = "" if names is None else f"; columns: {list(names)}"
-                raise ValueError(
-                    f"drivers: {d!r} is not a column of X ({n_features} "
-                    f"feature(s){known})."
-                )
-        return np.array(sorted(set(out)), dtype=int)
-
     def _changes(self, A, groups, X, bases=None):
         """``A`` minus the first row of its run (drivers kept as they are),
         as a DataFrame indexed by run (and time, when ``X`` has times).
@@ -145,13 +120,10 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
             levels.append(np.asarray(X.index.get_level_values(TIME_COLUMN)))
             names.append(TIME_COLUMN)
         index = pd.MultiIndex.from_arrays(levels, names=names) if levels else None
-        changes = changes_since_start(A, slices)
-        for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
-            if base is not None:
-                changes[sl] = A[sl] - base
-        keep = self._driver_columns(A.shape[1])
-        changes[:, keep] = A[:, keep]
+        changes = changes_since_start(A, slices, bases)
         columns = getattr(self, "feature_names_in_", None)
+        keep = driver_positions(self.drivers, columns, A.shape[1])
+        changes[:, keep] = A[:, keep]
         # Integer column labels when unnamed: the inner model records no names.
         return pd.DataFrame(changes, index=index, columns=columns)
 
@@ -174,7 +146,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         """
         X, groups = extract_runs(X, groups)
         A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
-        slices, _ = run_slices(groups, A.shape[0])
+        slices, labels = run_slices(groups, A.shape[0])
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
         changes = self._changes(A, groups, X)
         self.estimator_ = clone(self.estimator).fit(changes, dy)
@@ -183,7 +155,6 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         # What continuing a labelled run in predict needs: its first row and
         # times, and the inner model's prediction there (the zero of the
         # run's predicted change).
-        _, labels = run_slices(groups, A.shape[0])
         memory = run_memory(A, slices, labels, run_times(X, slices))
         if memory:
             first = np.asarray(self.estimator_.predict(changes), dtype=float)
@@ -219,11 +190,10 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         cont = continued_runs(
             type(self).__name__, A, slices, labels, run_times(X, slices), memory
         )
-        bases = [None if lab is None else memory[lab]["x_first"] for lab in cont]
+        bases = continued_values(cont, memory, "x_first")
         pred = self.estimator_.predict(self._changes(A, groups, X, bases))
-        pred = np.asarray(pred, dtype=float)
-        out = changes_since_start(pred, slices)
-        for sl, lab in zip(slices, cont, strict=True):
-            if lab is not None:
-                out[sl] = pred[sl] - memory[lab]["pred_first"]
-        return out
+        return changes_since_start(
+            np.asarray(pred, dtype=float),
+            slices,
+            continued_values(cont, memory, "pred_first"),
+        )

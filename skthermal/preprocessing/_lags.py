@@ -6,7 +6,7 @@ temperatures cannot represent that lag; first-order low-pass filters of the
 temperature changes (and of the spindle speed, the heat source) can.
 """
 
-from numbers import Integral, Real
+from numbers import Real
 
 import numpy as np
 from scipy.signal import lfilter
@@ -15,9 +15,10 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
-    POWER_DRIVERS,
     changes_since_start,
     continued_runs,
+    continued_values,
+    driver_positions,
     extract_runs,
     run_memory,
     run_sample_periods,
@@ -26,8 +27,6 @@ from skthermal.utils._runs import (
     warn_no_time,
     warn_unlabelled_runs,
 )
-
-DEFAULT_DRIVER_NAMES = POWER_DRIVERS
 
 
 def exponential_filter(
@@ -55,10 +54,11 @@ def exponential_filter(
     initial : {"steady", "rest"}, default="steady"
         State before each run's first row: steady state at its first value,
         or zero.
-    state : array-like of shape (n_runs, n_features), optional
-        The filter output before each run's first row (``z[-1]``), e.g. the
-        last output of the same run's earlier rows, to continue it; a row of
-        NaN starts that run as ``initial`` says.
+    state : sequence, optional
+        Per run, the filter output before its first row (``z[-1]``, shape
+        ``(n_features,)``), e.g. the last output of the same run's earlier
+        rows, to continue it; None (or non-finite values) starts that run as
+        ``initial`` says. An array of shape (n_runs, n_features) works too.
 
     Returns
     -------
@@ -92,8 +92,16 @@ def exponential_filter(
     if slices is None:
         slices = [slice(0, U.shape[0])]
     dts = np.broadcast_to(np.asarray(dt, dtype=float), (len(slices),))
-    if state is not None:
-        state = np.asarray(state, dtype=float).reshape(len(slices), U2.shape[1])
+    if state is None:
+        state = [None] * len(slices)
+    if len(state) != len(slices):
+        raise ValueError(
+            f"state must hold one entry per run ({len(slices)}), got {len(state)}."
+        )
+    state = [
+        None if st is None else np.asarray(st, dtype=float).reshape(U2.shape[1])
+        for st in state
+    ]
     # One lfilter call per run and distinct time constant: the columns that
     # share it are filtered together along the time axis.
     uniq, which = np.unique(np.broadcast_to(taus, (U2.shape[1],)), return_inverse=True)
@@ -106,19 +114,10 @@ def exponential_filter(
             cols = np.flatnonzero(which == j)
             u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
             zi = a * u[:1] if initial == "steady" else np.zeros_like(u[:1])
-            if state is not None and np.all(np.isfinite(state[r, cols])):
-                zi = a * state[r, cols][None, :]
+            if state[r] is not None and np.all(np.isfinite(state[r][cols])):
+                zi = a * state[r][cols][None, :]
             Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
     return Z.reshape(U.shape)
-
-
-def _run_spacing(X, groups, slices, default):
-    """Sampling period of every run: from the times, else ``default``
-    (None: one second per row)."""
-    labels = [None] * len(slices)
-    return run_sample_periods(
-        X, groups, slices, labels, 1.0 if default is None else default
-    )
 
 
 class LagFeatures(TransformerMixin, BaseEstimator):
@@ -247,33 +246,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             )
         return taus
 
-    def _resolve_drivers(self, names, n_features):
-        if self.drivers is None:
-            return np.zeros(0, dtype=int)
-        if isinstance(self.drivers, str):  # "auto"
-            if names is None:
-                return np.zeros(0, dtype=int)
-            return np.array(
-                [i for i, c in enumerate(names) if str(c) in DEFAULT_DRIVER_NAMES],
-                dtype=int,
-            )
-        out = []
-        for d in self.drivers:
-            if isinstance(d, Integral | np.integer):
-                if not 0 <= int(d) < n_features:
-                    raise ValueError(
-                        f"Driver column {d} is out of range for {n_features} features."
-                    )
-                out.append(int(d))
-            else:
-                if names is None or str(d) not in list(names):
-                    raise ValueError(
-                        f"Driver column {d!r} is not among the feature names "
-                        f"{None if names is None else list(names)}."
-                    )
-                out.append(list(names).index(str(d)))
-        return np.array(sorted(set(out)), dtype=int)
-
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None, *, groups=None):
         """Check the input and find the driver columns.
@@ -291,16 +263,13 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         """
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64)
-        self.n_fitted_runs_ = (
-            None if groups is None else len(run_slices(groups, X_arr.shape[0])[0])
-        )
+        slices, labels = run_slices(groups, X_arr.shape[0])
+        self.n_fitted_runs_ = None if groups is None else len(slices)
         warn_no_time(type(self).__name__, X_raw, self.dt, self._taus())
-        slices, _ = run_slices(groups, X_arr.shape[0])
-        self.sample_period_s_ = float(
-            np.median(_run_spacing(X_raw, groups, slices, self.dt))
+        self.sample_period_s_ = float(np.median(self._spacing(X_raw, groups, slices)))
+        self.driver_indices_ = driver_positions(
+            self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
         )
-        names = getattr(self, "feature_names_in_", None)
-        self.driver_indices_ = self._resolve_drivers(names, X_arr.shape[1])
         powers = np.asarray(self.driver_powers, dtype=float).ravel()
         n_temp = X_arr.shape[1] - self.driver_indices_.size
         n_out = n_temp * (int(self.include_changes) + self._taus().size)
@@ -313,7 +282,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # What continuing each labelled run in transform needs: its first
         # row (the base of the changes) and times, and the filters' last
         # outputs.
-        slices, labels = run_slices(groups, X_arr.shape[0])
         memory = run_memory(X_arr, slices, labels, run_times(X_raw, slices))
         if memory:
             F = self._compute(X_arr, slices, self._spacing(X_raw, groups, slices))
@@ -325,24 +293,24 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         return self
 
     def _spacing(self, X_raw, groups, slices):
-        return _run_spacing(
-            X_raw, groups, slices, getattr(self, "sample_period_s_", self.dt)
+        """Sampling period of every run: from the times, else the fitted
+        period (in ``fit``: ``dt``, one second when None)."""
+        default = getattr(self, "sample_period_s_", self.dt)
+        return run_sample_periods(
+            X_raw, groups, slices, 1.0 if default is None else default
         )
 
     def _compute(self, X_arr, slices, dts, bases=None, states=None):
-        """The features; ``bases`` (n_runs, n_temperatures): the first
-        temperatures of the continued runs (NaN rows: the run's own first
-        row); ``states`` (n_runs, n_filtered): the filters' outputs before
-        each run (NaN rows: a fresh start)."""
+        """The features. Per run, ``bases``: the first row of the training
+        run it continues (None: its own first row); ``states``: the filters'
+        outputs before it (None: a fresh start)."""
         taus = self._taus()
         temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
         T = X_arr[:, temp]
         if self.relative:
-            T = changes_since_start(T, slices)
             if bases is not None:
-                for r, sl in enumerate(slices):
-                    if np.all(np.isfinite(bases[r])):
-                        T[sl] = X_arr[sl][:, temp] - bases[r]
+                bases = [None if b is None else b[temp] for b in bases]
+            T = changes_since_start(T, slices, bases)
         blocks = [T] if self.include_changes else []
         filtered = [(T, tau, "steady") for tau in taus]
         if self.driver_indices_.size:
@@ -350,10 +318,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             for p in np.asarray(self.driver_powers, dtype=float).ravel():
                 Dp = np.abs(D) ** p
                 filtered += [(Dp, tau, self.driver_initial) for tau in taus]
+        states = [None] * len(slices) if states is None else states
         start = 0
         for U, tau, initial in filtered:
             width = U.shape[1]
-            state = None if states is None else states[:, start : start + width]
+            state = [None if st is None else st[start : start + width] for st in states]
             blocks.append(
                 exponential_filter(U, tau, dts, slices, initial=initial, state=state)
             )
@@ -392,16 +361,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             run_times(X_raw, slices),
             memory,
         )
-        bases = states = None
-        if any(lab is not None for lab in cont):
-            temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
-            width = len(memory[next(lab for lab in cont if lab is not None)]["state"])
-            bases = np.full((len(slices), temp.size), np.nan)
-            states = np.full((len(slices), width), np.nan)
-            for r, lab in enumerate(cont):
-                if lab is not None:
-                    bases[r] = memory[lab]["x_first"][temp]
-                    states[r] = memory[lab]["state"]
+        bases = continued_values(cont, memory, "x_first")
+        states = continued_values(cont, memory, "state")
         return self._compute(
             X_arr, slices, self._spacing(X_raw, groups, slices), bases, states
         )

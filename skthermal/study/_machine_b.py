@@ -185,12 +185,12 @@ def reproduce(
     progress(f"selected {', '.join(selected)}")
 
     fitted, fit_s, train_rmse, preds = {}, {}, {}, {}
+    # The selected sensors, and the drivers the models read (spindle speed).
+    drivers = sorted({d for name in models for d in MODELS[name].drivers})
+    Xd, _, _ = split_runs(runs, sensors=selected + drivers, targets=TARGET)
     for name in models:
         model = make_model(name, random_state=seed, quick=quick)
-        # The selected sensors, and the drivers a model reads (spindle speed).
-        Xs, _, _ = split_runs(
-            runs, sensors=selected + list(MODELS[name].drivers), targets=TARGET
-        )
+        Xs = Xd[selected + list(MODELS[name].drivers)]
         label = MODELS[name].label
         progress(f"training {label} on Test {TRAIN_TEST}")
         t = time.perf_counter()

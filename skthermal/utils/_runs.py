@@ -8,6 +8,8 @@ explicitly as ``groups``, as a ``run`` column of a DataFrame, or as a ``run``
 level of a DataFrame's index.
 """
 
+from numbers import Integral
+
 import numpy as np
 
 RUN_COLUMN = "run"
@@ -168,7 +170,7 @@ def has_time_index(X):
     return names is not None and TIME_COLUMN in names
 
 
-def changes_since_start(X, slices):
+def changes_since_start(X, slices, bases=None):
     """Subtract the first sample of each run from every sample of that run.
 
     Parameters
@@ -176,15 +178,19 @@ def changes_since_start(X, slices):
     X : ndarray of shape (n_samples,) or (n_samples, n_features)
     slices : list of slice
         Runs as returned by :func:`run_slices`.
+    bases : sequence, optional
+        Per run, the start to subtract instead of its first sample (the
+        first sample of a training run this run continues), or None.
 
     Returns
     -------
-    ndarray of the same shape, zero on the first row of every run.
+    ndarray of the same shape, zero on the first row of every run that has
+    no base.
     """
     X = np.asarray(X, dtype=float)
     out = np.empty_like(X)
-    for sl in slices:
-        out[sl] = X[sl] - X[sl.start]
+    for sl, base in zip(slices, bases or [None] * len(slices), strict=True):
+        out[sl] = X[sl] - (X[sl.start] if base is None else base)
     return out
 
 
@@ -199,11 +205,9 @@ def check_time_order(X, groups):
     ValueError
         Naming the run, the row and the two times.
     """
-    index = getattr(X, "index", None)
-    names = getattr(index, "names", None)
-    if names is None or TIME_COLUMN not in names:
+    if not has_time_index(X):
         return
-    t = np.asarray(index.get_level_values(TIME_COLUMN), dtype=float)
+    t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
     slices, labels = run_slices(groups, t.shape[0])
     for sl, lab in zip(slices, labels, strict=True):
         bad = np.flatnonzero(np.diff(t[sl]) <= 0)
@@ -216,7 +220,9 @@ def check_time_order(X, groups):
             )
 
 
-def run_sample_periods(X, groups, slices, labels, default, *, regular=None, rtol=0.01):
+def run_sample_periods(
+    X, groups, slices, default, *, labels=None, regular=None, rtol=0.01
+):
     """Sampling period of every run: the median spacing of its times.
 
     Parameters
@@ -224,12 +230,13 @@ def run_sample_periods(X, groups, slices, labels, default, *, regular=None, rtol
     X : array-like or DataFrame
         Rows; times come from a ``time_s`` index level (checked to increase
         within each run).
-    groups, slices, labels
-        Run labels of the rows, and the runs' slices and labels
-        (:func:`run_slices`).
+    groups, slices
+        Run labels of the rows, and the runs' slices (:func:`run_slices`).
     default : float
         Period of runs without times (a run of one row, or ``X`` without a
         ``time_s`` level).
+    labels : list, optional
+        The runs' labels, for the error message.
     regular : str, optional
         The method that needs a constant period within each run: a run whose
         steps differ from its median by more than ``rtol`` is then an error
@@ -244,6 +251,7 @@ def run_sample_periods(X, groups, slices, labels, default, *, regular=None, rtol
         return out
     check_time_order(X, groups)
     t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
+    labels = [None] * len(slices) if labels is None else labels
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         steps = np.diff(t[sl])
         if steps.size == 0:
@@ -332,6 +340,44 @@ def warn_no_time(name, X, dt, time_constants):
     )
 
 
+def continued_values(cont, memory, key):
+    """Per predicted run, ``memory[label][key]`` of the training run it
+    continues (``cont`` from :func:`continued_runs`), or None."""
+    return [None if lab is None else memory[lab][key] for lab in cont]
+
+
+def driver_positions(drivers, names, n_features):
+    """Positions of the driver columns, sorted.
+
+    ``drivers``: None (none), ``"auto"`` (the run table's
+    :data:`POWER_DRIVERS` among ``names``), or names and positions, each of
+    which must be a column of ``X`` (a ValueError names the one that is
+    not).
+    """
+    if drivers is None:
+        return np.zeros(0, dtype=int)
+    if isinstance(drivers, str):  # "auto"
+        found = (
+            []
+            if names is None
+            else [i for i, c in enumerate(names) if str(c) in POWER_DRIVERS]
+        )
+        return np.array(found, dtype=int)
+    names = None if names is None else [str(c) for c in names]
+    out = []
+    for d in drivers:
+        if isinstance(d, Integral | np.integer) and 0 <= int(d) < n_features:
+            out.append(int(d))
+        elif names is not None and str(d) in names:
+            out.append(names.index(str(d)))
+        else:
+            known = "" if names is None else f"; columns: {names}"
+            raise ValueError(
+                f"drivers: {d!r} is not a column of X ({n_features} feature(s){known})."
+            )
+    return np.array(sorted(set(out)), dtype=int)
+
+
 def check_numeric_columns(X):
     """Raise a ValueError naming the first non-numeric column of a DataFrame.
 
@@ -370,11 +416,9 @@ def run_times(X, slices):
     -------
     ndarray of shape (n_runs, 2) or None
     """
-    index = getattr(X, "index", None)
-    names = getattr(index, "names", None)
-    if names is None or TIME_COLUMN not in names:
+    if not has_time_index(X):
         return None
-    t = np.asarray(index.get_level_values(TIME_COLUMN), dtype=float)
+    t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
     return np.array([[t[sl.start], t[sl.stop - 1]] for sl in slices]).reshape(-1, 2)
 
 
