@@ -128,6 +128,19 @@ def test_spike_warns_naming_sensor_run_and_time(train, spiked):
     assert abs(pred[60]) > 1e5
 
 
+def test_a_flat_run_table_names_the_time_too(train, spiked):
+    # The run table as stored (run and time_s columns, which the wrapped
+    # model gets as given: one of skthermal's, which reads them) is named
+    # alike.
+    from skthermal.linear_model import UpdateRegressor
+
+    X, y = train
+    guard = GuardedRegressor(UpdateRegressor()).fit(X.reset_index(), y)
+    _, caught = _caught(guard.predict, spiked.reset_index())
+    (msg,) = _messages(caught, SensorRangeWarning)
+    assert "'T2_C' in run 'r0' at time_s=1800" in msg
+
+
 @pytest.mark.parametrize("mode", ["clip", "hold"])
 def test_spike_is_bounded_in_safe_mode(train, spiked, mode):
     X, y = train

@@ -450,7 +450,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         n = A.shape[0]
         start = run_first_rows(runs, n)
         first = start == np.arange(n)
-        where = _Where(X, runs, self._sensor_names())
+        where = _Where(features, runs, self._sensor_names())
         flags = self._input_flags(A, first, where)
         fault = np.logical_or.reduce(list(flags.values()))
 
