@@ -6,6 +6,7 @@ the simulator uses) can name the channels it adds without importing
 simulator). :mod:`skthermal.datasets` builds its checks and messages on them.
 """
 
+import difflib
 import re
 
 # <name> of a sensor or an axis: ASCII letters and digits, inner underscores.
@@ -13,3 +14,10 @@ NAME = r"[A-Za-z0-9]+(?:_[A-Za-z0-9]+)*"
 TEMPERATURE_PATTERN = re.compile(rf"T{NAME}_C")
 STRAIN_PATTERN = re.compile(rf"S{NAME}_ue")
 TARGET_PATTERN = re.compile(rf"disp_{NAME}_um")
+
+
+def suggest(name, choices):
+    """`` (did you mean 'x'?)`` for the closest of ``choices`` to a mistyped
+    ``name``, or an empty string when none is close."""
+    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""

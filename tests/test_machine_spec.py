@@ -162,6 +162,86 @@ def test_a_small_machine_from_a_dict_simulates():
             lambda d: d["sensors"].update(T2_C={"node": ["spindle"]}),
             r"sensor 'T2_C': node must be a node name",
         ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(
+                weights={"housing": -0.8, "room": 0.2}
+            ),
+            r"sensor 'T1_C': weight of 'housing' must not be negative, got -0.8",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(weights={"housing": 0.0}),
+            r"sensor 'T1_C': the weights must sum to 1 .*, got 0\.$",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(weights={"housing": 5.0}),
+            r"sensor 'T1_C': the weights must sum to 1 .*, got 5\.$",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(
+                weights={"housing": 0.5, "room": 0.2}
+            ),
+            r"sensor 'T1_C': the weights must sum to 1 .*got 0.5 \+ 0.2 = 0.7",
+        ),
+        (
+            lambda d: d["sensors"].update(T3={"node": "housing"}),
+            r"sensor 'T3': .* named T<name>_C .*\(did you mean 'T3_C'\?\)",
+        ),
+        (
+            lambda d: d["sensors"].update(disp_q_um={"node": "housing"}),
+            r"sensor 'disp_q_um': .*'disp_q_um' is a displacement column",
+        ),
+        (
+            lambda d: d.update(axes=["z-1"], displacement={}),
+            r"axis 'z-1': a displacement channel name is letters and digits",
+        ),
+        (
+            lambda d: d["heat"].update(drive={"node": "spindel"}),
+            r"^heat source 'drive': unknown node 'spindel' \(did you mean 'spindle'",
+        ),
+        (
+            lambda d: d["heat"].update(
+                feed={"screw": ["housing"], "nut": "nutt", "axis": "z"}
+            ),
+            r"^heat source 'feed': nut: unknown node 'nutt'",
+        ),
+        (
+            lambda d: d["heat"].update(feed={"screw": ["housing"], "axis": "y"}),
+            r"^heat source 'feed': axis: unknown axis 'y'",
+        ),
+        (
+            lambda d: d["roles"].update(head=["spindel"]),
+            r"^roles: head: unknown node 'spindel'",
+        ),
+        (
+            lambda d: d["roles"].pop("enclosure"),
+            r"^roles: enclosure is required .*; nodes: \['spindle', 'housing', 'air'\]",
+        ),
+        (
+            lambda d: d["heat"]["bearing"].update(alpha=9.0),
+            r"^heat source 'bearing', field 'alpha': parameter 'q.alpha' .*must "
+            r"lie in \[0.5, 3\], got 9.0",
+        ),
+        (
+            lambda d: d["heat"]["bearing"].update(W_at_1000_rpm=-1.0),
+            r"^heat source 'bearing', field 'W_at_1000_rpm': parameter "
+            r"'q.bearing_W' is a heat input and must not be negative",
+        ),
+        (
+            lambda d: d.update(effects={"sensor_lag": {"on": "yes"}}),
+            r"effect 'sensor_lag': on must be true or false, got 'yes'",
+        ),
+        (
+            lambda d: d.update(effects={"sensor_lag": {"tau_s": 0.0}}),
+            r"effect 'sensor_lag': .*'sensor_lag.tau_s' must be positive",
+        ),
+        (
+            lambda d: d.update(params={"q.bearng_W": 3.0}),
+            r"Unknown parameter\(s\) 'q.bearng_W' \(did you mean 'q.bearing_W'\?\)",
+        ),
+        (
+            lambda d: d["displacement"]["z"].update(screw=1.0),
+            r"'k.z.screw' \(the ball screw's growth counts only on the feed axis",
+        ),
     ],
 )
 def test_bad_specs_name_the_entry(edit, message):
@@ -181,6 +261,43 @@ def test_bad_toml_file_names_the_file(tmp_path):
         ThermalMachine.from_spec(path)
     with pytest.raises(FileNotFoundError, match="missing.toml"):
         ThermalMachine.from_spec(tmp_path / "missing.toml")
+
+
+def test_unreadable_machine_files_give_one_clear_error(tmp_path):
+    path = tmp_path / "latin1.toml"
+    path.write_bytes('name = "Fräse"\n'.encode("latin-1"))
+    with pytest.raises(ValueError, match=r"latin1.toml: not a UTF-8 text file"):
+        ThermalMachine.from_spec(path)
+    with pytest.raises(IsADirectoryError, match=r"a directory, not a machine file"):
+        ThermalMachine.from_spec(tmp_path)
+
+
+def test_a_range_error_in_a_file_names_the_file_and_the_entry(tmp_path):
+    path = tmp_path / "rig.toml"
+    text = MachineSpec.from_dict(_small()).to_toml()
+    path.write_text(text.replace("alpha = 1.5", "alpha = 9.0"), encoding="utf-8")
+    with pytest.raises(
+        ValueError,
+        match=r"rig.toml: heat source 'bearing', field 'alpha': parameter 'q.alpha'",
+    ):
+        ThermalMachine.from_spec(path)
+
+
+def test_numpy_numbers_in_a_dict_spec_are_numbers(tmp_path):
+    data = _small()
+    data["nodes"]["spindle"]["capacity_J_per_K"] = np.int64(2000)
+    data["heat"]["bearing"]["W_at_1000_rpm"] = np.float32(4.0)
+    data["sensors"]["T1_C"]["weights"] = {"housing": np.float64(0.8), "room": 0.2}
+    spec = MachineSpec.from_dict(data)
+    assert spec.params["C.spindle"] == 2000.0 and spec.params["q.bearing_W"] == 4.0
+    path = tmp_path / "m.toml"
+    spec.to_toml(path)
+    assert MachineSpec.from_toml(path) == spec
+    data["heat"]["bearing"]["alpha"] = np.bool_(True)
+    with pytest.raises(
+        ValueError, match="heat source 'bearing': alpha must be a number"
+    ):
+        MachineSpec.from_dict(data)
 
 
 def test_toml_writer_reads_back_exactly():
@@ -280,6 +397,76 @@ def test_a_calibrated_machine_is_written_back(tmp_path):
     machine.to_spec().to_toml(path)
     again = ThermalMachine.from_spec(path, effects=machine.effects)
     assert again.params == machine.params
+
+
+@pytest.mark.parametrize(
+    "effects", [[], ["sensor_lag", "sensor_drift"], list(EFFECTS)], ids=repr
+)
+def test_a_machine_round_trips_with_its_effects(effects, tmp_path):
+    machine = ThermalMachine.from_preset("spindle-rig", effects=effects).with_params(
+        {
+            "q.bearing_W": 4.5,
+            "sensor_lag.tau_s": 300.0,
+            "sensor_drift.rate_C_per_h": 0.2,
+        }
+    )
+    spec = machine.to_spec()
+    assert spec.effects == {e: e in effects for e in EFFECTS}
+    path = tmp_path / "calibrated.toml"
+    spec.to_toml(path)
+    expected = machine.simulate(DUTY, 20.0, random_state=0)
+    for again in (
+        ThermalMachine.from_spec(spec),
+        ThermalMachine.from_spec(spec.to_dict()),
+        ThermalMachine.from_spec(path),
+    ):
+        assert again.effects == machine.effects
+        assert again.params == machine.params
+        run = again.simulate(DUTY, 20.0, random_state=0)
+        pd.testing.assert_frame_equal(run, expected, check_exact=True)
+        assert run.attrs["metadata"] == expected.attrs["metadata"]
+    # Effects given explicitly still replace the recorded switches.
+    assert ThermalMachine.from_spec(path, effects=["tool_growth"]).effects == (
+        "tool_growth",
+    )
+
+
+def test_effect_switches_in_a_file_and_files_without_them():
+    data = _small()
+    default = tuple(e for e in EFFECTS if e != "sensor_drift")
+    assert ThermalMachine.from_spec(data).effects == default  # as before
+    data["effects"] = {
+        "sensor_drift": {"on": True},
+        "sensor_lag": {"on": False, "tau_s": 100.0},
+    }
+    spec = MachineSpec.from_dict(data)
+    assert spec.effects == {"sensor_drift": True, "sensor_lag": False}
+    machine = ThermalMachine.from_spec(spec)
+    # Recorded switches apply; the effects not recorded keep their default.
+    assert machine.effects == (*default[1:], "sensor_drift")
+    assert machine.params["sensor_lag.tau_s"] == 100.0
+    assert MachineSpec.from_dict(spec.to_dict()) == spec
+    assert tomllib.loads(spec.to_toml())["effects"]["sensor_lag"]["on"] is False
+
+
+def test_unknown_parameter_names_are_rejected_on_every_path():
+    machine = ThermalMachine.from_spec(_small(), effects=["sensor_lag"])
+    runs = machine.simulate(DutyCycle([(600, 1000)]), noise=False)
+    hint = r"'sensor_lag.tauu' \(did you mean 'sensor_lag.tau_s'\?\)"
+    for call in (
+        lambda: ThermalMachine.from_spec(_small(), params={"sensor_lag.tauu": 5.0}),
+        lambda: ThermalMachine.from_preset("vmc-b", params={"sensor_lag.tauu": 5.0}),
+        lambda: machine.with_params({"sensor_lag.tauu": 5.0}),
+        lambda: machine.calibrate(runs, ["sensor_lag.tauu"]),
+        lambda: MachineSpec.from_dict({**_small(), "params": {"sensor_lag.tauu": 5.0}}),
+    ):
+        with pytest.raises(ValueError, match=rf"Unknown parameter\(s\) {hint}"):
+            call()
+    # A name of the structure that the machine leaves at its default is known.
+    data = _small()
+    data["heat"]["custom"] = {"pump": {"node": "housing"}}
+    pump = ThermalMachine.from_spec(data, effects=[]).with_params({"q.pump.W": 2.0})
+    assert pump.params["q.pump.W"] == 2.0
 
 
 def test_a_spec_built_in_python_needs_only_the_network_numbers():

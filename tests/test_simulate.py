@@ -351,6 +351,34 @@ def test_calibration_errors():
         machine.calibrate(runs, ["k.x.base"])
     with pytest.raises(ValueError, match="no 'ambient_C' column"):
         machine.calibrate(runs.drop(columns="ambient_C"), ["q.bearing_W"])
+    with pytest.raises(
+        ValueError, match=r"bounds of 'q.bearing_W' must be a \(low, high\) pair"
+    ):
+        machine.calibrate(runs, ["q.bearing_W"], bounds=[(1, 5, 3)])
+    with pytest.raises(ValueError, match=r"'q.bearing_W': low must be below high"):
+        machine.calibrate(runs, ["q.bearing_W"], bounds={"q.bearing_W": (5, 1)})
+    with pytest.raises(ValueError, match=r"'q.bearing_W': high must be a number"):
+        machine.calibrate(runs, ["q.bearing_W"], bounds=[(1, "ten")])
+
+
+def test_calibration_flags_parameters_the_channels_do_not_see():
+    machine = ThermalMachine.from_preset("spindle-rig")
+    truth = machine.with_params({"q.bearing_W": 1.3 * machine.params["q.bearing_W"]})
+    runs = truth.simulate(DutyCycle([(3600, 3000), (1800, 0)]), noise=False)
+    # A displacement coefficient does not move a temperature channel.
+    with pytest.warns(UserWarning, match=r"\['k.ch1.spindle'\] have no influence"):
+        _, result = machine.calibrate(
+            runs, ["k.ch1.spindle", "q.bearing_W"], channels=["T2_C"]
+        )
+    assert np.isinf(result.std_error["k.ch1.spindle"])
+    assert np.isfinite(result.std_error["q.bearing_W"])
+    # The parameter of an effect that is off has no influence at all.
+    with pytest.raises(
+        ValueError, match=r"'sensor_lag.tau_s': effect 'sensor_lag' is off"
+    ):
+        machine.with_effects(remove=["sensor_lag"]).calibrate(
+            runs, ["sensor_lag.tau_s"], channels=["T2_C"]
+        )
 
 
 # --- bad input ------------------------------------------------------------------

@@ -38,6 +38,9 @@ class Effect:
     residual : bool
         True for an effect the diagnosis models on the residual instead of
         simulating it (a random process such as sensor drift).
+    default_on : bool
+        Whether a machine has the effect on when neither its description nor
+        the caller says otherwise (see :func:`default_effects`).
     """
 
     name = ""
@@ -46,6 +49,7 @@ class Effect:
     units = {}
     diagnosis_parameter = None
     residual = False
+    default_on = True
 
     def __repr__(self):
         return f"Effect({self.name!r})"
@@ -240,6 +244,7 @@ class SensorDrift(Effect):
     params = {"rate_C_per_h": 0.01, "walk_C_per_sqrt_h": 0.01}
     units = {"rate_C_per_h": "°C/h (std over sensors)", "walk_C_per_sqrt_h": "°C/√h"}
     residual = True
+    default_on = False
 
     def noise(self, machine, p, x, t, dt, rng):
         hours = (t - t[0]) / 3600.0
@@ -294,6 +299,35 @@ def describe_effects():
             }
             for e in EFFECTS.values()
         ]
+    )
+
+
+def default_effects(switches=None):
+    """The effects a machine has on unless told otherwise.
+
+    Parameters
+    ----------
+    switches : dict, optional
+        Effect name -> on (bool), e.g. the switches a machine description
+        records (:attr:`MachineSpec.effects`); effects it leaves out take their
+        default (every effect except ``sensor_drift``).
+
+    Returns
+    -------
+    tuple of str
+        The effects switched on, in vocabulary order.
+
+    Examples
+    --------
+    >>> from skthermal.simulate._effects import default_effects
+    >>> "sensor_drift" in default_effects()
+    False
+    >>> default_effects({"sensor_drift": True, "sensor_lag": False})[-1]
+    'sensor_drift'
+    """
+    switches = switches or {}
+    return tuple(
+        name for name, e in EFFECTS.items() if switches.get(name, e.default_on)
     )
 
 

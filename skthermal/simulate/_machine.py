@@ -10,6 +10,7 @@ measurements with :meth:`ThermalMachine.calibrate`.
 """
 
 import dataclasses
+import warnings
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +20,16 @@ import pandas as pd
 from sklearn.utils import check_random_state
 
 from skthermal.simulate._drivers import AmbientProfile, DutyCycle, _check_number
-from skthermal.simulate._effects import EFFECTS, check_effects
+from skthermal.simulate._effects import EFFECTS, check_effects, default_effects
 from skthermal.simulate._presets import PRESETS
 from skthermal.simulate._solver import ModalSystem
-from skthermal.simulate._spec import NUMBER_DEFAULTS, ROOM, MachineSpec
+from skthermal.simulate._spec import (
+    NUMBER_DEFAULTS,
+    ROOM,
+    MachineSpec,
+    check_parameter_names,
+    check_parameters,
+)
 from skthermal.utils._threads import single_threaded_blas
 
 
@@ -37,7 +44,9 @@ class CalibrationResult:
     initial : Series
         Their values before calibration.
     std_error : Series
-        Approximate standard errors from the Jacobian at the solution.
+        Approximate standard errors from the Jacobian at the solution; inf
+        for a parameter with no influence on the fitted channels (it is not
+        determined by them, and ``calibrate`` warns).
     rmse_before, rmse_after : Series
         RMSE per fitted channel before and after.
     cost : float
@@ -126,7 +135,11 @@ class ThermalMachine:
             The machine; a dict or a file in the layout of
             :meth:`MachineSpec.from_dict`.
         effects : sequence of str, optional
-            Default: every effect except ``sensor_drift``.
+            Effects switched on. Default: the switches the description
+            records (:attr:`MachineSpec.effects`, written by
+            :meth:`to_spec`); an effect it does not record takes its default
+            (every effect except ``sensor_drift`` is on). Given, it replaces
+            the recorded switches.
         params : dict, optional
             Parameter overrides (names as in :meth:`parameter_table`).
 
@@ -153,37 +166,38 @@ class ThermalMachine:
                 "give capacities, conductances and the other parameters."
             )
         if effects is None:
-            effects = [e for e in EFFECTS if e != "sensor_drift"]
+            effects = default_effects(spec.effects)
         merged = dict(NUMBER_DEFAULTS)
         merged.update(
             {f"k.{axis}.{node}": 0.0 for axis in spec.axes for node in spec.nodes}
         )
         merged.update(spec.params)
         if params:
-            unknown = [
-                k for k in params if k not in merged and k.split(".")[0] not in EFFECTS
-            ]
-            if unknown:
-                raise ValueError(
-                    f"Unknown parameter(s) {unknown} for machine {spec.name!r}."
-                )
             merged.update(params)
         return cls(spec, merged, effects)
 
     def to_spec(self):
-        """The machine's description with its current parameters.
+        """The machine's description: its current parameters and effects.
 
-        Write it with ``to_toml(path)``; :meth:`from_spec` reads it back.
+        The spec records every parameter (effect parameters included) and
+        every effect switch (:attr:`MachineSpec.effects`), so
+        ``from_spec(machine.to_spec())`` and a round trip through
+        ``to_toml(path)`` and ``from_spec(path)`` give the same machine.
 
         Examples
         --------
         >>> from skthermal.simulate import ThermalMachine
-        >>> m = ThermalMachine.from_preset("spindle-rig").with_params(
+        >>> m = ThermalMachine.from_preset("spindle-rig", effects=[]).with_params(
         ...     {"q.bearing_W": 5.0})
-        >>> ThermalMachine.from_spec(m.to_spec()).params["q.bearing_W"]
-        5.0
+        >>> again = ThermalMachine.from_spec(m.to_spec().to_dict())
+        >>> again.params["q.bearing_W"], again.effects
+        (5.0, ())
         """
-        return dataclasses.replace(self.spec, params=dict(self._params))
+        return dataclasses.replace(
+            self.spec,
+            params=dict(self._params),
+            effects={e: e in self._effects for e in EFFECTS},
+        )
 
     @classmethod
     def from_preset(cls, name, *, effects=None, params=None):
@@ -201,53 +215,16 @@ class ThermalMachine:
         effects : sequence of str, optional
             Default: every effect except ``sensor_drift``.
         params : dict, optional
-            Parameter overrides.
+            Parameter overrides (names as in :meth:`parameter_table`).
         """
         if name not in PRESETS:
             raise ValueError(
                 f"Unknown preset {name!r}; choose one of {sorted(PRESETS)}."
             )
-        spec = PRESETS[name]()
-        if params:
-            unknown = [
-                k
-                for k in params
-                if k not in spec.params and k.split(".")[0] not in EFFECTS
-            ]
-            if unknown:
-                raise ValueError(f"Unknown parameter(s) {unknown} for preset {name!r}.")
-        return cls.from_spec(spec, effects=effects, params=params)
+        return cls.from_spec(PRESETS[name](), effects=effects, params=params)
 
     def _validate_params(self, params):
-        out = {}
-        for key, value in params.items():
-            value = _check_number(value, f"Parameter {key!r}")
-            kind = key.split(".")[0]
-            if kind == "C" and value <= 0:
-                raise ValueError(
-                    f"Parameter {key!r} is a heat capacity and must be positive, "
-                    f"got {value}."
-                )
-            if kind in ("G", "hA", "q") and value < 0 and not key.endswith("alpha"):
-                raise ValueError(
-                    f"Parameter {key!r} (a conductance or heat input) must not be "
-                    f"negative, got {value}."
-                )
-            out[key] = value
-        for key in [k for k in out if k.startswith("q.") and k.endswith("alpha")]:
-            if not 0.5 <= out[key] <= 3.0:
-                raise ValueError(
-                    f"Parameter {key!r} (loss ~ speed^alpha) must lie in [0.5, 3], "
-                    f"got {out[key]}; Palmgren-type friction gives 1 to 1.7."
-                )
-        for effect in EFFECTS.values():
-            effect.check(out)
-        for key, value in out.items():
-            if key.split(".")[0] in ("sensor", "disp") and value < 0:
-                raise ValueError(
-                    f"Parameter {key!r} must not be negative, got {value}."
-                )
-        return out
+        return check_parameters(self.spec, params)
 
     @property
     def name(self):
@@ -290,13 +267,7 @@ class ThermalMachine:
     def with_params(self, params=None, **kwargs):
         """A copy with some parameters changed (validated)."""
         new = dict(self._params)
-        changes = dict(params or {}, **kwargs)
-        unknown = [k for k in changes if k not in new]
-        if unknown:
-            raise ValueError(
-                f"Unknown parameter(s) {unknown}; see ThermalMachine.parameter_table()."
-            )
-        new.update(changes)
+        new.update(dict(params or {}, **kwargs))  # checked by the constructor
         return ThermalMachine(self.spec, new, self._effects)
 
     def parameter_table(self):
@@ -1090,6 +1061,45 @@ def _run_drivers(frame, run):
     )
 
 
+def _check_bounds(bounds, params):
+    """Low and high bounds (arrays) of ``calibrate``'s ``bounds=``, checked."""
+    if isinstance(bounds, dict):
+        missing = [k for k in params if k not in bounds]
+        if missing:
+            raise ValueError(f"bounds has no entry for {missing}.")
+        pairs = [bounds[k] for k in params]
+    elif not isinstance(bounds, list | tuple | np.ndarray):
+        raise ValueError(
+            "bounds must be a dict {parameter: (low, high)} or a list of "
+            f"(low, high) pairs, got {type(bounds).__name__}."
+        )
+    else:
+        pairs = list(bounds)
+    if len(pairs) != len(params):
+        raise ValueError(
+            f"Give one (low, high) pair per parameter ({len(params)}: {params}), "
+            f"got {len(pairs)}."
+        )
+    lo, hi = np.empty(len(params)), np.empty(len(params))
+    for i, (k, pair) in enumerate(zip(params, pairs, strict=True)):
+        where = f"bounds of {k!r}"
+        if not isinstance(pair, list | tuple | np.ndarray) or len(pair) != 2:
+            raise ValueError(f"{where} must be a (low, high) pair, got {pair!r}.")
+        for j, (side, value) in enumerate((("low", pair[0]), ("high", pair[1]))):
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                value = np.nan
+            if np.isnan(value):
+                raise ValueError(f"{where}: {side} must be a number, got {pair[j]!r}.")
+            (lo, hi)[j][i] = value
+        if lo[i] >= hi[i]:
+            raise ValueError(
+                f"{where}: low must be below high, got ({lo[i]:g}, {hi[i]:g})."
+            )
+    return lo, hi
+
+
 def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_kw):
     from scipy.optimize import least_squares
 
@@ -1098,13 +1108,18 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     params = list(params)
     if not params:
         raise ValueError("Name at least one parameter to calibrate.")
+    check_parameter_names(machine.spec, params)
+    for k in params:
+        effect = k.split(".")[0]
+        if effect in EFFECTS and effect not in machine.effects:
+            raise ValueError(
+                f"Cannot calibrate {k!r}: effect {effect!r} is off, so the "
+                "parameter has no influence; switch it on first "
+                f"(machine.with_effects(add=[{effect!r}]))."
+            )
     current = machine.params
-    unknown = [k for k in params if k not in current]
-    if unknown:
-        raise ValueError(
-            f"Unknown parameter(s) {unknown}; see ThermalMachine.parameter_table()."
-        )
-    x0 = np.array([current[k] for k in params])
+    known = machine.spec.known_parameters()
+    x0 = np.array([current.get(k, known[k]) for k in params], dtype=float)
     if bounds is None:
         if np.any(x0 == 0):
             zero = [k for k, v in zip(params, x0, strict=True) if v == 0]
@@ -1114,21 +1129,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             )
         lo, hi = np.minimum(x0 / 10, x0 * 10), np.maximum(x0 / 10, x0 * 10)
     else:
-        if isinstance(bounds, dict):
-            missing = [k for k in params if k not in bounds]
-            if missing:
-                raise ValueError(f"bounds has no entry for {missing}.")
-            pairs = [bounds[k] for k in params]
-        else:
-            pairs = list(bounds)
-        if len(pairs) != len(params):
-            raise ValueError(
-                f"Give one (low, high) pair per parameter ({len(params)})."
-            )
-        lo = np.array([float(a) for a, _ in pairs])
-        hi = np.array([float(b) for _, b in pairs])
-        if np.any(lo >= hi):
-            raise ValueError("Every bound needs low < high.")
+        lo, hi = _check_bounds(bounds, params)
         x0 = np.clip(x0, lo, hi)
 
     if "run" not in runs.columns:
@@ -1183,12 +1184,31 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     kw = {"x_scale": "jac", "max_nfev": 50 * len(params)}
     kw.update(least_squares_kw)
     res = least_squares(residuals, x0, bounds=(lo, hi), **kw)
-    try:
-        J = res.jac
-        cov = np.linalg.pinv(J.T @ J) * (2 * res.cost / max(J.shape[0] - J.shape[1], 1))
-        std = np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:  # pragma: no cover - pinv rarely fails
-        std = np.full(len(params), np.nan)
+    J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
+    # A parameter that does not move the fitted channels (a zero Jacobian
+    # column: the simulations do not change) is not determined by them; its
+    # standard error is infinite.
+    dead = ~np.any(J != 0, axis=0)
+    std = np.full(len(params), np.inf)
+    live = ~dead
+    if live.any():
+        try:
+            Jl = J[:, live]
+            cov = np.linalg.pinv(Jl.T @ Jl) * (
+                2 * res.cost / max(J.shape[0] - J.shape[1], 1)
+            )
+            std[live] = np.sqrt(np.clip(np.diag(cov), 0, None))
+        except np.linalg.LinAlgError:  # pragma: no cover - pinv rarely fails
+            std[live] = np.nan
+    if dead.any():
+        names = [k for k, d in zip(params, dead, strict=True) if d]
+        warnings.warn(
+            f"calibrate: parameter(s) {names} have no influence on the fitted "
+            f"channels {channels}; they are not determined by them (std_error "
+            "inf). Fit channels they move, or leave them out.",
+            UserWarning,
+            stacklevel=3,
+        )
     result = CalibrationResult(
         params=pd.Series(res.x, index=params),
         initial=pd.Series(x0, index=params),

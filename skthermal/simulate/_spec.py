@@ -10,11 +10,13 @@ plain dict and a TOML file (:meth:`MachineSpec.from_toml`,
 :meth:`MachineSpec.from_dict`.
 """
 
-import difflib
+import math
+import numbers
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, suggest
 from skthermal.simulate._drivers import _check_number
 from skthermal.simulate._effects import EFFECTS
 
@@ -69,16 +71,18 @@ NUMBER_DEFAULTS = {
     "sensor.offset_C": 0.0,
     "disp.noise_um": 0.0,
 }
-
-
-def _suggest(name, choices):
-    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+# Roles a file may leave out when a node carries the role's name.
+REQUIRED_ROLES = {
+    "enclosure": "the air node around the machine",
+    "tool": "the tool or test bar",
+}
+# A sensor's weights must sum to 1 within this tolerance.
+WEIGHT_SUM_TOLERANCE = 1e-6
 
 
 def _unknown(where, name, choices, what="node"):
     return ValueError(
-        f"{where}: unknown {what} {name!r}{_suggest(name, choices)}; "
+        f"{where}: unknown {what} {name!r}{suggest(name, choices)}; "
         f"known: {sorted(map(str, choices))}."
     )
 
@@ -89,7 +93,7 @@ def _check_fields(where, table, allowed):
     for key in table:
         if key not in allowed:
             raise ValueError(
-                f"{where}: unknown field {key!r}{_suggest(key, allowed)}; "
+                f"{where}: unknown field {key!r}{suggest(key, allowed)}; "
                 f"fields: {list(allowed)}."
             )
 
@@ -107,10 +111,176 @@ def _check_names(where, value):
 
 
 def _number(where, value, *, positive=False, nonnegative=False):
-    # A file's number must be a number, not a string that parses as one.
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    # A file's number must be a number (any real: int, float, a numpy
+    # scalar), not a string that parses as one, nor a bool.
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{where} must be a number, got {value!r}.")
     return _check_number(value, where, positive=positive, nonnegative=nonnegative)
+
+
+def _node(where, value, nodes):
+    """A reference to a node (a name in ``nodes``), with a clear error."""
+    if not isinstance(value, str):
+        raise ValueError(f"{where} must be a node name, got {value!r}.")
+    if value not in nodes:
+        raise _unknown(where, value, list(nodes))
+    return value
+
+
+def _check_sensor_name(name):
+    """A sensor's name must be a temperature column of the run table."""
+    where = f"sensor {name!r}"
+    if isinstance(name, str) and TEMPERATURE_PATTERN.fullmatch(name):
+        return
+    rule = (
+        "a temperature sensor is a run-table column named T<name>_C (letters "
+        "and digits, inner '_'), e.g. 'T05_C' or 'Tcarrier3_C'"
+    )
+    if isinstance(name, str) and TARGET_PATTERN.fullmatch(name):
+        raise ValueError(
+            f"{where}: {rule}; {name!r} is a displacement column, and "
+            "displacements are the axes (axes = [...] and [displacement.<axis>])."
+        )
+    hint = ""
+    if isinstance(name, str):
+        guess = name if name.startswith("T") else f"T{name}"
+        guess = guess if guess.endswith("_C") else f"{guess}_C"
+        if TEMPERATURE_PATTERN.fullmatch(guess):
+            hint = f" (did you mean {guess!r}?)"
+    raise ValueError(f"{where}: {rule}{hint}.")
+
+
+def parameter_entry(spec, key):
+    """Where the parameter ``key`` lives in a machine file, in words.
+
+    Parameters
+    ----------
+    spec : MachineSpec
+    key : str
+        Parameter name, e.g. ``"q.alpha"``.
+
+    Returns
+    -------
+    str
+        E.g. ``"heat source 'bearing', field 'alpha'"``.
+    """
+    family, _, rest = key.partition(".")
+    if family == "C":
+        return f"node {rest!r}, field 'capacity_J_per_K'"
+    if family == "hA":
+        return f"node {rest!r}, field 'convection_W_per_K'"
+    if family == "G":
+        return f"link {rest!r}, field 'conductance_W_per_K'"
+    for source, fields in HEAT_FIELDS.items():
+        for f, (name, _) in fields.items():
+            if name == key:
+                return f"heat source {source!r}, field {f!r}"
+    for f, name in SENSOR_FIELDS.items():
+        if name == key:
+            return f"sensor_noise, field {f!r}"
+    if key == "disp.noise_um":
+        return "displacement, field 'noise_um'"
+    if family == "q" and "." in rest:
+        source, _, f = rest.partition(".")
+        return f"heat source {source!r}, field {f!r}"
+    if family == "k" and "." in rest:
+        axis, _, node = rest.partition(".")
+        return f"displacement {axis!r}, field {node!r}"
+    if family in EFFECTS:
+        return f"effect {family!r}, field {rest!r}"
+    return f"params, field {key!r}"
+
+
+def check_parameter_names(spec, names):
+    """Raise unless every name in ``names`` is a parameter of ``spec``.
+
+    The one check of parameter names: of a machine file (its ``[params]``),
+    of ``ThermalMachine.from_spec(params=...)``, ``with_params`` and
+    ``calibrate``. The error suggests the closest name.
+
+    Parameters
+    ----------
+    spec : MachineSpec
+    names : iterable of str
+    """
+    known = spec.known_parameters()
+    unknown = [k for k in names if k not in known]
+    if not unknown:
+        return
+    hints = []
+    for key in unknown:
+        axis, _, node = str(key).removeprefix("k.").partition(".")
+        if str(key).startswith("k.") and node == "screw" and axis in spec.axes:
+            hints.append(
+                f"{key!r} (the ball screw's growth counts only on the feed axis "
+                f"{spec.feed_axis!r} of a machine with a ball screw, "
+                "[heat.feed] screw = [...])"
+            )
+        else:
+            hints.append(f"{key!r}{suggest(key, known)}")
+    raise ValueError(
+        f"Unknown parameter(s) {', '.join(hints)} for machine {spec.name!r}; "
+        "see ThermalMachine.parameter_table()."
+    )
+
+
+def check_parameters(spec, params, *, strict=False):
+    """Check the names and values of a machine's parameters.
+
+    The one home of the parameter rules: names belong to the structure
+    (:func:`check_parameter_names`), capacities are positive, conductances,
+    heat inputs and noise figures not negative, loss exponents ``alpha`` in
+    [0.5, 3], and each effect checks its own (:meth:`Effect.check`). Errors
+    name the file entry of the parameter (:func:`parameter_entry`).
+
+    Parameters
+    ----------
+    spec : MachineSpec
+    params : dict
+        Name -> value.
+    strict : bool, default=False
+        Values must be real numbers (not strings that parse as numbers), as
+        in a machine file.
+
+    Returns
+    -------
+    dict
+        The parameters as floats.
+    """
+    check_parameter_names(spec, params)
+    out = {}
+    for key, value in params.items():
+        if type(value) is not float or not math.isfinite(value):
+            where = f"{parameter_entry(spec, key)}: parameter {key!r}"
+            value = _number(where, value) if strict else _check_number(value, where)
+        family = key.partition(".")[0]
+        alpha = family == "q" and key.endswith("alpha")
+        rule = None
+        if family == "C" and value <= 0:
+            rule = "is a heat capacity and must be positive"
+        elif family in ("G", "hA") and value < 0:
+            rule = "is a conductance and must not be negative"
+        elif alpha and not 0.5 <= value <= 3.0:
+            rule = "(loss ~ speed^alpha) must lie in [0.5, 3]"
+        elif family == "q" and not alpha and value < 0:
+            rule = "is a heat input and must not be negative"
+        elif family in ("sensor", "disp") and value < 0:
+            rule = "must not be negative"
+        if rule is not None:
+            hint = "; Palmgren-type friction gives 1 to 1.7" if alpha else ""
+            raise ValueError(
+                f"{parameter_entry(spec, key)}: parameter {key!r} {rule}, got "
+                f"{value}{hint}."
+            )
+        out[key] = value
+    full = {f"{e.name}.{k}": v for e in EFFECTS.values() for k, v in e.params.items()}
+    full.update(out)
+    for effect in EFFECTS.values():
+        try:
+            effect.check(full)
+        except ValueError as exc:
+            raise ValueError(f"effect {effect.name!r}: {exc}") from None
+    return out
 
 
 @dataclass(frozen=True)
@@ -120,10 +290,11 @@ class SensorSpec:
     Attributes
     ----------
     name : str
-        Run-table column, e.g. ``"T01_C"``.
+        Run-table column ``T<name>_C``, e.g. ``"T01_C"``.
     weights : dict
         Node name (or ``"room"``, the workshop air) -> weight (1); the sensor
         reads the weighted mean, e.g. a point between two carrier segments.
+        Weights are not negative and sum to 1.
     kind : {"surface", "embedded", "air"}
         Surface sensors lag when the ``sensor_lag`` effect is on.
     location : str
@@ -150,9 +321,12 @@ class MachineSpec:
     """The description of a machine: network, heat sources, sensors, map.
 
     Building a spec checks it: names exist (with a suggestion for a typo),
-    capacities are positive, conductances and convection not negative, and
-    every node reaches the air through links or convection. Errors name the
-    offending entry.
+    every parameter belongs to the structure and lies in its range
+    (:func:`check_parameters`: capacities positive, conductances,
+    convection and heat inputs not negative ...), sensors are named
+    ``T<name>_C`` and read a weighted mean (weights not negative, summing to
+    1), and every node reaches the air through links or convection. Errors
+    name the offending entry.
 
     Attributes
     ----------
@@ -211,6 +385,13 @@ class MachineSpec:
         above; ``disp.noise_um`` is the displacement noise in µm, and
         ``<effect>.<param>`` the parameters of an effect). May be empty for a
         structure without numbers; :class:`ThermalMachine` then needs them.
+        :meth:`known_parameters` lists the names a structure has.
+    effects : dict
+        The effect switches the description records: effect name -> on
+        (bool). :meth:`ThermalMachine.from_spec` switches on the effects
+        recorded on, and for those not recorded their default (every effect
+        except ``sensor_drift``); empty (default): every effect takes its
+        default. :meth:`ThermalMachine.to_spec` records every switch.
     """
 
     name: str
@@ -234,9 +415,46 @@ class MachineSpec:
     axes: tuple = ("x", "y", "z")
     groups: dict = field(default_factory=dict)
     params: dict = field(default_factory=dict)
+    effects: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.validate()
+
+    def known_parameters(self):
+        """Every parameter a machine of this structure has, with its default.
+
+        Returns
+        -------
+        dict
+            Name -> default value; None for the numbers without a default
+            (heat capacities ``C.<node>`` and conductances ``G.<a>-<b>``).
+
+        Examples
+        --------
+        >>> from skthermal.simulate import ThermalMachine
+        >>> spec = ThermalMachine.from_preset("spindle-rig").spec
+        >>> names = spec.known_parameters()
+        >>> names["q.alpha"], names["C.spindle"], "q.bearng_W" in names
+        (1.5, None, False)
+        """
+        out = {f"C.{n}": None for n in self.nodes}
+        out.update({f"hA.{n}": 0.0 for n in self.nodes})
+        out.update({f"G.{a}-{b}": None for a, b in self.edges})
+        out.update(NUMBER_DEFAULTS)
+        for source in self.custom_heat:
+            out.update(
+                {
+                    f"q.{source}.{f}": 1.5 if f == "alpha" else 0.0
+                    for f in CUSTOM_HEAT_FIELDS
+                }
+            )
+        for axis in self.axes:
+            out.update({f"k.{axis}.{n}": 0.0 for n in self.nodes})
+        if self.screw_nodes:
+            out[f"k.{self.feed_axis}.screw"] = 0.0
+        for e in EFFECTS.values():
+            out.update({f"{e.name}.{k}": v for k, v in e.params.items()})
+        return out
 
     # --- checks -------------------------------------------------------------
 
@@ -269,13 +487,11 @@ class MachineSpec:
                 raise ValueError(f"{label} is listed twice.")
             links.add((a, b))
         for role in ("enclosure", "tool", "bearing", "motor", "belt", "cutting"):
-            value = getattr(self, role)
-            if value not in known:
-                raise _unknown(f"role {role!r}", value, nodes)
+            _node(f"role {role!r}", getattr(self, role), nodes)
         for role in ("nut", "axis_motor"):
             value = getattr(self, role)
-            if value is not None and value not in known:
-                raise _unknown(f"role {role!r}", value, nodes)
+            if value is not None:
+                _node(f"role {role!r}", value, nodes)
         for source, node in self.custom_heat.items():
             if not isinstance(source, str) or not source or "." in source:
                 raise ValueError(
@@ -287,20 +503,22 @@ class MachineSpec:
                     f"heat source {source!r}: the name is taken by a built-in "
                     "source; name the custom source differently."
                 )
-            if node not in known:
-                raise _unknown(f"heat source {source!r}", node, nodes)
+            _node(f"heat source {source!r}", node, nodes)
         for role in ("head_nodes", "exposed_nodes", "screw_nodes"):
             for value in getattr(self, role):
-                if value not in known:
-                    raise _unknown(f"{role}", value, nodes)
+                _node(role, value, nodes)
         axes = list(self.axes)
         if not axes:
             raise ValueError("axes: give at least one displacement channel.")
         for a in axes:
-            if not isinstance(a, str) or not a or "_" in a or "." in a:
+            if (
+                not isinstance(a, str)
+                or "_" in a
+                or not TARGET_PATTERN.fullmatch(f"disp_{a}_um")
+            ):
                 raise ValueError(
-                    f"axis {a!r}: a displacement channel name is a non-empty "
-                    "string without '_' or '.' (column disp_<axis>_um)."
+                    f"axis {a!r}: a displacement channel name is letters and "
+                    "digits (column disp_<axis>_um, e.g. 'z' or 'ch1')."
                 )
         if len(set(axes)) != len(axes):
             raise ValueError(f"axes {axes} lists a channel twice.")
@@ -311,31 +529,55 @@ class MachineSpec:
             if not isinstance(s, SensorSpec):
                 raise ValueError(f"sensor {s!r} is not a SensorSpec.")
             where = f"sensor {s.name!r}"
+            _check_sensor_name(s.name)
             if s.name in names:
                 raise ValueError(f"{where} is listed twice.")
             names.add(s.name)
             if s.kind not in SENSOR_KINDS:
                 raise ValueError(
-                    f"{where}: kind {s.kind!r}{_suggest(s.kind, SENSOR_KINDS)} is "
+                    f"{where}: kind {s.kind!r}{suggest(s.kind, SENSOR_KINDS)} is "
                     f"not one of {list(SENSOR_KINDS)}."
+                )
+            if not isinstance(s.weights, dict):
+                raise ValueError(
+                    f"{where}: weights must be a table of node weights "
+                    f"(node or 'room' = weight), got {s.weights!r}."
                 )
             if not s.weights:
                 raise ValueError(f"{where} reads no node (weights is empty).")
             for f in SENSOR_FIELDS:
                 if getattr(s, f) is not None:
                     _number(f"{where}: {f}", getattr(s, f), nonnegative=True)
+            total = 0.0
             for node, w in s.weights.items():
                 if node != ROOM and node not in known:
                     raise _unknown(where, node, [*nodes, ROOM])
-                _number(f"{where}: weight of {node!r}", w)
+                total += _number(f"{where}: weight of {node!r}", w, nonnegative=True)
+            if abs(total - 1.0) > WEIGHT_SUM_TOLERANCE:
+                terms = " + ".join(f"{w:g}" for w in s.weights.values())
+                terms = f"{terms} = {total:g}" if len(s.weights) > 1 else terms
+                raise ValueError(
+                    f"{where}: the weights must sum to 1 (the sensor reads a "
+                    f"weighted mean of nodes), got {terms}."
+                )
         for group, members in self.groups.items():
             for m in members:
                 if m not in names:
                     raise _unknown(f"group {group!r}", m, names, "sensor")
+        if not isinstance(self.effects, dict):
+            raise ValueError(
+                "effects must be a dict of switches (effect name -> on), got "
+                f"{type(self.effects).__name__}."
+            )
+        for e, on in self.effects.items():
+            if e not in EFFECTS:
+                raise _unknown("effects", e, list(EFFECTS), "effect")
+            if not isinstance(on, bool):
+                raise ValueError(f"effect {e!r}: on must be true or false, got {on!r}.")
         if self.params:
-            self._validate_numbers(known, axes)
+            self._validate_numbers()
 
-    def _validate_numbers(self, known, axes):
+    def _validate_numbers(self):
         p = self.params
         for n in self.nodes:
             if f"C.{n}" not in p:
@@ -343,47 +585,7 @@ class MachineSpec:
         for a, b in self.edges:
             if f"G.{a}-{b}" not in p:
                 raise ValueError(f"link '{a}-{b}': no conductance (G.{a}-{b}, W/K).")
-        for key, value in p.items():
-            family, _, rest = key.partition(".")
-            if family in ("C", "hA"):
-                if rest not in known:
-                    raise _unknown(f"parameter {key!r}", rest, self.nodes)
-                _number(
-                    f"parameter {key!r}",
-                    value,
-                    positive=family == "C",
-                    nonnegative=True,
-                )
-            elif family == "G":
-                a, _, b = rest.partition("-")
-                if (a, b) not in set(map(tuple, self.edges)):
-                    raise ValueError(
-                        f"parameter {key!r}: no link '{rest}' in the network"
-                        f"{_suggest(rest, [f'{x}-{y}' for x, y in self.edges])}."
-                    )
-                _number(f"parameter {key!r}", value, nonnegative=True)
-            elif family == "q" and "." in rest:
-                source, _, f = rest.partition(".")
-                if source not in self.custom_heat:
-                    raise _unknown(
-                        f"parameter {key!r}", source, list(self.custom_heat), "source"
-                    )
-                if f not in CUSTOM_HEAT_FIELDS:
-                    raise ValueError(
-                        f"parameter {key!r}: unknown field {f!r}"
-                        f"{_suggest(f, CUSTOM_HEAT_FIELDS)}; fields: "
-                        f"{list(CUSTOM_HEAT_FIELDS)}."
-                    )
-                _number(f"parameter {key!r}", value, nonnegative=f != "alpha")
-            elif family == "k":
-                axis, _, node = rest.partition(".")
-                if axis not in axes:
-                    raise _unknown(f"parameter {key!r}", axis, axes, "axis")
-                if node != "screw" and node not in known:
-                    raise _unknown(f"parameter {key!r}", node, self.nodes)
-                _number(f"parameter {key!r}", value)
-            else:
-                _number(f"parameter {key!r}", value)
+        p = check_parameters(self, p, strict=True)
         # Every node must reach the air, or its temperature is undefined.
         reach = {self.enclosure}
         adjacent = {n: set() for n in self.nodes}
@@ -487,7 +689,7 @@ class MachineSpec:
                 if value != 0:  # absent coefficients are zero
                     disp[axis][key.split(".", 2)[2]] = value
         out["displacement"] = disp
-        effects = {}
+        effects = {e: {"on": self.effects[e]} for e in EFFECTS if e in self.effects}
         for key in [k for k in p if k.split(".")[0] in EFFECTS]:
             e, _, name = key.partition(".")
             effects.setdefault(e, {})[name] = p.pop(key)
@@ -558,14 +760,22 @@ class MachineSpec:
             spindle = 1.2
             screw = 4.0                      # the whole ball screw
 
-            [effects.sensor_lag]             # optional effect parameters
+            [effects.sensor_lag]             # optional: switch and parameters
+            on = true
             tau_s = 300.0
+            [effects.sensor_drift]
+            on = false
 
             [groups]
             spindle = ["T1_C"]
 
         Missing numbers take the defaults of an empty machine (no heat, no
         displacement); a misspelt field or name is an error naming the entry.
+        An effect without ``on`` takes its default (every effect but
+        ``sensor_drift`` is on), as in files written before the switches were
+        recorded. Sensors are run-table columns ``T<name>_C``; their weights
+        are not negative and sum to 1. The roles ``enclosure`` and ``tool``
+        are required unless a node carries that name.
         """
         if not isinstance(data, dict):
             raise ValueError(f"A machine spec is a dict, got {type(data).__name__}.")
@@ -634,19 +844,31 @@ class MachineSpec:
             )
         roles = data.get("roles", {})
         _check_fields("roles", roles, ("enclosure", "tool", "head", "exposed"))
+        for role, meaning in REQUIRED_ROLES.items():
+            if role not in roles and role not in nodes:
+                raise ValueError(
+                    f"roles: {role} is required ({meaning}; [roles] {role} = "
+                    f'"<node>") unless a node is named {role!r}; nodes: '
+                    f"{list(map(str, nodes))}."
+                )
         kw = {
             "enclosure": roles.get("enclosure", "enclosure"),
             "tool": roles.get("tool", "tool"),
             "head_nodes": _check_names("roles: head", roles.get("head", ())),
             "exposed_nodes": _check_names("roles: exposed", roles.get("exposed", ())),
         }
+        for role in ("head", "exposed"):
+            for value in kw[f"{role}_nodes"]:
+                _node(f"roles: {role}", value, nodes)
         heat = data.get("heat", {})
         _check_fields("heat", heat, (*HEAT_FIELDS, "feed", "custom"))
         for source, fields in HEAT_FIELDS.items():
             entry = heat.get(source, {})
             _check_fields(f"heat source {source!r}", entry, ("node", *fields))
             if "node" in entry:
-                kw[HEAT_ROLES[source]] = entry["node"]
+                kw[HEAT_ROLES[source]] = _node(
+                    f"heat source {source!r}", entry["node"], nodes
+                )
             for f, (key, _) in fields.items():
                 if f in entry:
                     p[key] = _number(f"heat source {source!r}: {f}", entry[f])
@@ -658,6 +880,11 @@ class MachineSpec:
             kw["screw_nodes"] = _check_names(
                 "heat source 'feed': screw", feed.get("screw", ())
             )
+            for value in kw["screw_nodes"]:
+                _node("heat source 'feed': screw", value, nodes)
+            for role in ("nut", "axis_motor"):
+                if feed.get(role) is not None:
+                    _node(f"heat source 'feed': {role}", feed[role], nodes)
             kw["nut"] = feed.get("nut")
             kw["axis_motor"] = feed.get("axis_motor")
             if "axis" in feed:
@@ -670,7 +897,7 @@ class MachineSpec:
             _check_fields(where, entry, ("node", *CUSTOM_HEAT_FIELDS))
             if "node" not in entry:
                 raise ValueError(f"{where}: node is required.")
-            kw["custom_heat"][source] = entry["node"]
+            kw["custom_heat"][source] = _node(where, entry["node"], nodes)
             for f in CUSTOM_HEAT_FIELDS:
                 if f in entry:
                     p[f"q.{source}.{f}"] = _number(
@@ -721,7 +948,10 @@ class MachineSpec:
             sensors.append(
                 SensorSpec(
                     name,
-                    dict(entry["weights"]),
+                    {
+                        node: _number(f"sensor {name!r}: weight of {node!r}", w)
+                        for node, w in entry["weights"].items()
+                    },
                     entry.get("kind", "surface"),
                     entry.get("location", ""),
                     **{
@@ -732,6 +962,8 @@ class MachineSpec:
                 )
             )
         axes = _check_names("axes", data.get("axes", ("x", "y", "z")))
+        if feed is not None and "axis" in feed and feed["axis"] not in axes:
+            raise _unknown("heat source 'feed': axis", feed["axis"], axes, "axis")
         disp = data.get("displacement", {})
         _check_fields("displacement", disp, ("noise_um", *axes))
         if "noise_um" in disp:
@@ -746,10 +978,18 @@ class MachineSpec:
                 p[f"k.{axis}.{node}"] = _number(f"displacement {axis!r}: {node}", value)
         effects = data.get("effects", {})
         _check_fields("effects", effects, EFFECTS)
+        switches = {}
         for e, values in effects.items():
-            _check_fields(f"effect {e!r}", values, EFFECTS[e].params)
+            _check_fields(f"effect {e!r}", values, ("on", *EFFECTS[e].params))
             for k, v in values.items():
-                p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
+                if k == "on":
+                    if not isinstance(v, bool):
+                        raise ValueError(
+                            f"effect {e!r}: on must be true or false, got {v!r}."
+                        )
+                    switches[e] = v
+                else:
+                    p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
         extra = data.get("params", {})
         _check_fields("params", extra, list(extra or ()))
         p.update(extra)
@@ -767,6 +1007,7 @@ class MachineSpec:
             axes=axes,
             groups=groups,
             params=p,
+            effects=switches,
             **kw,
         )
 
@@ -779,8 +1020,21 @@ class MachineSpec:
                 data = tomllib.load(f)
         except FileNotFoundError:
             raise FileNotFoundError(f"No machine file {str(path)!r}.") from None
+        except IsADirectoryError:
+            raise IsADirectoryError(
+                f"{path}: a directory, not a machine file (TOML)."
+            ) from None
+        except UnicodeDecodeError as exc:
+            raise ValueError(
+                f"{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason}); "
+                "a machine file is TOML, which is UTF-8."
+            ) from None
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not a valid TOML file ({exc}).") from None
+        except OSError as exc:
+            raise OSError(
+                f"{path}: cannot read the machine file ({exc.strerror or exc})."
+            ) from None
         try:
             return cls.from_dict(data)
         except ValueError as exc:
@@ -812,8 +1066,10 @@ def _string(s):
 def _value(v):
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        return repr(float(v))
     if isinstance(v, str):
         return _string(v)
     if isinstance(v, list | tuple):
