@@ -39,9 +39,16 @@ def summarise(df):
             "true_shrink"
         ].mean()
         if "true_share" in eff:
-            rates["mean share of the explainable gap, withheld effect"] = eff[
-                "true_share"
-            ].mean()
+            # Unclipped shares: above 1 where the effect's term removes more
+            # than the flexible model held out, NaN where that removes
+            # nothing; the median reads them better than the mean.
+            share = eff["true_share"]
+            rates["median share of the explainable gap, withheld effect"] = (
+                share.median()
+            )
+            rates["  cases with a share / share above 1"] = (
+                f"{int(share.notna().sum())} / {int((share > 1).sum())}"
+            )
     if len(null):
         rates["null called none (>= 90%)"] = (null["named"] == "none").mean()
     if len(oov):
@@ -82,7 +89,7 @@ def print_results(df, columns):
         print(confusion.to_string())
         print("\nTargets:")
         for k, v in rates.items():
-            print(f"  {k}: {v:.2f}")
+            print(f"  {k}: {v:.2f}" if not isinstance(v, str) else f"  {k}: {v}")
 
 
 def parse_args(description, argv=None):

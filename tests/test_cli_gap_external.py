@@ -54,3 +54,13 @@ def test_gap_simulated_errors_are_one_line(tables, tmp_path, capsys):
     args = ["gap", "--simulated", str(sim), "--runs", str(meas), "--effects", "x"]
     assert main(args) == 2
     assert "--effects is not used with --simulated" in capsys.readouterr().err
+
+
+def test_gap_without_candidates_is_one_line(tables, capsys):
+    # Both modes: an empty --candidates is an error, not a traceback.
+    sim, meas = tables
+    for extra in (["--preset", "spindle-rig"], ["--simulated", str(sim)]):
+        args = ["gap", "--runs", str(meas), *extra, "--candidates", "", "--quiet"]
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert "give at least one" in err.lower() and len(err.strip().splitlines()) == 1

@@ -506,3 +506,141 @@ def test_broyden_jacobian_starts_as_forward_differences_then_updates():
     fresh = BroydenJacobian(resid, (lo, hi))
     fit = least_squares(fresh.fun, x0, jac=fresh, bounds=(lo, hi))
     np.testing.assert_allclose(fit.x, [3.0, 0.7, 0.5], atol=1e-5)
+
+
+# --- audit fixes: small spindle-rig runs, screening only --------------------
+
+
+@pytest.fixture(scope="module")
+def rig_runs():
+    """The spindle rig without effects and three short runs of the rig with
+    lagging sensors (no feed axis, no feed)."""
+    from skthermal.simulate import DutyCycle
+
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    truth = ThermalMachine.from_preset("spindle-rig", effects=["sensor_lag"])
+    runs = pd.concat(
+        [
+            truth.simulate(
+                DutyCycle([(5400, rpm, 0), (5400, 0, 0)]),
+                sample_period_s=60,
+                run=f"r{i}",
+                random_state=i,
+            )
+            for i, rpm in enumerate([2000, 3500, 5000])
+        ],
+        ignore_index=True,
+    )
+    return rig, runs
+
+
+FAST = {"fine": False, "greedy": False, "max_samples": 100}
+
+
+def test_no_candidate_left_is_one_clear_error(rig_runs):
+    from skthermal.simulate import EFFECTS
+
+    rig, runs = rig_runs
+    with pytest.raises(ValueError, match="Give at least one candidate effect"):
+        diagnose(rig, runs, candidates=[])
+    with pytest.raises(ValueError, match="already has every effect .* none is left"):
+        diagnose(rig.with_effects(list(EFFECTS)), runs)
+
+
+def test_a_candidate_that_cannot_act_is_not_scored(rig_runs):
+    # The rig has no feed axis: feed_heating changes nothing, and a no-op
+    # candidate must not be ranked (a base refit from another start made it
+    # look significant before).
+    rig, runs = rig_runs
+    report = diagnose(rig, runs, candidates=["sensor_lag", "feed_heating"], **FAST)
+    assert list(report.ranking["effect"]) == ["sensor_lag"]
+    assert set(report.not_applicable) == {"feed_heating"}
+    assert "Not applicable on these runs (not scored): feed_heating" in (
+        report.verdict()
+    )
+    assert "feed_heating" in report.to_markdown()
+    assert json.loads(report.to_json())["not_applicable"]["feed_heating"]
+    with pytest.raises(ValueError, match="None of the candidate effects can act"):
+        diagnose(rig, runs, candidates=["feed_heating"], **FAST)
+    # Sensor drift acts on temperature sensors only.
+    disp = [c for c in runs.columns if c.startswith("disp_")]
+    with pytest.raises(ValueError, match="sensor_drift: it acts on temperature"):
+        diagnose(rig, runs, candidates=["sensor_drift"], channels=disp, **FAST)
+
+
+def test_input_messages_name_the_real_values(rig_runs):
+    rig, runs = rig_runs
+    shuffled = runs.copy()
+    first = shuffled.index[shuffled["run"] == "r0"][:2]
+    shuffled.loc[first, "time_s"] = shuffled.loc[first[::-1], "time_s"].to_numpy()
+    with pytest.raises(ValueError, match=r"run 'r0' at row 1 \(time_s 0 after 60\)"):
+        diagnose(rig, shuffled)
+    missing = runs.copy()
+    missing.loc[missing.index[missing["run"] == "r1"][4], "T3_C"] = np.nan
+    with pytest.raises(
+        ValueError, match=r"T3_C is missing .* run 'r1' at row 4 \(time_s 240\)"
+    ):
+        diagnose(rig, missing)
+    with pytest.raises(ValueError, match=r"at least 2 runs \(got 1\): block_hours=100"):
+        diagnose(rig, runs[runs["run"] == "r0"], block_hours=100)
+
+
+def test_mapping_typos_and_uncompared_channels(rig_runs):
+    rig, runs = rig_runs
+    with pytest.raises(ValueError, match=r"mapping key\(s\) \['disp_chl_um'\]"):
+        diagnose(rig, runs, mapping={"disp_chl_um": "disp_ch1_um"})
+    with pytest.raises(ValueError, match=r"mapping value\(s\) \['disp_z_um'\]"):
+        diagnose(rig, runs, mapping={"disp_ch1_um": "disp_z_um"})
+    extra = runs.assign(disp_z_um=0.0)
+    with pytest.warns(UserWarning, match=r"\['disp_z_um'\] are not compared"):
+        problem = build_problem(rig, extra)
+    assert "disp_z_um" not in problem.channels
+    # Channels chosen explicitly: nothing to warn about.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        build_problem(rig, extra, channels=["disp_ch1_um"])
+
+
+def test_cv_as_folds_over_runs(rig_runs):
+    rig, runs = rig_runs
+    pairs = [([1, 2], [0]), ([0, 2], [1]), ([0, 1], [2])]
+    folds = heldout_folds(3, pairs)
+    assert [te.tolist() for _, te in folds] == [[0], [1], [2]]
+    report = diagnose(rig, runs, candidates=["sensor_lag"], cv=pairs, **FAST)
+    default = diagnose(rig, runs, candidates=["sensor_lag"], **FAST)
+    assert report.ranking["shrink"].iloc[0] == default.ranking["shrink"].iloc[0]
+    with pytest.raises(ValueError, match="cv=5 .* only 3 runs"):
+        diagnose(rig, runs, cv=5, **FAST)
+    with pytest.raises(ValueError, match="Fold 0 of cv has held-out runs \\[3\\]"):
+        heldout_folds(3, [([0, 1], [3])])
+
+
+def test_report_files_and_plots_with_awkward_run_labels(rig_runs, tmp_path):
+    rig, runs = rig_runs
+    labels = {"r0": "2024/0", "r1": "../x", "r2": "2024_0"}
+    report = diagnose(
+        rig,
+        runs.assign(run=runs["run"].map(labels)),
+        candidates=["sensor_lag", "sensor_drift"],
+        **FAST,
+    )
+    # A candidate without a parameter shows no value, not "nan".
+    md = report.to_markdown()
+    drift = next(line for line in md.splitlines() if "| sensor_drift |" in line)
+    assert "nan" not in drift and "—" in drift
+    assert "NaN" not in report.to_html()
+    with pytest.raises(ValueError, match=r"Unknown run 'nope'.*'2024/0'"):
+        report.plot_overlay("nope")
+    with pytest.raises(ValueError, match=r"Unknown channel 'T99_C'.*'T1_C'"):
+        report.plot_timeline("2024/0", channel="T99_C")
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    folder = report.save(tmp_path / "out" / "gap")
+    names = sorted(p.name for p in folder.iterdir() if p.name.startswith("timeline_"))
+    assert len(names) == 3
+    assert not (tmp_path / "out" / "x.png").exists()
+    assert not list((tmp_path / "out").glob("timeline_*"))

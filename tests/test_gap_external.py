@@ -117,7 +117,8 @@ def test_likelihood_ratio_p_value_behaviour():
 
 def test_explainable_gap_is_a_share_above_noise():
     assert explainable_gap(1.0, 0.6, 0.0) == pytest.approx(0.4)
-    assert explainable_gap(1.0, 1.2, 0.0) == 0.0  # a worse flexible model
+    # A flexible model that makes the held-out gap worse is not clipped to 0.
+    assert explainable_gap(1.0, 1.2, 0.0) == pytest.approx(-0.2)
     # Against the noise floor: closing down to noise is everything.
     assert explainable_gap(0.5, 0.3, 0.09) == pytest.approx(1.0)
 
@@ -271,3 +272,88 @@ def test_empty_tables_and_missing_values(pair):
         diagnose_runs(sim, bad)
     with pytest.raises(ValueError, match="at least 2 runs"):
         diagnose_runs(sim[sim["run"] == "r0"], meas[meas["run"] == "r0"])
+
+
+# --- audit fixes --------------------------------------------------------------
+
+
+def test_constant_channels(pair):
+    sim, meas = pair
+    # Constant in the simulation only: the base gain is 0, with a warning.
+    with pytest.warns(UserWarning, match=r"simulated channel\(s\) \['T2_C'\] are"):
+        report = diagnose_runs(sim.assign(T2_C=21.0), meas, greedy=False)
+    assert "T2_C" in report.settings["channels"]
+    assert report.machines["base calibrated"].gains_[1, 0] == 0.0
+    # Constant in both tables: nothing to diagnose on it.
+    flat_sim, flat_meas = sim.assign(T2_C=21.0), meas.assign(T2_C=21.0)
+    with pytest.raises(ValueError, match=r"\['T2_C'\] are constant in both tables"):
+        diagnose_runs(flat_sim, flat_meas, channels=["T2_C"])
+    with pytest.warns(UserWarning, match=r"\['T2_C'\] are constant in both .* left"):
+        report = diagnose_runs(flat_sim, flat_meas, greedy=False)
+    assert report.settings["channels"] == ["T1_C", "disp_z_um"]
+
+
+def test_ridge_is_well_posed_on_a_zero_unpenalised_feature(rng):
+    from skthermal.gap._evidence import ridge_heldout
+
+    feats = [rng.standard_normal((50, 2, 3)) for _ in range(3)]
+    for f in feats:
+        f[:, 1, 0] = 0.0  # the base feature of channel 1 is zero
+    targets = [f[:, :, 1] + 0.1 * rng.standard_normal((50, 2)) for f in feats]
+    folds = [([1, 2], [0]), ([0, 2], [1]), ([0, 1], [2])]
+    out = ridge_heldout(targets, feats, folds, penalize=[False, True, True])
+    assert all(np.all(np.isfinite(r)) for r in out)
+
+
+def test_negative_speed_names_the_run_and_row(pair):
+    sim, meas = pair
+    sim, meas = sim.copy(), meas.copy()
+    for frame in (sim, meas):
+        frame.loc[frame.index[frame["run"] == "r1"][3], "spindle_rpm"] = -100.0
+    with pytest.raises(
+        ValueError,
+        match=r"spindle_rpm is negative \(-100\) in run 'r1' of the measured table "
+        r"at row 3",
+    ):
+        diagnose_runs(sim, meas)
+
+
+def test_mapping_typos_and_uncompared_channels(pair):
+    sim, meas = pair
+    with pytest.raises(
+        ValueError,
+        match=r"mapping value\(s\) \['disp_zz_um'\].*did you mean 'disp_z_um'",
+    ):
+        diagnose_runs(sim, meas, mapping={"disp_z_um": "disp_zz_um"})
+    with pytest.raises(
+        ValueError,
+        match=r"mapping key\(s\) \['disp_zz_um'\].*did you mean 'disp_z_um'",
+    ):
+        diagnose_runs(sim, meas, mapping={"disp_zz_um": "disp_z_um"})
+    with pytest.warns(UserWarning, match=r"\['T3_C'\] are not compared"):
+        report = diagnose_runs(sim, meas.assign(T3_C=meas["T1_C"]), greedy=False)
+    assert "T3_C" not in report.settings["channels"]
+
+
+def test_a_term_without_signal_is_not_scored(pair):
+    sim, meas = pair  # no feed
+    report = diagnose_runs(sim, meas, candidates=["feed_heating", "tool_growth"])
+    assert list(report.ranking["effect"]) == ["tool_growth"]
+    assert set(report.not_applicable) == {"feed_heating"}
+    assert "Not applicable on these runs (not scored): feed_heating" in (
+        report.verdict()
+    )
+    with pytest.raises(ValueError, match="sensor_lag: it acts on temperature"):
+        diagnose_runs(sim, meas, candidates=["sensor_lag"], channels=["disp_z_um"])
+
+
+def test_share_of_the_explainable_gap_is_not_clipped(pair):
+    from skthermal.gap._external import _share
+
+    assert _share(0.95, 0.84) == pytest.approx(0.95 / 0.84)  # above 1
+    assert np.isnan(_share(0.3, -0.2))  # no share of a worse flexible model
+    report = diagnose_runs(*pair, candidates=["tool_growth"])
+    report.explainable["share"] = -0.25
+    text = report.verdict()
+    assert "makes the held-out gap worse (excess above noise 25% larger)" in text
+    assert "drivers removes" not in text

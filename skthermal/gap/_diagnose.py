@@ -15,6 +15,7 @@ from skthermal.gap._problem import (
     RESIDUAL_EFFECTS,
     build_problem,
     calibrate,
+    drift_mask,
     effect_parameters,
     floor_squared,
     predict_run,
@@ -25,7 +26,9 @@ from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
+    applicable,
     block_test,
+    candidate_list,
     excess_shrink,
     gap_of,
     heldout_folds,
@@ -310,16 +313,25 @@ def diagnose(
         predicts (displacements ``disp_*_um`` and/or its sensors).
     candidates : sequence of str, optional
         Effects to test; default: every effect of the vocabulary that the
-        machine does not already have.
-    cv : int or splitter, optional
+        machine does not already have. A candidate that cannot change any
+        compared channel on these runs (e.g. ``feed_heating`` on a machine
+        without a feed axis, or on runs without feed) is not scored: it is
+        listed in ``report.not_applicable`` and in the verdict.
+    cv : int, splitter or iterable of (train, test), optional
         Held-out scheme over runs: default leave-one-run-out for up to 3
-        runs, else 3-fold GroupKFold.
+        runs, else 3-fold GroupKFold; an int is a number of GroupKFold
+        folds (at most the number of runs); a splitter splits the runs
+        (one group each); (train, test) pairs are run indices, the runs
+        numbered in their order in the table (blocks of ``block_hours``
+        counting as runs).
     channels : sequence of str, optional
         Measured columns to compare (default: every one the simulation
-        predicts).
+        predicts, with a warning naming the measured channels it does not
+        predict).
     mapping : dict, optional
         ``{measured column: simulated column}`` when the names differ (e.g.
-        ``{"disp_ch1_um": "disp_z_um"}``).
+        ``{"disp_ch1_um": "disp_z_um"}``); a key that is not a measured
+        column or a value the simulation does not predict is an error.
     min_shrink : float, default=0.5
         Share of the excess held-out gap an effect must remove to explain it.
     alpha : float, default=0.05
@@ -356,20 +368,7 @@ def diagnose(
     'tool_growth'
     """
     base_effects = tuple(machine.effects)
-    if candidates is None:
-        candidates = [e for e in EFFECTS if e not in base_effects]
-    candidates = [candidates] if isinstance(candidates, str) else list(candidates)
-    unknown = [c for c in candidates if c not in EFFECTS]
-    if unknown:
-        raise ValueError(
-            f"Unknown effect(s) {unknown}; the vocabulary is {list(EFFECTS)}."
-        )
-    candidates = [e for e in EFFECTS if e in candidates]
-    already = [c for c in candidates if c in base_effects]
-    if already:
-        raise ValueError(
-            f"The simulation already has {already}; they cannot be candidates."
-        )
+    candidates = candidate_list(candidates, EFFECTS, base_effects)
     problem = build_problem(
         machine,
         runs,
@@ -381,8 +380,11 @@ def diagnose(
     if len(problem.runs) < 2:
         raise ValueError(
             "The diagnosis scores effects on held-out runs: give at least 2 runs "
-            f"(got {len(problem.runs)})."
+            f"(got {len(problem.runs)})" + _blocks_hint(runs, block_hours) + "."
         )
+    folds = heldout_folds(len(problem.runs), cv)
+    not_applicable = _not_applicable(problem, machine, candidates)
+    candidates = applicable(candidates, not_applicable)
     logger.info(
         "Prepared %d run(s) and %d channel(s); %d candidate(s): %s.",
         len(problem.runs),
@@ -391,7 +393,6 @@ def diagnose(
         ", ".join(candidates),
     )
     reference = machine.params
-    folds = heldout_folds(len(problem.runs), cv)
     ctx = _Context(problem, machine, reference, folds, max_nfev)
     rules = (_regimes_of(problem), floor_squared(problem), min_shrink, alpha)
     where = _where(ctx)
@@ -442,7 +443,57 @@ def diagnose(
         },
     )
     report.machines = machines
+    report.not_applicable = not_applicable
     return report
+
+
+def _blocks_hint(runs, block_hours):
+    """Why ``block_hours`` did not cut the runs into blocks (empty without
+    it)."""
+    if block_hours is None:
+        return ""
+    hours = runs.groupby("run", sort=False)["time_s"].agg(np.ptp).max() / 3600.0
+    return (
+        f": block_hours={block_hours:g} cuts only runs longer than 1.5 x "
+        f"{block_hours:g} h into blocks, and the longest run lasts {hours:.3g} h; "
+        f"give block_hours below {hours / 1.5:.3g} h for at least 2 blocks"
+    )
+
+
+def _not_applicable(problem, machine, candidates):
+    """Candidates that cannot change the compared channels on these runs,
+    with the reason: ``{effect: reason}``.
+
+    A simulated effect is added to the machine at its reference parameters
+    (the calibration only scales them) and every run simulated: when no
+    compared channel changes on any run, the effect has nothing to act on
+    (e.g. no feed axis, no feed, no lagging sensor compared). An effect
+    modelled on the residual (sensor drift) needs a compared temperature
+    channel.
+    """
+    out = {}
+    simulated = [c for c in candidates if c not in RESIDUAL_EFFECTS]
+    for c in candidates:
+        if c in RESIDUAL_EFFECTS and drift_mask(problem, (c,)) is None:
+            out[c] = "it acts on temperature sensors and none is compared"
+    if not simulated:
+        return out
+    base = [predict_run(machine, problem, r, parts=True) for r in problem.runs]
+    for c in simulated:
+        with_c = machine.with_effects(add=[c])
+        same = True
+        for run, b in zip(problem.runs, base, strict=True):
+            a = predict_run(with_c, problem, run, parts=True)
+            if np.max(np.abs(a - b)) > 1e-9 * max(float(np.max(np.abs(b))), 1e-9):
+                same = False
+                break
+        if same:
+            out[c] = (
+                "adding it leaves every compared channel of the simulation "
+                "unchanged on every run, it has nothing to act on in the machine "
+                "or the runs"
+            )
+    return out
 
 
 @dataclass

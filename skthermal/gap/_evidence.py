@@ -325,6 +325,17 @@ def _ridge_solve(G, b, alpha):
     return np.linalg.solve(A, b[..., None])[..., 0]
 
 
+def _well_posed(Gs, free):
+    """The standardised Gram matrices ``Gs`` (c, k, k) with a unit diagonal
+    where an unpenalised feature (``free``) is zero on the training runs
+    (a constant simulated channel): its weight is then 0 instead of the
+    system being singular. Features that are not zero are left untouched."""
+    zero = free & (np.einsum("ckk->ck", Gs) <= 1e-12)
+    if not zero.any():
+        return Gs
+    return Gs + zero[:, :, None] * np.eye(Gs.shape[-1])
+
+
 def ridge_heldout(targets, features, folds, *, alphas=None, penalize=None):
     """Held-out residuals of a per-channel ridge regression over runs.
 
@@ -359,6 +370,7 @@ def ridge_heldout(targets, features, folds, *, alphas=None, penalize=None):
     gram = [np.einsum("nck,ncl->ckl", F, F) for F in features]
     cross = [np.einsum("nck,nc->ck", F, y) for F, y in zip(features, targets)]
     out = [None] * n_runs
+    free = pen == 0
     for train, test in folds:
         train = list(train)
         G = sum(gram[i] for i in train)
@@ -370,7 +382,7 @@ def ridge_heldout(targets, features, folds, *, alphas=None, penalize=None):
             b = sum(cross[i] for i in train)
             sse = np.zeros((alphas.size, G.shape[0]))
             for i in train:
-                Gi = (G - gram[i]) / scale
+                Gi = _well_posed((G - gram[i]) / scale, free)
                 bi = (b - cross[i]) / d
                 for a, alpha in enumerate(alphas):
                     A = Gi + alpha * np.eye(k) * pen
@@ -381,7 +393,7 @@ def ridge_heldout(targets, features, folds, *, alphas=None, penalize=None):
             # channel from a few training runs is itself noisy.
             best_alpha = np.full(G.shape[0], alphas[np.argmin(sse.sum(axis=1))])
         b = sum(cross[i] for i in train) / d
-        A = Gs + best_alpha[:, None, None] * np.eye(k) * pen
+        A = _well_posed(Gs, free) + best_alpha[:, None, None] * np.eye(k) * pen
         w = np.linalg.solve(A, b[..., None])[..., 0] / d
         for i in test:
             out[i] = targets[i] - np.einsum("nck,ck->nc", features[i], w)
@@ -405,12 +417,16 @@ def explainable_gap(gap_before, gap_flexible, floor2):
     Returns
     -------
     float
-        In [0, 1] (0 when the flexible model does not help on held-out runs).
+        At most 1; negative when the flexible model makes the held-out gap
+        worse (it is regularised and fitted on training runs, so it is an
+        estimate of what a term could close, not a strict bound).
 
     Examples
     --------
     >>> from skthermal.gap._evidence import explainable_gap
     >>> round(explainable_gap(1.0, 0.6, 0.0), 2)
     0.4
+    >>> round(explainable_gap(1.0, 1.2, 0.0), 2)
+    -0.2
     """
-    return float(np.clip(excess_shrink(gap_before, gap_flexible, floor2), 0.0, 1.0))
+    return excess_shrink(gap_before, gap_flexible, floor2)

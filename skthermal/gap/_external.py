@@ -12,6 +12,7 @@ model structure (:mod:`skthermal.gap._evidence`).
 """
 
 import logging
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,15 +31,23 @@ from skthermal.gap._problem import (
     START_SAMPLES,
     MeasuredRun,
     Problem,
+    check_finite_channels,
+    check_mapping,
+    check_times,
+    driver_values,
     floor_squared,
     group_scales,
+    is_channel,
     pooled_noise,
+    warn_uncompared,
 )
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport, gap_table
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
+    applicable,
     block_test,
+    candidate_list,
     excess_shrink,
     gap_of,
     heldout_folds,
@@ -49,24 +58,6 @@ from skthermal.gap._terms import TERMS, Base, FlexibleFeatures, RunSignals, Sign
 logger = logging.getLogger("skthermal.gap")
 
 DRIVERS = ("time_s", "spindle_rpm", "ambient_C")
-
-
-def _is_channel(col):
-    return (col.endswith("_C") and col != "ambient_C") or (
-        col.startswith("disp_") and col.endswith("_um")
-    )
-
-
-def _numeric(frame, col, label, run):
-    values = pd.to_numeric(frame[col], errors="coerce").to_numpy(float)
-    bad = ~np.isfinite(values)
-    if bad.any():
-        k = int(np.flatnonzero(bad)[0])
-        raise ValueError(
-            f"{col} is missing or not finite in run {run!r} of the {label} table "
-            f"at row {k} ({frame[col].iloc[k]!r})."
-        )
-    return values
 
 
 def _check_table(df, label):
@@ -88,11 +79,18 @@ def _align(simulated, measured, channels, mapping, max_samples):
     _check_table(simulated, "simulated")
     _check_table(measured, "measured")
     mapping = dict(mapping or {})
+    check_mapping(
+        mapping,
+        measured.columns,
+        simulated.columns,
+        "are not columns of the simulated table",
+    )
+    explicit = channels is not None
     if channels is None:
         channels = [
             c
             for c in measured.columns
-            if _is_channel(c) and mapping.get(c, c) in simulated.columns
+            if is_channel(c) and mapping.get(c, c) in simulated.columns
         ]
     channels = list(channels)
     bad = [c for c in channels if c not in measured.columns]
@@ -109,6 +107,10 @@ def _align(simulated, measured, channels, mapping, max_samples):
             "No measured channel (T*_C sensors or disp_*_um displacements) has a "
             "column of the same name in the simulated table; pass channels= or "
             "mapping=."
+        )
+    if not explicit:
+        warn_uncompared(
+            measured.columns, channels, "the simulated table has no column for"
         )
     sim_cols = [mapping.get(c, c) for c in channels]
     sim_runs = dict(tuple(simulated.groupby("run", sort=False)))
@@ -127,15 +129,10 @@ def _align(simulated, measured, channels, mapping, max_samples):
                 f"Run {name!r} has {len(meas)} samples; at least "
                 f"{START_SAMPLES + 3} are needed."
             )
-        t = _numeric(meas, "time_s", "measured", name)
-        ts = _numeric(sim, "time_s", "simulated", name)
-        for label, times in (("measured", t), ("simulated", ts)):
-            if np.any(np.diff(times) <= 0):
-                k = int(np.flatnonzero(np.diff(times) <= 0)[0]) + 1
-                raise ValueError(
-                    f"time_s is not strictly increasing in run {name!r} of the "
-                    f"{label} table at row {k}."
-                )
+        t = driver_values(meas, "time_s", name, "measured")
+        ts = driver_values(sim, "time_s", name, "simulated")
+        check_times(t, name, "measured")
+        check_times(ts, name, "simulated")
         tol = 1e-6 * max(1.0, float(np.max(np.abs(t))))
         # The simulation at the measured times, or (another tool's export
         # at its own time step) interpolated linearly onto them.
@@ -159,8 +156,12 @@ def _align(simulated, measured, channels, mapping, max_samples):
         drivers = {}
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
-            m = _numeric(meas, col, "measured", name) if in_m else np.zeros(t.size)
-            sim_d = _numeric(sim, col, "simulated", name) if in_s else np.zeros(ts.size)
+            m = driver_values(meas, col, name, "measured") if in_m else np.zeros(t.size)
+            sim_d = (
+                driver_values(sim, col, name, "simulated")
+                if in_s
+                else np.zeros(ts.size)
+            )
             tol_d = 1e-3 * max(1.0, float(np.max(np.abs(m))))
             if col == "ambient_C":
                 tol_d = max(tol_d, 0.05)  # the air as logged, quantised
@@ -179,43 +180,82 @@ def _align(simulated, measured, channels, mapping, max_samples):
             drivers[col] = m
         y_meas = meas[channels].to_numpy(float)
         y_sim = sim[sim_cols].to_numpy(float)
-        for label, Y, cols in (
-            ("measured", y_meas, channels),
-            ("simulated", y_sim, sim_cols),
-        ):
-            bad = ~np.isfinite(Y)
-            if bad.any():
-                r, c = map(int, np.argwhere(bad)[0])
-                raise ValueError(
-                    f"{cols[c]} is missing or not finite in run {name!r} of the "
-                    f"{label} table at row {r}."
-                )
+        check_finite_channels(y_meas, channels, t, name, "measured")
+        check_finite_channels(y_sim, sim_cols, ts, name, "simulated")
         if not same:
             y_sim = np.column_stack(
                 [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
             )
+        out.append((name, t, drivers, y_meas, y_sim))
+    if len(out) < 2:
+        raise ValueError(
+            "The diagnosis scores effects on held-out runs: give at least 2 runs "
+            f"(got {len(out)})."
+        )
+    keep = _varying_channels(out, channels, sim_cols, explicit)
+    channels = [c for c, k in zip(channels, keep, strict=True) if k]
+    sim_cols = [c for c, k in zip(sim_cols, keep, strict=True) if k]
+    runs = []
+    for name, t, drivers, y_meas, y_sim in out:
         step = max(1, int(np.ceil(t.size / max_samples)))
         rows = np.arange(0, t.size, step)
-        y = y_meas[rows] - y_meas[rows][:START_SAMPLES].mean(axis=0)
-        out.append(
+        y = y_meas[rows][:, keep]
+        runs.append(
             RunSignals(
                 name,
                 t - t[0],
                 drivers["spindle_rpm"],
                 drivers["ambient_C"],
                 drivers["feed_mm_min"],
-                y_sim,
+                y_sim[:, keep],
                 rows,
-                y,
+                y - y[:START_SAMPLES].mean(axis=0),
             )
         )
-    if len(out) < 2:
-        raise ValueError(
-            "The diagnosis scores effects on held-out runs: give at least 2 runs "
-            f"(got {len(out)})."
-        )
     noise = pooled_noise([frame for _, frame in meas_runs], channels)
-    return out, channels, sim_cols, noise
+    return runs, channels, sim_cols, noise
+
+
+def _flat(Y):
+    """Columns of ``Y`` that do not change (to rounding)."""
+    return np.ptp(Y, axis=0) <= 1e-12 * np.maximum(1.0, np.max(np.abs(Y), axis=0))
+
+
+def _varying_channels(aligned, channels, sim_cols, explicit):
+    """Mask of the channels kept. A channel constant in both tables on every
+    run has nothing to diagnose: an error when chosen explicitly, else left
+    out with a warning. A channel constant only in the simulation is kept
+    (the base gain is then 0) with a warning."""
+    flat_m = np.all([_flat(y_meas) for _, _, _, y_meas, _ in aligned], axis=0)
+    flat_s = np.all([_flat(y_sim) for _, _, _, _, y_sim in aligned], axis=0)
+    both = [c for c, f in zip(channels, flat_m & flat_s, strict=True) if f]
+    if both and (explicit or len(both) == len(channels)):
+        raise ValueError(
+            f"Channel(s) {both} are constant in both tables on every run: "
+            "there is nothing to diagnose on them; "
+            + (
+                "leave them out of channels=."
+                if explicit
+                else "no channel is left to compare."
+            )
+        )
+    if both:
+        warnings.warn(
+            f"Channel(s) {both} are constant in both tables on every run and "
+            "are left out: there is nothing to diagnose on them.",
+            UserWarning,
+            stacklevel=5,
+        )
+    only_sim = [c for c, f in zip(sim_cols, flat_s & ~flat_m, strict=True) if f]
+    if only_sim:
+        warnings.warn(
+            f"The simulated channel(s) {only_sim} are constant on every run: the "
+            "simulation predicts no change there, so the base gain is 0 and the "
+            "whole measured change of those channels counts as gap.",
+            UserWarning,
+            stacklevel=5,
+        )
+    return ~(flat_m & flat_s)
 
 
 def _problem(runs, channels, sim_cols, noise):
@@ -308,12 +348,12 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
 
 
 def _share(shrink, explainable):
-    """A shrink (above noise) as a share of the explainable part, which is
-    taken at least as large as the shrink itself (the flexible model is
-    regularised and may fall short of a term it contains)."""
-    if shrink <= 0:
-        return float(shrink)
-    return float(shrink / max(explainable, shrink))
+    """A shrink (above noise) as a share of the explainable part, not
+    clipped: above 1 when the term removes more of the held-out gap than the
+    flexible model (regularised, it may fall short of a term it contains);
+    NaN when the flexible model removes nothing (there is no share of
+    nothing)."""
+    return float(shrink / explainable) if explainable > 0 else np.nan
 
 
 def _flexible_heldout(signals, folds, fitted):
@@ -387,23 +427,32 @@ class ExternalGapReport(GapReport):
     explainable : dict
         The flexible discrepancy model of the drivers: held-out ``gap_after``
         and ``share`` (share of the base's held-out gap above the noise floor
-        it removes: what any added term could close), and its whiteness.
+        it removes: an estimate of what any added term could close; not
+        clipped, negative when it makes the held-out gap worse), and its
+        whiteness. ``share_of_explainable`` in the ranking is each shrink
+        divided by that share (above 1 when a term removes more; NaN when
+        the share is not positive).
     """
 
     explainable: dict = field(default_factory=dict)
 
-    def verdict(self):
-        """One sentence: which effect explains the gap, or that none does."""
+    def _verdict(self):
         row = self.how_far_evidence
         if not row:
             return "No candidate effect was tested."
         share = self.explainable.get("share", np.nan)
+        if share < 0:
+            flexible = (
+                "a flexible model of the drivers makes the held-out gap worse "
+                f"(excess above noise {-share:.0%} larger)"
+            )
+        else:
+            flexible = f"a flexible model of the drivers removes {share:.0%}"
         evidence = (
             f"held-out gap {row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
             f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
             f"p = {row['p_value']:.2g}; likelihood ratio p = "
-            f"{row['lr_p_value']:.2g}; a flexible model of the drivers removes "
-            f"{share:.0%}"
+            f"{row['lr_p_value']:.2g}; {flexible}"
         )
         if self.best_effect is None:
             return (
@@ -487,9 +536,14 @@ def diagnose_runs(
        sample, effective samples corrected for autocorrelation), the change
        of AIC and BIC, and the whiteness of the held-out residual before and
        after. A flexible discrepancy model of the drivers (ridge regression
-       on their lag features, fitted on training runs) bounds how much of
-       the held-out gap any added term could close; every effect's shrink is
-       also given as a share of that.
+       on their lag features, fitted on training runs) estimates how much of
+       the held-out gap any added term could close (held out it is not a
+       strict bound: a term may remove more, and it may make the gap worse);
+       every effect's shrink is also given as a share of that, unclipped.
+       A candidate whose term is zero on every run and compared channel
+       (``feed_heating`` without feed, a temperature term with only
+       displacements compared) is not scored: it is listed in
+       ``report.not_applicable`` and in the verdict.
     3. **How far**: the held-out gap before and after the best effect (or
        the best candidate), per regime; then, with ``greedy``, further
        effects while one still explains what remains.
@@ -503,14 +557,21 @@ def diagnose_runs(
         above).
     candidates : sequence of str, optional
         Effects to test (default: every discrepancy term).
-    cv : int or splitter, optional
+    cv : int, splitter or iterable of (train, test), optional
         Held-out scheme over runs: default leave-one-run-out for up to 3
-        runs, else 3-fold GroupKFold.
+        runs, else 3-fold GroupKFold; an int is a number of GroupKFold
+        folds (at most the number of runs); a splitter splits the runs
+        (one group each); (train, test) pairs are run indices, the runs
+        numbered in their order in the table.
     channels : sequence of str, optional
         Measured columns compared (default: every measured channel with a
-        simulated column of the same name).
+        simulated column of the same name, with a warning naming the
+        measured channels left out; a channel constant in both tables is
+        then left out with a warning, while named here it is an error).
     mapping : dict, optional
-        ``{measured column: simulated column}`` when the names differ.
+        ``{measured column: simulated column}`` when the names differ; a key
+        that is not a measured column or a value that is not a simulated
+        column is an error.
     min_shrink : float, default=0.5
         Share of the excess held-out gap an effect must remove to explain it.
     alpha : float, default=0.05
@@ -551,17 +612,7 @@ def diagnose_runs(
     >>> report.best_effect
     'sensor_lag'
     """
-    if candidates is None:
-        candidates = list(TERMS)
-    candidates = [candidates] if isinstance(candidates, str) else list(candidates)
-    unknown = [c for c in candidates if c not in TERMS]
-    if unknown:
-        raise ValueError(
-            f"Unknown effect(s) {unknown}; the vocabulary is {list(TERMS)}."
-        )
-    if not candidates:
-        raise ValueError("Give at least one candidate effect.")
-    candidates = [c for c in TERMS if c in candidates]
+    candidates = candidate_list(candidates, TERMS)
     runs, channels, sim_cols, noise = _align(
         simulated, measured, channels, mapping, max_samples
     )
@@ -572,6 +623,12 @@ def diagnose_runs(
     n = len(runs)
     all_idx = list(range(n))
     folds = [(list(tr), list(te)) for tr, te in heldout_folds(n, cv)]
+    # Terms with nothing to act on (no feed, no compared channel of their
+    # kind) are not scored: a zero term would only add noise to the ranking.
+    not_applicable = {
+        c: why for c in candidates if (why := TERMS[c]().inert(signals)) is not None
+    }
+    candidates = applicable(candidates, not_applicable)
     floor2 = floor_squared(problem)
     regimes = [
         label_regimes(r.time_s, r.spindle_rpm, r.ambient_C, r.feed_mm_min)
@@ -720,6 +777,7 @@ def diagnose_runs(
         "white_after": white_flex["white"],
     }
     report.machines = {"base calibrated": base_all}
+    report.not_applicable = not_applicable
     logger.info("Verdict: %s", report.verdict())
     return report
 

@@ -10,6 +10,7 @@ half each. The noise floor of every channel is
 estimated from second differences of its measurement.
 """
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,6 +18,7 @@ import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares
 
+from skthermal._naming import suggest
 from skthermal.simulate import EFFECTS
 
 # Base calibration. The network's time scales are set by two multipliers (all
@@ -113,6 +115,118 @@ class Problem:
         return [r.name for r in self.runs]
 
 
+# The drivers of a run table, and the measured columns that are channels.
+DRIVER_COLUMNS = ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min")
+
+
+def is_channel(column):
+    """Whether a run-table column is a channel (a temperature ``*_C`` other
+    than ``ambient_C``, or a displacement ``disp_*_um``)."""
+    column = str(column)
+    return (column.endswith("_C") and column != "ambient_C") or (
+        column.startswith("disp_") and column.endswith("_um")
+    )
+
+
+def _where(run, table):
+    return f"run {run!r}" + (f" of the {table} table" if table else "")
+
+
+def driver_values(frame, col, run, table=""):
+    """The driver ``col`` of one run as floats, checked.
+
+    Raises a ValueError naming the run (and ``table``), the row within the
+    run and the value when a value is missing or not finite, or when
+    ``spindle_rpm`` is negative.
+    """
+    values = pd.to_numeric(frame[col], errors="coerce").to_numpy(float)
+    bad = ~np.isfinite(values)
+    if col == "spindle_rpm":
+        bad |= np.isfinite(values) & (values < 0)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        what = (
+            f"is negative ({values[k]:g})"
+            if np.isfinite(values[k])
+            else f"is missing or not finite ({frame[col].iloc[k]!r})"
+        )
+        raise ValueError(
+            f"{col} {what} in {_where(run, table)} at row {k}: the drivers must "
+            "be finite"
+            + (" and spindle_rpm not negative." if col == "spindle_rpm" else ".")
+        )
+    return values
+
+
+def check_times(t, run, table=""):
+    """Raise a ValueError naming the run, the row and both times where
+    ``t`` (the run's ``time_s`` as given) does not increase strictly."""
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise ValueError(
+            f"time_s is not strictly increasing in {_where(run, table)} at row "
+            f"{k} (time_s {t[k]:g} after {t[k - 1]:g})."
+        )
+
+
+def check_finite_channels(Y, columns, t, run, table=""):
+    """Raise a ValueError naming the column, the run, the first row and its
+    time where the channels ``Y`` (``(n, len(columns))``) are missing or not
+    finite."""
+    bad = ~np.isfinite(Y)
+    if bad.any():
+        r, c = map(int, np.argwhere(bad)[0])
+        raise ValueError(
+            f"{columns[c]} is missing or not finite in {_where(run, table)} at "
+            f"row {r} (time_s {t[r]:g})."
+        )
+
+
+def _listing(names, limit=12):
+    names = [str(n) for n in names]
+    if len(names) <= limit:
+        return str(names)
+    return f"{names[:limit]}... ({len(names)} in all)"
+
+
+def check_mapping(mapping, measured_columns, simulated_columns, what):
+    """Raise a ValueError naming every ``mapping`` key that is not a measured
+    column and every value that is not among ``simulated_columns`` (``what``
+    says why, e.g. "are not columns of the simulated table")."""
+    measured_columns = list(measured_columns)
+    simulated_columns = list(simulated_columns)
+    keys = [k for k in mapping if k not in measured_columns]
+    if keys:
+        raise ValueError(
+            f"mapping key(s) {keys} are not columns of the measured runs"
+            f"{suggest(keys[0], measured_columns)}; the keys are measured "
+            "columns (its channels: "
+            f"{_listing([c for c in measured_columns if is_channel(c)])})."
+        )
+    values = [v for v in mapping.values() if v not in simulated_columns]
+    if values:
+        raise ValueError(
+            f"mapping value(s) {values} {what}"
+            f"{suggest(values[0], simulated_columns)}; the values are simulated "
+            f"channels: {_listing([c for c in simulated_columns if is_channel(c)])}."
+        )
+
+
+def warn_uncompared(measured_columns, channels, why):
+    """Warn (UserWarning) about the measured channel columns left out of the
+    comparison ``channels`` (when they were not chosen explicitly)."""
+    left = [c for c in measured_columns if is_channel(c) and c not in channels]
+    if left:
+        warnings.warn(
+            f"Measured channel(s) {_listing(left)} are not compared: {why} "
+            "them. Map them with mapping={'measured': 'simulated'}, or pass "
+            "channels= to choose the compared channels (and silence this).",
+            UserWarning,
+            stacklevel=5,
+        )
+
+
 def build_problem(
     machine, runs, *, channels=None, mapping=None, max_samples=600, block_hours=None
 ):
@@ -135,29 +249,20 @@ def build_problem(
             "The measured run table is empty (no rows): the diagnosis needs at "
             "least 2 runs with their drivers and measured channels."
         )
-    for col in ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min"):
-        if col not in runs.columns:
-            continue
-        values = pd.to_numeric(runs[col], errors="coerce").to_numpy(float)
-        bad = ~np.isfinite(values)
-        if col == "spindle_rpm":
-            bad |= values < 0
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            run = runs["run"].iloc[i]
-            row = i - int(np.flatnonzero((runs["run"] == run).to_numpy())[0])
-            what = (
-                f"is negative ({values[i]:g})"
-                if np.isfinite(values[i])
-                else f"is missing or not finite ({runs[col].iloc[i]!r})"
-            )
-            raise ValueError(
-                f"{col} {what} in run {run!r} at row "
-                f"{row}: the drivers must be finite"
-                + (" and spindle_rpm not negative." if col == "spindle_rpm" else ".")
-            )
+    frames = list(runs.groupby("run", sort=False))
+    for name, frame in frames:
+        for col in DRIVER_COLUMNS:
+            if col in frame.columns:
+                driver_values(frame, col, name)
     mapping = dict(mapping or {})
-    predicted = set(machine.targets) | set(machine.sensors)
+    predicted = list(machine.targets) + list(machine.sensors)
+    check_mapping(
+        mapping,
+        runs.columns,
+        predicted,
+        "are not channels the simulation predicts",
+    )
+    explicit = channels is not None
     if channels is None:
         channels = [c for c in runs.columns if mapping.get(c, c) in predicted]
     channels = list(channels)
@@ -176,18 +281,18 @@ def build_problem(
             f"({machine.targets} and its {len(machine.sensors)} temperature "
             "sensors); pass mapping= or channels=."
         )
+    if not explicit:
+        warn_uncompared(runs.columns, channels, "the simulation does not predict")
     sim_channels = [mapping.get(c, c) for c in channels]
     is_disp = np.array([c in machine.targets for c in sim_channels])
     prepared = []
-    for name, frame in runs.groupby("run", sort=False):
+    for name, frame in frames:
         t = frame["time_s"].to_numpy(float)
         if t.size < 3:
             raise ValueError(f"Run {name!r} has fewer than 3 samples.")
+        check_times(t, name)
         y_all = frame[channels].to_numpy(float, copy=True)
-        if not np.all(np.isfinite(y_all)):
-            raise ValueError(
-                f"Run {name!r} has missing values in the compared channels."
-            )
+        check_finite_channels(y_all, channels, t, name)
         feed = (
             frame["feed_mm_min"].to_numpy(float)
             if "feed_mm_min" in frame
@@ -226,9 +331,7 @@ def build_problem(
                 )
             )
     Y = np.vstack([r.y for r in prepared])
-    noise = pooled_noise(
-        [frame for _, frame in runs.groupby("run", sort=False)], channels
-    )
+    noise = pooled_noise([frame for _, frame in frames], channels)
     scale, weight = group_scales(Y, is_disp)
     return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
 

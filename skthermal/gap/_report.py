@@ -1,6 +1,7 @@
 """The gap report: tables, verdict, plots and files."""
 
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -143,6 +144,10 @@ class GapReport:
         The simulation calibrated on all runs, without and (when an effect
         explains the gap) with the identified effects, for
         :func:`skthermal.gap.downstream_error` and further use.
+    not_applicable : dict
+        Candidates that were not scored because they cannot change the
+        compared channels on these runs, with the reason: ``{effect:
+        reason}``.
     """
 
     ranking: pd.DataFrame
@@ -156,6 +161,7 @@ class GapReport:
     settings: dict = field(default_factory=dict)
     timelines: dict = field(default_factory=dict, repr=False)
     machines: dict = field(default_factory=dict, repr=False)
+    not_applicable: dict = field(default_factory=dict)
 
     @classmethod
     def _build(
@@ -252,6 +258,19 @@ class GapReport:
 
     def verdict(self):
         """One sentence: which effect explains the gap, or that none does."""
+        return self._verdict() + self._not_applicable_text()
+
+    def _not_applicable_text(self):
+        """The candidates not scored, as a sentence (empty when none)."""
+        if not self.not_applicable:
+            return ""
+        return (
+            " Not applicable on these runs (not scored): "
+            + "; ".join(f"{e}: {why}" for e, why in self.not_applicable.items())
+            + "."
+        )
+
+    def _verdict(self):
         fine = self.how_far_evidence
         if not fine:
             return "No candidate effect was tested."
@@ -309,6 +328,7 @@ class GapReport:
             "noise_floor": self.noise_floor,
             "how_far_evidence": self.how_far_evidence,
             "settings": self.settings,
+            "not_applicable": self.not_applicable,
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
@@ -342,8 +362,20 @@ class GapReport:
             "errors per channel are in the channel's unit.",
             "",
             "## Which effect",
-            table(self.ranking.drop(columns=[], errors="ignore")),
+            table(self.ranking),
             "",
+            *(
+                [
+                    "Not applicable on these runs (not scored): "
+                    + "; ".join(
+                        f"`{e}`: {why}" for e, why in self.not_applicable.items()
+                    )
+                    + ".",
+                    "",
+                ]
+                if self.not_applicable
+                else []
+            ),
             "## How far",
             table(self.how_far),
             "",
@@ -381,7 +413,9 @@ class GapReport:
         ] + [(f"Where: {k}", v) for k, v in self.where.items()]:
             body.append(f"<h2>{html.escape(title)}</h2>")
             body.append(
-                _with_units(df).to_html(index=False, float_format=lambda x: f"{x:.3g}")
+                _with_units(df).to_html(
+                    index=False, float_format=lambda x: f"{x:.3g}", na_rep=_NO_VALUE
+                )
             )
         return (
             "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Gap report"
@@ -397,6 +431,24 @@ class GapReport:
         return max(
             disp, key=lambda c: float(np.mean(frame[f"residual_before:{c}"] ** 2))
         )
+
+    def _timeline(self, run, channel):
+        """The run label, its timeline and the channel to plot (defaults
+        filled in); a ValueError names the valid runs or channels."""
+        runs = list(self.timelines)
+        if run is None:
+            run = runs[0]
+        elif run not in self.timelines:
+            raise ValueError(f"Unknown run {run!r}; the report's runs are {runs}.")
+        frame = self.timelines[run]
+        channels = self.settings["channels"]
+        if channel is None:
+            channel = self._default_channel(frame)
+        elif channel not in channels:
+            raise ValueError(
+                f"Unknown channel {channel!r}; the compared channels are {channels}."
+            )
+        return run, frame, channel
 
     def plot_timeline(self, run=None, channel=None, ax=None):
         """Residual timeline of a run shaded by regime, before (and after) the
@@ -419,9 +471,7 @@ class GapReport:
         """
         from skthermal.plotting import GapTimelineDisplay
 
-        run = next(iter(self.timelines)) if run is None else run
-        frame = self.timelines[run]
-        channel = channel or self._default_channel(frame)
+        run, frame, channel = self._timeline(run, channel)
         display = GapTimelineDisplay.from_arrays(
             frame["time_s"].to_numpy(),
             frame[f"residual_before:{channel}"].to_numpy(),
@@ -447,10 +497,8 @@ class GapReport:
 
     def plot_overlay(self, run=None, channel=None, ax=None):
         """Measured and simulated channel, before and after the best effect."""
+        run, frame, channel = self._timeline(run, channel)
         plt = _pyplot()
-        run = next(iter(self.timelines)) if run is None else run
-        frame = self.timelines[run]
-        channel = channel or self._default_channel(frame)
         if ax is None:
             _, ax = plt.subplots(figsize=(9, 3))
         t = frame["time_s"].to_numpy() / 3600.0
@@ -491,14 +539,32 @@ class GapReport:
             plt = _pyplot()
         except ImportError:
             return folder
-        for run in self.timelines:
+        runs = list(self.timelines)
+        for run, name in zip(runs, _file_names(runs), strict=True):
             fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
             self.plot_overlay(run, ax=axes[0])
             self.plot_timeline(run, ax=axes[1])
             fig.tight_layout()
-            fig.savefig(folder / f"timeline_{run}.png", dpi=90)
+            fig.savefig(folder / f"timeline_{name}.png", dpi=90)
             plt.close(fig)
         return folder
+
+
+def _file_names(labels):
+    """Safe, unique file-name stems for run ``labels``: characters other than
+    letters, digits, ``.``, ``-`` and ``_`` become ``_``, no leading dot (so
+    no ``..`` and no path), and a repeated stem (case-insensitively) gets
+    ``-2``, ``-3``, ..."""
+    out, seen = [], set()
+    for label in labels:
+        stem = re.sub(r"[^A-Za-z0-9._-]", "_", str(label)).lstrip(".") or "run"
+        name, k = stem, 1
+        while name.lower() in seen:
+            k += 1
+            name = f"{stem}-{k}"
+        seen.add(name.lower())
+        out.append(name)
+    return out
 
 
 _DISPLAY_UNITS = {
@@ -519,9 +585,16 @@ def _with_units(df):
     return df.rename(columns=_DISPLAY_UNITS)
 
 
+# How a table shows a value that does not exist (a candidate without a
+# fitted parameter, a regime without samples).
+_NO_VALUE = "—"
+
+
 def _gap_cell(v):
     if isinstance(v, float | np.floating):
-        return f"{v:.3g}"
+        return _NO_VALUE if np.isnan(v) else f"{v:.3g}"
+    if isinstance(v, dict) and not v:
+        return _NO_VALUE
     return str(v).replace("|", "/")
 
 

@@ -8,7 +8,7 @@ from numbers import Integral, Real
 import numpy as np
 import pandas as pd
 from scipy import stats
-from sklearn.model_selection import GroupKFold, LeaveOneGroupOut
+from sklearn.model_selection import GroupKFold, LeaveOneGroupOut, check_cv
 from sklearn.utils._param_validation import Interval
 
 # Frequency bands of the "where" analysis: (label, shortest, longest period
@@ -50,16 +50,113 @@ def excess_shrink(gap_b, gap_a, floor2):
     return float(1.0 - ex_a / ex_b) if ex_b > 0 else 0.0
 
 
+def candidate_list(candidates, vocabulary, present=()):
+    """The candidate effects to test, checked, in the vocabulary's order.
+
+    Parameters
+    ----------
+    candidates : str, sequence of str or None
+        None: every effect of ``vocabulary`` not in ``present``.
+    vocabulary : sequence of str
+        The effects the diagnosis can test.
+    present : sequence of str, default=()
+        Effects the simulation already has on (they cannot be candidates).
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    ValueError
+        For an unknown effect, an effect already on, or no candidate at all
+        (saying so when every effect of the vocabulary is already on).
+    """
+    vocabulary = list(vocabulary)
+    if candidates is None:
+        candidates = [e for e in vocabulary if e not in present]
+        if not candidates:
+            raise ValueError(
+                "Give at least one candidate effect: the simulation already has "
+                f"every effect of the vocabulary on ({list(present)}), so none is "
+                "left to test."
+            )
+    candidates = [candidates] if isinstance(candidates, str) else list(candidates)
+    unknown = [c for c in candidates if c not in vocabulary]
+    if unknown:
+        raise ValueError(
+            f"Unknown effect(s) {unknown}; the vocabulary is {vocabulary}."
+        )
+    if not candidates:
+        raise ValueError("Give at least one candidate effect.")
+    already = [c for c in candidates if c in present]
+    if already:
+        raise ValueError(
+            f"The simulation already has {already}; they cannot be candidates."
+        )
+    return [e for e in vocabulary if e in candidates]
+
+
+def applicable(candidates, not_applicable):
+    """``candidates`` without those in ``not_applicable`` (``{effect:
+    reason}``); a ValueError with every reason when none is left."""
+    left = [c for c in candidates if c not in not_applicable]
+    if not left:
+        raise ValueError(
+            "None of the candidate effects can act on these runs: "
+            + "; ".join(f"{e}: {why}" for e, why in not_applicable.items())
+            + "."
+        )
+    return left
+
+
 def heldout_folds(n_runs, cv):
     """(train, test) run indices: leave-one-run-out for up to 3 runs, else
-    3-fold GroupKFold; an int is a number of GroupKFold splits."""
+    3-fold GroupKFold; an int is a number of GroupKFold splits; a splitter
+    splits the runs (each run one group); an iterable of (train, test)
+    index arrays gives the folds over the runs (in their order in the
+    table, blocks of ``block_hours`` counting as runs)."""
     groups = np.arange(n_runs)
     if cv is None:
         cv = LeaveOneGroupOut() if n_runs <= 3 else GroupKFold(n_splits=3)
-    elif isinstance(cv, int):
-        cv = GroupKFold(n_splits=cv)
+    elif isinstance(cv, Integral) and not isinstance(cv, bool):
+        if cv > n_runs:
+            raise ValueError(
+                f"cv={cv} holds out the runs in {cv} folds, but there are only "
+                f"{n_runs} runs; give cv <= {n_runs}."
+            )
+        cv = GroupKFold(n_splits=int(cv))
+    else:
+        cv = check_cv(cv)
     X = np.zeros((n_runs, 1))
-    return [(tr, te) for tr, te in cv.split(X, groups=groups)]
+    try:
+        folds = [
+            (np.asarray(tr).ravel(), np.asarray(te).ravel())
+            for tr, te in cv.split(X, groups=groups)
+        ]
+    except (ValueError, TypeError) as exc:
+        raise ValueError(
+            f"The held-out scheme cv={cv!r} cannot split the {n_runs} runs (each "
+            f"run is one sample and one group here): "
+            f"{str(exc).replace('n_samples', 'runs')}"
+        ) from exc
+    if not folds:
+        raise ValueError(f"The held-out scheme cv={cv!r} gave no fold.")
+    for k, (tr, te) in enumerate(folds):
+        for what, idx in (("training", tr), ("held-out", te)):
+            ok = (
+                idx.size > 0
+                and np.issubdtype(idx.dtype, np.integer)
+                and idx.min() >= 0
+                and idx.max() < n_runs
+            )
+            if not ok:
+                raise ValueError(
+                    f"Fold {k} of cv has {what} runs {idx.tolist()}: every fold "
+                    f"needs at least one training and one held-out run, given as "
+                    f"run indices 0-{n_runs - 1} (runs in their order in the table)."
+                )
+    return folds
 
 
 def run_ms(R):

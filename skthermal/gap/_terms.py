@@ -174,6 +174,38 @@ class DiscrepancyTerm:
         parameters and one gain per signal and channel it acts on."""
         return len(self.bounds) + self.n_signals * int(self._mask(signals).sum())
 
+    def inert(self, signals):
+        """Why the term cannot change any compared channel of ``signals``
+        (None when it can).
+
+        It cannot when it acts on no compared channel (a temperature term
+        with only displacements compared), or when its signal is zero on
+        every run at the bounds and the middle of every parameter's range
+        (a feed term on runs without feed, a lag of a constant simulation).
+
+        Returns
+        -------
+        str or None
+        """
+        if not self.n_signals:
+            return None
+        if not self._mask(signals).any():
+            return f"it acts on {self.channels} channels and none is compared"
+        axes = [
+            (lo, float(np.sqrt(lo * hi)) if lo > 0 else 0.5 * (lo + hi), hi)
+            for lo, hi in self.bounds.values()
+        ]
+        for combo in itertools.product(*axes):
+            theta = dict(zip(self.bounds, combo, strict=True))
+            if not self._valid(theta):
+                continue
+            for run in signals.runs:
+                x = self.features(signals, run, theta)
+                tol = 1e-9 * max(1.0, float(np.max(np.abs(run.sim), initial=0.0)))
+                if np.max(np.abs(x), initial=0.0) > tol:
+                    return None
+        return "its signal is zero on every run, nothing in the runs drives it"
+
     # --- fit and apply ---------------------------------------------------------
 
     def _fixed(self, signals, i):
