@@ -463,7 +463,8 @@ def _add_gap(sub):
     p.add_argument(
         "--effects",
         metavar="LIST",
-        help="effects the simulation already has (comma list; default none)",
+        help="effects the simulation already has (comma list; default: those "
+        "a --machine file records as on, else none)",
     )
     p.add_argument(
         "--candidates",

@@ -165,6 +165,21 @@ def test_simulate_and_gap_use_a_machine_file(capsys, tmp_path, monkeypatch):
     status, text, _ = _run(capsys, "gap", "--runs", out, "--machine", machine_file)
     assert status == 0 and seen["name"] == "my-rig"
     assert "disp_ch1_um" in seen["targets"]
+    assert "(effects on: none)" in text  # the file records no switches
+
+    # A machine written with its switches (a calibrated one) is diagnosed as
+    # written; --effects still overrides.
+    from skthermal.simulate import ThermalMachine
+
+    written = tmp_path / "calibrated.toml"
+    ThermalMachine.from_spec(machine_file, effects=["sensor_lag"]).to_spec().to_toml(
+        written
+    )
+    status, text, _ = _run(capsys, "gap", "--runs", out, "--machine", written)
+    assert status == 0 and "(effects on: sensor_lag)" in text
+    argv = ["gap", "--runs", out, "--machine", written, "--effects", "none"]
+    status, text, _ = _run(capsys, *argv)
+    assert status == 0 and "(effects on: none)" in text
 
 
 def test_bad_machine_file_is_one_user_error(capsys, tmp_path):
@@ -545,3 +560,21 @@ def test_bad_option_value_is_one_line(capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "invalid int value: 'abc'" in err
+
+
+def test_missing_sensor_values_get_advice_a_command_line_user_can_follow(
+    capsys, tmp_path
+):
+    holed = tmp_path / "holed.csv"
+    pd.DataFrame(
+        {
+            "run": ["a"] * 3,
+            "time_s": [0, 60, 120],
+            "T1_C": [20.0, None, 21.0],
+            "disp_y_um": [0.0, 1.0, 2.0],
+        }
+    ).to_csv(holed, index=False)
+    argv = ["fit", "--runs", holed, "--model", "ridge", "--out", tmp_path / "m"]
+    status, _, err = _run(capsys, *argv)
+    assert status == 2 and "'T1_C' has 1 missing value" in err
+    assert "or drop those rows" in err and "allow_missing_sensors" not in err

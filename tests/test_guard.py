@@ -387,6 +387,25 @@ def test_run_column_stays_with_the_rows(train):
     np.testing.assert_allclose(pred, guard.estimator_.predict(X_run))
 
 
+@pytest.mark.parametrize("mode", ["clip", "hold"])
+def test_safe_modes_take_the_run_table_as_stored(train, spiked, mode):
+    # run and time_s columns are handed on unchanged around the held or
+    # clipped inputs: the same predictions as from the indexed table.
+    from skthermal.linear_model import UpdateRegressor
+
+    X, y = train
+    bad = spiked.copy()
+    bad.iloc[30, 0] = np.nan  # a dropout for the hold mode to bridge
+    guard = GuardedRegressor(UpdateRegressor(), mode=mode).fit(X.reset_index(), y)
+    flat = bad.reset_index()[["T1_C", "time_s", "T2_C", "run", "T3_C", "T4_C"]]
+    if mode == "clip":
+        flat = flat.dropna()
+        bad = bad.dropna()
+    pred, _ = _caught(guard.predict, flat)
+    expected, _ = _caught(guard.predict, bad)
+    np.testing.assert_allclose(pred, expected)
+
+
 # --- composition and persistence --------------------------------------------
 
 

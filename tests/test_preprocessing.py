@@ -196,6 +196,73 @@ def test_feed_is_a_driver_and_direction_does_not_matter():
     np.testing.assert_allclose(F["feed_mm_min_pow1_lp60"].iloc[5:], 2.0)
 
 
+def test_filter_with_uneven_times_and_gaps_matches_recursion():
+    rng = np.random.default_rng(1)
+    n = 400
+    steps = np.where(rng.random(n - 1) < 0.05, rng.uniform(60, 3000, n - 1), 15.0)
+    steps = steps * rng.uniform(0.95, 1.05, n - 1)  # jitter, no gap
+    t = np.r_[0.0, np.cumsum(steps)]
+    u = rng.normal(size=(n, 2)).cumsum(axis=0)
+    period = np.median(steps)
+    for tau in (2.0, 300.0, 1e5):
+        z = np.empty_like(u)
+        prev = u[0]
+        for k in range(n):
+            h = 15.0 if k == 0 else t[k] - t[k - 1]
+            a, d = np.exp(-h / tau), h / tau
+            if k and h > 1.5 * period:  # a gap: the input ramps across it
+                c = (1 - a) * u[k - 1] + (u[k] - u[k - 1]) * (1 - (1 - a) / d)
+            else:
+                c = (1 - a) * u[k]
+            prev = a * prev + c
+            z[k] = prev
+        np.testing.assert_allclose(
+            exponential_filter(u, tau, 15.0, times=t), z, rtol=1e-9, atol=1e-9
+        )
+    # Regular times: the same as one step for the run.
+    regular = np.arange(n) * 15.0
+    np.testing.assert_array_equal(
+        exponential_filter(u, 60.0, 15.0, times=regular),
+        exponential_filter(u, 60.0, 15.0),
+    )
+
+
+def test_lag_features_bridge_missing_samples():
+    # A smooth heating run sampled every 30 s; 50 minutes of it missing.
+    t = np.arange(400) * 30.0
+    T = 20.0 + 5.0 * (1.0 - np.exp(-t / 2400.0))
+    index = pd.MultiIndex.from_arrays(
+        [np.full(t.size, "a"), t], names=["run", "time_s"]
+    )
+    X = pd.DataFrame({"T1_C": T}, index=index)
+    lf = LagFeatures(time_constants=[600.0])
+    full = lf.fit_transform(X)
+    keep = np.r_[0:100, 200:400]
+    with pytest.warns(UserWarning, match=r"1 gap\(s\).*run 'a'.*lasts 3030 s"):
+        holed = lf.transform(X.iloc[keep])
+    # Across the gap the filters see the time pass: the features after it
+    # are close to those of the complete record (the input taken to ramp
+    # across the gap), unlike a gap read as one sampling period.
+    np.testing.assert_allclose(holed[100:], full[200:], atol=0.1)
+    contiguous = X.iloc[keep].copy()
+    contiguous.index = pd.MultiIndex.from_arrays(
+        [np.full(300, "a"), np.arange(300) * 30.0], names=["run", "time_s"]
+    )
+    assert np.abs(lf.transform(contiguous)[100:] - full[200:]).max() > 0.5
+
+
+def test_lag_ridge_names_a_repeated_time():
+    X = _frame()
+    t = X.index.get_level_values("time_s").to_numpy().copy()
+    t[3] = t[2]
+    X.index = pd.MultiIndex.from_arrays(
+        [X.index.get_level_values("run"), t], names=["run", "time_s"]
+    )
+    y = np.arange(len(X), dtype=float)
+    with pytest.raises(ValueError, match=r"time_s must increase.*row 3"):
+        LagRidgeCV().fit(X, y)
+
+
 def test_bad_driver_and_time_order():
     X = _frame()
     with pytest.raises(ValueError, match="'rpm'"):

@@ -42,6 +42,36 @@ def test_numeric_boolean_and_numeric_object_columns_pass():
     check_numeric_columns(np.array([["x"]], dtype=object))  # arrays: left to numpy
 
 
+@pytest.mark.parametrize(
+    "labels, message",
+    [
+        # Sorted by time, runs interleaved: string labels are named like
+        # numbers.
+        (["a", "b", "a", "b"], r"rows of run 'a' are not contiguous"),
+        ([0, 1, 0, 1], r"rows of run 0 are not contiguous"),
+        (np.array(["a", None, "a", "a"], dtype=object), r"Row 1 has no run label"),
+        (np.array(["a", "a", np.nan, np.nan], dtype=object), r"Row 2 has no run"),
+        ([1.0, 1.0, np.nan, 2.0], r"Row 2 has no run label"),
+        (
+            np.array(["R0", "R0", 1, 1], dtype=object),
+            r"Run labels mix kinds: row 0 has 'R0' \(string\), row 2 has 1",
+        ),
+    ],
+)
+def test_bad_run_labels_are_named(labels, message):
+    with pytest.raises(ValueError, match=message):
+        run_slices(labels)
+
+
+def test_datetime_times_are_an_error_not_nanoseconds():
+    t = pd.Timestamp("2024-01-01") + pd.to_timedelta([0, 60, 120], unit="s")
+    df = pd.DataFrame({"run": "r", "time_s": t, "T1": [20.0, 20.5, 21.0]})
+    with pytest.raises(ValueError, match=r"'time_s' holds datetime64.*seconds"):
+        extract_runs(df)
+    with pytest.raises(ValueError, match=r"'time_s' holds timedelta64"):
+        extract_runs(df.assign(time_s=t - t[0]))
+
+
 def test_time_going_backwards_is_an_error():
     df = table([0.0, 15.0, 10.0], ["a", "a", "a"])
     X, groups = extract_runs(df)
@@ -142,3 +172,38 @@ def test_sequence_models_continue_a_training_run(name):
         model.predict(table.iloc[10:])
     with pytest.warns(UserWarning, match="not 0"):
         model.predict(table.iloc[cut:].assign(run="new"))
+
+
+@pytest.mark.parametrize("name", list(_sequence_models()))
+def test_sequence_models_refuse_rows_out_of_time_order(name):
+    # Rows of a run shuffled: the run start would be a random row.
+    model = _sequence_models()[name]
+    table, y, cut = _split_record()
+    order = np.r_[1, 0, 2:cut]
+    with pytest.raises(ValueError, match="time_s must increase"):
+        model.fit(table.iloc[order], y[order])
+    model.fit(table.iloc[:cut], y[:cut])
+    with pytest.raises(ValueError, match="time_s must increase"):
+        model.predict(table.iloc[order].assign(run="new"))
+
+
+@pytest.mark.parametrize("dtype", ["float64", "Float64"])
+def test_missing_reading_is_named_with_its_run_and_time(dtype):
+    df = pd.DataFrame(
+        {
+            "run": ["a"] * 3 + ["b"] * 3,
+            "time_s": [0.0, 60.0, 120.0] * 2,
+            "T1_C": [20.0, 20.5, 21.0, 20.0, 20.2, 20.4],
+            "T2_C": [19.0, 19.1, 19.2, 19.0, 19.1, 19.2],
+        }
+    ).astype({"T2_C": dtype})
+    df.loc[4, "T2_C"] = np.nan if dtype == "float64" else pd.NA
+    with pytest.raises(
+        ValueError, match=r"'T2_C' is missing \(NaN\) at row 4, run 'b', time_s=60"
+    ):
+        extract_runs(df)
+    df.loc[4, "T2_C"] = np.inf
+    with pytest.raises(ValueError, match=r"'T2_C' is inf at row 4"):
+        extract_runs(df)
+    X, _ = extract_runs(df, finite=False)  # models that bridge dropouts
+    assert X.shape == (6, 2)

@@ -138,3 +138,31 @@ def test_warns_when_run_labels_are_dropped():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         model.predict(X.to_numpy(), groups=runs)
+
+
+def test_the_fitted_sampling_period_serves_rows_without_times():
+    X, y = _heating_runs()
+    model = TransferFunctionRegressor(speed_column="spindle_rpm").fit(X, y)
+    assert model.sample_period_s_ == 10.0
+    whole = model.predict(X)
+    # The same rows without their times, or a new run's first row alone,
+    # are predicted with the fitted period, not one second per row.
+    bare = X.reset_index(level="time_s", drop=True)
+    np.testing.assert_allclose(model.predict(bare), whole)
+    new = X.loc[["r1"]].rename(index={"r1": "new"})
+    first = model.predict(new.iloc[:1])
+    np.testing.assert_allclose(first, model.predict(new)[:1])
+    np.testing.assert_allclose(first, whole[720:721])
+    with pytest.warns(UserWarning, match="no time_s.*counted in rows"):
+        TransferFunctionRegressor().fit(X.to_numpy(), y.to_numpy())
+
+
+def test_a_training_run_continued_after_a_hole():
+    X, y = _heating_runs()
+    model = TransferFunctionRegressor(speed_column="spindle_rpm").fit(
+        X.iloc[:300], y.iloc[:300]
+    )
+    whole = model.predict(X.loc[["r0"]])
+    # Rows 300-399 missing: the lags decay over the 1000 s in between.
+    tail = model.predict(X.loc[["r0"]].iloc[400:])
+    assert np.abs(tail - whole[400:]).max() < 0.02 * np.ptp(whole)

@@ -343,3 +343,16 @@ def test_takes_the_run_table_as_stored():
     bad.loc[4, "T2_C"] = "open"
     with pytest.raises(ValueError, match="'T2_C'.*'open'"):
         UpdateRegressor().fit(bad, y)
+
+
+def test_groups_are_taken_like_every_run_aware_regressor():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(12, 3))
+    y = X @ np.array([1.0, -2.0, 0.5])
+    groups = np.repeat(["a", "b"], 6)
+    model = UpdateRegressor(alpha=1.0).fit(X, y, groups=groups)
+    np.testing.assert_allclose(
+        model.predict(X, groups=groups), UpdateRegressor(alpha=1.0).fit(X, y).predict(X)
+    )
+    with pytest.raises(ValueError, match="3 run labels"):
+        model.fit(X, y, groups=groups[:3])

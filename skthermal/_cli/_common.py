@@ -31,6 +31,11 @@ def split_list(value):
     return out
 
 
+# The hint of skthermal.datasets.validate_runs for missing sensor values that
+# only a Python caller can follow.
+_PYTHON_ONLY = "or pass allow_missing_sensors=True"
+
+
 def read_table(path, what="--runs"):
     """Read and validate a run table, naming the option on failure."""
     from skthermal.datasets import read_runs
@@ -51,6 +56,9 @@ def read_table(path, what="--runs"):
         ) from exc
     except (ValueError, ImportError, pd.errors.ParserError) as exc:
         message = str(exc)
+        if _PYTHON_ONLY in message:
+            # validate_runs' way out is a Python argument; none here.
+            message = message.replace(_PYTHON_ONLY, "or drop those rows")
         if str(path) not in message:
             message = f"{path}: {message}"
         raise UserError(f"{what}: {message}") from exc

@@ -93,7 +93,14 @@ def cmd_gap(args):
     log_progress(args.quiet)
 
     df = read_table(args.runs)
-    machine = machine_from_args(args, effects=parse_effects(args.effects) or [])
+    effects = parse_effects(args.effects)
+    machine = machine_from_args(args, effects=[] if effects is None else effects)
+    if effects is None and getattr(args, "machine", None) is not None:
+        # A machine file that records its effect switches (a calibrated
+        # machine written by to_spec) is diagnosed as written.
+        recorded = machine.spec.effects
+        if recorded:
+            machine = machine.with_effects([e for e, on in recorded.items() if on])
     candidates = parse_effects(args.candidates)
     print(
         f"Diagnosing {args.runs} ({df['run'].nunique()} run(s)) against "

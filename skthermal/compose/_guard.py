@@ -312,7 +312,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         self : GuardedRegressor
         """
-        features, runs = extract_runs(X, groups)
+        features, runs = extract_runs(X, groups, finite=False)
         A, Y = validate_data(
             self, features, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
@@ -443,7 +443,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     def _guard(self, X, groups):
         check_is_fitted(self)
-        features, runs = extract_runs(X, groups)
+        features, runs = extract_runs(X, groups, finite=False)
         A = validate_data(
             self, features, reset=False, dtype=np.float64, ensure_all_finite=False
         )
@@ -627,12 +627,17 @@ def _with_values(X, B):
     """``X`` with its input values replaced by ``B`` (index, run column kept)."""
     if not isinstance(X, pd.DataFrame):
         return B
-    if RUN_COLUMN in X.columns:
-        features = X.drop(columns=RUN_COLUMN)
-        out = pd.DataFrame(B, index=X.index, columns=features.columns)
-        out.insert(X.columns.get_loc(RUN_COLUMN), RUN_COLUMN, X[RUN_COLUMN])
-        return out
-    return pd.DataFrame(B, index=X.index, columns=X.columns)
+    # The run table's run and time columns are not inputs: kept as they are,
+    # in their places.
+    kept = sorted(
+        (c for c in (RUN_COLUMN, TIME_COLUMN) if c in X.columns),
+        key=X.columns.get_loc,
+    )
+    features = [c for c in X.columns if c not in kept]
+    out = pd.DataFrame(B, index=X.index, columns=features)
+    for c in kept:
+        out.insert(X.columns.get_loc(c), c, X[c])
+    return out
 
 
 def _reasons(flags, out_band, sensors, n):

@@ -29,6 +29,7 @@ from skthermal.datasets._runtable import (
 from skthermal.utils._runs import (
     RUN_COLUMN,
     changes_since_start,
+    check_time_order,
     continued_runs,
     continued_values,
     extract_runs,
@@ -281,6 +282,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             self, X_raw, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
         modules = self._resolve_modules()
+        if self.relative:
+            check_time_order(X_raw, groups)
         slices, labels = run_slices(groups, X.shape[0])
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = len(slices) if self.relative and groups is not None else None
@@ -425,6 +428,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         )
         bases = None
         if self.relative:
+            check_time_order(X_raw, groups)
             slices, labels = run_slices(groups, X.shape[0])
             memory = getattr(self, "run_states_", {})
             cont = continued_runs(

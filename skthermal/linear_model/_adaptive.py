@@ -162,7 +162,7 @@ def _stream_inputs(model, runs, target, sensors, relative):
             f"The model expects {n_in} inputs but {len(sensors)} sensors were given."
         )
     labels = [RUN_COLUMN] if RUN_COLUMN in runs.columns else []
-    features, groups = extract_runs(runs[[*sensors, *labels]])
+    features, groups = extract_runs(runs[[*sensors, *labels]], finite=False)
     slices, _ = run_slices(groups, len(runs))
     X = features.to_numpy(dtype=float)
     y = runs[target].to_numpy(dtype=float)

@@ -20,12 +20,15 @@ from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
     changes_since_start,
     continued_runs,
+    continued_steps,
     continued_values,
     extract_runs,
+    row_times,
     run_memory,
     run_sample_periods,
     run_slices,
     run_times,
+    warn_no_time,
     warn_unlabelled_runs,
 )
 
@@ -34,7 +37,7 @@ from skthermal.utils._runs import (
 _DT_RTOL = 0.01
 
 
-def first_order_lags(U, time_constants, dt, slices, state=None):
+def first_order_lags(U, time_constants, dt, slices, state=None, times=None):
     """Discrete first-order lags of the columns of ``U``, restarting per run.
 
     ``z[k] = a z[k-1] + (1 - a) u[k]`` with ``a = exp(-dt / tau)`` and
@@ -55,6 +58,9 @@ def first_order_lags(U, time_constants, dt, slices, state=None):
     state : sequence, optional
         Per run, the lag outputs before its first row, to continue it, or
         None (from rest); see :func:`skthermal.preprocessing.exponential_filter`.
+    times : ndarray of shape (n_samples,), optional
+        Time of every row; ``dt`` is then the step before each run's first
+        row (see :func:`skthermal.preprocessing.exponential_filter`).
 
     Returns
     -------
@@ -76,6 +82,7 @@ def first_order_lags(U, time_constants, dt, slices, state=None):
         slices,
         initial="rest",
         state=state,
+        times=times,
     )
 
 
@@ -289,14 +296,15 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         return np.unique(positions)
 
     def _intervals(self, X_raw, groups, slices, labels):
-        """Sampling interval of every run."""
+        """Sampling interval of every run (a run without times, e.g. of one
+        row: the fitted period; in ``fit`` without times: 1)."""
         if self.dt is not None:
             return np.full(len(slices), float(self.dt))
         return run_sample_periods(
             X_raw,
             groups,
             slices,
-            1.0,
+            getattr(self, "sample_period_s_", 1.0),
             labels=labels,
             regular="TransferFunctionRegressor",
             rtol=_DT_RTOL,
@@ -310,16 +318,17 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         U[:, speed] = np.abs(X[:, speed]) ** self.speed_exponent
         return U
 
-    def _features(self, U, log_tau, dts, slices, state=None):
+    def _features(self, U, log_tau, dts, slices, state=None, times=None):
         tau = np.exp(log_tau).reshape(-1)
         return first_order_lags(
-            np.repeat(U, self.order, axis=1), tau, dts, slices, state
+            np.repeat(U, self.order, axis=1), tau, dts, slices, state, times
         )
 
-    def _lag_states(self, U, dts, slices, states=None):
+    def _lag_states(self, U, dts, slices, states=None, times=None):
         """Lag features of every output (a list), given the lag outputs
         before each run (``states``: per run, None or an array (n_outputs,
-        n_lags) of a continued run)."""
+        n_lags) of a continued run; ``dts`` is then the step before each
+        run's first row when ``times`` are given)."""
         taus = self.time_constants_.reshape(-1, U.shape[1] * self.order)
         states = [None] * len(slices) if states is None else states
         return [
@@ -329,6 +338,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 dts,
                 slices,
                 [None if st is None else st[k] for st in states],
+                times,
             )
             for k, tau in enumerate(taus)
         ]
@@ -472,7 +482,9 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         slices, labels = run_slices(groups, X.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
         self.speed_columns_ = self._speed_positions()
+        warn_no_time(type(self).__name__, X_raw, self.dt)
         dts = self._intervals(X_raw, groups, slices, labels)
+        self.sample_period_s_ = float(np.median(dts))
         if self.tau_bounds is None:
             longest = max((sl.stop - sl.start) * d for sl, d in zip(slices, dts))
             # A lag much slower than the longest run cannot be told from a
@@ -549,12 +561,16 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         )
         U = self._inputs(X, slices, continued_values(cont, memory, "x_first"))
         states = continued_values(cont, memory, "state")
+        times = row_times(X_raw)
+        dts = continued_steps(dts, slices, times, cont, memory)
         coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
         out = np.column_stack(
             [
                 F @ coef
                 for F, coef in zip(
-                    self._lag_states(U, dts, slices, states), coefs, strict=True
+                    self._lag_states(U, dts, slices, states, times),
+                    coefs,
+                    strict=True,
                 )
             ]
         ) + np.atleast_1d(self.intercept_)

@@ -22,7 +22,7 @@ from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skthermal.utils._runs import extract_runs
+from skthermal.utils._runs import extract_runs, run_slices
 
 
 def _design(X):
@@ -251,10 +251,14 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     return int(np.argmax(ok)) + 1 if ok.any() else None
 
 
-def _features(X):
+def _features(X, groups=None):
     """``X`` without the run table's ``run`` and ``time_s`` columns: the
-    model is static, but takes a run table as stored."""
-    return extract_runs(X)[0]
+    model is static, but takes a run table as stored (the labels are
+    checked, then not used)."""
+    X, groups = extract_runs(X, groups)
+    if groups is not None:
+        run_slices(groups, X.shape[0])
+    return X
 
 
 class UpdateRegressor(RegressorMixin, BaseEstimator):
@@ -348,7 +352,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         return tags
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def fit(self, X, y):
+    def fit(self, X, y, *, groups=None):
         """Fit the model by ridge regression.
 
         Parameters
@@ -357,13 +361,22 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
             Temperatures, usually changes since the start of each run.
         y : array-like of shape (n_samples,) or (n_samples, n_targets)
             Thermal error(s).
+        groups : array-like of shape (n_samples,), optional
+            Run labels. The model is static (rows are independent), so they
+            are only checked; accepted so that every skthermal regressor
+            takes the same call.
 
         Returns
         -------
         self : object
         """
         X, y = validate_data(
-            self, _features(X), y, multi_output=True, y_numeric=True, dtype=np.float64
+            self,
+            _features(X, groups),
+            y,
+            multi_output=True,
+            y_numeric=True,
+            dtype=np.float64,
         )
         coef = ridge_coef(
             X,
@@ -427,19 +440,21 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         path = np.swapaxes(path, 1, 2)
         return path[:, 0, :] if self._y_ndim == 1 else path
 
-    def predict(self, X):
+    def predict(self, X, *, groups=None):
         """Predicted thermal error.
 
         Parameters
         ----------
         X : {array-like, DataFrame} of shape (n_samples, n_features)
+        groups : array-like of shape (n_samples,), optional
+            Run labels, only checked (see :meth:`fit`).
 
         Returns
         -------
         y_pred : ndarray of shape (n_samples,) or (n_samples, n_targets)
         """
         check_is_fitted(self)
-        X = validate_data(self, _features(X), reset=False, dtype=np.float64)
+        X = validate_data(self, _features(X, groups), reset=False, dtype=np.float64)
         return X @ self.coef_.T + self.intercept_
 
     def _new_samples(self, X, y, *, first, hint=""):

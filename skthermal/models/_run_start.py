@@ -10,6 +10,7 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
+    check_time_order,
     continued_runs,
     continued_values,
     driver_positions,
@@ -145,6 +146,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         self : RunStartRegressor
         """
         X, groups = extract_runs(X, groups)
+        check_time_order(X, groups)
         A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         slices, labels = run_slices(groups, A.shape[0])
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
@@ -181,6 +183,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self, "estimator_")
         X, groups = extract_runs(X, groups)
+        check_time_order(X, groups)
         A = validate_data(self, X, reset=False, dtype=np.float64)
         warn_unlabelled_runs(
             type(self).__name__, getattr(self, "_fit_runs", None), groups, A.shape[0]

@@ -432,7 +432,7 @@ default=None
         if groups is None:
             groups = _index_level(y, RUN_COLUMN)
             if groups is None:  # a run column or index level, as estimators read it
-                groups = extract_runs(X)[1]
+                groups = extract_runs(X, finite=False)[1]
         if target_name is None:
             target_name = getattr(y, "name", None)
         if estimator_name is None:

@@ -1,5 +1,6 @@
 """Ridge on lag features, with settings chosen by time-ordered CV."""
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -9,11 +10,13 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skthermal.preprocessing._lags import LagFeatures
+from skthermal.preprocessing._lags import GAP_BRIDGE, LagFeatures
 from skthermal.utils._runs import (
+    check_time_order,
     extract_runs,
     has_time_index,
     run_slices,
+    warn_gaps,
     warn_no_time,
     warn_unlabelled_runs,
 )
@@ -108,8 +111,25 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         Driver columns, see :class:`LagFeatures`.
     try_without_drivers : bool, default=True
         Also try every candidate without the drivers.
+    relative : bool or "auto", default="auto"
+        Temperatures as changes since each run's start (True) or as read
+        (False). ``"auto"``: with several runs, chosen by the CV; with one
+        run, changes (both fit a single run alike, as they differ by a
+        constant; changes keep a new run that starts warmer or colder from
+        an offset).
+    driver_initial : {"steady", "rest"}, default="steady"
+        State of the drivers' filters before each run, see
+        :class:`LagFeatures`.
     alphas : array-like of float, default=None
         Candidate ridge penalties; ``None`` means ``np.logspace(-2, 5, 15)``.
+    cv : {"auto", "forward", "blocks", "runs"}, default="auto"
+        Folds: expanding-window (``"forward"``), contiguous blocks left out
+        (``"blocks"``) or whole runs left out (``"runs"``). ``"auto"``:
+        ``"runs"`` with several runs, else ``"forward"``.
+    selection : {"min", "1se"}, default="min"
+        The least total validation error, or the one-standard-error rule
+        (the largest penalty, then the fewest features, within one standard
+        error of the least).
     n_splits : int, default=4
         Number of folds.
     first_fraction : float, default=0.4
@@ -266,8 +286,18 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             dt = 1.0
         y = np.asarray(y, dtype=float)
         n = y.shape[0]
-        slices, _ = run_slices(groups, n)
+        slices, labels = run_slices(groups, n)
         self.n_fitted_runs_ = None if groups is None else len(slices)
+        check_time_order(X_raw, groups)
+        # Once here, not once per candidate (silenced below).
+        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
+            return self._fit(X_raw, y, groups, slices, sets, dt)
+
+    def _fit(self, X_raw, y, groups, slices, sets, dt):
+        """The CV over the candidate settings and the refit of ``fit``."""
+        n = y.shape[0]
         alphas = (
             np.logspace(-2, 5, 15)
             if self.alphas is None
@@ -289,7 +319,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         if self.relative == "auto":
             # Within one run both give the same fit (they differ by a
             # constant); only between runs can the data tell them apart.
-            relatives = (True, False) if len(slices) > 1 else (False,)
+            # With one run, changes: a new run starting warmer or colder is
+            # then not predicted with an offset.
+            relatives = (True, False) if len(slices) > 1 else (True,)
         else:
             relatives = (bool(self.relative),)
         cands = []
@@ -304,8 +336,12 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         for taus, use, rel in cands:
             try:
                 lf = self._features(taus, use, rel, dt).fit(X_raw, groups=groups)
-            except ValueError:
-                continue  # e.g. no features (no changes, no filters)
+            except ValueError as exc:
+                # A candidate without features (no filters, every column a
+                # driver) is skipped; anything else is the input's fault.
+                if "would produce no features" not in str(exc):
+                    raise
+                continue
             if use and self.drivers is not None and lf.driver_indices_.size == 0:
                 if (taus, False, rel) in cands:
                     continue  # same model as without drivers
@@ -362,7 +398,12 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         )
         if groups is None and self.n_fitted_runs_ is not None:
             groups = np.zeros(X_arr.shape[0])  # one run, as just warned
-        F = self.lag_features_.transform(X_raw, groups=groups)
+        with warnings.catch_warnings():
+            # LagFeatures names itself; the user called LagRidgeCV.
+            warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
+            F = self.lag_features_.transform(X_raw, groups=groups)
+        slices, labels = run_slices(groups, X_arr.shape[0])
+        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         return self.ridge_.predict(self.scaler_.transform(F))
 
 

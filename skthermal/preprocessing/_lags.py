@@ -15,22 +15,26 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
+    GAP_STEPS,
     changes_since_start,
     continued_runs,
+    continued_steps,
     continued_values,
     driver_positions,
     extract_runs,
+    row_times,
     run_memory,
     run_sample_periods,
     run_slices,
     run_times,
+    warn_gaps,
     warn_no_time,
     warn_unlabelled_runs,
 )
 
 
 def exponential_filter(
-    U, time_constant, dt, slices=None, *, initial="steady", state=None
+    U, time_constant, dt, slices=None, *, initial="steady", state=None, times=None
 ):
     """First-order exponential (low-pass) filter, restarting at every run.
 
@@ -59,6 +63,16 @@ def exponential_filter(
         ``(n_features,)``), e.g. the last output of the same run's earlier
         rows, to continue it; None (or non-finite values) starts that run as
         ``initial`` says. An array of shape (n_runs, n_features) works too.
+    times : array-like of shape (n_samples,), optional
+        Time of every row (seconds). Each row's step is then the time since
+        the row before (``a`` varies from row to row), so uneven sampling is
+        filtered exactly; a step longer than 1.5 times the run's median step
+        is a gap (missing samples), across which the input is taken to
+        change linearly (the filter's exact response to that ramp). ``dt``
+        is then only the step before each run's first row (which matters
+        for ``initial="rest"`` and for a ``state``: the time since the
+        state's sample). Runs whose steps are all equal are filtered as
+        without ``times``.
 
     Returns
     -------
@@ -74,6 +88,13 @@ def exponential_filter(
     >>> z = exponential_filter(np.ones(3), 1.0, 1.0, initial="rest")
     >>> np.round(z, 3).tolist()
     [0.632, 0.865, 0.95]
+
+    Uneven steps, and a gap over which the input ramps from 1 to 3:
+
+    >>> z = exponential_filter(np.r_[0.0, 1.0, 1.0, 3.0], 1.0, 1.0,
+    ...                        times=[0, 1, 1.5, 4.5])
+    >>> np.round(z, 3).tolist()
+    [0.0, 0.632, 0.777, 2.355]
     """
     U = np.asarray(U, dtype=float)
     if initial not in ("steady", "rest"):
@@ -105,19 +126,94 @@ def exponential_filter(
     # One lfilter call per run and distinct time constant: the columns that
     # share it are filtered together along the time axis.
     uniq, which = np.unique(np.broadcast_to(taus, (U2.shape[1],)), return_inverse=True)
+    if times is not None:
+        times = np.asarray(times, dtype=float).ravel()
+        if times.shape[0] != U2.shape[0]:
+            raise ValueError(
+                f"times must hold one time per row ({U2.shape[0]}), got "
+                f"{times.shape[0]}."
+            )
     Z = np.empty_like(U2)
     for r, (sl, step) in enumerate(zip(slices, dts, strict=True)):
         if sl.stop <= sl.start:
             continue
+        # The step between the run's rows; None: they vary (``times``),
+        # and ``gap`` marks the steps over GAP_STEPS sampling periods.
+        inner, steps = float(step), None
+        if times is not None and sl.stop - sl.start > 1:
+            d = np.diff(times[sl])
+            if np.all(np.abs(d - d[0]) <= 1e-9 * abs(d[0])):
+                inner = float(d[0])
+            else:
+                steps = d
+                gap = np.concatenate(([False], d > GAP_STEPS * np.median(d)))
         for j, tau in enumerate(uniq):
-            a = float(np.exp(-step / tau))
             cols = np.flatnonzero(which == j)
             u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
-            zi = a * u[:1] if initial == "steady" else np.zeros_like(u[:1])
+            z0 = u[0] if initial == "steady" else np.zeros(u.shape[1])
             if state[r] is not None and np.all(np.isfinite(state[r][cols])):
-                zi = a * state[r][cols][None, :]
-            Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
+                z0 = state[r][cols]
+            if steps is not None:
+                decay = np.concatenate(([step], steps)) / tau
+                Z[sl, cols] = _varying_lowpass(u, decay, z0, gap)
+                continue
+            a0 = float(np.exp(-step / tau))  # before the first row
+            a = a0 if inner == step else float(np.exp(-inner / tau))
+            zi = a0 * z0[None, :]
+            if a == a0:
+                Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
+                continue
+            first = zi[0] + (1.0 - a0) * u[0]
+            Z[sl.start, cols] = first
+            if u.shape[0] > 1:
+                Z[sl.start + 1 : sl.stop, cols] = lfilter(
+                    [1.0 - a], [1.0, -a], u[1:], axis=0, zi=a * first[None, :]
+                )[0]
     return Z.reshape(U.shape)
+
+
+# What the lag filters do across a gap in the times (for the warning).
+GAP_BRIDGE = (
+    "filters across them exactly, taking the inputs to change linearly over each gap"
+)
+# Largest decay (step / time constant) of one step, and of one block of
+# _varying_lowpass: exp(-40) is below the rounding of float64, and exp(80)
+# is far from overflow.
+_MAX_DECAY = 40.0
+
+
+def _varying_lowpass(u, decay, z0, gap):
+    """``z[k] = a[k] z[k-1] + c[k]``, ``a = exp(-decay)``, ``z[-1] = z0``.
+
+    On a sampled step ``c[k] = (1 - a[k]) u[k]`` (the input held over the
+    step, as with a constant step); across a gap (``gap[k]``) the input
+    changes linearly from ``u[k-1]`` to ``u[k]``, the exact response of the
+    filter to that ramp: ``c = (1 - a) u[k-1] + (u[k] - u[k-1]) (1 - (1 - a)
+    / decay)``. Evaluated in closed form, with ``S`` the cumulated decay,
+    ``z[k] = exp(-S[k]) (z0 + sum_j exp(S[j]) c[j])``, in blocks of at most
+    ``_MAX_DECAY`` of decay so that the exponentials stay in range.
+    """
+    d = np.minimum(decay, _MAX_DECAY)
+    gain = -np.expm1(-d)  # 1 - a
+    c = gain[:, None] * u
+    if gap.any():
+        k = np.flatnonzero(gap)
+        ramp = 1.0 - gain[k] / np.maximum(decay[k], 1e-300)
+        du = u[k] - u[k - 1]
+        c[k] = gain[k, None] * u[k - 1] + ramp[:, None] * du
+    S = np.cumsum(d)
+    block = np.floor(S / _MAX_DECAY).astype(int)
+    edges = np.flatnonzero(np.diff(block)) + 1
+    starts = np.concatenate(([0], edges))
+    stops = np.concatenate((edges, [u.shape[0]]))
+    z = np.empty_like(u)
+    prev = np.asarray(z0, dtype=float)
+    for a, b in zip(starts, stops, strict=True):
+        ref = S[a] - d[a]  # cumulated decay before the block's first row
+        E = np.exp(S[a:b] - ref)[:, None]
+        z[a:b] = (prev + np.cumsum(E * c[a:b], axis=0)) / E
+        prev = z[b - 1]
+    return z
 
 
 class LagFeatures(TransformerMixin, BaseEstimator):
@@ -267,6 +363,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self.n_fitted_runs_ = None if groups is None else len(slices)
         warn_no_time(type(self).__name__, X_raw, self.dt, self._taus())
         self.sample_period_s_ = float(np.median(self._spacing(X_raw, groups, slices)))
+        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         self.driver_indices_ = driver_positions(
             self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
         )
@@ -284,7 +381,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # outputs.
         memory = run_memory(X_arr, slices, labels, run_times(X_raw, slices))
         if memory:
-            F = self._compute(X_arr, slices, self._spacing(X_raw, groups, slices))
+            F = self._compute(
+                X_arr,
+                slices,
+                self._spacing(X_raw, groups, slices),
+                times=row_times(X_raw),
+            )
             skip = n_temp if self.include_changes else 0
             for sl, lab in zip(slices, labels, strict=True):
                 if lab in memory:
@@ -300,10 +402,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             X_raw, groups, slices, 1.0 if default is None else default
         )
 
-    def _compute(self, X_arr, slices, dts, bases=None, states=None):
+    def _compute(self, X_arr, slices, dts, bases=None, states=None, times=None):
         """The features. Per run, ``bases``: the first row of the training
         run it continues (None: its own first row); ``states``: the filters'
-        outputs before it (None: a fresh start)."""
+        outputs before it (None: a fresh start); ``dts``: the step before its
+        first row. ``times``: every row's time (missing samples and uneven
+        steps are then filtered exactly), or None."""
         taus = self._taus()
         temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
         T = X_arr[:, temp]
@@ -324,7 +428,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             width = U.shape[1]
             state = [None if st is None else st[start : start + width] for st in states]
             blocks.append(
-                exponential_filter(U, tau, dts, slices, initial=initial, state=state)
+                exponential_filter(
+                    U, tau, dts, slices, initial=initial, state=state, times=times
+                )
             )
             start += width
         return np.hstack(blocks)
@@ -352,6 +458,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             X_arr.shape[0],
         )
         slices, labels = run_slices(groups, X_arr.shape[0])
+        dts = self._spacing(X_raw, groups, slices)  # checks the time order
+        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
             type(self).__name__,
@@ -363,9 +471,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         )
         bases = continued_values(cont, memory, "x_first")
         states = continued_values(cont, memory, "state")
-        return self._compute(
-            X_arr, slices, self._spacing(X_raw, groups, slices), bases, states
-        )
+        times = row_times(X_raw)
+        dts = continued_steps(dts, slices, times, cont, memory)
+        return self._compute(X_arr, slices, dts, bases, states, times)
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).

@@ -70,7 +70,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         -------
         self : object
         """
-        X, groups = extract_runs(X, groups)
+        X, groups = extract_runs(X, groups, finite=False)
         check_time_order(X, groups)
         X, y = validate_data(
             self,
@@ -127,7 +127,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         -------
         X_selected : ndarray or DataFrame of shape (n_samples, n_selected)
         """
-        X, _ = extract_runs(X)
+        X, _ = extract_runs(X, finite=False)
         return super().transform(X)
 
 

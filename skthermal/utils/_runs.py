@@ -59,17 +59,22 @@ def run_slices(groups, n_samples=None):
         )
     if groups.shape[0] == 0:
         return [], []
+    _check_labels(groups)
     change = np.flatnonzero(groups[1:] != groups[:-1]) + 1
     starts = np.concatenate(([0], change))
     stops = np.concatenate((change, [groups.shape[0]]))
-    labels = groups[starts]
+    labels = groups[starts].tolist()
     # A label that starts more than one block means the run is split up.
-    uniq, counts = np.unique(labels, return_counts=True)
-    if np.any(counts > 1):
-        bad = uniq[counts > 1][0].item()
+    seen, bad = set(), None
+    for lab in labels:
+        if lab in seen:
+            bad = lab
+            break
+        seen.add(lab)
+    if bad is not None:
         blocks = [
             f"rows {a}-{b - 1}"
-            for a, b, lab in zip(starts, stops, labels.tolist(), strict=True)
+            for a, b, lab in zip(starts, stops, labels, strict=True)
             if lab == bad
         ]
         raise ValueError(
@@ -77,7 +82,38 @@ def run_slices(groups, n_samples=None):
             "sort the table by run and time so that each run is one block."
         )
     slices = [slice(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
-    return slices, labels.tolist()
+    return slices, labels
+
+
+def _check_labels(groups):
+    """Raise a ValueError naming the first row whose run label is missing
+    (None, NaN) or of another kind than the first row's (a number among
+    strings)."""
+    import pandas as pd
+
+    missing = pd.isna(groups)
+    if missing.any():
+        i = int(np.flatnonzero(missing)[0])
+        raise ValueError(
+            f"Row {i} has no run label (it is missing: None or NaN); every "
+            "row needs the label of the run (test) it belongs to."
+        )
+    if groups.dtype != object or pd.api.types.infer_dtype(groups) not in (
+        "mixed",
+        "mixed-integer",
+    ):
+        return
+
+    def kind(v):
+        return "string" if isinstance(v, str) else type(v).__name__
+
+    first = kind(groups[0])
+    i = next(i for i, v in enumerate(groups.tolist()) if kind(v) != first)
+    raise ValueError(
+        f"Run labels mix kinds: row 0 has {groups[0]!r} ({first}), row {i} has "
+        f"{groups[i]!r} ({kind(groups[i])}); give every run the same kind of "
+        "label (e.g. all strings)."
+    )
 
 
 def run_first_rows(groups, n_samples):
@@ -109,7 +145,7 @@ def run_first_rows(groups, n_samples):
     )
 
 
-def extract_runs(X, groups=None):
+def extract_runs(X, groups=None, *, finite=True):
     """Separate run labels (and times) from the features of ``X``.
 
     The labels are taken, in this order, from ``groups``, from a ``run`` column
@@ -122,6 +158,17 @@ def extract_runs(X, groups=None):
     which is where the time-aware estimators read it, as from
     :func:`skthermal.datasets.split_runs`.
 
+    Parameters
+    ----------
+    X : array-like or DataFrame
+    groups : array-like of shape (n_samples,), optional
+    finite : bool, default=True
+        Whether a DataFrame's feature values must be finite (NaN, a missing
+        value or inf is then an error naming the column, the row, its run
+        and its time). Estimators that handle missing readings themselves
+        pass False. Plain arrays are left to
+        :func:`sklearn.utils.validation.validate_data`.
+
     Returns
     -------
     X : array-like
@@ -133,7 +180,7 @@ def extract_runs(X, groups=None):
     ValueError
         If a feature column of a DataFrame is not numeric, or a ``time_s``
         column holds something other than numbers (naming the column and an
-        offending value).
+        offending value), or (``finite``) a feature value is not finite.
     """
     columns = getattr(X, "columns", None)
     has_column = columns is not None and RUN_COLUMN in list(columns)
@@ -151,6 +198,15 @@ def extract_runs(X, groups=None):
         import pandas as pd
 
         time = X[[TIME_COLUMN]]
+        kind = time[TIME_COLUMN].dtype
+        if pd.api.types.is_datetime64_any_dtype(
+            kind
+        ) or pd.api.types.is_timedelta64_dtype(kind):
+            raise ValueError(
+                f"Column {TIME_COLUMN!r} holds {kind} values; it must hold the "
+                "seconds since the start of each run as numbers, e.g. "
+                "(t - t.groupby(run).transform('first')).dt.total_seconds()."
+            )
         check_numeric_columns(time)
         X = X.drop(columns=TIME_COLUMN)
         arrays = [] if groups is None else [np.asarray(groups)]
@@ -160,7 +216,40 @@ def extract_runs(X, groups=None):
     check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
+    if finite:
+        check_finite_columns(X, groups)
     return X, groups
+
+
+def check_finite_columns(X, groups=None):
+    """Raise a ValueError naming the first missing or infinite value of a
+    DataFrame's feature columns: the column, the row, and the run and time
+    of that row when known. Plain arrays are left to scikit-learn."""
+    columns = getattr(X, "columns", None)
+    if columns is None or X.shape[1] == 0:
+        return
+    import pandas as pd
+
+    values = X.apply(pd.to_numeric, errors="coerce").to_numpy(
+        dtype=float, na_value=np.nan
+    )
+    bad = ~np.isfinite(values)
+    if not bad.any():
+        return
+    row, col = (int(i) for i in np.argwhere(bad)[0])
+    kind = "missing (NaN)" if np.isnan(values[row, col]) else f"{values[row, col]}"
+    where = [f"row {row}"]
+    if groups is not None:
+        where.append(f"run {groups[row]!r}")
+    t = row_times(X)
+    if t is not None:
+        where.append(f"time_s={t[row]:g}")
+    raise ValueError(
+        f"Column {columns[col]!r} is {kind} at {', '.join(where)} "
+        f"({int(bad.sum())} non-finite value(s) in X). The model needs every "
+        "reading: impute or drop those rows first (skthermal.compose."
+        "GuardedRegressor(mode='hold') bridges sensor dropouts in service)."
+    )
 
 
 def has_time_index(X):
@@ -168,6 +257,14 @@ def has_time_index(X):
     :func:`extract_runs`, also what was a ``time_s`` column)."""
     names = getattr(getattr(X, "index", None), "names", None)
     return names is not None and TIME_COLUMN in names
+
+
+def row_times(X):
+    """The ``time_s`` index level of ``X`` as floats (seconds), or None when
+    ``X`` carries no times."""
+    if not has_time_index(X):
+        return None
+    return np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
 
 
 def changes_since_start(X, slices, bases=None):
@@ -205,9 +302,9 @@ def check_time_order(X, groups):
     ValueError
         Naming the run, the row and the two times.
     """
-    if not has_time_index(X):
+    t = row_times(X)
+    if t is None:
         return
-    t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
     slices, labels = run_slices(groups, t.shape[0])
     for sl, lab in zip(slices, labels, strict=True):
         bad = np.flatnonzero(np.diff(t[sl]) <= 0)
@@ -247,10 +344,10 @@ def run_sample_periods(
     ndarray of shape (n_runs,)
     """
     out = np.full(len(slices), float(default))
-    if not has_time_index(X):
+    t = row_times(X)
+    if t is None:
         return out
     check_time_order(X, groups)
-    t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
     labels = [None] * len(slices) if labels is None else labels
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         steps = np.diff(t[sl])
@@ -320,23 +417,71 @@ def warn_unlabelled_runs(name, n_fitted_runs, groups, n_samples):
     )
 
 
-def warn_no_time(name, X, dt, time_constants):
+def warn_no_time(name, X, dt, time_constants=None):
     """Warn that ``X`` has no times and no ``dt`` was given: the time
-    constants (seconds) are then counted in rows. Call from a ``fit``
-    wrapped by scikit-learn's ``_fit_context`` (the warning points at the
-    user's call)."""
-    if dt is not None or len(time_constants) == 0 or has_time_index(X):
+    constants (seconds; None: the model's own, identified) are then counted
+    in rows. Call from a ``fit`` wrapped by scikit-learn's ``_fit_context``
+    (the warning points at the user's call)."""
+    if dt is not None or has_time_index(X):
+        return
+    if time_constants is not None and len(time_constants) == 0:
         return
     import warnings
 
+    counted = (
+        "its time constants are counted in rows"
+        if time_constants is None
+        else "the time constants "
+        f"({', '.join(f'{t:g}' for t in time_constants)} s) as that many rows"
+    )
     warnings.warn(
         f"{name}: X has no time_s (no time_s column or index level) and no "
-        "dt was given, so rows are taken as 1 s apart and the time constants "
-        f"({', '.join(f'{t:g}' for t in time_constants)} s) as that many "
-        "rows. Pass dt=<sample period in s>, or a run table with its time_s "
+        f"dt was given, so rows are taken as 1 s apart and {counted}. Pass "
+        "dt=<sample period in s>, or a run table with its time_s "
         "column (or the (run, time_s) index of skthermal.datasets.split_runs).",
         UserWarning,
         stacklevel=4,
+    )
+
+
+# A step longer than this many times its run's median step is a gap.
+GAP_STEPS = 1.5
+
+
+def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
+    """Warn about gaps in the runs' times: steps longer than ``GAP_STEPS``
+    times the run's median step (missing samples). ``bridged`` says what
+    the model does across them, e.g. ``"takes the inputs to change
+    linearly across them"``. Names the run with the longest gap."""
+    t = row_times(X)
+    if t is None:
+        return
+    worst, count = None, 0
+    for sl, lab in zip(slices, labels, strict=True):
+        steps = np.diff(t[sl])
+        if steps.size < 2:
+            continue
+        period = float(np.median(steps))
+        long = steps > GAP_STEPS * period
+        count += int(long.sum())
+        if long.any():
+            k = int(np.argmax(np.where(long, steps, -np.inf)))
+            if worst is None or steps[k] > worst[0]:
+                worst = (float(steps[k]), lab, t[sl][k], t[sl][k + 1], period)
+    if worst is None:
+        return
+    import warnings
+
+    size, lab, t0, t1, period = worst
+    where = "" if lab is None else f" (run {lab!r})"
+    warnings.warn(
+        f"{name}: {count} gap(s) in time_s, steps longer than {GAP_STEPS:g} "
+        f"sampling periods; the longest{where} lasts {size:g} s, from "
+        f"time_s={t0:g} to {t1:g}, at a sampling period of {period:g} s. The "
+        f"model {bridged}; what happened inside a gap (a spindle start, a "
+        "door opened) is not seen.",
+        UserWarning,
+        stacklevel=stacklevel,
     )
 
 
@@ -344,6 +489,21 @@ def continued_values(cont, memory, key):
     """Per predicted run, ``memory[label][key]`` of the training run it
     continues (``cont`` from :func:`continued_runs`), or None."""
     return [None if lab is None else memory[lab][key] for lab in cont]
+
+
+def continued_steps(dts, slices, times, cont, memory):
+    """The step before each predicted run's first row: the run's sampling
+    period (``dts``), or for a run that continues a training run (``cont``
+    from :func:`continued_runs`) the time since that run's last training
+    row, however long ago that was. Without ``times``, ``dts`` as given."""
+    dts = np.array(dts, dtype=float)
+    if times is None:
+        return dts
+    lasts = continued_values(cont, memory, "t_last")
+    for r, (sl, last) in enumerate(zip(slices, lasts, strict=True)):
+        if last is not None and np.isfinite(last):
+            dts[r] = times[sl.start] - last
+    return dts
 
 
 def driver_positions(drivers, names, n_features):
@@ -416,9 +576,9 @@ def run_times(X, slices):
     -------
     ndarray of shape (n_runs, 2) or None
     """
-    if not has_time_index(X):
+    t = row_times(X)
+    if t is None:
         return None
-    t = np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
     return np.array([[t[sl.start], t[sl.stop - 1]] for sl in slices]).reshape(-1, 2)
 
 
