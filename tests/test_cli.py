@@ -259,6 +259,15 @@ def test_select_fit_predict_evaluate_chain(capsys, workdir):
     )
     again = pd.read_csv(workdir / "s2.csv").set_index("run")
     pd.testing.assert_frame_equal(again, scores)
+    # A predictions file of run, time_s and the prediction only.
+    bare = workdir / "bare.csv"
+    table[["run", "time_s", "pred_disp_y_um"]].to_csv(bare, index=False)
+    argv = ["evaluate", "--runs", runs, "--predictions", bare]
+    status, _, _ = _run(capsys, *argv, "--out", workdir / "s3.csv")
+    assert status == 0
+    pd.testing.assert_frame_equal(
+        pd.read_csv(workdir / "s3.csv").set_index("run"), scores
+    )
 
 
 @pytest.mark.parametrize("name", ["anfis-grid", "gnnmci", "grey-pso", "mlp"])
@@ -540,6 +549,23 @@ def test_top_level_help_lists_the_subcommands(capsys):
         (["evaluate", "--runs", "{runs}"], "no prediction column"),
         (["search", "--runs", "{runs}", "--model", "svm"], "unknown model"),
         (["gap", "--runs", "{tmp}/nope.csv"], "no such file"),
+        # Output names checked before the work.
+        (
+            [
+                "predict",
+                "--model",
+                "{tmp}/m",
+                "--runs",
+                "{runs}",
+                "--out",
+                "{tmp}/p.xlsx",
+            ],
+            "neither CSV nor Parquet",
+        ),
+        (
+            ["evaluate", "--runs", "{runs}", "--out", "{tmp}/s.xlsx"],
+            "write .csv or .md",
+        ),
     ],
 )
 def test_user_errors_are_one_line(capsys, workdir, tmp_path, argv, message):

@@ -453,6 +453,13 @@ def test_round_trip(tmp_path, runs, name):
     assert not (tmp_path / f"{name}.json").exists()
 
 
+@pytest.mark.parametrize("name", ["runs.xlsx", "runs", "runs.json", "runs.gz"])
+def test_a_name_that_is_neither_csv_nor_parquet_is_refused(tmp_path, runs, name):
+    with pytest.raises(ValueError, match="neither CSV nor Parquet"):
+        write_runs(runs, tmp_path / name)
+    assert not (tmp_path / name).exists()
+
+
 def test_csv_gz_is_compressed(tmp_path, runs):
     write_runs(runs, tmp_path / "runs.csv.gz")
     assert (tmp_path / "runs.csv.gz").read_bytes()[:2] == b"\x1f\x8b"

@@ -310,3 +310,39 @@ def test_skops_file_without_metadata_still_loads(small_model, tmp_path):
     sio.dump(small_model, path)
     assert read_metadata(path) is None
     assert_array_equal(load(path).coef_, small_model.coef_)
+
+
+def _rewrite_member(path, name, data):
+    with zipfile.ZipFile(path) as archive:
+        members = {n: archive.read(n) for n in archive.namelist()}
+    members[name] = data
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        for n, d in members.items():
+            archive.writestr(n, d)
+
+
+@pytest.mark.parametrize("reader", [load, read_metadata])
+def test_damaged_files_are_named_as_damaged(reader, small_model, tmp_path):
+    path = save(small_model, tmp_path / "meta.skops")
+    _rewrite_member(path, "skthermal_metadata.json", b"{not json")
+    with pytest.raises(ValueError, match=r"meta.skops.*not readable JSON.*again"):
+        reader(path)
+    path = save(small_model, tmp_path / "format.skops")
+    _rewrite_member(path, "skthermal_metadata.json", b'{"format": 99}')
+    with pytest.raises(ValueError, match="format 99, which this skthermal"):
+        reader(path)
+    path = save(small_model, tmp_path / "flip.skops")
+    data = bytearray(open(path, "rb").read())
+    data[len(data) // 3 : len(data) // 3 + 50] = bytes(50)
+    open(path, "wb").write(bytes(data))
+    with pytest.raises(
+        ValueError, match=r"flip.skops.*damaged.*Write or copy it again"
+    ):
+        reader(path)
+
+
+def test_metadata_without_versions_warns_with_unknown(small_model, tmp_path):
+    path = save(small_model, tmp_path / "bare.skops")
+    _rewrite_member(path, "skthermal_metadata.json", b'{"format": 1}')
+    with pytest.warns(SkthermalVersionWarning, match="skthermal unknown"):
+        load(path)

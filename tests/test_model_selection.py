@@ -440,6 +440,62 @@ def test_make_storage_kinds(tmp_path):
         make_storage(3)
 
 
+def test_a_resumed_search_draws_new_points(runs_data, tmp_path):
+    X, y, groups = runs_data
+    kwargs = {
+        "space": _small_anfis_space(),
+        "storage": tmp_path / "resume.db",
+        "study_name": "resume",
+        "n_trials": 2,
+        "random_state": 0,
+        "refit": False,
+    }
+    run_search(ANFISRegressor(random_state=0), X, y, groups=groups, **kwargs)
+    result = run_search(ANFISRegressor(random_state=0), X, y, groups=groups, **kwargs)
+    params = [tuple(sorted(t.params.items())) for t in result.study.trials]
+    assert len(params) == 4 and params[2:] != params[:2]
+
+
+def test_a_study_of_another_search_is_refused(runs_data, tmp_path):
+    X, y, groups = runs_data
+    kwargs = {"storage": tmp_path / "clash.db", "study_name": "s", "refit": False}
+    run_search(
+        ANFISRegressor(random_state=0),
+        X,
+        y,
+        groups=groups,
+        space=_small_anfis_space(),
+        n_trials=1,
+        **kwargs,
+    )
+    with pytest.raises(ValueError, match=r"made by another search \(scoring"):
+        run_search(
+            ANFISRegressor(random_state=1),  # another seed joins: same search
+            X,
+            y,
+            groups=groups,
+            space=_small_anfis_space(),
+            n_trials=1,
+            scoring="nse",
+            **kwargs,
+        )
+    with pytest.raises(ValueError, match=r"estimator 'ANFISRegressor' there"):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups=groups,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 2)},
+            n_trials=1,
+            **kwargs,
+        )
+
+
+def test_storage_in_a_missing_folder(runs_data, tmp_path):
+    with pytest.raises(ValueError, match="does not exist; create it first"):
+        make_storage(tmp_path / "nowhere" / "study.db")
+
+
 def test_storage_needs_a_study_name(runs_data, tmp_path):
     X, y, groups = runs_data
     with pytest.raises(ValueError, match="study_name"):

@@ -207,3 +207,20 @@ def test_missing_reading_is_named_with_its_run_and_time(dtype):
         extract_runs(df)
     X, _ = extract_runs(df, finite=False)  # models that bridge dropouts
     assert X.shape == (6, 2)
+
+
+@pytest.mark.parametrize("name", ["GreyPSORegressor", "Grey-ANFIS"])
+def test_models_counting_rows_warn_about_gaps(name):
+    from skthermal.fuzzy import ANFISRegressor
+    from skthermal.grey import GreyPSORegressor
+
+    model = {
+        "GreyPSORegressor": GreyPSORegressor(calibration="ls"),
+        "Grey-ANFIS": ANFISRegressor(grey=True, n_clusters=2, epochs=3, random_state=0),
+    }[name]
+    table, y, cut = _split_record()
+    keep = np.r_[0:20, 30:cut]  # 10 samples missing
+    with pytest.warns(UserWarning, match=r"1 gap\(s\).*lasts 660 s.*counts rows"):
+        model.fit(table.iloc[keep], y[keep])
+    with pytest.warns(UserWarning, match=r"continues 1860 s after its last training"):
+        model.predict(table.iloc[cut + 30 :])

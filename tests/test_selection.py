@@ -227,6 +227,10 @@ def test_nan_names_sensor_and_run(selector):
     X.loc[25, "Tc_C"] = np.inf
     with pytest.raises(ValueError, match=r"contains inf: sensor 'Tc_C'"):
         clone(selector).fit(X, y, groups=groups)
+    # The same names when a fitted selector transforms (a pipeline predicts).
+    fitted = clone(selector).fit(X.assign(Tc_C=X["Tc_C"].where(X.index != 25, 0.3)), y)
+    with pytest.raises(ValueError, match=r"contains inf: sensor 'Tc_C' at row 25"):
+        fitted.transform(X.assign(run=groups))
 
 
 @pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
@@ -325,3 +329,11 @@ def test_joblib_round_trip(selector, tmp_path):
     assert loaded.get_feature_names_out().tolist() == (
         fitted.get_feature_names_out().tolist()
     )
+
+
+def test_more_sensors_asked_than_given_warns_and_keeps_all():
+    X, y, groups = _small()
+    selector = GRASelector(n_features_to_select=10)
+    with pytest.warns(UserWarning, match="only 4 sensor"):
+        selector.fit(X, y, groups=groups)
+    assert selector.get_support().all()

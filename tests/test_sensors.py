@@ -467,3 +467,10 @@ def test_fused_temperature_and_strain_beat_temperatures_alone(machine):
         )
 
     assert mean_rmse(fused) < 0.9 * mean_rmse(temps)
+
+
+def test_missing_extra_values_are_named(stack):
+    ext = VirtualSensorExtractor(spot_size=3, centres={"a": (5, 7)}).fit(stack)
+    disp = np.r_[np.nan, np.arange(6.0)]
+    with pytest.raises(ValueError, match=r"'disp_y_um' is missing .* at frame 0"):
+        ext.transform(stack, extra={"disp_y_um": disp})

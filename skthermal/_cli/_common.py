@@ -36,8 +36,8 @@ def split_list(value):
 _PYTHON_ONLY = "or pass allow_missing_sensors=True"
 
 
-def read_table(path, what="--runs"):
-    """Read and validate a run table, naming the option on failure."""
+def read_table(path, what="--runs", *, validate=True):
+    """Read (and validate) a run table, naming the option on failure."""
     from skthermal.datasets import read_runs
 
     if path is None:
@@ -48,7 +48,7 @@ def read_table(path, what="--runs"):
     if path.is_dir():
         raise UserError(f"{what}: {path} is a folder, not a run table file.")
     try:
-        return read_runs(path)
+        return read_runs(path, validate=validate)
     except UnicodeDecodeError as exc:
         raise UserError(
             f"{what} {path}: not a text CSV run table (binary data; use .csv, "
@@ -64,9 +64,21 @@ def read_table(path, what="--runs"):
         raise UserError(f"{what}: {message}") from exc
 
 
+def check_out_table(path, what="--out"):
+    """A UserError, before any work, unless ``path`` names a run table file
+    (CSV or Parquet)."""
+    from skthermal.datasets._loaders import check_table_name
+
+    try:
+        check_table_name(path, what)
+    except ValueError as exc:
+        raise UserError(str(exc)) from exc
+
+
 def write_table(df, path, *, metadata=None):
     from skthermal.datasets import write_runs
 
+    check_out_table(path)
     path = Path(path)
     if path.parent and not path.parent.exists():
         path.parent.mkdir(parents=True, exist_ok=True)

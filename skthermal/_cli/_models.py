@@ -15,6 +15,7 @@ from sklearn.exceptions import ConvergenceWarning
 
 from skthermal._cli._common import (
     UserError,
+    check_out_table,
     features_of,
     note_warnings,
     pick_target,
@@ -202,6 +203,7 @@ def _predict(bundle, df):
 def cmd_predict(args):
     from skthermal.datasets import read_runs
 
+    check_out_table(args.out)
     bundle = load_model(args.model)
     df = read_table(args.runs)
     pred = _predict(bundle, df)
@@ -252,6 +254,8 @@ def cmd_evaluate(args):
 
     if args.model and args.predictions:
         raise UserError("Give either --model or --predictions, not both.")
+    if args.out and Path(args.out).suffix.lower() not in (".csv", ".md"):
+        raise UserError(f"--out {args.out}: write .csv or .md.")
     df = read_table(args.runs)
     if args.model:
         bundle = load_model(args.model)
@@ -262,7 +266,14 @@ def cmd_evaluate(args):
         data = df
     else:
         if args.predictions:
-            preds = read_table(args.predictions, "--predictions")
+            # A predictions file needs only run, time_s and pred_* columns.
+            preds = read_table(args.predictions, "--predictions", validate=False)
+            missing = [c for c in ("run", "time_s") if c not in preds.columns]
+            if missing:
+                raise UserError(
+                    f"--predictions {args.predictions} has no {missing} column(s): "
+                    "its rows are joined to --runs on run and time_s."
+                )
             target, col = _prediction_column(preds, args.target, args.predictions)
             data = df.merge(
                 preds[["run", "time_s", col]], on=["run", "time_s"], how="inner"
@@ -347,7 +358,8 @@ def cmd_search(args):
     if args.storage and not study_name:
         study_name = f"skthermal-{args.model}"
     model = make_model(args.model, random_state=args.seed)
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    # Failed trials are summarised below, not logged with a traceback each.
+    optuna.logging.set_verbosity(optuna.logging.ERROR)
     print(
         f"Searching {MODELS[args.model].label} on {len(sensors)} input(s) -> "
         f"{target}: {args.trials} trial(s), {min(5, n_runs)}-fold CV over "
@@ -372,6 +384,11 @@ def cmd_search(args):
     note_warnings(caught, "search")
     trials = result.trials_dataframe()
     done = int((trials["state"] == "COMPLETE").sum()) if len(trials) else 0
+    errors = [
+        t.user_attrs["error"] for t in result.study.trials if "error" in t.user_attrs
+    ]
+    if errors:
+        print(f"{len(errors)} trial(s) failed; the first: {errors[0]}")
     if result.best_params_ is None:
         raise UserError(
             f"No trial of {len(trials)} completed; see the trials' 'error' "

@@ -36,6 +36,26 @@ def _is_parquet(path):
     return path.suffix.lower() in _PARQUET_SUFFIXES
 
 
+_COMPRESSION_SUFFIXES = (".gz", ".bz2", ".zip", ".xz", ".zst")
+_TEXT_SUFFIXES = (".csv", ".txt")
+
+
+def check_table_name(path, what="The run table file"):
+    """Raise a ValueError unless ``path`` names a file a run table is written
+    as: CSV (``.csv`` or ``.txt``, optionally compressed) or Parquet."""
+    path = Path(path)
+    if _is_parquet(path):
+        return
+    suffixes = [x.lower() for x in path.suffixes]
+    if suffixes and suffixes[-1] in _COMPRESSION_SUFFIXES:
+        suffixes = suffixes[:-1]
+    if not suffixes or suffixes[-1] not in _TEXT_SUFFIXES:
+        raise ValueError(
+            f"{what} {str(path)!r} is neither CSV nor Parquet: name it .csv "
+            f"(optionally {', '.join(_COMPRESSION_SUFFIXES)}) or .parquet."
+        )
+
+
 def _sidecar_path(path):
     return path.with_name(path.name + ".json")
 
@@ -401,6 +421,7 @@ def write_runs(df, path, *, metadata=None, validate=True):
             f"A run table must be a pandas DataFrame, got {type(df).__name__}."
         )
     path = Path(path)
+    check_table_name(path)
     if metadata is not None:
         # Check the metadata before touching any file.
         _meta_records(metadata)

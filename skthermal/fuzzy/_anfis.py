@@ -33,6 +33,7 @@ from skthermal.utils._runs import (
     run_memory,
     run_slices,
     run_times,
+    warn_row_gaps,
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
@@ -446,6 +447,8 @@ default="fcm"
                 )
         if self._uses_runs():
             check_time_order(frame, groups)
+        if self.grey:
+            warn_row_gaps(type(self).__name__, frame, *run_slices(groups, n))
 
         has_val = X_val is not None or y_val is not None
         if has_val and (X_val is None or y_val is None):
@@ -768,6 +771,7 @@ default="fcm"
             cont = continued_runs(
                 type(self).__name__, X, slices, labels, run_times(frame, slices), memory
             )
+            warn_row_gaps(type(self).__name__, frame, slices, labels, cont, memory)
             A = _ago_by_run(X, groups)
             for sl, lab in zip(slices, cont, strict=True):
                 if lab is not None:  # accumulate on from the training rows

@@ -34,6 +34,7 @@ from skthermal.utils._runs import (
     run_memory,
     run_slices,
     run_times,
+    warn_row_gaps,
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
@@ -92,6 +93,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         check_time_order(X, groups)
         slices, labels = run_slices(groups, _num_samples(X))
         times = run_times(X, slices)
+        warn_row_gaps(type(self).__name__, X, slices, labels, stacklevel=6)
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, dtype=float)
         check_run_lengths(slices, labels, type(self).__name__)
@@ -105,10 +107,12 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         n = _num_samples(X)
         slices, labels = run_slices(groups, n)
         times = run_times(X, slices)
+        frame = X
         X = validate_data(self, X, reset=False, dtype=np.float64)
         name = type(self).__name__
         warn_unlabelled_runs(name, len(self.run_states_) or None, groups, n)
         cont = continued_runs(name, X, slices, labels, times, self.run_states_)
+        warn_row_gaps(name, frame, slices, labels, cont, self.run_states_)
         states = [None if lab is None else self.run_states_[lab] for lab in cont]
         return X, slices, states
 

@@ -18,6 +18,7 @@ import os
 import sys
 import warnings
 import zipfile
+import zlib
 
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
@@ -127,6 +128,9 @@ def _is_compressed(head):
     return is_bz2 or head.startswith(_COMPRESSED)
 
 
+_DAMAGED = " Write or copy it again."
+
+
 def _not_skops(path, what, hint=""):
     return ValueError(f"{path} is not a skops model file: {what}; {_EXPECTED}.{hint}")
 
@@ -148,8 +152,17 @@ def _check_file(path):
         try:
             with zipfile.ZipFile(path) as archive:
                 names = archive.namelist()
-        except (zipfile.BadZipFile, OSError) as exc:
-            raise _not_skops(path, f"it is a damaged zip archive ({exc})") from exc
+                # Every member read and its checksum compared: a damaged
+                # copy is told here, not by a decompressor deep in skops.
+                bad = archive.testzip()
+        except (zipfile.BadZipFile, OSError, zlib.error, EOFError) as exc:
+            raise _not_skops(
+                path, f"it is a damaged zip archive ({exc})", _DAMAGED
+            ) from exc
+        if bad is not None:
+            raise _not_skops(
+                path, f"it is a damaged zip archive (member {bad!r})", _DAMAGED
+            )
         if "schema.json" not in names:
             raise _not_skops(path, "it is a zip archive without skops' schema.json")
         return
@@ -255,16 +268,33 @@ def read_metadata(path):
     with zipfile.ZipFile(path) as archive:
         if _METADATA_NAME not in archive.namelist():
             return None
-        return json.loads(archive.read(_METADATA_NAME).decode("utf-8"))
+        raw = archive.read(_METADATA_NAME)
+    try:
+        metadata = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise _not_skops(
+            path, f"its {_METADATA_NAME} is not readable JSON ({exc})", _DAMAGED
+        ) from exc
+    if not isinstance(metadata, dict):
+        raise _not_skops(path, f"its {_METADATA_NAME} is not a JSON object", _DAMAGED)
+    fmt = metadata.get("format")
+    if not isinstance(fmt, int) or fmt > _FORMAT:
+        raise ValueError(
+            f"{path} was written in skthermal model format {fmt!r}, which this "
+            f"skthermal (format {_FORMAT}) cannot read: a newer skthermal wrote "
+            "it, or the file is damaged. Install that version, or refit."
+        )
+    return metadata
 
 
 def _check_versions(path, metadata):
     if metadata is None:
         return
-    saved = metadata.get("versions", {})
+    saved = metadata.get("versions")
+    saved = saved if isinstance(saved, dict) else {}
     installed = _versions()
     differ = [
-        f"{name} {saved.get(name)} (installed: {installed[name]})"
+        f"{name} {saved.get(name, 'unknown')} (installed: {installed[name]})"
         for name in ("skthermal", "scikit-learn")
         if saved.get(name) != installed[name]
     ]

@@ -129,6 +129,12 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
     text = os.fspath(spec)
     lower = text.lower()
     if "://" not in text:
+        folder = os.path.dirname(os.path.abspath(text))
+        if not os.path.isdir(folder):
+            raise ValueError(
+                f"storage {text!r}: the folder {folder!r} does not exist; create "
+                "it first (the study file is made in it)."
+            )
         if lower.endswith(_JOURNAL_SUFFIXES):
             return _journal_storage(optuna, text)
         if not lower.endswith(_SQLITE_SUFFIXES):
@@ -447,7 +453,9 @@ class _Objective:
             except Exception as exc:  # a bad draw fails the trial, not the study
                 trial.set_user_attr("error", f"{type(exc).__name__}: {exc}")
                 trial.set_user_attr("error_fold", fold)
-                return float("nan")
+                # Raised as the cause of the failure, which Optuna logs and
+                # records (the study's optimize catches it).
+                raise _TrialFailed(f"fold {fold}: {type(exc).__name__}: {exc}") from exc
             scores.append(score)
             if self.pruning == "folds":
                 trial.report(float(np.mean(scores)), fold + 1)
@@ -455,6 +463,58 @@ class _Objective:
                     raise optuna.TrialPruned(f"pruned after fold {fold + 1}")
         trial.set_user_attr("fold_scores", scores)
         return float(np.mean(scores))
+
+
+class _TrialFailed(Exception):
+    """A trial's model failed to fit or score (the trial fails, not the
+    study)."""
+
+
+# What a stored study records of the search that made it, so that another
+# search does not join it by a clash of names.
+_SETUP_KEYS = ("skthermal_estimator", "skthermal_scoring", "skthermal_target")
+
+
+def _estimator_kind(estimator):
+    """The classes of an estimator and of the estimators inside it (not
+    their settings: workers may seed them differently)."""
+    inner = sorted(
+        {
+            type(v).__name__
+            for v in estimator.get_params(deep=True).values()
+            if hasattr(v, "fit")
+        }
+    )
+    return type(estimator).__name__ + (f"({', '.join(inner)})" if inner else "")
+
+
+def _check_study_setup(study, estimator, scoring, y):
+    """Record the estimator, scoring and target in a new study; refuse to
+    join a study that another search made (naming what differs)."""
+    name = getattr(y, "name", None)
+    if name is None and hasattr(y, "columns"):
+        name = ",".join(map(str, y.columns))
+    target = "" if name is None else str(name)
+    values = (_estimator_kind(estimator), str(scoring), target)
+    setup = dict(zip(_SETUP_KEYS, values, strict=True))
+    stored = study.user_attrs
+    if not any(k in stored for k in _SETUP_KEYS):
+        if not study.get_trials(deepcopy=False):
+            for key, value in setup.items():
+                study.set_user_attr(key, value)
+        return
+    differ = [
+        f"{key.removeprefix('skthermal_')} {stored[key]!r} there, {value!r} here"
+        for key, value in setup.items()
+        if key in stored and stored[key] != value
+    ]
+    if differ:
+        raise ValueError(
+            f"Study {study.study_name!r} was made by another search ("
+            + "; ".join(differ)
+            + "): its trials cannot be compared with this one's. Give another "
+            "study_name (or storage)."
+        )
 
 
 class SearchResult:
@@ -629,9 +689,10 @@ def run_search(
     direction : {"maximize", "minimize"}, default="maximize"
         "maximize" suits every scorer name (errors are negated).
     sampler : optuna sampler, optional
-        Default ``TPESampler(seed=random_state)``. Give each worker of a
-        distributed search its own seed (or None), or they draw the same
-        first trials.
+        Default ``TPESampler(seed=random_state)``; joining a stored study that
+        already holds trials, the seed also counts them, so a resumed search
+        draws new points. Give each of several workers started together its
+        own seed (or None), or they draw the same first trials.
     pruner : optuna pruner, optional
         Default: no pruning. E.g. ``optuna.pruners.MedianPruner()``.
     pruning : {"auto", "epochs", "folds"} or None, default="auto"
@@ -727,8 +788,6 @@ def run_search(
             "Give study_name with a storage: it is how other workers, and later "
             "sessions, find the study."
         )
-    if sampler is None:
-        sampler = optuna.samplers.TPESampler(seed=random_state)
     if pruner is None:
         pruner = optuna.pruners.NopPruner()
     study = optuna.create_study(
@@ -741,6 +800,16 @@ def run_search(
     )
     if fail_stale and store is not None:
         fail_stale_trials(study)
+    _check_study_setup(study, estimator, scoring, y)
+    if sampler is None:
+        # A seeded sampler resuming a stored study would draw the points of
+        # its first session again: the seed also counts the trials there.
+        seed = random_state
+        done = len(study.get_trials(deepcopy=False))
+        if random_state is not None and done:
+            state = np.random.SeedSequence([random_state, done]).generate_state(1)
+            seed = int(state[0])
+        study.sampler = optuna.samplers.TPESampler(seed=seed)
 
     mode = _resolve_pruning(pruning, study, estimator)
     sign = -1.0 if direction == "maximize" else 1.0
@@ -760,6 +829,7 @@ def run_search(
             timeout=timeout,
             n_jobs=n_jobs,
             callbacks=all_callbacks,
+            catch=(_TrialFailed,),
         )
 
     best_trial = best_params = best_estimator = None

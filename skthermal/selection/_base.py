@@ -6,6 +6,7 @@ class finds the run labels, validates the data with errors that name the
 offending sensor or run, and leaves the scoring to subclasses.
 """
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -127,8 +128,22 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         -------
         X_selected : ndarray or DataFrame of shape (n_samples, n_selected)
         """
-        X, _ = extract_runs(X, finite=False)
-        return super().transform(X)
+        X, groups = extract_runs(X, finite=False)
+        check_is_fitted(self)
+        A = validate_data(self, X, reset=False, ensure_all_finite=False)
+        support = self._get_support_mask()
+        bad = ~np.isfinite(A)
+        if bad.any():
+            row, j = (int(i) for i in np.argwhere(bad)[0])
+            kind = "NaN" if np.isnan(A[row, j]) else "inf"
+            slices, labels = run_slices(groups, A.shape[0])
+            role = "a selected sensor" if support[j] else "not a selected one"
+            raise ValueError(
+                f"Input X contains {kind}: {_feature_label(self, j)} at row "
+                f"{row}{_run_label(labels, row, slices)} ({role}). Impute or "
+                "drop those samples first."
+            )
+        return A[:, support]
 
 
 class ScoreSelector(RunAwareSelector):
@@ -179,6 +194,14 @@ class ScoreSelector(RunAwareSelector):
         if k is not None:
             if isinstance(k, Real) and not isinstance(k, Integral):
                 k = max(1, int(round(k * n)))
+            elif k > n:
+                # As scikit-learn's SelectKBest: all are kept, with a warning.
+                warnings.warn(
+                    f"n_features_to_select={k}, but X has only {n} sensor(s): "
+                    "all are kept.",
+                    UserWarning,
+                    stacklevel=4,
+                )
             top = np.zeros(n, dtype=bool)
             top[order[: min(int(k), n)]] = True
             keep &= top

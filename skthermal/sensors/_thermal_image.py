@@ -491,6 +491,13 @@ class VirtualSensorExtractor:
                         f"extra column {name!r} has shape {arr.shape}; it needs one "
                         f"value per frame ({n})."
                     )
+                bad = np.flatnonzero(~np.isfinite(arr))
+                if bad.size:
+                    raise ValueError(
+                        f"extra column {name!r} is missing or infinite at frame "
+                        f"{bad[0]} ({bad.size} frame(s)); a run table column "
+                        "holds a number on every row."
+                    )
                 columns[name] = _block_mean(arr, k)
         n_out = n // k
         if run is not None:

@@ -485,6 +485,45 @@ def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
     )
 
 
+# What a model that counts rows (a grey model's accumulation, a network of
+# lagged samples) does across a gap in the times (for the warnings).
+ROWS_BRIDGE = (
+    "counts rows, not seconds, so it reads each gap as one sampling period; "
+    "resample the runs onto a regular time grid first"
+)
+
+
+def warn_row_gaps(name, X, slices, labels, cont=None, memory=None, stacklevel=5):
+    """Warnings of a model that counts rows: gaps inside the runs
+    (:func:`warn_gaps`), and, in ``predict``, a run that continues a
+    training run (``cont`` from :func:`continued_runs`) later than one
+    sampling period after its last training row."""
+    warn_gaps(name, X, slices, labels, ROWS_BRIDGE, stacklevel=stacklevel)
+    t = row_times(X)
+    if cont is None or t is None:
+        return
+    import warnings
+
+    for sl, lab in zip(slices, cont, strict=True):
+        if lab is None:
+            continue
+        state = memory[lab]
+        n, t0, t1 = state["n"], state["t_first"], state["t_last"]
+        if n < 2 or not np.isfinite(t1):
+            continue
+        period = (t1 - t0) / (n - 1)
+        pause = t[sl.start] - t1
+        if pause > GAP_STEPS * period:
+            warnings.warn(
+                f"{name}: run {lab!r} continues {pause:g} s after its last "
+                f"training row (time_s={t1:g}), at a sampling period of "
+                f"{period:g} s. The model {ROWS_BRIDGE}, or predict the run "
+                "from its start.",
+                UserWarning,
+                stacklevel=stacklevel,
+            )
+
+
 def continued_values(cont, memory, key):
     """Per predicted run, ``memory[label][key]`` of the training run it
     continues (``cont`` from :func:`continued_runs`), or None."""
