@@ -383,7 +383,10 @@ def diagnose(
             f"(got {len(problem.runs)})" + _blocks_hint(runs, block_hours) + "."
         )
     folds = heldout_folds(len(problem.runs), cv)
-    not_applicable = _not_applicable(problem, machine, candidates)
+    # The simulation as given: what the candidates are checked against, and
+    # the first residuals of the "where" step.
+    simulated = [predict_run(machine, problem, r) for r in problem.runs]
+    not_applicable = _not_applicable(problem, machine, candidates, simulated)
     candidates = applicable(candidates, not_applicable)
     logger.info(
         "Prepared %d run(s) and %d channel(s); %d candidate(s): %s.",
@@ -395,7 +398,7 @@ def diagnose(
     reference = machine.params
     ctx = _Context(problem, machine, reference, folds, max_nfev)
     rules = (_regimes_of(problem), floor_squared(problem), min_shrink, alpha)
-    where = _where(ctx)
+    where = _where(ctx, simulated)
     screen = _screen(ctx, candidates, rules, n_jobs)
     how_far = _how_far(ctx, screen, rules, fine, n_jobs)
     best = how_far.effect if how_far is not None and how_far.explains else None
@@ -460,34 +463,30 @@ def _blocks_hint(runs, block_hours):
     )
 
 
-def _not_applicable(problem, machine, candidates):
+def _not_applicable(problem, machine, candidates, simulated):
     """Candidates that cannot change the compared channels on these runs,
     with the reason: ``{effect: reason}``.
 
     A simulated effect is added to the machine at its reference parameters
     (the calibration only scales them) and every run simulated: when no
-    compared channel changes on any run, the effect has nothing to act on
-    (e.g. no feed axis, no feed, no lagging sensor compared). An effect
-    modelled on the residual (sensor drift) needs a compared temperature
-    channel.
+    compared channel changes on any run from ``simulated`` (the machine's
+    predictions, one per run), the effect has nothing to act on (e.g. no
+    feed axis, no feed, no lagging sensor compared). An effect modelled on
+    the residual (sensor drift) needs a compared temperature channel.
     """
     out = {}
-    simulated = [c for c in candidates if c not in RESIDUAL_EFFECTS]
     for c in candidates:
         if c in RESIDUAL_EFFECTS and drift_mask(problem, (c,)) is None:
             out[c] = "it acts on temperature sensors and none is compared"
-    if not simulated:
-        return out
-    base = [predict_run(machine, problem, r, parts=True) for r in problem.runs]
-    for c in simulated:
+    for c in candidates:
+        if c in RESIDUAL_EFFECTS:
+            continue
         with_c = machine.with_effects(add=[c])
-        same = True
-        for run, b in zip(problem.runs, base, strict=True):
-            a = predict_run(with_c, problem, run, parts=True)
-            if np.max(np.abs(a - b)) > 1e-9 * max(float(np.max(np.abs(b))), 1e-9):
-                same = False
-                break
-        if same:
+        if not any(
+            np.max(np.abs(predict_run(with_c, problem, run) - b))
+            > 1e-9 * max(float(np.max(np.abs(b))), 1e-9)
+            for run, b in zip(problem.runs, simulated, strict=True)
+        ):
             out[c] = (
                 "adding it leaves every compared channel of the simulation "
                 "unchanged on every run, it has nothing to act on in the machine "
@@ -506,16 +505,13 @@ class Where:
     base: object  # the calibration on all runs (a Fit)
 
 
-def _where(ctx):
+def _where(ctx, simulated):
+    """The residuals of the simulation as given (``simulated``: its
+    predictions, one per run) and with the base calibrated on all runs."""
     logger.info("Where: simulating the runs and calibrating the base.")
     problem, machine = ctx.problem, ctx.machine
     n = len(problem.runs)
-    as_given = residuals(
-        problem,
-        {i: predict_run(machine, problem, r) for i, r in enumerate(problem.runs)},
-        None,
-        range(n),
-    )
+    as_given = residuals(problem, dict(enumerate(simulated)), None, range(n))
     all_idx = np.arange(n)
     base = calibrate(
         problem, machine, ctx.reference, (), all_idx, max_nfev=ctx.max_nfev

@@ -316,15 +316,6 @@ def whiteness(residual):
     }
 
 
-def _ridge_solve(G, b, alpha):
-    """Per-channel ridge solutions ``(G_c + alpha_c I)^-1 b_c``; ``G`` of
-    shape (c, k, k), ``b`` (c, k), ``alpha`` (c,) or scalar."""
-    k = G.shape[-1]
-    alpha = np.broadcast_to(np.asarray(alpha, dtype=float), G.shape[:1])
-    A = G + alpha[:, None, None] * np.eye(k)
-    return np.linalg.solve(A, b[..., None])[..., 0]
-
-
 def _well_posed(Gs, free):
     """The standardised Gram matrices ``Gs`` (c, k, k) with a unit diagonal
     where an unpenalised feature (``free``) is zero on the training runs

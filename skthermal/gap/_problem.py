@@ -786,8 +786,3 @@ class BroydenJacobian:
 def effect_parameters(effects):
     """Number of free parameters an effect set adds."""
     return sum(EFFECT_PARAMETER.get(e) is not None for e in effects)
-
-
-def known_effects():
-    """Effects the diagnosis can test (the simulator's vocabulary)."""
-    return list(EFFECTS)

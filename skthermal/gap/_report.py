@@ -258,15 +258,18 @@ class GapReport:
 
     def verdict(self):
         """One sentence: which effect explains the gap, or that none does."""
-        return self._verdict() + self._not_applicable_text()
-
-    def _not_applicable_text(self):
-        """The candidates not scored, as a sentence (empty when none)."""
         if not self.not_applicable:
-            return ""
+            return self._verdict()
+        return f"{self._verdict()} {self._not_applicable_text()}"
+
+    def _not_applicable_text(self, name="{}"):
+        """The candidates not scored, as a sentence; ``name`` formats each
+        effect's name (e.g. ``"`{}`"`` in Markdown)."""
         return (
-            " Not applicable on these runs (not scored): "
-            + "; ".join(f"{e}: {why}" for e, why in self.not_applicable.items())
+            "Not applicable on these runs (not scored): "
+            + "; ".join(
+                f"{name.format(e)}: {why}" for e, why in self.not_applicable.items()
+            )
             + "."
         )
 
@@ -364,18 +367,7 @@ class GapReport:
             "## Which effect",
             table(self.ranking),
             "",
-            *(
-                [
-                    "Not applicable on these runs (not scored): "
-                    + "; ".join(
-                        f"`{e}`: {why}" for e, why in self.not_applicable.items()
-                    )
-                    + ".",
-                    "",
-                ]
-                if self.not_applicable
-                else []
-            ),
+            *([self._not_applicable_text("`{}`"), ""] if self.not_applicable else []),
             "## How far",
             table(self.how_far),
             "",

@@ -295,16 +295,16 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 )
         return np.unique(positions)
 
-    def _intervals(self, X_raw, groups, slices, labels):
+    def _intervals(self, X_raw, groups, slices, labels, default):
         """Sampling interval of every run (a run without times, e.g. of one
-        row: the fitted period; in ``fit`` without times: 1)."""
+        row: ``default``)."""
         if self.dt is not None:
             return np.full(len(slices), float(self.dt))
         return run_sample_periods(
             X_raw,
             groups,
             slices,
-            getattr(self, "sample_period_s_", 1.0),
+            default,
             labels=labels,
             regular="TransferFunctionRegressor",
             rtol=_DT_RTOL,
@@ -483,7 +483,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self.n_fitted_runs_ = None if groups is None else len(slices)
         self.speed_columns_ = self._speed_positions()
         warn_no_time(type(self).__name__, X_raw, self.dt)
-        dts = self._intervals(X_raw, groups, slices, labels)
+        dts = self._intervals(X_raw, groups, slices, labels, 1.0)
         self.sample_period_s_ = float(np.median(dts))
         if self.tau_bounds is None:
             longest = max((sl.stop - sl.start) * d for sl, d in zip(slices, dts))
@@ -554,14 +554,15 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             type(self).__name__, self.n_fitted_runs_, groups, X.shape[0]
         )
         slices, labels = run_slices(groups, X.shape[0])
-        dts = self._intervals(X_raw, groups, slices, labels)
+        dts = self._intervals(X_raw, groups, slices, labels, self.sample_period_s_)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
             type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
         )
         U = self._inputs(X, slices, continued_values(cont, memory, "x_first"))
         states = continued_values(cont, memory, "state")
-        times = row_times(X_raw)
+        # A given dt overrides the index's times, also across pauses.
+        times = row_times(X_raw) if self.dt is None else None
         dts = continued_steps(dts, slices, times, cont, memory)
         coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
         out = np.column_stack(

@@ -15,13 +15,13 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
-    GAP_STEPS,
     changes_since_start,
     continued_runs,
     continued_steps,
     continued_values,
     driver_positions,
     extract_runs,
+    gap_steps,
     row_times,
     run_memory,
     run_sample_periods,
@@ -71,8 +71,8 @@ def exponential_filter(
         change linearly (the filter's exact response to that ramp). ``dt``
         is then only the step before each run's first row (which matters
         for ``initial="rest"`` and for a ``state``: the time since the
-        state's sample). Runs whose steps are all equal are filtered as
-        without ``times``.
+        state's sample). Runs whose steps all equal ``dt`` are filtered
+        as without ``times``.
 
     Returns
     -------
@@ -137,16 +137,14 @@ def exponential_filter(
     for r, (sl, step) in enumerate(zip(slices, dts, strict=True)):
         if sl.stop <= sl.start:
             continue
-        # The step between the run's rows; None: they vary (``times``),
-        # and ``gap`` marks the steps over GAP_STEPS sampling periods.
-        inner, steps = float(step), None
+        # Steps before every row (None: all ``step``, one lfilter call) and
+        # the gaps among them.
+        steps = gap = None
         if times is not None and sl.stop - sl.start > 1:
             d = np.diff(times[sl])
-            if np.all(np.abs(d - d[0]) <= 1e-9 * abs(d[0])):
-                inner = float(d[0])
-            else:
-                steps = d
-                gap = np.concatenate(([False], d > GAP_STEPS * np.median(d)))
+            if np.any(np.abs(d - step) > 1e-9 * step):
+                steps = np.concatenate(([step], d))
+                gap = np.concatenate(([False], gap_steps(d)))
         for j, tau in enumerate(uniq):
             cols = np.flatnonzero(which == j)
             u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
@@ -154,21 +152,11 @@ def exponential_filter(
             if state[r] is not None and np.all(np.isfinite(state[r][cols])):
                 z0 = state[r][cols]
             if steps is not None:
-                decay = np.concatenate(([step], steps)) / tau
-                Z[sl, cols] = _varying_lowpass(u, decay, z0, gap)
+                Z[sl, cols] = _varying_lowpass(u, steps / tau, z0, gap)
                 continue
-            a0 = float(np.exp(-step / tau))  # before the first row
-            a = a0 if inner == step else float(np.exp(-inner / tau))
-            zi = a0 * z0[None, :]
-            if a == a0:
-                Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
-                continue
-            first = zi[0] + (1.0 - a0) * u[0]
-            Z[sl.start, cols] = first
-            if u.shape[0] > 1:
-                Z[sl.start + 1 : sl.stop, cols] = lfilter(
-                    [1.0 - a], [1.0, -a], u[1:], axis=0, zi=a * first[None, :]
-                )[0]
+            a = float(np.exp(-step / tau))
+            zi = a * z0[None, :]
+            Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
     return Z.reshape(U.shape)
 
 
@@ -362,7 +350,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         slices, labels = run_slices(groups, X_arr.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
         warn_no_time(type(self).__name__, X_raw, self.dt, self._taus())
-        self.sample_period_s_ = float(np.median(self._spacing(X_raw, groups, slices)))
+        # From the times, else dt (one second when None): not a period kept
+        # from an earlier fit.
+        dts = run_sample_periods(
+            X_raw, groups, slices, 1.0 if self.dt is None else self.dt
+        )
+        self.sample_period_s_ = float(np.median(dts))
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         self.driver_indices_ = driver_positions(
             self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
@@ -381,26 +374,13 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # outputs.
         memory = run_memory(X_arr, slices, labels, run_times(X_raw, slices))
         if memory:
-            F = self._compute(
-                X_arr,
-                slices,
-                self._spacing(X_raw, groups, slices),
-                times=row_times(X_raw),
-            )
+            F = self._compute(X_arr, slices, dts, times=row_times(X_raw))
             skip = n_temp if self.include_changes else 0
             for sl, lab in zip(slices, labels, strict=True):
                 if lab in memory:
                     memory[lab]["state"] = F[sl.stop - 1, skip:].copy()
         self.run_states_ = memory
         return self
-
-    def _spacing(self, X_raw, groups, slices):
-        """Sampling period of every run: from the times, else the fitted
-        period (in ``fit``: ``dt``, one second when None)."""
-        default = getattr(self, "sample_period_s_", self.dt)
-        return run_sample_periods(
-            X_raw, groups, slices, 1.0 if default is None else default
-        )
 
     def _compute(self, X_arr, slices, dts, bases=None, states=None, times=None):
         """The features. Per run, ``bases``: the first row of the training
@@ -458,7 +438,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             X_arr.shape[0],
         )
         slices, labels = run_slices(groups, X_arr.shape[0])
-        dts = self._spacing(X_raw, groups, slices)  # checks the time order
+        # From the times (checked to increase), else the fitted period.
+        dts = run_sample_periods(X_raw, groups, slices, self.sample_period_s_)
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(

@@ -89,18 +89,28 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         self._fit_runs(X, Y, groups, slices)
         return self
 
+    def _check_finite(self, name, A, slices, labels, hint, support=None):
+        """Raise a ValueError naming the first non-finite value of ``A``
+        (``name`` "X" or "y"): the sensor or target, the row and its run, and
+        with ``support`` whether the sensor is selected."""
+        bad = ~np.isfinite(A)
+        if not bad.any():
+            return
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        kind = "NaN" if np.isnan(A[row, col]) else "inf"
+        what = _feature_label(self, col) if name == "X" else f"target {col}"
+        role = ""
+        if support is not None:
+            role = " (a selected sensor)" if support[col] else " (not a selected one)"
+        raise ValueError(
+            f"Input {name} contains {kind}: {what} at row {row}"
+            f"{_run_label(labels, row, slices)}{role}. {hint}"
+        )
+
     def _check_runs(self, X, Y, slices, labels):
         for name, A in (("X", X), ("y", Y)):
-            bad = ~np.isfinite(A)
-            if bad.any():
-                row, col = np.argwhere(bad)[0]
-                kind = "NaN" if np.isnan(A[row, col]) else "inf"
-                what = _feature_label(self, col) if name == "X" else f"target {col}"
-                raise ValueError(
-                    f"Input {name} contains {kind}: {what} at row {row}"
-                    f"{_run_label(labels, row, slices)}. Impute or drop the "
-                    "samples before fitting."
-                )
+            hint = "Impute or drop the samples before fitting."
+            self._check_finite(name, A, slices, labels, hint)
         check_run_lengths(slices, labels, "measuring a change")
         change = changes_since_start(X, slices)
         constant = ~np.any(change != 0, axis=0)
@@ -132,17 +142,10 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         check_is_fitted(self)
         A = validate_data(self, X, reset=False, ensure_all_finite=False)
         support = self._get_support_mask()
-        bad = ~np.isfinite(A)
-        if bad.any():
-            row, j = (int(i) for i in np.argwhere(bad)[0])
-            kind = "NaN" if np.isnan(A[row, j]) else "inf"
+        if not np.all(np.isfinite(A)):
             slices, labels = run_slices(groups, A.shape[0])
-            role = "a selected sensor" if support[j] else "not a selected one"
-            raise ValueError(
-                f"Input X contains {kind}: {_feature_label(self, j)} at row "
-                f"{row}{_run_label(labels, row, slices)} ({role}). Impute or "
-                "drop those samples first."
-            )
+            hint = "Impute or drop those samples first."
+            self._check_finite("X", A, slices, labels, hint, support)
         return A[:, support]
 
 

@@ -150,12 +150,11 @@ def _check_sensor_name(name):
     raise ValueError(f"{where}: {rule}{hint}.")
 
 
-def parameter_entry(spec, key):
+def parameter_entry(key):
     """Where the parameter ``key`` lives in a machine file, in words.
 
     Parameters
     ----------
-    spec : MachineSpec
     key : str
         Parameter name, e.g. ``"q.alpha"``.
 
@@ -251,7 +250,7 @@ def check_parameters(spec, params, *, strict=False):
     out = {}
     for key, value in params.items():
         if type(value) is not float or not math.isfinite(value):
-            where = f"{parameter_entry(spec, key)}: parameter {key!r}"
+            where = f"{parameter_entry(key)}: parameter {key!r}"
             value = _number(where, value) if strict else _check_number(value, where)
         family = key.partition(".")[0]
         alpha = family == "q" and key.endswith("alpha")
@@ -269,8 +268,7 @@ def check_parameters(spec, params, *, strict=False):
         if rule is not None:
             hint = "; Palmgren-type friction gives 1 to 1.7" if alpha else ""
             raise ValueError(
-                f"{parameter_entry(spec, key)}: parameter {key!r} {rule}, got "
-                f"{value}{hint}."
+                f"{parameter_entry(key)}: parameter {key!r} {rule}, got {value}{hint}."
             )
         out[key] = value
     full = {f"{e.name}.{k}": v for e in EFFECTS.values() for k, v in e.params.items()}
@@ -983,11 +981,7 @@ class MachineSpec:
             _check_fields(f"effect {e!r}", values, ("on", *EFFECTS[e].params))
             for k, v in values.items():
                 if k == "on":
-                    if not isinstance(v, bool):
-                        raise ValueError(
-                            f"effect {e!r}: on must be true or false, got {v!r}."
-                        )
-                    switches[e] = v
+                    switches[e] = v  # checked by validate
                 else:
                     p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
         extra = data.get("params", {})

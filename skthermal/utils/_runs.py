@@ -228,11 +228,8 @@ def check_finite_columns(X, groups=None):
     columns = getattr(X, "columns", None)
     if columns is None or X.shape[1] == 0:
         return
-    import pandas as pd
-
-    values = X.apply(pd.to_numeric, errors="coerce").to_numpy(
-        dtype=float, na_value=np.nan
-    )
+    # The columns are numeric (check_numeric_columns runs first).
+    values = X.to_numpy(dtype=float, na_value=np.nan)
     bad = ~np.isfinite(values)
     if not bad.any():
         return
@@ -448,6 +445,13 @@ def warn_no_time(name, X, dt, time_constants=None):
 GAP_STEPS = 1.5
 
 
+def gap_steps(steps):
+    """Which of a run's time steps are gaps (missing samples): longer than
+    ``GAP_STEPS`` times the run's median step."""
+    steps = np.asarray(steps, dtype=float)
+    return steps > GAP_STEPS * np.median(steps)
+
+
 def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
     """Warn about gaps in the runs' times: steps longer than ``GAP_STEPS``
     times the run's median step (missing samples). ``bridged`` says what
@@ -462,7 +466,7 @@ def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
         if steps.size < 2:
             continue
         period = float(np.median(steps))
-        long = steps > GAP_STEPS * period
+        long = gap_steps(steps)
         count += int(long.sum())
         if long.any():
             k = int(np.argmax(np.where(long, steps, -np.inf)))
@@ -504,15 +508,14 @@ def warn_row_gaps(name, X, slices, labels, cont=None, memory=None, stacklevel=5)
         return
     import warnings
 
-    for sl, lab in zip(slices, cont, strict=True):
+    pauses = continued_steps(np.zeros(len(slices)), slices, t, cont, memory)
+    for lab, pause in zip(cont, pauses, strict=True):
         if lab is None:
             continue
-        state = memory[lab]
-        n, t0, t1 = state["n"], state["t_first"], state["t_last"]
+        n, t0, t1 = (memory[lab][k] for k in ("n", "t_first", "t_last"))
         if n < 2 or not np.isfinite(t1):
             continue
         period = (t1 - t0) / (n - 1)
-        pause = t[sl.start] - t1
         if pause > GAP_STEPS * period:
             warnings.warn(
                 f"{name}: run {lab!r} continues {pause:g} s after its last "
