@@ -166,7 +166,8 @@ def _add_simulate(sub):
         action="append",
         metavar="RPM:DURATION[:FEED]",
         help="a duty-cycle step, repeatable or comma-separated; DURATION in hours "
-        "or with a unit (1h, 90min, 600s), FEED in mm/min (default: 4000:1h 0:1h)",
+        "(at most 48 without a unit) or with a unit (1h, 90min, 600s), FEED in "
+        "mm/min (default: 4000:1h 0:1h)",
     )
     p.add_argument(
         "--tests",

@@ -541,11 +541,23 @@ def test_top_level_help_lists_the_subcommands(capsys):
         (["select", "--runs", "{runs}", "--out", "{tmp}/s.txt"], ".json or .csv"),
         (["select", "--runs", "{bad}"], "'Temp3'"),
         (["simulate", "--segment", "4000:x", "--out", "{tmp}/r.csv"], "--segment"),
+        (
+            ["simulate", "--segment", "3000:3600", "--out", "{tmp}/r.csv"],
+            "3600 would be 150 days; write the unit (3600s, 3600min or 3600h)",
+        ),
+        (["simulate", "--segment", "3000:inf", "--out", "{tmp}/r.csv"], "finite"),
         (["simulate", "--effects", "magic", "--out", "{tmp}/r.csv"], "magic"),
         (["simulate", "--tests", "VII", "--out", "{tmp}/r.csv"], "VII"),
         (["reproduce", "--sample-period", "-5", "--out", "{tmp}/r"], "positive"),
         (["reproduce", "--models", "nope", "--out", "{tmp}/r"], "nope"),
-        (["predict", "--model", "{runs}", "--runs", "{runs}"], "model file"),
+        (
+            ["predict", "--model", "{runs}", "--runs", "{runs}"],
+            "a run table, not a model file",
+        ),
+        (
+            ["predict", "--model", "{tmp}/notes.joblib", "--runs", "{runs}"],
+            "a text file, not a model file",
+        ),
         (["evaluate", "--runs", "{runs}"], "no prediction column"),
         (["search", "--runs", "{runs}", "--model", "svm"], "unknown model"),
         (["gap", "--runs", "{tmp}/nope.csv"], "no such file"),
@@ -573,6 +585,7 @@ def test_user_errors_are_one_line(capsys, workdir, tmp_path, argv, message):
     pd.DataFrame(
         {"run": ["a", "a"], "time_s": [0, 60], "T1_C": [20, 21], "Temp3": [1, 2]}
     ).to_csv(bad, index=False)
+    (tmp_path / "notes.joblib").write_text("not a model\n")
     names = {"tmp": tmp_path, "runs": workdir / "tests.csv", "bad": bad}
     status, _, err = _run(capsys, *[a.format(**names) for a in argv])
     assert status == 2

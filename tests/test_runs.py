@@ -209,6 +209,40 @@ def test_missing_reading_is_named_with_its_run_and_time(dtype):
     assert X.shape == (6, 2)
 
 
+def _regressors():
+    from skthermal import (
+        ANFISRegressor,
+        GNNMCIRegressor,
+        GreyPSORegressor,
+        LagRidgeCV,
+        ModularRegressor,
+        TransferFunctionRegressor,
+        UpdateRegressor,
+    )
+
+    return {
+        "ANFISRegressor": ANFISRegressor(n_clusters=2, epochs=2),
+        "GNNMCIRegressor": GNNMCIRegressor(),
+        "GreyPSORegressor": GreyPSORegressor(),
+        "LagRidgeCV": LagRidgeCV(),
+        "ModularRegressor": ModularRegressor(),
+        "TransferFunctionRegressor": TransferFunctionRegressor(),
+        "UpdateRegressor": UpdateRegressor(),
+    }
+
+
+@pytest.mark.parametrize("name", list(_regressors()))
+def test_missing_target_is_named_with_its_run_and_time(name):
+    table, y, cut = _split_record()
+    y = pd.Series(y, name="disp_ch1_um")
+    y.iloc[7] = np.nan
+    with pytest.raises(
+        ValueError,
+        match=r"target 'disp_ch1_um' is missing \(NaN\) at row 7, run .*time_s=",
+    ):
+        _regressors()[name].fit(table, y)
+
+
 @pytest.mark.parametrize("name", ["GreyPSORegressor", "Grey-ANFIS"])
 def test_models_counting_rows_warn_about_gaps(name):
     from skthermal.fuzzy import ANFISRegressor

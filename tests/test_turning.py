@@ -77,12 +77,14 @@ def test_error_lines_by_hand():
     lines = fit_error_lines(L, d, groups=["b"] * 4 + ["a"] * 4)
     assert lines.index.tolist() == ["a", "b"]
     np.testing.assert_allclose(lines.to_numpy(), [[-0.1, 1.0], [0.5, 2.0]])
-    with pytest.raises(ValueError, match="single position"):
+    with pytest.raises(ValueError, match=r"^Part 0 has its points at a single"):
         fit_error_lines([10.0, 10.0], [1.0, 2.0])
     with pytest.raises(ValueError, match="same length"):
         fit_error_lines([10.0, 20.0], [1.0])
-    with pytest.raises(ValueError, match="finite"):
+    with pytest.raises(ValueError, match=r"L_mm is inf at point 1 \(part 0;"):
         fit_error_lines([10.0, np.inf], [1.0, 2.0])
+    with pytest.raises(ValueError, match=r"d_um is nan at point 2 \(part 'b';"):
+        fit_error_lines([1.0, 2.0, 1.0, 2.0], [1.0, 2.0, np.nan, 3.0], list("aabb"))
 
 
 def test_generator_follows_its_stated_model():

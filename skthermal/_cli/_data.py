@@ -22,6 +22,8 @@ from skthermal._cli._common import (
 )
 
 _HOURS = {"h": 1.0, "hr": 1.0, "min": 1 / 60, "m": 1 / 60, "s": 1 / 3600}
+# Longest duration accepted as a bare number (hours); longer needs a unit.
+BARE_HOURS_LIMIT = 48.0
 
 
 def parse_segments(specs):
@@ -45,10 +47,19 @@ def parse_segments(specs):
                 f"--segment {spec!r}: RPM, DURATION (hours, or with h/min/s) and "
                 "FEED must be numbers."
             ) from exc
+        if not (np.isfinite(rpm) and np.isfinite(feed) and np.isfinite(hours)):
+            raise UserError(f"--segment {spec!r}: every value must be finite.")
         if rpm < 0 or feed < 0 or not hours > 0:
             raise UserError(
                 f"--segment {spec!r}: speed and feed must be >= 0 and the duration "
                 "positive."
+            )
+        if unit is None and hours > BARE_HOURS_LIMIT:
+            # A bare number is hours: 3600 would be 150 days, surely seconds.
+            raise UserError(
+                f"--segment {spec!r}: a DURATION without a unit is in hours, so "
+                f"{dur} would be {hours / 24:.0f} days; write the unit "
+                f"({dur}s, {dur}min or {dur}h)."
             )
         segments.append((hours * 3600.0, rpm, feed))
     return segments

@@ -55,6 +55,26 @@ def save_model(bundle, path):
     joblib.dump(bundle, path)
 
 
+def _not_a_model(path):
+    """What ``path`` is when it is plainly not a model file (a run table or
+    another text file), else None. Model files are binary: pickles (raw or
+    compressed, as joblib writes them) or zip archives (skops)."""
+    name = path.name.lower()
+    if name.endswith((".csv", ".csv.gz", ".parquet", ".pq")):
+        return "a run table"
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    if not head:
+        return "an empty file"
+    if b"\0" not in head:
+        try:
+            head.decode("utf-8")
+        except UnicodeDecodeError:
+            return None
+        return "a text file"
+    return None
+
+
 def load_model(path):
     """Read a model bundle written by :func:`save_model`.
 
@@ -65,6 +85,12 @@ def load_model(path):
     path = Path(path)
     if not path.is_file():
         raise UserError(f"--model: no such file: {path}")
+    kind = _not_a_model(path)
+    if kind:
+        raise UserError(
+            f"--model {path}: {kind}, not a model file; write one with "
+            "'skthermal fit --runs RUNS --out model.joblib' (or .skops)."
+        )
     try:
         if _is_skops(path):
             from skthermal.io import load

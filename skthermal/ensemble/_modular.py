@@ -277,7 +277,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         -------
         self : ModularRegressor
         """
-        X_raw, groups = extract_runs(X, groups)
+        X_raw, groups = extract_runs(X, groups, y=y)
         X, y = validate_data(
             self, X_raw, y, multi_output=True, y_numeric=True, dtype=np.float64
         )

@@ -430,7 +430,7 @@ default="fcm"
         self : ANFISRegressor
             The fitted estimator.
         """
-        X, groups = extract_runs(X, groups)
+        X, groups = extract_runs(X, groups, y=y)
         frame = X
         X, y = validate_data(
             self, X, y, multi_output=True, y_numeric=True, dtype=np.float64

@@ -89,7 +89,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
     }
 
     def _runs_for_fit(self, X, y, groups):
-        X, groups = extract_runs(X, groups)
+        X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
         slices, labels = run_slices(groups, _num_samples(X))
         times = run_times(X, slices)

@@ -470,7 +470,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self : object
             Fitted estimator.
         """
-        X_raw, groups = extract_runs(X, groups)
+        X_raw, groups = extract_runs(X, groups, y=y)
         X, y = validate_data(
             self, X_raw, y, y_numeric=True, multi_output=True, dtype=np.float64
         )

@@ -251,11 +251,11 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     return int(np.argmax(ok)) + 1 if ok.any() else None
 
 
-def _features(X, groups=None):
+def _features(X, groups=None, y=None):
     """``X`` without the run table's ``run`` and ``time_s`` columns: the
     model is static, but takes a run table as stored (the labels are
-    checked, then not used)."""
-    X, groups = extract_runs(X, groups)
+    checked, then not used; a given target must be finite)."""
+    X, groups = extract_runs(X, groups, y=y)
     if groups is not None:
         run_slices(groups, X.shape[0])
     return X
@@ -372,7 +372,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         """
         X, y = validate_data(
             self,
-            _features(X, groups),
+            _features(X, groups, y),
             y,
             multi_output=True,
             y_numeric=True,
@@ -462,7 +462,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         (zeros for the first ``partial_fit``)."""
         X, y = validate_data(
             self,
-            _features(X),
+            _features(X, y=y),
             y,
             multi_output=True,
             y_numeric=True,

@@ -145,7 +145,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         -------
         self : RunStartRegressor
         """
-        X, groups = extract_runs(X, groups)
+        X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
         A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         slices, labels = run_slices(groups, A.shape[0])

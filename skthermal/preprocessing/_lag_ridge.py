@@ -264,7 +264,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         -------
         self : LagRidgeCV
         """
-        X_raw, groups = extract_runs(X, groups)
+        X_raw, groups = extract_runs(X, groups, y=y)
         _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
         sets = (
             DEFAULT_TIME_CONSTANT_SETS

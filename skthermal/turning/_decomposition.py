@@ -138,6 +138,12 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
     return frame
 
 
+def _label(value):
+    """A part label as the user wrote it (a numpy scalar as its Python value:
+    ``2``, not ``np.int64(2)``)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
 def fit_error_lines(L_mm, d_um, groups=None):
     """Least-squares line ``d = a L + b`` of error profiles, one per part.
 
@@ -173,11 +179,18 @@ def fit_error_lines(L_mm, d_um, groups=None):
             f"L_mm and d_um must be 1-D of the same length, got {L.shape} and "
             f"{d.shape}."
         )
-    if not (np.all(np.isfinite(L)) and np.all(np.isfinite(d))):
-        raise ValueError("L_mm and d_um must be finite.")
     groups = np.zeros(L.shape[0], dtype=int) if groups is None else np.asarray(groups)
     if groups.shape != L.shape:
         raise ValueError(f"groups must hold one part label per point ({L.shape[0]}).")
+    for name, values in (("L_mm", L), ("d_um", d)):
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"{name} is {values[i]} at point {i} (part "
+                f"{_label(groups[i])!r}; {bad.size} non-finite value(s)): every "
+                "point needs a finite position and error."
+            )
     labels, codes = np.unique(groups, return_inverse=True)
     m = labels.shape[0]
     n = np.bincount(codes, minlength=m).astype(float)
@@ -189,7 +202,8 @@ def fit_error_lines(L_mm, d_um, groups=None):
     flat = sxx <= 0
     if flat.any():
         raise ValueError(
-            f"Part {labels[np.flatnonzero(flat)[0]]!r} has its points at a single "
+            f"Part {_label(labels[np.flatnonzero(flat)[0]])!r} has its points at "
+            "a single "
             "position; a line needs two positions."
         )
     a = sxy / sxx

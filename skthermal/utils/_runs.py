@@ -145,7 +145,7 @@ def run_first_rows(groups, n_samples):
     )
 
 
-def extract_runs(X, groups=None, *, finite=True):
+def extract_runs(X, groups=None, *, finite=True, y=None):
     """Separate run labels (and times) from the features of ``X``.
 
     The labels are taken, in this order, from ``groups``, from a ``run`` column
@@ -168,6 +168,9 @@ def extract_runs(X, groups=None, *, finite=True):
         and its time). Estimators that handle missing readings themselves
         pass False. Plain arrays are left to
         :func:`sklearn.utils.validation.validate_data`.
+    y : array-like of shape (n_samples,) or (n_samples, n_targets), optional
+        The target of a fit; with ``finite``, a missing or infinite target
+        value is an error naming the row, its run and its time.
 
     Returns
     -------
@@ -180,7 +183,8 @@ def extract_runs(X, groups=None, *, finite=True):
     ValueError
         If a feature column of a DataFrame is not numeric, or a ``time_s``
         column holds something other than numbers (naming the column and an
-        offending value), or (``finite``) a feature value is not finite.
+        offending value), or (``finite``) a feature or target value is not
+        finite.
     """
     columns = getattr(X, "columns", None)
     has_column = columns is not None and RUN_COLUMN in list(columns)
@@ -218,7 +222,47 @@ def extract_runs(X, groups=None, *, finite=True):
         groups = np.asarray(groups)
     if finite:
         check_finite_columns(X, groups)
+        if y is not None:
+            _check_finite_target(y, X, groups)
     return X, groups
+
+
+def _where(row, X, groups):
+    """``"row 3, run 'a', time_s=120"``: a row of a run table, with its run
+    and time when known."""
+    where = [f"row {row}"]
+    if groups is not None:
+        where.append(f"run {groups[row]!r}")
+    t = row_times(X)
+    if t is not None:
+        where.append(f"time_s={t[row]:g}")
+    return ", ".join(where)
+
+
+def _check_finite_target(y, X, groups):
+    """Raise a ValueError naming the first missing or infinite target value
+    (row, run and time); non-numeric targets are left to scikit-learn."""
+    try:
+        values = np.asarray(y, dtype=float)
+    except (TypeError, ValueError):
+        return
+    if values.ndim == 0 or values.shape[0] != getattr(X, "shape", (None,))[0]:
+        return  # a length mismatch is reported by validate_data
+    bad = ~np.isfinite(values.reshape(values.shape[0], -1))
+    if not bad.any():
+        return
+    row, col = (int(i) for i in np.argwhere(bad)[0])
+    value = values.reshape(values.shape[0], -1)[row, col]
+    kind = "missing (NaN)" if np.isnan(value) else f"{value}"
+    name = getattr(y, "name", None)
+    if name is None and values.ndim == 2 and hasattr(y, "columns"):
+        name = y.columns[col]
+    target = "The target" if name is None else f"The target {name!r}"
+    raise ValueError(
+        f"{target} is {kind} at {_where(row, X, groups)} "
+        f"({int(bad.sum())} non-finite value(s) in y). Drop the rows without "
+        "a measured displacement before fitting."
+    )
 
 
 def check_finite_columns(X, groups=None):
@@ -235,14 +279,8 @@ def check_finite_columns(X, groups=None):
         return
     row, col = (int(i) for i in np.argwhere(bad)[0])
     kind = "missing (NaN)" if np.isnan(values[row, col]) else f"{values[row, col]}"
-    where = [f"row {row}"]
-    if groups is not None:
-        where.append(f"run {groups[row]!r}")
-    t = row_times(X)
-    if t is not None:
-        where.append(f"time_s={t[row]:g}")
     raise ValueError(
-        f"Column {columns[col]!r} is {kind} at {', '.join(where)} "
+        f"Column {columns[col]!r} is {kind} at {_where(row, X, groups)} "
         f"({int(bad.sum())} non-finite value(s) in X). The model needs every "
         "reading: impute or drop those rows first (skthermal.compose."
         "GuardedRegressor(mode='hold') bridges sensor dropouts in service)."
