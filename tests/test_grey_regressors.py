@@ -20,7 +20,7 @@ from skthermal.grey import (
     gnnmci_time_response,
 )
 from skthermal.grey._gmc import _GMCObjective, _model_runs
-from skthermal.grey._varpro import _ridge_path
+from skthermal.grey._varpro import _fold_blocks, _ridge_path
 
 # ---------------------------------------------------------------- data helpers
 
@@ -479,6 +479,29 @@ def test_ridge_path_equals_direct_solves(rng):
             pen = np.diag(np.r_[alpha * w[g] ** 2, 0.0])  # the last column is free
             direct = np.linalg.solve(gram[g] + pen, rhs[g])
             np.testing.assert_allclose(c[g, a], direct, rtol=1e-6, atol=1e-8)
+
+
+@pytest.mark.parametrize(
+    "lengths, n_blocks",
+    [([100], 5), ([100, 80], 6), ([40, 40, 40], 6), ([30] * 5, 5), ([20] * 7, 5)],
+)
+def test_cv_blocks_give_enough_folds(lengths, n_blocks):
+    # With fewer runs than folds every run is cut into blocks, so that the
+    # one-standard-error rule has a usable spread over folds; with enough
+    # runs the folds hold out whole runs.
+    blocks = _fold_blocks(lengths, 5)
+    assert len(blocks) == n_blocks
+    rows = np.concatenate(blocks)
+    np.testing.assert_array_equal(np.sort(rows), np.arange(sum(lengths)))
+    run_of = np.repeat(np.arange(len(lengths)), lengths)
+    for b in blocks:
+        if len(lengths) < 5:  # a block of a run: contiguous, inside one run
+            assert np.all(np.diff(b) == 1) and np.unique(run_of[b]).size == 1
+        else:  # whole runs
+            assert all(
+                np.all(np.isin(np.flatnonzero(run_of == r), b))
+                for r in np.unique(run_of[b])
+            )
 
 
 def test_ridge_shrinks_collinear_inputs(rng):

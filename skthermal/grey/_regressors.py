@@ -326,8 +326,10 @@ class GreyPSORegressor(_GreyRunRegressor):
     held-out rows from the inputs alone (an output-error model uses no target
     value there) and scores it on them; with one training run each of its
     later blocks is predicted by a model fitted on the blocks before it, as a
-    chronological split asks. Among the ``alpha`` values whose mean held-out
-    error is within one standard error of the best, the largest is taken.
+    chronological split asks. With five runs or more the folds hold out whole
+    runs; with two to four, blocks of runs (each run cut so that there are at
+    least five folds). Among the ``alpha`` values whose mean held-out error
+    is within one standard error of the best, the largest is taken.
 
     References: A. M. Abdulshahed, PhD thesis (2015), §3.6 and Table 6-4;
     Abdulshahed et al., GNNMCI(1,N) for environmental thermal error (2015).

@@ -103,18 +103,31 @@ def _quad_loss(c, gram, rhs, yy):
 
 
 def _fold_blocks(lengths, n_folds):
-    """Contiguous validation blocks: one per run, or ``n_folds`` per single run.
+    """Contiguous validation blocks: whole runs, or blocks of runs.
 
-    With several runs the folds are whole runs (consecutive runs grouped into
-    at most ``n_folds`` folds): run-aware cross-validation. With one run they
-    are ``n_folds`` contiguous blocks of it (blocked time-series CV).
+    With at least ``n_folds`` runs the folds are whole runs (consecutive runs
+    grouped into ``n_folds`` folds): run-aware cross-validation. With one run
+    they are ``n_folds`` contiguous blocks of it (blocked time-series CV).
+    With more than one run but fewer than ``n_folds``, every run is cut into
+    ``ceil(n_folds / n_runs)`` contiguous blocks: two or three folds give no
+    usable standard error for the one-standard-error rule of
+    :func:`_cv_alpha` (with two runs it took the largest penalty, a model
+    predicting almost no change, on a third of the held-out blocks of the
+    FL_THERMAL record).
     Returns a list of row-index arrays into the stacked runs.
     """
     starts = np.concatenate([[0], np.cumsum(lengths)])
-    if len(lengths) == 1:
-        edges = np.unique(np.linspace(0, lengths[0], n_folds + 1).round().astype(int))
-        return [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True)]
-    k = min(n_folds, len(lengths))
+    if len(lengths) < n_folds:
+        per = int(np.ceil(n_folds / len(lengths)))
+        blocks = []
+        for start, n in zip(starts[:-1], lengths, strict=True):
+            edges = np.unique(np.linspace(0, n, per + 1).round().astype(int))
+            blocks += [
+                start + np.arange(a, b)
+                for a, b in zip(edges[:-1], edges[1:], strict=True)
+            ]
+        return blocks
+    k = n_folds
     fold_of_run = np.arange(len(lengths)) * k // len(lengths)
     return [
         np.concatenate(
