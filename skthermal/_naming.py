@@ -1,4 +1,5 @@
-"""Column-naming patterns of the run table (DATA_FORMAT).
+"""Column-naming patterns of the run table (DATA_FORMAT), and the names
+and values that error messages show.
 
 The patterns sit below every package, so that :mod:`skthermal.sensors` (which
 the simulator uses) can name the channels it adds without importing
@@ -8,6 +9,8 @@ simulator). :mod:`skthermal.datasets` builds its checks and messages on them.
 
 import difflib
 import re
+
+import numpy as np
 
 # <name> of a sensor or an axis: ASCII letters and digits, inner underscores.
 NAME = r"[A-Za-z0-9]+(?:_[A-Za-z0-9]+)*"
@@ -21,3 +24,9 @@ def suggest(name, choices):
     ``name``, or an empty string when none is close."""
     close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def plain(value):
+    """A numpy scalar as the Python value, for messages: ``'r2'`` and ``3``,
+    not ``np.str_('r2')`` and ``np.int64(3)``."""
+    return value.item() if isinstance(value, np.generic) else value

@@ -26,6 +26,11 @@ def test_string_column_named_with_its_value():
     df = pd.DataFrame({"T1": [20.0, 21.0, 22.0], "T2": ["20.5", "hot", "21"]})
     with pytest.raises(ValueError, match=r"Column 'T2' is not numeric.*row 1.*'hot'"):
         extract_runs(df)
+    # Datetimes and durations would convert to nanoseconds.
+    stamps = pd.date_range("2024-01-01", periods=3, freq="min")
+    for values in (stamps, stamps - stamps[0]):
+        with pytest.raises(ValueError, match=r"Column 'T2' holds \w+64"):
+            check_numeric_columns(df.assign(T2=values))
 
 
 def test_numeric_boolean_and_numeric_object_columns_pass():

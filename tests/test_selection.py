@@ -143,8 +143,12 @@ def test_selection_size_and_threshold():
     assert GRASelector(n_features_to_select=2).fit(X, y).get_support().sum() == 2
     sel = GRASelector(threshold="median").fit(X, y)
     assert np.all(sel.scores_[sel.get_support()] >= np.median(sel.scores_))
-    sel = GRASelector(threshold=2.0).fit(X, y)  # degrees are <= 1
-    assert sel.get_support().sum() == 0
+    # Degrees are <= 1: nothing would be kept, and a pipeline would fail later
+    # with "0 feature(s)"; the selector says why instead.
+    with pytest.raises(ValueError, match=r"threshold=2.0 keeps no sensor: the scores"):
+        GRASelector(threshold=2.0).fit(X, y)
+    with pytest.raises(ValueError, match="threshold must be a finite score"):
+        GRASelector(threshold=np.nan).fit(X, y)
 
 
 def test_multi_output_target():
@@ -231,6 +235,17 @@ def test_nan_names_sensor_and_run(selector):
     fitted = clone(selector).fit(X.assign(Tc_C=X["Tc_C"].where(X.index != 25, 0.3)), y)
     with pytest.raises(ValueError, match=r"contains inf: sensor 'Tc_C' at row 25"):
         fitted.transform(X.assign(run=groups))
+
+
+@pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
+def test_missing_target_names_row_and_run(selector):
+    X, y, groups = _small()
+    y = np.array(y, dtype=float)
+    y[25] = np.nan
+    with pytest.raises(
+        ValueError, match=r"target is missing \(NaN\) at row 25, run 'r2'"
+    ):
+        clone(selector).fit(X, y, groups=groups)
 
 
 @pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)

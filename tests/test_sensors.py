@@ -160,6 +160,39 @@ def test_transform_errors(stack):
         ext.transform(bad)
     with pytest.raises(ValueError, match="shape"):
         ext.fit(np.zeros(5))
+    # Datetimes would otherwise be read as nanoseconds.
+    times = pd.date_range("2024-01-01 08:00", periods=stack.shape[0], freq="10s")
+    for t in (times, times - times[0]):
+        with pytest.raises(ValueError, match="time_s holds .*64"):
+            ext.transform(stack, t)
+    with pytest.raises(ValueError, match=r"time_s must hold numbers"):
+        ext.transform(stack, ["a"] * stack.shape[0])
+
+
+def test_simulated_images_check_their_arguments(machine):
+    from skthermal.simulate import DutyCycle
+
+    duty = DutyCycle.heat_cool(8000, heat_h=0.2, cool_h=0.2)
+    for blur in (-3.0, np.nan, np.inf):
+        with pytest.raises(ValueError, match="'blur_px' parameter"):
+            simulate_thermal_images(machine, duty, blur_px=blur)
+    with pytest.raises(ValueError, match="machine must be a ThermalMachine"):
+        simulate_thermal_images(None, duty)
+    with pytest.raises(ValueError, match="emissivity must be a number"):
+        simulate_thermal_images(machine, duty, emissivity="x")
+
+
+def test_layout_is_fixed_at_fit(stack):
+    mask = np.ones(stack.shape[1:], dtype=bool)
+    ext = VirtualSensorExtractor(grid=(2, 2), mask=mask).fit(stack)
+    before = ext.transform(stack)
+    mask[:6] = False  # the user's array changes after fit
+    pd.testing.assert_frame_equal(ext.transform(stack), before)
+    # A grid finer than the valid pixels would give spots the same centre.
+    mask[:] = False
+    mask[2:5, 4:12] = True
+    with pytest.raises(ValueError, match=r"grid=\(4, 2\) is finer .* \(3 rows"):
+        VirtualSensorExtractor(grid=(4, 2), mask=mask).fit(stack)
 
 
 # ---------------------------------------------------------- simulated images
@@ -380,6 +413,7 @@ def test_strain_channels_restart_every_run(machine):
         ({"g-1": FBGGauge({"boss": 1.0})}, "does not make a strain column"),
         ({"g": {"nodes": {"boss": 1.0}, "colour": 1}}, "Gauge 'g'"),
         ({"g": FBGGauge({"boss": 1.0}, sensor="boss")}, "not a temperature column"),
+        ({"g": FBGGauge(["boss"])}, r"nodes must be a dict \{node: weight\}"),
     ],
 )
 def test_strain_channel_errors(simulated, gauges, message):
@@ -399,8 +433,36 @@ def test_strain_channel_table_errors(simulated):
         add_strain_channels(add_strain_channels(runs, states, g), states, g)
     with pytest.raises(ValueError, match="not in the table"):
         correct_strain_channels(runs, {"Sg_ue": "T01_C"})
-    with pytest.raises(ValueError, match="records no gauge"):
+    with pytest.raises(ValueError, match="records no uncorrected gauge"):
         correct_strain_channels(runs)
+    with pytest.raises(
+        ValueError, match=r"states has duplicate column\(s\) \['boss'\]"
+    ):
+        add_strain_channels(runs, pd.concat([states, states[["boss"]]], axis=1), g)
+    with pytest.raises(ValueError, match="Column 'extra' is not numeric"):
+        add_strain_channels(runs, states.assign(extra="x"), g)
+
+
+def test_strain_channels_accumulate_and_are_corrected_once(simulated):
+    runs, states = simulated
+    first = add_strain_channels(
+        runs, states, {"a": FBGGauge({"boss": 1.0}, sensor="T63_C")}, random_state=0
+    )
+    both = add_strain_channels(
+        first, states, {"b": FBGGauge({"boss": 1.0}, sensor="T15_C")}, random_state=1
+    )
+    # The gauges of both calls are recorded, so both get corrected.
+    assert list(both.attrs["fbg_gauges"]) == ["Sa_ue", "Sb_ue"]
+    once = correct_strain_channels(both)
+    assert once.attrs["fbg_corrected"] == ["Sa_ue", "Sb_ue"]
+    for col, sensor in (("Sa_ue", "T63_C"), ("Sb_ue", "T15_C")):
+        expected = correct_strain_channels(both, {col: sensor})[col]
+        np.testing.assert_allclose(once[col], expected)
+    # A second correction would subtract the sensitivity twice.
+    with pytest.raises(ValueError, match="already corrected"):
+        correct_strain_channels(once)
+    with pytest.raises(ValueError, match=r"\['Sa_ue'\] are already temperature"):
+        correct_strain_channels(once, {"Sa_ue": "T63_C"})
 
 
 def test_fused_temperature_and_strain_beat_temperatures_alone(machine):

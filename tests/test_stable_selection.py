@@ -176,12 +176,31 @@ def test_closure_matches_brute_force_and_is_transitive(rng):
     A = rng.uniform(size=(7, 7))
     R = np.minimum(A, A.T)
     np.fill_diagonal(R, 1.0)
-    closure, n_iter = fuzzy_equivalence_closure(R)
+    closure, merges = fuzzy_equivalence_closure(R)
     np.testing.assert_array_equal(closure, _closure_brute_force(R))
     composed = np.minimum(closure[:, :, None], closure[None]).max(axis=1)
     np.testing.assert_array_equal(composed, closure)
-    assert n_iter <= 1 + int(np.ceil(np.log2(7))) + 1
     assert np.all(closure >= R)
+    # The merge levels, highest first: the cut at each has one group fewer.
+    assert merges.shape == (6,) and np.all(np.diff(merges) <= 0)
+    for k, lam in enumerate(merges):
+        cut = closure >= lam
+        assert np.rint((1.0 / cut.sum(axis=1)).sum()) == 7 - (k + 1)
+
+
+def test_closure_of_many_sensors_in_quadratic_memory(rng):
+    # 004's iteration needs n^3 floats per squaring (2 GB at 600 sensors).
+    import tracemalloc
+
+    A = rng.uniform(size=(600, 600))
+    R = np.minimum(A, A.T)
+    np.fill_diagonal(R, 1.0)
+    tracemalloc.start()
+    closure, _ = fuzzy_equivalence_closure(R)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 40 * R.nbytes
+    assert closure.shape == R.shape and np.all(closure >= R)
 
 
 def test_closure_by_hand():

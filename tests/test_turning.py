@@ -71,6 +71,19 @@ def test_decomposition_errors(kwargs, message):
         decompose_turning_error([40.0, 40.0], **kwargs)
 
 
+def test_decomposition_matches_pandas_inputs_by_their_index():
+    des = pd.Series([40.0, 41.0], index=["a", "b"])
+    pp = pd.Series([41.001, 40.001], index=["b", "a"])  # same parts, other order
+    with pytest.raises(ValueError, match="different indexes"):
+        decompose_turning_error(des, D_pp=pp)
+    out = decompose_turning_error(des, D_pp=pp.reindex(des.index))
+    np.testing.assert_allclose(out["d_tot"], [1.0, 1.0])
+    with pytest.raises(ValueError, match="index has 1 labels"):
+        decompose_turning_error(des.iloc[:1], D_pp=[40.001, 40.002])
+    with pytest.raises(ValueError, match="D_des is empty"):
+        decompose_turning_error([], D_pp=[])
+
+
 def test_error_lines_by_hand():
     L = np.tile([10.0, 20.0, 30.0, 40.0], 2)
     d = np.r_[0.5 * L[:4] + 2.0, -0.1 * L[4:] + 1.0]
@@ -85,6 +98,11 @@ def test_error_lines_by_hand():
         fit_error_lines([10.0, np.inf], [1.0, 2.0])
     with pytest.raises(ValueError, match=r"d_um is nan at point 2 \(part 'b';"):
         fit_error_lines([1.0, 2.0, 1.0, 2.0], [1.0, 2.0, np.nan, 3.0], list("aabb"))
+    for labels in (["a", "a", None, None], [1.0, 1.0, np.nan, np.nan]):
+        with pytest.raises(ValueError, match="Point 2 has no part label"):
+            fit_error_lines([10.0, 20.0, 10.0, 20.0], [1.0, 2.0, 3.0, 4.0], labels)
+    with pytest.raises(ValueError, match="empty"):
+        fit_error_lines([], [])
 
 
 def test_generator_follows_its_stated_model():
@@ -141,6 +159,21 @@ def test_generator_draws_and_validates():
         make_turning_errors(conditions=TURNING_TEST_CONDITIONS.drop(columns="d_mm"))
     with pytest.raises(ValueError, match="Unknown material"):
         make_turning_errors(conditions=TURNING_TEST_CONDITIONS.assign(material="brass"))
+    # "False" or "no" would read as True with astype(bool).
+    for flag in ("False", np.nan):
+        with pytest.raises(ValueError, match=r"conditions\['coolant'\] is .* case 1"):
+            make_turning_errors(conditions=TURNING_TEST_CONDITIONS.assign(coolant=flag))
+    ones = TURNING_TEST_CONDITIONS.assign(
+        coolant=TURNING_TEST_CONDITIONS["coolant"].astype(int)
+    )
+    pd.testing.assert_frame_equal(
+        make_turning_errors(conditions=ones, random_state=0)[0],
+        make_turning_errors(conditions=TURNING_TEST_CONDITIONS, random_state=0)[0],
+    )
+    speeds = TURNING_TEST_CONDITIONS["V_m_s"].to_numpy().copy()
+    speeds[1] = np.nan
+    with pytest.raises(ValueError, match=r"conditions\['V_m_s'\] is nan for case 2"):
+        make_turning_errors(conditions=TURNING_TEST_CONDITIONS.assign(V_m_s=speeds))
 
 
 def test_anfis_predicts_aggregate_error_lines():

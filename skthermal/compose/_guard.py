@@ -27,6 +27,7 @@ from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from skthermal._naming import plain
 from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
@@ -667,11 +668,6 @@ def _reasons(flags, out_band, sensors, n):
     return reason
 
 
-def _plain(value):
-    """A numpy scalar as the Python value, for readable messages."""
-    return value.item() if isinstance(value, np.generic) else value
-
-
 class _Where:
     """Names rows by run and time (or row number) for the messages."""
 
@@ -686,7 +682,7 @@ class _Where:
         )
 
     def at(self, row):
-        run = "" if self.runs is None else f"in run {_plain(self.runs[row])!r} "
+        run = "" if self.runs is None else f"in run {plain(self.runs[row])!r} "
         if self.times is not None:
             return f"{run}at time_s={self.times[row]:g}"
         return f"{run}at row {row}"

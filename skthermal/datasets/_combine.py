@@ -7,8 +7,9 @@ between its inputs, so joining simulated runs with it loses their metadata.
 
 import pandas as pd
 
+from skthermal._naming import plain
 from skthermal.datasets._loaders import _meta_records
-from skthermal.datasets._runtable import RUN, _label, validate_runs
+from skthermal.datasets._runtable import RUN, validate_runs
 
 
 def _check_frames(frames):
@@ -49,7 +50,7 @@ def _check_labels(frames):
         for run in pd.unique(frame[RUN]):
             if run in owner:
                 raise ValueError(
-                    f"Run {_label(run)!r} is in run table {owner[run]} and in run "
+                    f"Run {plain(run)!r} is in run table {owner[run]} and in run "
                     f"table {i}; run labels must be unique across the tables "
                     "(simulate them with distinct run=... labels, or relabel one)."
                 )
@@ -141,7 +142,7 @@ def concat_runs(frames, *, metadata=None, validate=True):
         unknown = [r[RUN] for r in records if r[RUN] not in runs]
         if unknown:
             raise ValueError(
-                f"The metadata describes run(s) {[_label(r) for r in unknown]} "
+                f"The metadata describes run(s) {[plain(r) for r in unknown]} "
                 "that are in none of the tables."
             )
     joined = pd.concat([frame[columns] for frame in frames], ignore_index=True)

@@ -14,7 +14,12 @@ import re
 import numpy as np
 import pandas as pd
 
-from skthermal._naming import STRAIN_PATTERN, TARGET_PATTERN, TEMPERATURE_PATTERN
+from skthermal._naming import (
+    STRAIN_PATTERN,
+    TARGET_PATTERN,
+    TEMPERATURE_PATTERN,
+    plain,
+)
 from skthermal._run_changes import changes_since_first_row
 
 RUN = "run"
@@ -162,18 +167,13 @@ def _looks_like(name):
     return None
 
 
-def _label(value):
-    """A run label or time as plain Python, for messages."""
-    return value.item() if isinstance(value, np.generic) else value
-
-
 def _where(df, pos):
     """``run 'a', time_s 30.0 (row 2)`` for the row at position ``pos``."""
     parts = []
     if RUN in df.columns:
-        parts.append(f"run {_label(df[RUN].iloc[pos])!r}")
+        parts.append(f"run {plain(df[RUN].iloc[pos])!r}")
     if TIME in df.columns:
-        parts.append(f"time_s {_label(df[TIME].iloc[pos])}")
+        parts.append(f"time_s {plain(df[TIME].iloc[pos])}")
     return f"{', '.join(parts)} (row {pos})" if parts else f"row {pos}"
 
 
@@ -212,7 +212,7 @@ def _check_numeric(df, columns):
             coerced = pd.to_numeric(col, errors="coerce")
             bad = np.flatnonzero(coerced.isna().to_numpy() & col.notna().to_numpy())
             if bad.size:
-                value = _label(col.iloc[bad[0]])
+                value = plain(col.iloc[bad[0]])
                 where = f": {_where(df, bad[0])} holds {value!r}"
         raise ValueError(
             f"Column {name!r} must be numeric but has dtype {col.dtype}{where}."
@@ -257,7 +257,7 @@ def _check_runs(df):
         spans = ", ".join(f"rows {starts[b]}-{stops[b] - 1}" for b in blocks[:3])
         more = f" and {blocks.size - 3} more blocks" if blocks.size > 3 else ""
         raise ValueError(
-            f"The rows of run {_label(run.iloc[starts[split[0]]])!r} are not "
+            f"The rows of run {plain(run.iloc[starts[split[0]]])!r} are not "
             f"contiguous ({spans}{more}); sort the table, e.g. "
             "df.sort_values(['run', 'time_s'], kind='stable'), so that each run "
             "is one block."
@@ -266,7 +266,7 @@ def _check_runs(df):
     if single.size:
         pos = starts[single[0]]
         raise ValueError(
-            f"Run {_label(run.iloc[pos])!r} has a single row (row {pos}); a run "
+            f"Run {plain(run.iloc[pos])!r} has a single row (row {pos}); a run "
             "needs at least two samples."
         )
     return codes
@@ -284,7 +284,7 @@ def _check_time(df, codes):
     bad = np.flatnonzero(same_run & ~(time[1:] > time[:-1]))
     if bad.size:
         i = bad[0] + 1
-        run = _label(df[RUN].iloc[i])
+        run = plain(df[RUN].iloc[i])
         raise ValueError(
             f"Column 'time_s' must be strictly increasing within a run: in run "
             f"{run!r}, row {i} has time_s {time[i]} after time_s {time[i - 1]} "

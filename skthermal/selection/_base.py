@@ -17,6 +17,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
     changes_since_start,
+    check_finite_target,
     check_run_lengths,
     check_time_order,
     extract_runs,
@@ -73,6 +74,8 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         """
         X, groups = extract_runs(X, groups, finite=False)
         check_time_order(X, groups)
+        if y is not None:
+            check_finite_target(y, X, groups)
         X, y = validate_data(
             self,
             X,
@@ -190,7 +193,18 @@ class ScoreSelector(RunAwareSelector):
         elif threshold == "median":
             threshold = np.median(scores)
         if threshold is not None:
+            if not np.isfinite(threshold):
+                raise ValueError(
+                    f"threshold must be a finite score, 'mean' or 'median', got "
+                    f"{self.threshold!r}."
+                )
             keep &= scores >= threshold
+            if not keep.any():
+                raise ValueError(
+                    f"threshold={self.threshold!r} keeps no sensor: the scores "
+                    f"range from {np.min(scores):.4g} to {np.max(scores):.4g} "
+                    "(see scores_)."
+                )
         k = self.n_features_to_select
         if k is None and threshold is None:
             k = max(1, n // 2)

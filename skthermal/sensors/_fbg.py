@@ -22,7 +22,7 @@ from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import STRAIN_PATTERN, TEMPERATURE_PATTERN
 from skthermal._run_changes import changes_since_first_row
-from skthermal.utils._runs import RUN_COLUMN, extract_runs
+from skthermal.utils._runs import RUN_COLUMN, check_numeric_columns, extract_runs
 
 FBG_SENSITIVITY_UE_PER_C = 8.64
 """Apparent strain of a grating per °C of its own temperature (µε/°C, 001
@@ -189,6 +189,11 @@ def _check_gauges(gauges, nodes):
                 raise ValueError(f"Gauge {name!r}: {exc}") from None
         if not isinstance(g, FBGGauge):
             raise ValueError(f"Gauge {name!r} must be an FBGGauge or a dict.")
+        if not isinstance(g.nodes, dict):
+            raise ValueError(
+                f"Gauge {name!r}: nodes must be a dict {{node: weight}} (weights "
+                f"summing to 1), got {type(g.nodes).__name__} {g.nodes!r}."
+            )
         if not g.nodes:
             raise ValueError(f"Gauge {name!r} names no node (nodes={{...}}).")
         used = list(g.nodes) + list(g.gradient or ())
@@ -269,7 +274,8 @@ def add_strain_channels(
     -------
     DataFrame
         A copy of ``runs`` with one column per gauge appended; its
-        ``attrs["fbg_gauges"]`` records the gauges.
+        ``attrs["fbg_gauges"]`` records the gauges (with those recorded by
+        earlier calls).
 
     Examples
     --------
@@ -297,6 +303,8 @@ def add_strain_channels(
         raise ValueError("runs is empty.")
     k = _number(sensitivity_ue_per_C, "sensitivity_ue_per_C")
     noise = float(noise_ue)
+    _check_unique(states, "states")
+    check_numeric_columns(states)
     checked = _check_gauges(gauges, states.columns)
     clash = [c for c in checked if c in runs.columns]
     if clash:
@@ -322,8 +330,18 @@ def add_strain_channels(
     out = runs.copy()
     for j, column in enumerate(checked):
         out[column] = S[:, j]
-    out.attrs["fbg_gauges"] = dict(checked.items())
+    # Gauges added by an earlier call stay recorded (and uncorrected).
+    out.attrs["fbg_gauges"] = {**runs.attrs.get("fbg_gauges", {}), **checked}
     return out
+
+
+def _check_unique(frame, name):
+    duplicated = frame.columns[frame.columns.duplicated()].unique().tolist()
+    if duplicated:
+        raise ValueError(
+            f"{name} has duplicate column(s) {duplicated}; every column name must "
+            "be unique."
+        )
 
 
 def correct_strain_channels(
@@ -345,7 +363,9 @@ def correct_strain_channels(
     -------
     DataFrame
         A copy with the listed strain columns corrected (same names), each
-        referred to the co-located temperature at the start of its run.
+        referred to the co-located temperature at the start of its run; its
+        ``attrs["fbg_corrected"]`` lists the corrected columns, which a
+        second call refuses to correct again.
 
     Examples
     --------
@@ -360,16 +380,30 @@ def correct_strain_channels(
     """
     if not isinstance(runs, pd.DataFrame):
         raise ValueError("runs must be a pandas DataFrame (a run table).")
+    done = list(runs.attrs.get("fbg_corrected", []))
     if colocated is None:
         recorded = runs.attrs.get("fbg_gauges", {})
-        colocated = {c: g.sensor for c, g in recorded.items() if g.sensor is not None}
+        colocated = {
+            c: g.sensor
+            for c, g in recorded.items()
+            if g.sensor is not None and c not in done
+        }
         if not colocated:
             raise ValueError(
                 "Give colocated={strain column: temperature column}; the table "
-                "records no gauge with a co-located sensor."
+                "records no uncorrected gauge with a co-located sensor"
+                + (f" (already corrected: {done})." if done else ".")
             )
     if not isinstance(colocated, dict) or not colocated:
         raise ValueError("colocated must be a non-empty dict {strain: temperature}.")
+    again = [c for c in colocated if c in done]
+    if again:
+        raise ValueError(
+            f"The strain column(s) {again} are already temperature-corrected (by "
+            "an earlier correct_strain_channels on this table); correcting again "
+            "would subtract the grating's sensitivity twice."
+        )
+    _check_unique(runs, "runs")
     for s, t in colocated.items():
         for col, pattern, what in (
             (s, STRAIN_PATTERN, "strain"),
@@ -389,4 +423,5 @@ def correct_strain_channels(
     )
     out = runs.copy()
     out[strain] = corrected
+    out.attrs["fbg_corrected"] = [*done, *strain]
     return out

@@ -46,6 +46,26 @@ def _as_stack(stack, what="stack"):
     return arr
 
 
+def _seconds(time_s):
+    """``time_s`` as float seconds; datetimes, durations and text are errors
+    (``np.asarray(..., float)`` would read datetimes as nanoseconds)."""
+    kind = getattr(time_s, "dtype", None)
+    arr = np.asarray(time_s)
+    if (kind is not None and pd.api.types.is_datetime64_any_dtype(kind)) or (
+        arr.dtype.kind in "mM"
+    ):
+        raise ValueError(
+            f"time_s holds {arr.dtype} values; it must hold the seconds since the "
+            "start of the run as numbers, e.g. (t - t[0]).total_seconds()."
+        )
+    try:
+        return np.asarray(arr, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"time_s must hold numbers (seconds), got values such as {arr.ravel()[:1]}."
+        ) from None
+
+
 def _block_mean(a, k):
     """Means of ``k`` consecutive rows (axis 0); an incomplete last block is
     dropped."""
@@ -199,7 +219,8 @@ class VirtualSensorExtractor:
         if self.mask is None:
             mask = np.ones(shape, dtype=bool)
         else:
-            mask = np.asarray(self.mask)
+            # A copy: the user's array may change after fit.
+            mask = np.array(self.mask, copy=True)
             if mask.shape != shape:
                 raise ValueError(
                     f"mask has shape {mask.shape} but the images are {shape}."
@@ -225,6 +246,13 @@ class VirtualSensorExtractor:
             )
         rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(0))
         r_lo, r_hi, c_lo, c_hi = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+        if grid[0] > r_hi - r_lo or grid[1] > c_hi - c_lo:
+            raise ValueError(
+                f"grid={tuple(grid)} is finer than the valid pixels span "
+                f"({r_hi - r_lo} rows x {c_hi - c_lo} columns): spots would share "
+                f"centres; use at most grid=({min(grid[0], r_hi - r_lo)}, "
+                f"{min(grid[1], c_hi - c_lo)})."
+            )
         rc = np.floor(r_lo + (np.arange(grid[0]) + 0.5) * (r_hi - r_lo) / grid[0])
         cc = np.floor(c_lo + (np.arange(grid[1]) + 0.5) * (c_hi - c_lo) / grid[1])
         R, C = np.meshgrid(rc.astype(int), cc.astype(int), indexing="ij")
@@ -460,7 +488,7 @@ class VirtualSensorExtractor:
         if run is not None:
             columns["run"] = None
         if time_s is not None:
-            t = np.asarray(time_s, dtype=float)
+            t = _seconds(time_s)
             if t.shape != (n,) or not np.all(np.isfinite(t)):
                 raise ValueError(
                     f"time_s must hold {n} finite times, one per frame, got shape "
@@ -562,7 +590,7 @@ REGIONS = ("background", "carrier", "spindle boss", "tool")
     {
         "nodes": "no_validation",
         "shape": "no_validation",  # a pair, checked with its own message
-        "blur_px": [Interval(Real, 0, np.inf, closed="left")],
+        "blur_px": [Interval(Real, 0, None, closed="left")],
     },
     prefer_skip_nested_validation=True,
 )
@@ -656,6 +684,7 @@ def carrier_field_weights(nodes, shape, *, blur_px=1.0):
 
 @validate_params(
     {
+        "blur_px": [Interval(Real, 0, None, closed="left")],
         "noise_C": [Interval(Real, 0, None, closed="left")],
         "fixed_pattern_C": [Interval(Real, 0, None, closed="left")],
         "random_state": ["random_state"],
@@ -736,9 +765,19 @@ def simulate_thermal_images(
     >>> bool(hot[sim.regions == 2].mean() > hot[sim.regions == 1].mean() > 1.0)
     True
     """
+    if not (hasattr(machine, "simulate") and hasattr(machine, "spec")):
+        raise ValueError(
+            "machine must be a ThermalMachine (e.g. ThermalMachine.from_preset("
+            f"'vmc-b')), got {type(machine).__name__}."
+        )
     weights, regions = carrier_field_weights(machine.spec.nodes, shape, blur_px=blur_px)
     H, W = regions.shape
-    eps = np.asarray(emissivity, dtype=float)
+    try:
+        eps = np.asarray(emissivity, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"emissivity must be a number or an array of numbers, got {emissivity!r}."
+        ) from None
     if eps.ndim == 0:
         eps = np.full((H, W), float(eps))
     if eps.shape != (H, W):

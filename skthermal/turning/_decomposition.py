@@ -18,6 +18,9 @@ import pandas as pd
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, validate_params
 
+from skthermal._naming import plain
+from skthermal.utils._runs import check_labels
+
 _UNITS = {"mm": 1000.0, "um": 1.0}
 
 #: Cutting conditions of the six test cases of 003 Table 1.
@@ -42,6 +45,8 @@ def _series(value, name, scale):
         raise ValueError(f"{name} must be numeric diameters.") from None
     if arr.ndim > 1:
         raise ValueError(f"{name} must be a number or 1-D, got shape {arr.shape}.")
+    if arr.size == 0:
+        raise ValueError(f"{name} is empty: give one diameter per part.")
     bad = ~np.isfinite(arr)
     if bad.any():
         where = "" if arr.ndim == 0 else f" at position {int(np.flatnonzero(bad)[0])}"
@@ -106,10 +111,7 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
     given = {"D_omw": D_omw, "D_omc": D_omc, "D_pp": D_pp}
     if all(v is None for v in given.values()):
         raise ValueError("Give at least one measured diameter: D_omw, D_omc or D_pp.")
-    index = next(
-        (v.index for v in (D_des, D_omw, D_omc, D_pp) if isinstance(v, pd.Series)),
-        None,
-    )
+    index = _common_index({"D_des": D_des, **given})
     arrays = {"D_des": _series(D_des, "D_des", scale)}
     arrays.update({k: _series(v, k, scale) for k, v in given.items() if v is not None})
     try:
@@ -133,15 +135,53 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
     if "D_omc" in a:
         out["d_agg"] = a["D_omc"] - des
     frame = pd.DataFrame(out)
-    if index is not None and len(index) == len(frame):
+    if index is not None:
+        if len(index) != len(frame):
+            raise ValueError(
+                f"The diameters have {len(frame)} values but the pandas input's "
+                f"index has {len(index)} labels; give every diameter per part."
+            )
         frame.index = index
     return frame
 
 
-def _label(value):
-    """A part label as the user wrote it (a numpy scalar as its Python value:
-    ``2``, not ``np.int64(2)``)."""
-    return value.item() if isinstance(value, np.generic) else value
+def _common_index(values):
+    """The index shared by the pandas inputs among ``values`` (None without
+    any): the parts are matched by position, so pandas inputs indexed
+    differently (other parts, or the same parts in another order) are an
+    error instead of a silent mismatch."""
+    indexed = {k: v.index for k, v in values.items() if isinstance(v, pd.Series)}
+    if not indexed:
+        return None
+    (first, index), *others = indexed.items()
+    for name, other in others:
+        if not index.equals(other):
+            raise ValueError(
+                f"{first} and {name} are pandas Series with different indexes "
+                f"({list(index[:3])}... and {list(other[:3])}...): the parts are "
+                "matched by position; reindex them to the same parts in the "
+                f"same order (e.g. {name}.reindex({first}.index))."
+            )
+    return index
+
+
+def _coolant_flags(column):
+    """The ``coolant`` column as booleans: True/False or 1/0 only (a string
+    such as "False" or "no", or a missing value, is an error: ``astype(bool)``
+    would read every one of them as coolant on)."""
+    ok = column.map(
+        lambda v: (
+            isinstance(v, (bool, np.bool_))
+            or (isinstance(v, (int, float, np.integer, np.floating)) and v in (0, 1))
+        )
+    )
+    if not ok.all():
+        case = column.index[np.flatnonzero(~ok.to_numpy())[0]]
+        raise ValueError(
+            f"conditions['coolant'] is {column[case]!r} for case {plain(case)!r}: "
+            "use True/False (or 1/0)."
+        )
+    return column.astype(bool)
 
 
 def fit_error_lines(L_mm, d_um, groups=None):
@@ -182,13 +222,16 @@ def fit_error_lines(L_mm, d_um, groups=None):
     groups = np.zeros(L.shape[0], dtype=int) if groups is None else np.asarray(groups)
     if groups.shape != L.shape:
         raise ValueError(f"groups must hold one part label per point ({L.shape[0]}).")
+    if L.shape[0] == 0:
+        raise ValueError("L_mm and d_um are empty: give the measured points.")
+    check_labels(groups, item="point", label="part", whole="part")
     for name, values in (("L_mm", L), ("d_um", d)):
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
             i = int(bad[0])
             raise ValueError(
                 f"{name} is {values[i]} at point {i} (part "
-                f"{_label(groups[i])!r}; {bad.size} non-finite value(s)): every "
+                f"{plain(groups[i])!r}; {bad.size} non-finite value(s)): every "
                 "point needs a finite position and error."
             )
     labels, codes = np.unique(groups, return_inverse=True)
@@ -202,7 +245,7 @@ def fit_error_lines(L_mm, d_um, groups=None):
     flat = sxx <= 0
     if flat.any():
         raise ValueError(
-            f"Part {_label(labels[np.flatnonzero(flat)[0]])!r} has its points at "
+            f"Part {plain(labels[np.flatnonzero(flat)[0]])!r} has its points at "
             "a single "
             "position; a line needs two positions."
         )
@@ -354,10 +397,18 @@ def make_turning_errors(
     if bad:
         raise ValueError(f"Unknown material(s) {bad}; use 'steel' or 'aluminium'.")
     numeric = [k for k in _LEVELS if k not in ("material", "coolant")]
-    cond[numeric] = cond[numeric].astype(float)
-    if (cond[numeric] <= 0).any().any():
-        raise ValueError("Cutting conditions must be positive.")
-    cond["coolant"] = cond["coolant"].astype(bool)
+    for k in numeric:
+        values = pd.to_numeric(cond[k], errors="coerce").astype(float)
+        bad = ~(np.isfinite(values) & (values > 0))
+        if bad.any():
+            case = cond.index[np.flatnonzero(bad.to_numpy())[0]]
+            raise ValueError(
+                f"conditions[{k!r}] is {plain(cond[k][case])!r} for case "
+                f"{plain(case)!r}: "
+                "cutting conditions must be positive numbers."
+            )
+        cond[k] = values
+    cond["coolant"] = _coolant_flags(cond["coolant"])
 
     V, f, d = (cond[k].to_numpy(float) for k in ("V_m_s", "f_mm_rev", "d_mm"))
     D, rn = cond["D_mm"].to_numpy(float), cond["nose_mm"].to_numpy(float)

@@ -12,6 +12,8 @@ from numbers import Integral
 
 import numpy as np
 
+from skthermal._naming import plain
+
 RUN_COLUMN = "run"
 TIME_COLUMN = "time_s"
 # The run table's heat-source drivers: set-points whose losses grow with
@@ -59,7 +61,7 @@ def run_slices(groups, n_samples=None):
         )
     if groups.shape[0] == 0:
         return [], []
-    _check_labels(groups)
+    check_labels(groups)
     change = np.flatnonzero(groups[1:] != groups[:-1]) + 1
     starts = np.concatenate(([0], change))
     stops = np.concatenate((change, [groups.shape[0]]))
@@ -85,18 +87,19 @@ def run_slices(groups, n_samples=None):
     return slices, labels
 
 
-def _check_labels(groups):
-    """Raise a ValueError naming the first row whose run label is missing
-    (None, NaN) or of another kind than the first row's (a number among
-    strings)."""
+def check_labels(groups, *, item="row", label="run", whole="run (test)"):
+    """Raise a ValueError naming the first ``item`` (row) whose ``label`` (run
+    label) is missing (None, NaN) or of another kind than the first one's (a
+    number among strings). ``groups`` is an ndarray; ``whole`` names what a
+    label stands for."""
     import pandas as pd
 
     missing = pd.isna(groups)
     if missing.any():
         i = int(np.flatnonzero(missing)[0])
         raise ValueError(
-            f"Row {i} has no run label (it is missing: None or NaN); every "
-            "row needs the label of the run (test) it belongs to."
+            f"{item.capitalize()} {i} has no {label} label (it is missing: None "
+            f"or NaN); every {item} needs the label of the {whole} it belongs to."
         )
     if groups.dtype != object or pd.api.types.infer_dtype(groups) not in (
         "mixed",
@@ -110,9 +113,9 @@ def _check_labels(groups):
     first = kind(groups[0])
     i = next(i for i, v in enumerate(groups.tolist()) if kind(v) != first)
     raise ValueError(
-        f"Run labels mix kinds: row 0 has {groups[0]!r} ({first}), row {i} has "
-        f"{groups[i]!r} ({kind(groups[i])}); give every run the same kind of "
-        "label (e.g. all strings)."
+        f"{label.capitalize()} labels mix kinds: {item} 0 has {groups[0]!r} "
+        f"({first}), {item} {i} has {groups[i]!r} ({kind(groups[i])}); give every "
+        f"{whole.split(' ')[0]} the same kind of label (e.g. all strings)."
     )
 
 
@@ -223,7 +226,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     if finite:
         check_finite_columns(X, groups)
         if y is not None:
-            _check_finite_target(y, X, groups)
+            check_finite_target(y, X, groups)
     return X, groups
 
 
@@ -232,16 +235,18 @@ def _where(row, X, groups):
     and time when known."""
     where = [f"row {row}"]
     if groups is not None:
-        where.append(f"run {groups[row]!r}")
+        where.append(f"run {plain(groups[row])!r}")
     t = row_times(X)
     if t is not None:
         where.append(f"time_s={t[row]:g}")
     return ", ".join(where)
 
 
-def _check_finite_target(y, X, groups):
+def check_finite_target(y, X, groups):
     """Raise a ValueError naming the first missing or infinite target value
-    (row, run and time); non-numeric targets are left to scikit-learn."""
+    (row, its run and time from ``X`` and ``groups`` as returned by
+    :func:`extract_runs`); non-numeric targets and a length that differs
+    from ``X`` are left to scikit-learn."""
     try:
         values = np.asarray(y, dtype=float)
     except (TypeError, ValueError):
@@ -261,7 +266,7 @@ def _check_finite_target(y, X, groups):
     raise ValueError(
         f"{target} is {kind} at {_where(row, X, groups)} "
         f"({int(bad.sum())} non-finite value(s) in y). Drop the rows without "
-        "a measured displacement before fitting."
+        "a measured target value before fitting."
     )
 
 
@@ -636,6 +641,15 @@ def check_numeric_columns(X):
     for name, dtype in zip(columns, dtypes, strict=True):
         if pd.api.types.is_bool_dtype(dtype) or pd.api.types.is_numeric_dtype(dtype):
             continue
+        if pd.api.types.is_datetime64_any_dtype(
+            dtype
+        ) or pd.api.types.is_timedelta64_dtype(dtype):
+            # to_numeric would turn them into nanoseconds.
+            raise ValueError(
+                f"Column {name!r} holds {dtype} values, not numbers. Every feature "
+                "column must hold numbers; convert (e.g. to seconds) or drop this "
+                "column before fitting or predicting."
+            )
         col = X[name]
         converted = pd.to_numeric(col, errors="coerce")
         bad = converted.isna().to_numpy() & col.notna().to_numpy()
