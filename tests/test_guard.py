@@ -8,7 +8,7 @@ import joblib
 import numpy as np
 import pandas as pd
 import pytest
-from sklearn.base import clone
+from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.compose import ColumnTransformer
 from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.model_selection import GridSearchCV, GroupKFold
@@ -278,6 +278,57 @@ def test_nan_is_an_error_naming_sensor_unless_hold(train, new_run):
     assert checked["prediction"].iloc[10] == checked["prediction"].iloc[9]
     assert np.isfinite(checked["prediction"]).all()
     assert any("missing" in m for m in _messages(caught, SensorFaultWarning))
+
+
+def test_dropout_at_a_run_start_does_not_offset_the_run(train, new_run):
+    # The first row is the run's reference for changes since the start: a
+    # made-up value there shifts every later compensation of the run.
+    from skthermal.ensemble import ModularRegressor
+
+    X, y = train
+    guard = GuardedRegressor(ModularRegressor(relative=True), mode="hold")
+    guard.fit(X, y)
+    good = guard.predict(new_run[0])
+    X_bad = new_run[0].copy()
+    X_bad.iloc[0, 1] = np.nan
+    checked, _ = _caught(guard.predict_checked, X_bad)
+    assert checked["reason"].iloc[0] == "missing: T2_C"
+    shift = np.abs(checked["prediction"].to_numpy()[1:] - good[1:]).max()
+    # Row 0 takes row 1's reading (one sample's change away), not the middle
+    # of the training range.
+    middle = X_bad.copy()
+    middle.iloc[0, 1] = (X["T2_C"].min() + X["T2_C"].max()) / 2
+    far = np.abs(guard.estimator_.predict(middle)[1:] - good[1:]).max()
+    assert shift < 0.05 * far
+
+
+class _NaNModel(RegressorMixin, BaseEstimator):
+    def fit(self, X, y):
+        self.n_features_in_ = np.asarray(X).shape[1]
+        return self
+
+    def predict(self, X):
+        return np.full(np.asarray(X).shape[0], np.nan)
+
+
+@pytest.mark.parametrize("mode", ["clip", "hold"])
+def test_safe_modes_never_pass_on_a_nan_compensation(train, new_run, mode):
+    X, y = train
+    guard = GuardedRegressor(_NaNModel(), mode=mode).fit(X, y)
+    with pytest.raises(ValueError, match=r"predicted \[nan\] in run 'r0' at time_s=0"):
+        guard.predict(new_run[0])
+
+
+def test_fit_names_a_missing_reading_or_target(train):
+    X, y = train
+    X_bad = X.copy()
+    X_bad.iloc[5, 2] = np.nan
+    with pytest.raises(ValueError, match=r"'T3_C' is missing \(NaN\) at row 5, run"):
+        GuardedRegressor(LinearRegression()).fit(X_bad, y)
+    y_bad = y.copy()
+    y_bad.iloc[7] = np.nan
+    with pytest.raises(ValueError, match=r"target 'disp_y_um' is missing .* row 7"):
+        GuardedRegressor(LinearRegression()).fit(X, y_bad)
 
 
 def test_plain_arrays_are_named_by_row_and_x_index(train):

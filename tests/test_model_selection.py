@@ -491,6 +491,61 @@ def test_a_study_of_another_search_is_refused(runs_data, tmp_path):
         )
 
 
+def test_groups_given_apart_reach_every_fit(runs_data):
+    # Run labels passed as groups= with a plain array: the folds' fits and the
+    # refit see the runs, as fit(X, y, groups=groups) would.
+    X, y, groups = runs_data
+    result = run_search(
+        GreyPSORegressor(calibration="ls"),
+        X.to_numpy(),
+        y.to_numpy(),
+        groups=groups,
+        space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+        n_trials=2,
+        random_state=0,
+    )
+    best = result.best_estimator_
+    direct = GreyPSORegressor(calibration="ls", **result.best_params_).fit(
+        X.to_numpy(), y.to_numpy(), groups=groups
+    )
+    assert (
+        list(best.run_states_)
+        == list(direct.run_states_)
+        == list(dict.fromkeys(groups))
+    )
+    assert_allclose(best.coef_, direct.coef_)
+    with pytest.raises(ValueError, match="groups has 3 run labels for"):
+        run_search(GreyPSORegressor(), X.to_numpy(), y.to_numpy(), groups=groups[:3])
+
+
+def _scorer_for_a_shared_study(estimator, X, y):
+    return -float(np.sqrt(np.mean((estimator.predict(X) - y) ** 2)))
+
+
+def test_a_function_scorer_joins_its_own_study_again(runs_data, tmp_path):
+    # Its repr holds a memory address: another process (or a second call)
+    # must still see the same search.
+    X, y, groups = runs_data
+    kwargs = {"storage": tmp_path / "fn.db", "study_name": "s", "refit": False}
+    for seed in (0, 1):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups=groups,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            n_trials=1,
+            scoring=_scorer_for_a_shared_study,
+            random_state=seed,
+            **kwargs,
+        )
+    stored = optuna.load_study(
+        study_name="s", storage=f"sqlite:///{tmp_path / 'fn.db'}"
+    )
+    assert stored.user_attrs["skthermal_scoring"].endswith("_scorer_for_a_shared_study")
+    assert len(stored.trials) == 2
+
+
 def test_storage_in_a_missing_folder(runs_data, tmp_path):
     with pytest.raises(ValueError, match="does not exist; create it first"):
         make_storage(tmp_path / "nowhere" / "study.db")

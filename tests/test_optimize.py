@@ -189,6 +189,13 @@ def test_bad_parameters(kwargs, error):
         particle_swarm(sphere, [(-1, 1)] * 2, **{"n_particles": 4, **kwargs})
 
 
+def test_velocity_clamp_of_the_wrong_length_is_named():
+    with pytest.raises(
+        ValueError, match=r"one value per dimension of the search \(2\)"
+    ):
+        particle_swarm(sphere, [(-1, 1)] * 2, n_particles=4, velocity_clamp=[1.0] * 3)
+
+
 def test_tol_stops_early():
     res = particle_swarm(
         sphere, [(-1, 1)] * 2, epochs=1000, tol=1e-3, patience=5, random_state=0

@@ -291,6 +291,21 @@ def test_rows_without_run_labels_warn_with_the_fix(model):
         use(X.to_numpy())  # fitted without labels: nothing to warn about
 
 
+@LAG_MODELS
+def test_rows_without_labels_do_not_continue_a_run_labelled_zero(model):
+    # With integer run labels, unlabelled rows are a new run, not run 0
+    # continued.
+    X = _frame()
+    X.index = X.index.set_levels([0, 1], level="run")
+    y = np.arange(len(X), dtype=float)
+    model.fit(X, y)
+    use = model.transform if hasattr(model, "transform") else model.predict
+    tail = X.loc[[1]]
+    with pytest.warns(UserWarning, match="ONE run"):
+        bare = use(tail.to_numpy())
+    np.testing.assert_allclose(bare, use(tail.rename(index={1: 99}, level="run")))
+
+
 def test_cv_uses_training_rows_only():
     from sklearn.linear_model import Ridge
     from sklearn.preprocessing import StandardScaler
@@ -349,6 +364,13 @@ def test_absolute_readings_and_drivers_from_rest():
     a = np.exp(-30.0 / 60.0)
     assert F["spindle_rpm_pow1_lp60"].iloc[0] == pytest.approx((1 - a) * 2.0)
     assert F["spindle_rpm_pow1_lp60"].iloc[1] > F["spindle_rpm_pow1_lp60"].iloc[0]
+
+
+def test_a_flat_list_of_time_constants_is_named():
+    X = _frame()
+    y = np.arange(len(X), dtype=float)
+    with pytest.raises(ValueError, match=r"for one set write \[\(900, 3600\)\]"):
+        LagRidgeCV(time_constant_sets=[900, 3600]).fit(X, y)
 
 
 def test_cv_schemes_and_the_one_standard_error_rule():

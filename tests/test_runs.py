@@ -214,6 +214,21 @@ def test_missing_reading_is_named_with_its_run_and_time(dtype):
     assert X.shape == (6, 2)
 
 
+def test_missing_time_duplicate_columns_and_no_rows_are_named():
+    table, y, _ = _split_record()
+    bad = table.copy()
+    bad.loc[50, "time_s"] = np.nan
+    with pytest.raises(ValueError, match=r"time_s is nan at row 50, run 'rec'"):
+        extract_runs(bad)
+    with pytest.raises(ValueError, match=r"duplicate column name\(s\) \['T1_C'\]"):
+        extract_runs(pd.concat([table, table[["T1_C"]]], axis=1))
+    for name, model in _regressors().items():
+        with pytest.raises(ValueError, match="time_s is nan at row 50"):
+            model.fit(bad, y)
+        with pytest.raises(ValueError, match="0 sample"):
+            model.fit(table.iloc[:0], y[:0])
+
+
 def _regressors():
     from skthermal import (
         ANFISRegressor,

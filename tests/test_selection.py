@@ -10,6 +10,7 @@ from sklearn.model_selection import GroupKFold, cross_validate
 from sklearn.pipeline import make_pipeline
 
 from skthermal import FCMClusterPicker, GRASelector, GreyInfluenceSelector
+from skthermal.datasets import split_runs
 from skthermal.datasets._generators import make_sensor_groups
 
 SELECTORS = [
@@ -176,6 +177,28 @@ def test_pipeline_cross_validate_with_group_kfold_unchanged():
     assert np.all(res["test_score"] > 0.9)
     for est in res["estimator"]:
         assert est[0].get_support().sum() == 3
+
+
+def test_a_sequence_model_after_a_selector_sees_the_runs():
+    # The selector's output keeps the (run, time_s) index of a run table, so
+    # the sequence model after it restarts at every run.
+    from skthermal import GNNMCIRegressor
+
+    runs, _ = make_sensor_groups(
+        n_groups=2, sensors_per_group=2, n_noise=1, n_runs=3, random_state=0
+    )
+    X, y, groups = split_runs(runs)
+    pipe = make_pipeline(
+        FCMClusterPicker(n_clusters=2, random_state=0), GNNMCIRegressor(epochs=2)
+    ).fit(X, y)
+    assert list(pipe[-1].run_states_) == list(dict.fromkeys(groups))
+    out = pipe[0].transform(X)
+    assert list(out.index.names) == ["run", "time_s"]
+    assert list(out.columns) == list(pipe[0].get_feature_names_out())
+    # A run column: the run labels become the index.
+    table = X.reset_index()
+    assert pipe[0].transform(table).index.names == ["run", "time_s"]
+    assert isinstance(pipe[0].transform(X.to_numpy()), np.ndarray)
 
 
 def test_metadata_routing_of_groups():

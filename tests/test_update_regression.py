@@ -145,6 +145,13 @@ def test_regressor_multi_output(data):
     assert model.update_path(X[:5], Y[:5]).shape == (5, 2, 4)
     with pytest.raises(ValueError, match="1 target"):
         model.partial_fit(X[:5], y[:5])
+    # Named targets in another order would swap the axes silently.
+    frame = pd.DataFrame(Y, columns=["disp_x_um", "disp_y_um"])
+    named = UpdateRegressor(alpha=1.0).fit(X, frame)
+    with pytest.raises(ValueError, match=r"\['disp_y_um', 'disp_x_um'\], but the"):
+        named.partial_fit(X[:5], frame[["disp_y_um", "disp_x_um"]].iloc[:5])
+    named.partial_fit(X[:5], frame.iloc[:5])
+    named.partial_fit(X[:5], Y[:5])  # an array: no names to check
 
 
 def test_regressor_errors(data):
@@ -356,3 +363,6 @@ def test_groups_are_taken_like_every_run_aware_regressor():
     )
     with pytest.raises(ValueError, match="3 run labels"):
         model.fit(X, y, groups=groups[:3])
+    model.partial_fit(X[:4], y[:4], groups=groups[:4])  # the same call in service
+    with pytest.raises(ValueError, match="3 run labels"):
+        model.partial_fit(X[:4], y[:4], groups=groups[:3])

@@ -90,6 +90,17 @@ def _last_good(bad, start):
     return np.where(last >= start, last, -1)
 
 
+def _next_good(bad, start):
+    """Row of the next good entry at or after each row in its run, or -1
+    (``bad`` of shape (n, p), ``start`` as in :func:`_last_good`)."""
+    n = bad.shape[0]
+    firsts = np.flatnonzero(start == np.arange(n))
+    ends = np.r_[firsts[1:], n] - 1
+    end = ends[np.searchsorted(firsts, np.arange(n), side="right") - 1]
+    rev = _last_good(bad[::-1], (n - 1 - end)[::-1])[::-1]
+    return np.where(rev >= 0, n - 1 - rev, -1)
+
+
 def _limits(low, high, margin):
     """``[low, high]`` widened by ``margin`` times its width (or its size if 0)."""
     width = high - low
@@ -313,7 +324,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         self : GuardedRegressor
         """
-        features, runs = extract_runs(X, groups, finite=False)
+        # Training data must be complete: named errors (column, run, time).
+        features, runs = extract_runs(X, groups, y=y)
         A, Y = validate_data(
             self, features, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
@@ -464,8 +476,19 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             X_inner = _with_values(X, B)
         elif self.mode == "hold" and fault.any():
             last = _last_good(fault, start)
-            fallback = np.where(np.isnan(A), (lo + hi) / 2, np.clip(A, lo, hi))
-            held = A[np.maximum(last, 0), np.arange(A.shape[1])]
+            # Before the first good reading of a run (a dropout at its start)
+            # the next good one stands in: the run's first row is its
+            # reference for changes since the start, so a made-up value there
+            # would offset the whole run.
+            nxt = _next_good(fault, start)
+            cols = np.arange(A.shape[1])
+            ahead = A[np.maximum(nxt, 0), cols]
+            fallback = np.where(
+                nxt >= 0,
+                ahead,
+                np.where(np.isnan(A), (lo + hi) / 2, np.clip(A, lo, hi)),
+            )
+            held = A[np.maximum(last, 0), cols]
             B = np.where(fault, np.where(last >= 0, held, fallback), A)
             inputs_changed = fault.any(axis=1)
             X_inner = _with_values(X, B)
@@ -492,6 +515,19 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 hold = bad & (last >= 0)
                 final = np.where(hold[:, None], final[np.maximum(last, 0)], final)
                 action[hold] = "held"
+            lost = ~np.isfinite(final).all(axis=1)
+            if lost.any():
+                row = int(np.flatnonzero(lost)[0])
+                raise ValueError(
+                    f"The wrapped model predicted {P[row].tolist()} {where.at(row)}"
+                    f" ({int(lost.sum())} row(s) without a finite prediction"
+                    + (
+                        " and no earlier good one in the run to hold"
+                        if self.mode == "hold"
+                        else ""
+                    )
+                    + "); no safe compensation can be given there."
+                )
         reason = _reasons(flags, out_band, self._sensor_names(), n)
         return {
             "prediction": final.reshape(raw.shape),

@@ -251,6 +251,14 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     return int(np.argmax(ok)) + 1 if ok.any() else None
 
 
+def _target_names(y):
+    """The names of a Series' or DataFrame's targets (None for arrays)."""
+    if hasattr(y, "columns"):
+        return [str(c) for c in y.columns]
+    name = getattr(y, "name", None)
+    return None if name is None else [str(name)]
+
+
 def _features(X, groups=None, y=None):
     """``X`` without the run table's ``run`` and ``time_s`` columns: the
     model is static, but takes a run table as stored (the labels are
@@ -370,6 +378,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         -------
         self : object
         """
+        names = _target_names(y)
         X, y = validate_data(
             self,
             _features(X, groups, y),
@@ -378,6 +387,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
             y_numeric=True,
             dtype=np.float64,
         )
+        self._target_names = names
         coef = ridge_coef(
             X,
             _as_2d_target(y),
@@ -389,7 +399,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         return self
 
     @_fit_context(prefer_skip_nested_validation=True)
-    def partial_fit(self, X, y):
+    def partial_fit(self, X, y, *, groups=None):
         """Update the coefficients with new samples (update regression).
 
         Parameters
@@ -397,7 +407,10 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         X : {array-like, DataFrame} of shape (n_new, n_features)
             New temperature samples.
         y : array-like of shape (n_new,) or (n_new, n_targets)
-            New thermal-error samples.
+            New thermal-error samples; named targets (a Series or DataFrame)
+            must be those of ``fit``, in the same order.
+        groups : array-like of shape (n_new,), optional
+            Run labels, only checked (as in ``fit``).
 
         Returns
         -------
@@ -405,7 +418,11 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         """
         first = not hasattr(self, "coef_")
         X, y, E, old = self._new_samples(
-            X, y, first=first, hint="; partial_fit needs the same targets as fit"
+            X,
+            y,
+            first=first,
+            hint="; partial_fit needs the same targets as fit",
+            groups=groups,
         )
         coef = update_coef(
             X, E, old, eta=self.eta, penalize_intercept=self.penalize_intercept
@@ -457,12 +474,21 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         X = validate_data(self, _features(X, groups), reset=False, dtype=np.float64)
         return X @ self.coef_.T + self.intercept_
 
-    def _new_samples(self, X, y, *, first, hint=""):
+    def _new_samples(self, X, y, *, first, hint="", groups=None):
         """Validated new samples, their 2-D targets and the coefficients so far
         (zeros for the first ``partial_fit``)."""
+        names = _target_names(y)
+        known = getattr(self, "_target_names", None)
+        if first:
+            self._target_names = names
+        elif names is not None and known is not None and names != known:
+            raise ValueError(
+                f"y holds the target(s) {names}, but the model was fitted on "
+                f"{known}{hint} (the same names, in the same order)."
+            )
         X, y = validate_data(
             self,
-            _features(X, y=y),
+            _features(X, groups, y),
             y,
             multi_output=True,
             y_numeric=True,

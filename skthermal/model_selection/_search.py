@@ -365,10 +365,39 @@ def _take(data, rows):
 def _run_groups(X, groups):
     if groups is not None:
         return np.asarray(groups)
+    if "run" in list(getattr(X, "columns", [])):
+        return np.asarray(X["run"])
     names = getattr(getattr(X, "index", None), "names", None) or []
     if "run" in names:
         return np.asarray(X.index.get_level_values("run"))
     return None
+
+
+def _with_runs(X, groups):
+    """``X`` carrying ``groups`` as a ``run`` index level, so that every fit
+    and predict of the search (in folds and the refit) sees the runs, also
+    through a Pipeline; ``X`` itself when it carries them already."""
+    if groups is None:
+        return X
+    columns = list(getattr(X, "columns", []))
+    index = getattr(X, "index", None)
+    names = [n for n in (getattr(index, "names", None) or []) if n is not None]
+    if "run" in columns or "run" in names:
+        return X
+    import pandas as pd
+
+    frame = X if isinstance(X, pd.DataFrame) else pd.DataFrame(np.asarray(X))
+    if len(groups) != len(frame):
+        raise ValueError(
+            f"groups has {len(groups)} run labels for {len(frame)} rows of X; "
+            "give one label per row."
+        )
+    arrays = [np.asarray(groups)]
+    level_names = ["run"]
+    if "time_s" in names:
+        arrays.append(frame.index.get_level_values("time_s"))
+        level_names.append("time_s")
+    return frame.set_axis(pd.MultiIndex.from_arrays(arrays, names=level_names))
 
 
 def _resolve_cv(cv, groups):
@@ -488,6 +517,18 @@ def _estimator_kind(estimator):
     return type(estimator).__name__ + (f"({', '.join(inner)})" if inner else "")
 
 
+def _scoring_name(scoring):
+    """The scoring as the same in every process: a name, or a callable's
+    module and qualified name (its repr holds a memory address)."""
+    if scoring is None or isinstance(scoring, str):
+        return str(scoring)
+    if hasattr(scoring, "_score_func"):  # make_scorer: its repr has no address
+        return repr(scoring)
+    name = getattr(scoring, "__qualname__", None) or type(scoring).__qualname__
+    module = getattr(scoring, "__module__", None) or type(scoring).__module__
+    return f"{module}.{name}"
+
+
 def _check_study_setup(study, estimator, scoring, y):
     """Record the estimator, scoring and target in a new study; refuse to
     join a study that another search made (naming what differs)."""
@@ -495,7 +536,7 @@ def _check_study_setup(study, estimator, scoring, y):
     if name is None and hasattr(y, "columns"):
         name = ",".join(map(str, y.columns))
     target = "" if name is None else str(name)
-    values = (_estimator_kind(estimator), str(scoring), target)
+    values = (_estimator_kind(estimator), _scoring_name(scoring), target)
     setup = dict(zip(_SETUP_KEYS, values, strict=True))
     stored = study.user_attrs
     if not any(k in stored for k in _SETUP_KEYS):
@@ -771,6 +812,7 @@ def run_search(
     optuna = _import_optuna()
     space = _resolve_space(space, estimator)
     groups = _run_groups(X, groups)
+    X = _with_runs(X, groups)
     cv = _resolve_cv(cv, groups)
     splits = list(
         cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds

@@ -208,7 +208,13 @@ def particle_swarm(
     if velocity_clamp is None:
         vmax = span.copy()
     else:
-        vmax = np.broadcast_to(np.asarray(velocity_clamp, dtype=float), (d,)).copy()
+        vmax = np.asarray(velocity_clamp, dtype=float)
+        if vmax.ndim > 1 or vmax.size not in (1, d):
+            raise ValueError(
+                f"velocity_clamp must be a number or hold one value per dimension "
+                f"of the search ({d}), got {vmax.size} value(s)."
+            )
+        vmax = np.broadcast_to(vmax.ravel(), (d,)).copy()
         if not np.all(vmax > 0) or not np.all(np.isfinite(vmax)):
             raise ValueError(
                 f"velocity_clamp must be positive and finite, got {velocity_clamp!r}."

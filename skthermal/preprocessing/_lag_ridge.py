@@ -271,6 +271,14 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             if self.time_constant_sets is None
             else self.time_constant_sets
         )
+        flat = [s for s in sets if isinstance(s, Real) or isinstance(s, str)]
+        if flat:
+            raise ValueError(
+                "time_constant_sets is a list of candidate sets, each a sequence "
+                f"of time constants (s), got {self.time_constant_sets!r}; for one "
+                f"set write [{tuple(sets)!r}], for one candidate each "
+                f"{[(s,) for s in sets]!r}."
+            )
         # Without times, warn once here (not once per candidate), then give
         # the candidates one second per row explicitly.
         warn_no_time(
@@ -396,11 +404,11 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, self.n_fitted_runs_, groups, X_arr.shape[0]
         )
-        if groups is None and self.n_fitted_runs_ is not None:
-            groups = np.zeros(X_arr.shape[0])  # one run, as just warned
         with warnings.catch_warnings():
-            # LagFeatures names itself; the user called LagRidgeCV.
+            # LagFeatures names itself; the user called LagRidgeCV, and was
+            # just warned about rows without run labels.
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
+            warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             F = self.lag_features_.transform(X_raw, groups=groups)
         slices, labels = run_slices(groups, X_arr.shape[0])
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)

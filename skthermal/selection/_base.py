@@ -39,6 +39,27 @@ def _run_label(labels, row, slices):
     return ""
 
 
+def _run_index(original, X, groups):
+    """The ``(run[, time_s])`` index of a run table's rows, or None when
+    ``original`` is not a DataFrame carrying runs or times (``X`` and
+    ``groups`` as :func:`~skthermal.utils._runs.extract_runs` returns them)."""
+    if not hasattr(original, "columns"):
+        return None
+    names = [n for n in (getattr(X.index, "names", None) or []) if n is not None]
+    if "time_s" in names:
+        if "run" in names or groups is None:
+            return X.index
+    elif groups is None:
+        return None
+    import pandas as pd
+
+    arrays, level_names = [np.asarray(groups)], ["run"]
+    if "time_s" in names:
+        arrays.append(X.index.get_level_values("time_s"))
+        level_names.append("time_s")
+    return pd.MultiIndex.from_arrays(arrays, names=level_names)
+
+
 class RunAwareSelector(SelectorMixin, BaseEstimator):
     """Base class: validation, run handling and the ``transform`` of a selector.
 
@@ -140,7 +161,13 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         Returns
         -------
         X_selected : ndarray or DataFrame of shape (n_samples, n_selected)
+            A DataFrame indexed by ``run`` (and ``time_s``) when ``X`` is a
+            run table (a ``run`` column, or ``run``/``time_s`` index levels):
+            a sequence model after the selector in a Pipeline then still
+            sees where every run starts and each row's time. Otherwise an
+            array (or what ``set_output`` asks for).
         """
+        original = X
         X, groups = extract_runs(X, finite=False)
         check_is_fitted(self)
         A = validate_data(self, X, reset=False, ensure_all_finite=False)
@@ -149,7 +176,13 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             slices, labels = run_slices(groups, A.shape[0])
             hint = "Impute or drop those samples first."
             self._check_finite("X", A, slices, labels, hint, support)
-        return A[:, support]
+        kept = A[:, support]
+        index = _run_index(original, X, groups)
+        if index is None:
+            return kept
+        import pandas as pd
+
+        return pd.DataFrame(kept, index=index, columns=self.get_feature_names_out())
 
 
 class ScoreSelector(RunAwareSelector):

@@ -190,6 +190,12 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         finite.
     """
     columns = getattr(X, "columns", None)
+    if columns is not None and not columns.is_unique:
+        duplicated = list(dict.fromkeys(columns[columns.duplicated()]))
+        raise ValueError(
+            f"X has duplicate column name(s) {duplicated}; every sensor needs a "
+            "column of its own name."
+        )
     has_column = columns is not None and RUN_COLUMN in list(columns)
     if has_column:
         run_col = X[RUN_COLUMN]
@@ -223,6 +229,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
+    _check_finite_times(X, groups)
     if finite:
         check_finite_columns(X, groups)
         if y is not None:
@@ -242,6 +249,21 @@ def _where(row, X, groups):
     return ", ".join(where)
 
 
+def _check_finite_times(X, groups):
+    """Raise a ValueError naming the first row whose ``time_s`` is missing or
+    infinite (a time-aware model would filter with a NaN step)."""
+    t = row_times(X)
+    if t is None or np.all(np.isfinite(t)):
+        return
+    row = int(np.flatnonzero(~np.isfinite(t))[0])
+    run = "" if groups is None else f", run {plain(groups[row])!r}"
+    raise ValueError(
+        f"{TIME_COLUMN} is {t[row]} at row {row}{run} "
+        f"({int(np.sum(~np.isfinite(t)))} non-finite time(s)); every row needs "
+        "its time since the start of the run."
+    )
+
+
 def check_finite_target(y, X, groups):
     """Raise a ValueError naming the first missing or infinite target value
     (row, its run and time from ``X`` and ``groups`` as returned by
@@ -251,8 +273,12 @@ def check_finite_target(y, X, groups):
         values = np.asarray(y, dtype=float)
     except (TypeError, ValueError):
         return
-    if values.ndim == 0 or values.shape[0] != getattr(X, "shape", (None,))[0]:
-        return  # a length mismatch is reported by validate_data
+    if (
+        values.ndim == 0
+        or values.size == 0
+        or values.shape[0] != getattr(X, "shape", (None,))[0]
+    ):
+        return  # no rows, or a length mismatch: reported by validate_data
     bad = ~np.isfinite(values.reshape(values.shape[0], -1))
     if not bad.any():
         return
