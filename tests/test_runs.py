@@ -1,5 +1,7 @@
 """Tests of the run helpers shared by the run-aware estimators."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -177,6 +179,28 @@ def test_sequence_models_continue_a_training_run(name):
         model.predict(table.iloc[10:])
     with pytest.warns(UserWarning, match="not 0"):
         model.predict(table.iloc[cut:].assign(run="new"))
+
+
+@pytest.mark.parametrize("pause", [3, 12, 25])
+def test_lag_models_continue_a_training_run_after_a_pause(pause):
+    # Rows of a training run given alone after a pause are predicted as in
+    # the whole run with that pause: the inputs ramp across it in both.
+    from skthermal.preprocessing import LagFeatures, make_lag_pipeline
+
+    table, y, cut = _split_record()
+    later = table.iloc[cut + pause :]
+    record = pd.concat([table.iloc[:cut], later])
+    for model in (
+        make_lag_pipeline(time_constant_sets=[(300.0, 1800.0)]),
+        LagFeatures(time_constants=[300.0, 1800.0], drivers=["spindle_rpm"]),
+    ):
+        model.fit(table.iloc[:cut], y[:cut])
+        use = model.transform if hasattr(model, "transform") else model.predict
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the gap is named: known here
+            whole = use(record)[cut:]
+            alone = use(later)
+        np.testing.assert_allclose(alone, whole, rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize("name", list(_sequence_models()))

@@ -37,7 +37,9 @@ from skthermal.utils._runs import (
 _DT_RTOL = 0.01
 
 
-def first_order_lags(U, time_constants, dt, slices, state=None, times=None):
+def first_order_lags(
+    U, time_constants, dt, slices, state=None, times=None, previous=None
+):
     """Discrete first-order lags of the columns of ``U``, restarting per run.
 
     ``z[k] = a z[k-1] + (1 - a) u[k]`` with ``a = exp(-dt / tau)`` and
@@ -61,6 +63,9 @@ def first_order_lags(U, time_constants, dt, slices, state=None, times=None):
     times : ndarray of shape (n_samples,), optional
         Time of every row; ``dt`` is then the step before each run's first
         row (see :func:`skthermal.preprocessing.exponential_filter`).
+    previous : sequence, optional
+        Per run, the input row before its first row, or None (see
+        :func:`skthermal.preprocessing.exponential_filter`).
 
     Returns
     -------
@@ -83,6 +88,7 @@ def first_order_lags(U, time_constants, dt, slices, state=None, times=None):
         initial="rest",
         state=state,
         times=times,
+        previous=previous,
     )
 
 
@@ -318,17 +324,22 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         U[:, speed] = np.abs(X[:, speed]) ** self.speed_exponent
         return U
 
-    def _features(self, U, log_tau, dts, slices, state=None, times=None):
+    def _features(self, U, log_tau, dts, slices, state=None, times=None, previous=None):
         tau = np.exp(log_tau).reshape(-1)
+        if previous is not None:
+            previous = [
+                None if u is None else np.repeat(u, self.order) for u in previous
+            ]
         return first_order_lags(
-            np.repeat(U, self.order, axis=1), tau, dts, slices, state, times
+            np.repeat(U, self.order, axis=1), tau, dts, slices, state, times, previous
         )
 
-    def _lag_states(self, U, dts, slices, states=None, times=None):
+    def _lag_states(self, U, dts, slices, states=None, times=None, previous=None):
         """Lag features of every output (a list), given the lag outputs
         before each run (``states``: per run, None or an array (n_outputs,
         n_lags) of a continued run; ``dts`` is then the step before each
-        run's first row when ``times`` are given)."""
+        run's first row when ``times`` are given) and the inputs of the row
+        before it (``previous``: per run, None or a row of ``U``)."""
         taus = self.time_constants_.reshape(-1, U.shape[1] * self.order)
         states = [None] * len(slices) if states is None else states
         return [
@@ -339,6 +350,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 slices,
                 [None if st is None else st[k] for st in states],
                 times,
+                previous,
             )
             for k, tau in enumerate(taus)
         ]
@@ -559,8 +571,17 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         cont = continued_runs(
             type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
         )
-        U = self._inputs(X, slices, continued_values(cont, memory, "x_first"))
+        bases = continued_values(cont, memory, "x_first")
+        U = self._inputs(X, slices, bases)
         states = continued_values(cont, memory, "state")
+        # The inputs of a continued run's last training row: across a pause
+        # they ramp from there, as within a run.
+        previous = [
+            None if x is None else self._inputs(x[None, :], [slice(0, 1)], [b])[0]
+            for x, b in zip(
+                continued_values(cont, memory, "x_last"), bases, strict=True
+            )
+        ]
         # A given dt overrides the index's times, also across pauses.
         times = row_times(X_raw) if self.dt is None else None
         dts = continued_steps(dts, slices, times, cont, memory)
@@ -569,7 +590,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             [
                 F @ coef
                 for F, coef in zip(
-                    self._lag_states(U, dts, slices, states, times),
+                    self._lag_states(U, dts, slices, states, times, previous),
                     coefs,
                     strict=True,
                 )

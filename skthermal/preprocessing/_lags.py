@@ -15,6 +15,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
+    GAP_STEPS,
     changes_since_start,
     continued_runs,
     continued_steps,
@@ -34,7 +35,15 @@ from skthermal.utils._runs import (
 
 
 def exponential_filter(
-    U, time_constant, dt, slices=None, *, initial="steady", state=None, times=None
+    U,
+    time_constant,
+    dt,
+    slices=None,
+    *,
+    initial="steady",
+    state=None,
+    times=None,
+    previous=None,
 ):
     """First-order exponential (low-pass) filter, restarting at every run.
 
@@ -73,6 +82,13 @@ def exponential_filter(
         for ``initial="rest"`` and for a ``state``: the time since the
         state's sample). Runs whose steps all equal ``dt`` are filtered
         as without ``times``.
+    previous : sequence, optional
+        Per run, the input row before its first row (``u[-1]``, with
+        ``state``: the last input of the same run's earlier rows), or None.
+        With ``times``, when the step before the run's first row (``dt``) is
+        a gap the input is taken to change linearly from it over that step,
+        as within a run, so a run continued after a pause is filtered as the
+        whole run would be.
 
     Returns
     -------
@@ -123,6 +139,12 @@ def exponential_filter(
         None if st is None else np.asarray(st, dtype=float).reshape(U2.shape[1])
         for st in state
     ]
+    previous = [None] * len(slices) if previous is None else list(previous)
+    if len(previous) != len(slices):
+        raise ValueError(
+            f"previous must hold one entry per run ({len(slices)}), got "
+            f"{len(previous)}."
+        )
     # One lfilter call per run and distinct time constant: the columns that
     # share it are filtered together along the time axis.
     uniq, which = np.unique(np.broadcast_to(taus, (U2.shape[1],)), return_inverse=True)
@@ -140,11 +162,19 @@ def exponential_filter(
         # Steps before every row (None: all ``step``, one lfilter call) and
         # the gaps among them.
         steps = gap = None
+        u_prev = None
         if times is not None and sl.stop - sl.start > 1:
             d = np.diff(times[sl])
-            if np.any(np.abs(d - step) > 1e-9 * step):
+            # The step from the row before the run (a continued run's last
+            # training row) is a gap as a step within the run would be.
+            first_gap = previous[r] is not None and bool(
+                step > GAP_STEPS * np.median(d)
+            )
+            if first_gap or np.any(np.abs(d - step) > 1e-9 * step):
                 steps = np.concatenate(([step], d))
-                gap = np.concatenate(([False], gap_steps(d)))
+                gap = np.concatenate(([first_gap], gap_steps(d)))
+                if first_gap:
+                    u_prev = np.asarray(previous[r], dtype=float).reshape(-1)
         for j, tau in enumerate(uniq):
             cols = np.flatnonzero(which == j)
             u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
@@ -152,7 +182,8 @@ def exponential_filter(
             if state[r] is not None and np.all(np.isfinite(state[r][cols])):
                 z0 = state[r][cols]
             if steps is not None:
-                Z[sl, cols] = _varying_lowpass(u, steps / tau, z0, gap)
+                prev_u = None if u_prev is None else u_prev[cols]
+                Z[sl, cols] = _varying_lowpass(u, steps / tau, z0, gap, prev_u)
                 continue
             a = float(np.exp(-step / tau))
             zi = a * z0[None, :]
@@ -170,14 +201,15 @@ GAP_BRIDGE = (
 _MAX_DECAY = 40.0
 
 
-def _varying_lowpass(u, decay, z0, gap):
+def _varying_lowpass(u, decay, z0, gap, u_prev=None):
     """``z[k] = a[k] z[k-1] + c[k]``, ``a = exp(-decay)``, ``z[-1] = z0``.
 
     On a sampled step ``c[k] = (1 - a[k]) u[k]`` (the input held over the
     step, as with a constant step); across a gap (``gap[k]``) the input
     changes linearly from ``u[k-1]`` to ``u[k]``, the exact response of the
     filter to that ramp: ``c = (1 - a) u[k-1] + (u[k] - u[k-1]) (1 - (1 - a)
-    / decay)``. Evaluated in closed form, with ``S`` the cumulated decay,
+    / decay)``; ``u_prev`` is ``u[-1]``, for a gap before the first row.
+    Evaluated in closed form, with ``S`` the cumulated decay,
     ``z[k] = exp(-S[k]) (z0 + sum_j exp(S[j]) c[j])``, in blocks of at most
     ``_MAX_DECAY`` of decay so that the exponentials stay in range.
     """
@@ -187,8 +219,11 @@ def _varying_lowpass(u, decay, z0, gap):
     if gap.any():
         k = np.flatnonzero(gap)
         ramp = 1.0 - gain[k] / np.maximum(decay[k], 1e-300)
-        du = u[k] - u[k - 1]
-        c[k] = gain[k, None] * u[k - 1] + ramp[:, None] * du
+        before = u[k - 1]
+        if k[0] == 0:
+            before[0] = u[0] if u_prev is None else u_prev
+        du = u[k] - before
+        c[k] = gain[k, None] * before + ramp[:, None] * du
     S = np.cumsum(d)
     block = np.floor(S / _MAX_DECAY).astype(int)
     edges = np.flatnonzero(np.diff(block)) + 1
@@ -382,34 +417,57 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self.run_states_ = memory
         return self
 
-    def _compute(self, X_arr, slices, dts, bases=None, states=None, times=None):
+    def _compute(
+        self, X_arr, slices, dts, bases=None, states=None, times=None, lasts=None
+    ):
         """The features. Per run, ``bases``: the first row of the training
         run it continues (None: its own first row); ``states``: the filters'
-        outputs before it (None: a fresh start); ``dts``: the step before its
-        first row. ``times``: every row's time (missing samples and uneven
-        steps are then filtered exactly), or None."""
+        outputs before it (None: a fresh start); ``lasts``: the last row of
+        inputs before it (None: none); ``dts``: the step before its first
+        row. ``times``: every row's time (missing samples and uneven steps
+        are then filtered exactly), or None."""
         taus = self._taus()
         temp = np.setdiff1d(np.arange(X_arr.shape[1]), self.driver_indices_)
+        n_runs = len(slices)
+        bases = [None] * n_runs if bases is None else bases
+        lasts = [None] * n_runs if lasts is None else lasts
         T = X_arr[:, temp]
+        T_last = [None if x is None else x[temp] for x in lasts]
         if self.relative:
-            if bases is not None:
-                bases = [None if b is None else b[temp] for b in bases]
-            T = changes_since_start(T, slices, bases)
+            own = [None if b is None else b[temp] for b in bases]
+            T = changes_since_start(T, slices, own)
+            # A continued run has the first row of its training run as base.
+            T_last = [
+                None if x is None or b is None else x - b
+                for x, b in zip(T_last, own, strict=True)
+            ]
         blocks = [T] if self.include_changes else []
-        filtered = [(T, tau, "steady") for tau in taus]
+        filtered = [(T, T_last, tau, "steady") for tau in taus]
         if self.driver_indices_.size:
             D = X_arr[:, self.driver_indices_] / self.driver_scale
+            D_last = [
+                None if x is None else x[self.driver_indices_] / self.driver_scale
+                for x in lasts
+            ]
             for p in np.asarray(self.driver_powers, dtype=float).ravel():
                 Dp = np.abs(D) ** p
-                filtered += [(Dp, tau, self.driver_initial) for tau in taus]
-        states = [None] * len(slices) if states is None else states
+                Dp_last = [None if x is None else np.abs(x) ** p for x in D_last]
+                filtered += [(Dp, Dp_last, tau, self.driver_initial) for tau in taus]
+        states = [None] * n_runs if states is None else states
         start = 0
-        for U, tau, initial in filtered:
+        for U, U_last, tau, initial in filtered:
             width = U.shape[1]
             state = [None if st is None else st[start : start + width] for st in states]
             blocks.append(
                 exponential_filter(
-                    U, tau, dts, slices, initial=initial, state=state, times=times
+                    U,
+                    tau,
+                    dts,
+                    slices,
+                    initial=initial,
+                    state=state,
+                    times=times,
+                    previous=U_last,
                 )
             )
             start += width
@@ -452,9 +510,10 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         )
         bases = continued_values(cont, memory, "x_first")
         states = continued_values(cont, memory, "state")
+        lasts = continued_values(cont, memory, "x_last")
         times = row_times(X_raw)
         dts = continued_steps(dts, slices, times, cont, memory)
-        return self._compute(X_arr, slices, dts, bases, states, times)
+        return self._compute(X_arr, slices, dts, bases, states, times, lasts)
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).

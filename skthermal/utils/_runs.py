@@ -705,10 +705,11 @@ def run_times(X, slices):
 def run_memory(X, slices, labels, times):
     """What a sequence model keeps of each labelled training run, to continue it.
 
-    Returns a dict ``label -> {"n", "x_first", "t_first", "t_last"}`` for every
-    labelled run (rows without labels are one anonymous run, never continued):
-    the number of rows, the first row of inputs and the first and last
-    ``time_s`` (NaN without a time index). A model adds its own end state.
+    Returns a dict ``label -> {"n", "x_first", "x_last", "t_first",
+    "t_last"}`` for every labelled run (rows without labels are one anonymous
+    run, never continued): the number of rows, the first and last rows of
+    inputs and the first and last ``time_s`` (NaN without a time index). A
+    model adds its own end state.
     """
     memory = {}
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
@@ -718,6 +719,7 @@ def run_memory(X, slices, labels, times):
         memory[lab] = {
             "n": sl.stop - sl.start,
             "x_first": np.array(X[sl.start], dtype=float),
+            "x_last": np.array(X[sl.stop - 1], dtype=float),
             "t_first": float(t0),
             "t_last": float(t1),
         }
