@@ -69,6 +69,7 @@ INSTANCES = [
     GuardedRegressor(Ridge(), mode="clip", flat=3, jump=2.0),
     GuardedRegressor(LinearRegression(), mode="hold"),
     GuardedRegressor(ANFISRegressor(epochs=5, random_state=0), jump=None, flat=None),
+    GuardedRegressor(UpdateRegressor()),  # with partial_fit
     TransferFunctionRegressor(n_grid=3, max_iter=2),
     TransferFunctionRegressor(order=2, alpha=1.0, n_grid=3, max_iter=0),
     LagFeatures(time_constants=(2.0, 5.0), dt=1.0),

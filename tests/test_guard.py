@@ -331,6 +331,28 @@ def test_fit_names_a_missing_reading_or_target(train):
         GuardedRegressor(LinearRegression()).fit(X, y_bad)
 
 
+def test_partial_fit_updates_the_model_and_widens_the_ranges(train):
+    from skthermal.linear_model import UpdateRegressor
+
+    X, y = train
+    guard = GuardedRegressor(UpdateRegressor(alpha=1.0)).fit(X, y)
+    assert not hasattr(GuardedRegressor(LinearRegression()), "partial_fit")
+    # A changed machine: hotter readings, another slope.
+    hot, y_hot = make_runs([40.0], seed=3, n=8)
+    _, caught = _caught(guard.predict, hot)
+    assert _messages(caught, SensorRangeWarning)
+    guard.partial_fit(hot, 1.2 * y_hot)
+    direct = UpdateRegressor(alpha=1.0).fit(X, y).partial_fit(hot, 1.2 * y_hot)
+    np.testing.assert_allclose(guard.estimator_.coef_, direct.coef_)
+    assert np.all(guard.input_max_ >= hot.max().to_numpy())
+    _, caught = _caught(guard.predict, hot)
+    assert not _messages(caught, SensorRangeWarning)
+    bad = hot.copy()
+    bad.iloc[2, 0] = np.nan
+    with pytest.raises(ValueError, match=r"'T1_C' is missing \(NaN\) at row 2"):
+        guard.partial_fit(bad, y_hot)
+
+
 def test_plain_arrays_are_named_by_row_and_x_index(train):
     X, y = train
     A = X.to_numpy()

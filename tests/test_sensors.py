@@ -118,6 +118,7 @@ def test_frame_average_keeps_extra_aligned(stack):
         ({"centres": {"bad-name": (1, 1)}}, "letters and digits"),
         ({"strips": {"s_1": ((0, 0), (1, 1), 2)}}, "letters and digits"),
         ({"strips": {"s": ((0, 0), 2)}}, "must be"),
+        ({"strips": {}}, "strips is empty"),
         ({"centres": [[1, 1]], "mask": np.ones((3, 3), bool)}, "mask has shape"),
         ({"centres": [[1, 1]], "spot_size": 0}, "spot_size"),
         ({"centres": [[1, 1]], "min_coverage": 0}, "min_coverage"),
@@ -154,6 +155,8 @@ def test_transform_errors(stack):
         ext.transform(stack, [0, 1, 2, 2, 3, 4, 5])
     with pytest.raises(ValueError, match="one value per frame"):
         ext.transform(stack, extra={"x": [1.0, 2.0]})
+    with pytest.raises(ValueError, match="extra is a Series; give a DataFrame"):
+        ext.transform(stack, extra=pd.Series(np.zeros(stack.shape[0]), name="rpm"))
     bad = stack.copy()
     bad[3, 5, 6] = np.nan
     with pytest.raises(ValueError, match=r"frame 3, pixel \(row 5, col 6\)"):

@@ -63,6 +63,7 @@ def test_decomposition_with_fewer_measurements_and_units():
         ({"D_pp": -1.0}, "positive"),
         ({"D_omc": "x"}, "numeric"),
         ({"D_omc": 40.0, "unit": "inch"}, "unit"),
+        ({"D_omc": 40.0, "unit": ["mm"]}, "unit must be 'mm' or 'um'"),
         ({"D_omc": [[40.0]]}, "1-D"),
     ],
 )

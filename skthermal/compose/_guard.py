@@ -25,6 +25,7 @@ from sklearn.base import (
 )
 from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
+from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal._naming import plain
@@ -106,6 +107,15 @@ def _limits(low, high, margin):
     width = high - low
     scale = np.where(width > 0, width, np.maximum(np.abs(high), 1.0))
     return low - margin * scale, high + margin * scale
+
+
+def _output_names(y):
+    """The names of the targets of a Series or DataFrame (None otherwise)."""
+    if isinstance(y, pd.DataFrame):
+        return [str(c) for c in y.columns]
+    if isinstance(y, pd.Series) and y.name is not None:
+        return [str(y.name)]
+    return None
 
 
 def _accepts_groups(method):
@@ -335,12 +345,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             fit_params["groups"] = groups
         self.estimator_.fit(X, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
-        if isinstance(y, pd.DataFrame):
-            self._output_names = [str(c) for c in y.columns]
-        elif isinstance(y, pd.Series) and y.name is not None:
-            self._output_names = [str(y.name)]
-        else:
-            self._output_names = None
+        self._output_names = _output_names(y)
         return self
 
     def _resolve_inputs(self):
@@ -374,15 +379,79 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             raise ValueError("inputs is empty: name at least one input to check.")
         return mask
 
-    def _fit_ranges(self, A, Y, runs):
+    def _fit_ranges(self, A, Y, runs, update=False):
+        """The training ranges; with ``update``, widened to hold new samples
+        too (a range only grows: the model has now seen those conditions)."""
         start = run_first_rows(runs, A.shape[0])
         first = start == np.arange(A.shape[0])
-        self.input_min_ = A.min(axis=0)
-        self.input_max_ = A.max(axis=0)
-        self.input_max_step_ = np.abs(_steps(A, first)).max(axis=0)
-        self.input_max_unchanged_ = _unchanged(A, first).max(axis=0) + 1
-        self.output_min_ = Y.min(axis=0)
-        self.output_max_ = Y.max(axis=0)
+        found = {
+            "input_min_": A.min(axis=0),
+            "input_max_": A.max(axis=0),
+            "input_max_step_": np.abs(_steps(A, first)).max(axis=0),
+            "input_max_unchanged_": _unchanged(A, first).max(axis=0) + 1,
+            "output_min_": Y.min(axis=0),
+            "output_max_": Y.max(axis=0),
+        }
+        for name, value in found.items():
+            if update:
+                combine = np.minimum if name.endswith("min_") else np.maximum
+                value = combine(getattr(self, name), value)
+            setattr(self, name, value)
+
+    def _estimator_has_partial_fit(self):
+        return hasattr(self.estimator, "partial_fit")
+
+    @available_if(_estimator_has_partial_fit)
+    @_fit_context(prefer_skip_nested_validation=False)
+    def partial_fit(self, X, y, *, groups=None):
+        """Update the wrapped model with new samples (its ``partial_fit``) and
+        widen the checked ranges to hold them.
+
+        Only when the wrapped estimator has ``partial_fit`` (e.g.
+        :class:`~skthermal.linear_model.UpdateRegressor`, whose update
+        regression re-tunes a model to a changed machine from a few
+        samples). The new samples must be complete (no missing reading).
+
+        Parameters
+        ----------
+        X : {array-like, DataFrame} of shape (n_new, n_features)
+            New inputs, with the columns of ``fit``.
+        y : array-like of shape (n_new,) or (n_new, n_outputs)
+            Their measured targets.
+        groups : array-like of shape (n_new,), optional
+            Run labels; passed on when the wrapped ``partial_fit`` takes them.
+
+        Returns
+        -------
+        self : GuardedRegressor
+        """
+        first = not hasattr(self, "estimator_")
+        features, runs = extract_runs(X, groups, y=y)
+        A, Y = validate_data(
+            self,
+            features,
+            y,
+            multi_output=True,
+            y_numeric=True,
+            dtype=np.float64,
+            reset=first,
+        )
+        if first:  # partial_fit from scratch, as the wrapped model allows
+            self.checked_inputs_ = self._resolve_inputs()
+            self.estimator_ = clone(self.estimator)
+            self._output_names = _output_names(y)
+        kwargs = {}
+        if groups is not None and _accepts_groups(self.estimator_.partial_fit):
+            kwargs["groups"] = groups
+        self.estimator_.partial_fit(X, y, **kwargs)
+        Y = np.asarray(Y, dtype=float).reshape(A.shape[0], -1)
+        if not first and Y.shape[1] != self.output_min_.size:
+            raise ValueError(
+                f"y has {Y.shape[1]} output(s); the guard was fitted on "
+                f"{self.output_min_.size}."
+            )
+        self._fit_ranges(A, Y, runs, update=not first)
+        return self
 
     # --- predict ------------------------------------------------------------
 

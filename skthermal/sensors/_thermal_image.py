@@ -276,6 +276,11 @@ class VirtualSensorExtractor:
             raise ValueError(
                 "strips must be a dict {name: ((row0, col0), (row1, col1), n_spots)}."
             )
+        if not self.strips:
+            raise ValueError(
+                "strips is empty: give {name: ((row0, col0), (row1, col1), "
+                "n_spots)}, or None for no strip."
+            )
         names, kinds, strip_of, pts = [], [], [], []
         for name, spec in self.strips.items():
             label = str(name)
@@ -504,6 +509,11 @@ class VirtualSensorExtractor:
         values = self._readings(frames)
         columns.update(zip(self.spots_.index, values.T, strict=True))
         if extra is not None:
+            if isinstance(extra, pd.Series):
+                raise ValueError(
+                    "extra is a Series; give a DataFrame or a dict {name: values} "
+                    f"(e.g. extra={{{str(extra.name or 'name')!r}: series}})."
+                )
             items = extra.items() if hasattr(extra, "items") else None
             if items is None:
                 raise ValueError("extra must be a DataFrame or a dict of series.")

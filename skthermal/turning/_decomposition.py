@@ -105,7 +105,7 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
        d_tot  d_g  d_g_th  d_th  d_f_other  d_agg
     0    5.0  3.0    -1.0  -4.0        6.0    2.0
     """
-    if unit not in _UNITS:
+    if not isinstance(unit, str) or unit not in _UNITS:
         raise ValueError(f"unit must be 'mm' or 'um', got {unit!r}.")
     scale = _UNITS[unit]
     given = {"D_omw": D_omw, "D_omc": D_omc, "D_pp": D_pp}
