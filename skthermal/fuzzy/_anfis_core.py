@@ -601,6 +601,13 @@ penalize_intercepts, tol, n_iter_no_change, verbose
     # last, contiguous axis; consequent columns are ordered (input, rule).
     XT = np.ascontiguousarray(X.T)
     X1T = np.vstack([XT, np.ones((1, n))])
+    # The least squares see the inputs centred on their mean: each rule's
+    # f = p (x - m) + q' is f = p x + q with q = q' - p m (converted after
+    # every solve), the same model, but a ridge on q' shrinks the output at
+    # the data, not at x = 0, so inputs far from zero (kelvin, large offsets)
+    # are not biased by it.
+    centre = X.mean(axis=0) if n else np.zeros(d)
+    X1cT = np.vstack([XT - centre[:, None], np.ones((1, n))])
     YT = np.ascontiguousarray(Y.T)
     n_mfs = mf_params.shape[1]
     E = _rule_matrix(rules, n_mfs)
@@ -612,7 +619,7 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         free[d * n_rules :] = True
     normal = None
     if learning == "hybrid":
-        normal = NormalEquations.plan(X1T, YT, rules, n_mfs, grid, ridge)
+        normal = NormalEquations.plan(X1cT, YT, rules, n_mfs, grid, ridge)
     AT3 = None  # the transposed design matrix, only when it is needed
     width_floor = _WIDTH_FLOOR * _input_scale(X)
     if learning == "backprop" and consequents is None:
@@ -635,9 +642,12 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             if theta is None:
                 if AT3 is None:
                     AT3 = np.empty((d + 1, n_rules, n))
-                np.multiply(wT[None], X1T[:, None, :], out=AT3)
+                np.multiply(wT[None], X1cT[:, None, :], out=AT3)
                 theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge, free)
-            # theta: rows (input, rule), columns outputs.
+            # theta: rows (input, rule), columns outputs; back to f = p x + q.
+            theta = theta.reshape(d + 1, n_rules, n_out)
+            theta[d] -= np.einsum("a,aro->ro", centre, theta[:d])
+            theta = theta.reshape((d + 1) * n_rules, n_out)
             consequents = theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
             C = theta.reshape(d + 1, -1)
         else:

@@ -18,7 +18,9 @@ from scipy.linalg import blas, lapack
 _BLOCK_ELEMENTS = 1 << 21
 # Relative ridge of the columns a ridge leaves free (the rules' constant terms
 # with ``penalize_intercepts=False``): enough to keep a rule that hardly fires
-# well posed, too little to shrink anything.
+# well posed, too little to shrink anything. (It equals the default ridge,
+# itself only a stabiliser: the inputs are centred for the solve, so the
+# constant terms it touches sit at the output's level at the data.)
 FREE_RIDGE = 1e-8
 
 
