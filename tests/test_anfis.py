@@ -769,3 +769,18 @@ def test_far_inputs_give_finite_convex_outputs(regression_data, mf, init):
         wbar = _normalised_firing(far, model.mf_params_, model.rules_, mf)
         assert np.all(np.isfinite(wbar))
         assert_allclose(wbar.sum(axis=1), 1.0)
+
+
+def test_from_parameters_and_auto_ridge_name_bad_input(rng):
+    kw = {
+        "mf": "gaussian",
+        "mf_params": [[[1.0, 0.0], [1.0, 1.0]]],
+        "rules": [[0], [1]],
+    }
+    with pytest.raises(ValueError, match="consequents must be finite"):
+        ANFISRegressor.from_parameters(consequents=[[np.nan, 0], [0, 1]], **kw)
+    with pytest.raises(ValueError, match="'epochs' parameter"):
+        ANFISRegressor.from_parameters(consequents=[[0.0, 0], [0, 1]], epochs=-3, **kw)
+    X = rng.normal(size=(3, 2))
+    with pytest.raises(ValueError, match="3 samples leave only 1 there"):
+        ANFISRegressor(ridge="auto").fit(X, X.sum(axis=1))

@@ -106,3 +106,35 @@ def test_gram_path_for_wide_data_matches_direct_path():
     centers, u = _reference_fcm(wide, u0, 2.0, 5)
     np.testing.assert_allclose(res.centers, centers, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(res.memberships, u, rtol=1e-8)
+
+
+def test_cmeans_keeps_its_precision_far_from_zero():
+    rng = np.random.default_rng(0)
+    X = np.r_[rng.normal(0, 0.1, (20, 2)), rng.normal(1, 0.1, (20, 2))]
+    near = fuzzy_cmeans(X, 2, random_state=0)
+    far = fuzzy_cmeans(X + 1e8, 2, random_state=0)
+    np.testing.assert_allclose(far.centers - 1e8, near.centers, atol=1e-6)
+    np.testing.assert_allclose(
+        fuzzy_memberships(X + 1e8, far.centers),
+        fuzzy_memberships(X, near.centers),
+        atol=1e-6,
+    )
+
+
+def test_cmeans_names_bad_arguments():
+    X = np.random.default_rng(0).normal(size=(10, 2))
+    cases = [
+        ({"max_iter": 0}, "max_iter must be an integer >= 1"),
+        ({"n_init": 0}, "n_init must be an integer >= 1"),
+        ({"sample_weight": np.zeros(10)}, "zero everywhere"),
+        ({"init": np.zeros((10, 2))}, "sample 0 are all zero"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=message):
+            fuzzy_cmeans(X, 2, **kwargs)
+    with pytest.raises(ValueError, match="same number of features"):
+        fuzzy_memberships(X[:, :1], np.ones((2, 2)))
+    with pytest.raises(ValueError, match="greater than 1"):
+        fuzzy_memberships(X, np.ones((2, 2)), m=1.0)
+    with pytest.raises(ValueError, match="must be finite"):
+        fuzzy_memberships(np.where(X > 1, np.nan, X), np.ones((2, 2)))

@@ -158,3 +158,46 @@ def test_gra_rejects_bad_options():
         grey_relational_grade([0, 1.0], [[0], [1.0]], method="nope")
     with pytest.raises(ValueError, match="rho must be in"):
         grey_relational_grade([0, 1.0], [[0], [1.0]], rho=0)
+
+
+def test_gm11_restores_a_constant_series():
+    # The development coefficient is ~1e-17 there: no cancellation.
+    from skthermal.grey import gm11
+
+    np.testing.assert_allclose(gm11([1.0, 1.0, 1.0, 1.0]).predict(), [1, 1, 1, 1])
+    np.testing.assert_allclose(gm11([10.0, 10.0, 10.0]).predict(), [10, 10, 10])
+
+
+def test_grey_functions_name_bad_arguments():
+    from skthermal.grey import (
+        gm0n,
+        gm1n,
+        gmc1n,
+        gmc1n_predict,
+        gmc1n_varpro,
+        gnnmci_predict,
+        grey_relational_grade,
+    )
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(40, 2)).cumsum(axis=0)
+    y = X @ [0.5, -0.3]
+    cases = [
+        (lambda: gm1n(y, X, alpha=-1.0), "alpha must be a finite number >= 0"),
+        (lambda: gm0n(y, X, alpha=np.nan), "alpha must be a finite number >= 0"),
+        (lambda: gmc1n(y, X, delay=-2), "delay must be an integer >= 0"),
+        (lambda: gmc1n(y, X, delay=1.7), "delay must be an integer >= 0"),
+        (lambda: gmc1n_predict(X, 0.1, [1.0], 0.0), "one driving coefficient"),
+        (lambda: gmc1n_predict(X, -50, [1, 1], 0), "b1 must be finite and >= 0"),
+        (lambda: gnnmci_predict(X, [0.1, 1.0]), "weights must hold 4 finite"),
+        (lambda: gmc1n_varpro(y, X, b1_bounds=(-5, -1)), "b1_bounds must be"),
+        (lambda: gmc1n_varpro(y, X, b1_bounds=(1, 0)), "b1_bounds must be"),
+        (lambda: gmc1n_varpro(y, X, alpha="bogus"), 'or "auto"'),
+        (
+            lambda: grey_relational_grade(y, np.where(X > 0, np.nan, X)),
+            "NaN or infinite values",
+        ),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueError, match=message):
+            call()

@@ -178,6 +178,8 @@ def test_bad_objective_output():
         ({"epochs": -1}, ValueError),
         ({"c1": -1.0}, ValueError),
         ({"inertia": (0.9,)}, ValueError),
+        ({"inertia": np.nan}, ValueError),
+        ({"inertia": (np.nan, 0.4)}, ValueError),
         ({"velocity_clamp": 0.0}, ValueError),
         ({"init": np.zeros((2, 5))}, ValueError),
         ({"init": np.zeros(3)}, ValueError),

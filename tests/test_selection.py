@@ -261,6 +261,13 @@ def test_nan_names_sensor_and_run(selector):
 
 
 @pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
+def test_constant_target_is_named(selector):
+    X, _, groups = _small()
+    with pytest.raises(ValueError, match="Target 0 does not change within any run"):
+        clone(selector).fit(X, np.ones(len(X)), groups=groups)
+
+
+@pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
 def test_missing_target_names_row_and_run(selector):
     X, y, groups = _small()
     y = np.array(y, dtype=float)

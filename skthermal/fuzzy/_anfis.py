@@ -635,6 +635,13 @@ default="fcm"
                     f"quarters of every run, but {n} samples leave none; pass "
                     "X_val and y_val, or a number for ridge."
                 ) from None
+            if int(np.sum(~val)) < max(2, getattr(self, "n_clusters", 1)):
+                raise ValueError(
+                    f"ridge='auto' trains its checking folds on the first half "
+                    f"and three quarters of every run, but {n} samples leave "
+                    f"only {int(np.sum(~val))} there; pass X_val and y_val, or a "
+                    "number for ridge."
+                )
             check = self._tail_checking(Xk, Yo, gk, sk, val)
             mfp, rls = self._initial_rule_base(Xk[~val], rng)
             folds.append((Xk[~val], Yk[~val], mfp, rls, check))
@@ -846,6 +853,7 @@ default="fcm"
         [-1.0, 0.0, 1.0]
         """
         est = cls(mf=mf, **params)
+        est._validate_params()  # as fit would: bad settings named now
         k = len(MF_PARAMS[mf]) if mf in MF_PARAMS else None
         if k is None:
             raise ValueError(f"mf must be 'gaussian' or 'gbell', got {mf!r}.")
@@ -859,6 +867,8 @@ default="fcm"
         if not np.all(np.isfinite(mf_params)) or np.any(mf_params[..., :-1] <= 0):
             raise ValueError("mf_params must be finite with positive widths.")
         cons = np.array(consequents, dtype=float)
+        if not np.all(np.isfinite(cons)):
+            raise ValueError("consequents must be finite (no NaN or infinite value).")
         single = cons.ndim == 2
         cons = cons[:, :, None] if single else cons
         if cons.ndim != 3 or cons.shape[1] != d + 1:

@@ -104,6 +104,19 @@ def fuzzy_memberships(X, centers, m=2.0):
     """
     X = np.asarray(X, dtype=float)
     centers = np.asarray(centers, dtype=float)
+    if X.ndim != 2 or centers.ndim != 2 or X.shape[1] != centers.shape[1]:
+        raise ValueError(
+            f"X (shape {X.shape}) and centers (shape {centers.shape}) must be 2-D "
+            "with the same number of features (columns)."
+        )
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(centers))):
+        raise ValueError("X and centers must be finite (no NaN or infinite value).")
+    if not m > 1:
+        raise ValueError(f"The fuzzifier m must be greater than 1, got {m}.")
+    # Distances from data and centres shifted together: exact, and no loss
+    # of precision when they share a large offset.
+    shift = centers.mean(axis=0)
+    X, centers = X - shift, centers - shift
     d2 = _sq_distances(X, centers, np.einsum("ij,ij->i", X, X))
     return _memberships(d2, m).T
 
@@ -118,6 +131,12 @@ def _initial_memberships(X, n_clusters, init, m, rng, x_sq):
             )
         if np.any(u < 0) or not np.all(np.isfinite(u)):
             raise ValueError("init memberships must be finite and non-negative.")
+        empty = np.flatnonzero(u.sum(axis=1) <= 0)
+        if empty.size:
+            raise ValueError(
+                f"init memberships of sample {int(empty[0])} are all zero; every "
+                "sample needs a positive membership somewhere."
+            )
         u = np.ascontiguousarray(u.T)
         return u / u.sum(axis=0, keepdims=True)
     if init == "random":
@@ -236,12 +255,24 @@ def fuzzy_cmeans(
         )
     if not m > 1:
         raise ValueError(f"The fuzzifier m must be greater than 1, got {m}.")
+    for name, value in (("max_iter", max_iter), ("n_init", n_init)):
+        if isinstance(value, bool) or not float(value).is_integer() or value < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}.")
+    if not tol >= 0:
+        raise ValueError(f"tol must be >= 0, got {tol!r}.")
     w = None
     if sample_weight is not None:
         w = np.asarray(sample_weight, dtype=float)
         if w.shape != (n,) or np.any(w < 0) or not np.all(np.isfinite(w)):
             raise ValueError(f"sample_weight must be {n} finite non-negative values.")
+        if not w.sum() > 0:
+            raise ValueError("sample_weight is zero everywhere: no sample counts.")
     rng = check_random_state(random_state)
+    # Centred: the squared distances (|x|^2 - 2 x.c + |c|^2) keep their
+    # precision when the data share a large offset; the centres are shifted
+    # back at the end.
+    shift = X.mean(axis=0)
+    X = X - shift
     x_sq = np.einsum("ij,ij->i", X, X)
     best = None
     with single_threaded_blas():
@@ -254,5 +285,5 @@ def fuzzy_cmeans(
             um = u**m if w is None else u**m * w[None, :]
             J = float(np.vdot(um, _sq_distances(X, centers, x_sq)))
             if best is None or J < best.objective:
-                best = FuzzyCMeansResult(centers, u.T, J, n_iter, history)
+                best = FuzzyCMeansResult(centers + shift, u.T, J, n_iter, history)
     return best

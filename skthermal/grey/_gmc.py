@@ -334,7 +334,7 @@ def gmc1n(y, X, *, groups=None, relative=True, delay=0, alpha=0.0):
     """
     n_inputs = 1 if np.ndim(X) == 1 else np.shape(X)[1]
     y, X, slices = check_grey_data(y, X, groups, n_inputs + 2, "GMC(1,N)")
-    runs = _model_runs(y, X, slices, relative=relative, delay=int(delay))
+    runs = _model_runs(y, X, slices, relative=relative, delay=_check_delay(delay))
     theta = _tien_ls(runs, alpha)
     return float(theta[0]), theta[1:-1], float(theta[-1])
 
@@ -370,17 +370,41 @@ def gmc1n_predict(X, b1, b, u, *, groups=None, relative=True, delay=0, x1_first=
     X = np.asarray(X, dtype=float)
     if X.ndim == 1:
         X = X[:, None]
+    b = np.atleast_1d(np.asarray(b, dtype=float))
+    if b.ndim != 1 or b.size != X.shape[1]:
+        raise ValueError(
+            f"b must hold one driving coefficient per input ({X.shape[1]}), got "
+            f"shape {b.shape}."
+        )
+    if not (np.isfinite(b1) and b1 >= 0 and np.all(np.isfinite(b)) and np.isfinite(u)):
+        raise ValueError(
+            f"b1 must be finite and >= 0 (a negative development coefficient "
+            f"grows exponentially), and b and u finite; got b1={b1!r}."
+        )
+    delay = _check_delay(delay)
     slices, _ = run_slices(groups, X.shape[0])
     first = _per_run(x1_first, len(slices), "x1_first")
     out = np.empty(X.shape[0])
     for (X1, _), sl, x0 in zip(
-        _model_runs(None, X, slices, relative=relative, delay=int(delay)),
+        _model_runs(None, X, slices, relative=relative, delay=delay),
         slices,
         first,
         strict=True,
     ):
         out[sl] = iago(gmc_time_response(X1, b1, b, u, x0))
     return out
+
+
+def _check_delay(delay):
+    """``delay`` as an int >= 0 (a named error otherwise)."""
+    if (
+        isinstance(delay, bool)
+        or not np.isscalar(delay)
+        or not float(delay).is_integer()
+        or delay < 0
+    ):
+        raise ValueError(f"delay must be an integer >= 0 (samples), got {delay!r}.")
+    return int(delay)
 
 
 def gnnmci_time_response(X1, weights, x1_first=0.0):
@@ -520,6 +544,12 @@ def gnnmci_predict(X, weights, *, groups=None, relative=True, x1_first=0.0):
     X = np.asarray(X, dtype=float)
     if X.ndim == 1:
         X = X[:, None]
+    w = np.asarray(weights, dtype=float)
+    if w.ndim != 1 or w.size != X.shape[1] + 2 or not np.all(np.isfinite(w)):
+        raise ValueError(
+            f"weights must hold {X.shape[1] + 2} finite values (w11, one per "
+            f"input, w2N) for {X.shape[1]} input(s), got shape {w.shape}."
+        )
     slices, _ = run_slices(groups, X.shape[0])
     first = _per_run(x1_first, len(slices), "x1_first")
     out = np.empty(X.shape[0])

@@ -14,6 +14,20 @@ from skthermal.grey._ago import ago, background
 from skthermal.utils._runs import changes_since_start, check_run_lengths, run_slices
 
 
+def check_alpha(alpha, auto=False):
+    """A ridge ``alpha`` as a finite float >= 0 (or ``"auto"`` when allowed);
+    a named error otherwise."""
+    if auto and isinstance(alpha, str) and alpha == "auto":
+        return alpha
+    ok = not isinstance(alpha, (bool, str)) and np.isscalar(alpha)
+    if ok:
+        ok = bool(np.isfinite(alpha) and alpha >= 0)
+    if not ok:
+        extra = ' or "auto"' if auto else ""
+        raise ValueError(f"alpha must be a finite number >= 0{extra}, got {alpha!r}.")
+    return float(alpha)
+
+
 def _solve(B, Y, alpha):
     """Least squares ``min ||B theta - Y||``, optionally ridge-regularised.
 
@@ -23,6 +37,7 @@ def _solve(B, Y, alpha):
     penalty does not depend on units or on the length of the series) and
     scales the solution back: it spreads weight evenly across collinear columns.
     """
+    alpha = check_alpha(alpha)
     if alpha == 0:
         theta, *_ = linalg.lstsq(B, Y, lapack_driver="gelsd")
         return theta
@@ -174,10 +189,14 @@ class GM11:
         """
         n = self.n_samples if n_samples is None else int(n_samples)
         k = np.arange(n, dtype=float)
+        # x1 = x0_1 e^{-ak} + (b / a)(1 - e^{-ak}), written with expm1 so that
+        # a development coefficient near 0 (a nearly constant series) does
+        # not cancel catastrophically; (1 - e^{-ak}) / a -> k as a -> 0.
         if self.a == 0:
-            x1 = self.x0_1 + self.b * k
+            growth = k
         else:
-            x1 = (self.x0_1 - self.b / self.a) * np.exp(-self.a * k) + self.b / self.a
+            growth = -np.expm1(-self.a * k) / self.a
+        x1 = self.x0_1 * np.exp(-self.a * k) + self.b * growth
         out = np.empty(n)
         out[:1] = x1[:1]
         out[1:] = np.diff(x1)

@@ -84,6 +84,13 @@ def grey_relational_grade(
         raise ValueError(
             f"Target of shape {y.shape} does not match inputs of shape {X.shape}."
         )
+    if not (np.all(np.isfinite(y)) and np.all(np.isfinite(X))):
+        where = "y" if not np.all(np.isfinite(y)) else "X"
+        row = int(np.flatnonzero(~np.isfinite(np.column_stack([y, X])).all(axis=1))[0])
+        raise ValueError(
+            f"The data contain NaN or infinite values ({where}, first at row "
+            f"{row}); grey relational analysis needs every value."
+        )
     slices, labels = run_slices(groups, y.shape[0])
     check_run_lengths(slices, labels, "grey relational analysis")
     A = changes_since_start(np.column_stack([y, X]), slices)

@@ -17,12 +17,13 @@ import numpy as np
 
 from skthermal.grey._gmc import (
     _block_layout,
+    _check_delay,
     _convolution_blocked,
     _gmc_penalty_weights,
     _model_runs,
     _penalty_scale,
 )
-from skthermal.grey._models import check_grey_data
+from skthermal.grey._models import check_alpha, check_grey_data
 
 
 def _gmc_responses(runs, b1s):
@@ -379,7 +380,20 @@ def gmc1n_varpro(y, X, *, groups=None, delay=0, alpha=0.0, b1_bounds=None):
     (0.1, [0.3, -0.2], 0.01)
     """
     n_inputs = 1 if np.ndim(X) == 1 else np.shape(X)[1]
+    alpha = check_alpha(alpha, auto=True)
+    if b1_bounds is not None:
+        lo_hi = np.asarray(b1_bounds, dtype=float)
+        if (
+            lo_hi.shape != (2,)
+            or not np.all(np.isfinite(lo_hi))
+            or lo_hi[0] < 0
+            or lo_hi[0] > lo_hi[1]
+        ):
+            raise ValueError(
+                "b1_bounds must be a finite (low, high) pair with 0 <= low <= high "
+                f"(a negative b1 grows exponentially), got {b1_bounds!r}."
+            )
     y, X, slices = check_grey_data(y, X, groups, 1, "GMC(1,N)")
-    runs = _model_runs(y, X, slices, delay=int(delay))
+    runs = _model_runs(y, X, slices, delay=_check_delay(delay))
     theta, _, _ = _gmc_varpro(runs, alpha, b1_bounds=b1_bounds)
     return float(theta[0]), theta[1 : n_inputs + 1], float(theta[-1])

@@ -48,14 +48,19 @@ def _as_bounds(bounds):
 
 def _inertia_schedule(inertia, epochs):
     if isinstance(inertia, numbers.Real):
-        return np.full(max(epochs, 1), float(inertia))
-    try:
-        w0, w1 = (float(w) for w in inertia)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(
-            "inertia must be a float or a (start, end) pair for a linear decrease, "
-            f"got {inertia!r}."
-        ) from exc
+        w0 = w1 = float(inertia)
+    else:
+        try:
+            w0, w1 = (float(w) for w in inertia)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                "inertia must be a float or a (start, end) pair for a linear "
+                f"decrease, got {inertia!r}."
+            ) from exc
+    if not (np.isfinite(w0) and np.isfinite(w1)):
+        raise ValueError(f"inertia must be finite, got {inertia!r}.")
+    if isinstance(inertia, numbers.Real):
+        return np.full(max(epochs, 1), w0)
     if epochs <= 1:
         return np.array([w0])
     return np.linspace(w0, w1, epochs)

@@ -136,6 +136,14 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             hint = "Impute or drop the samples before fitting."
             self._check_finite(name, A, slices, labels, hint)
         check_run_lengths(slices, labels, "measuring a change")
+        flat = ~np.any(changes_since_start(Y, slices) != 0, axis=0)
+        if flat.any():
+            raise ValueError(
+                f"Target {int(np.argmax(flat))} does not change within any run: "
+                "there is no thermal error to rank the sensors by (a correlation "
+                f"with it is undefined). {type(self).__name__} needs a varying "
+                "thermal error."
+            )
         change = changes_since_start(X, slices)
         constant = ~np.any(change != 0, axis=0)
         if constant.any():

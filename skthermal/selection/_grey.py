@@ -23,6 +23,12 @@ class GreyInfluenceSelector(ScoreSelector):
     and accumulated (AGO) within each run only; the grey equations of all runs
     are solved together.
 
+    A coefficient is in units of the displacement per unit of its sensor, as
+    in the papers: give every sensor in the same unit (°C). A sensor in other
+    units (e.g. thousandths) is ranked by a coefficient scaled by that
+    factor; :class:`GRASelector` normalises the series and has no such
+    dependence.
+
     Parameters
     ----------
     method : {"gm1n", "gm0n"}, default="gm1n"
