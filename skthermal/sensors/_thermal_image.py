@@ -23,6 +23,7 @@ from sklearn.utils import check_random_state, check_scalar
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import TEMPERATURE_PATTERN
+from skthermal.utils._runs import is_clock_dtype
 
 _NAME = re.compile(r"[A-Za-z0-9]+")
 # Frames processed at once: bounds the memory of the integral images.
@@ -51,9 +52,7 @@ def _seconds(time_s):
     (``np.asarray(..., float)`` would read datetimes as nanoseconds)."""
     kind = getattr(time_s, "dtype", None)
     arr = np.asarray(time_s)
-    if (kind is not None and pd.api.types.is_datetime64_any_dtype(kind)) or (
-        arr.dtype.kind in "mM"
-    ):
+    if (kind is not None and is_clock_dtype(kind)) or is_clock_dtype(arr.dtype):
         raise ValueError(
             f"time_s holds {arr.dtype} values; it must hold the seconds since the "
             "start of the run as numbers, e.g. (t - t[0]).total_seconds()."

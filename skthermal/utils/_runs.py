@@ -212,9 +212,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
 
         time = X[[TIME_COLUMN]]
         kind = time[TIME_COLUMN].dtype
-        if pd.api.types.is_datetime64_any_dtype(
-            kind
-        ) or pd.api.types.is_timedelta64_dtype(kind):
+        if is_clock_dtype(kind):
             raise ValueError(
                 f"Column {TIME_COLUMN!r} holds {kind} values; it must hold the "
                 "seconds since the start of each run as numbers, e.g. "
@@ -649,6 +647,17 @@ def driver_positions(drivers, names, n_features):
     return np.array(sorted(set(out)), dtype=int)
 
 
+def is_clock_dtype(dtype):
+    """Whether ``dtype`` holds datetimes or durations (numpy or pandas), which
+    converting to numbers would read as nanoseconds."""
+    import pandas as pd
+
+    return bool(
+        pd.api.types.is_datetime64_any_dtype(dtype)
+        or pd.api.types.is_timedelta64_dtype(dtype)
+    )
+
+
 def check_numeric_columns(X):
     """Raise a ValueError naming the first non-numeric column of a DataFrame.
 
@@ -667,9 +676,7 @@ def check_numeric_columns(X):
     for name, dtype in zip(columns, dtypes, strict=True):
         if pd.api.types.is_bool_dtype(dtype) or pd.api.types.is_numeric_dtype(dtype):
             continue
-        if pd.api.types.is_datetime64_any_dtype(
-            dtype
-        ) or pd.api.types.is_timedelta64_dtype(dtype):
+        if is_clock_dtype(dtype):
             # to_numeric would turn them into nanoseconds.
             raise ValueError(
                 f"Column {name!r} holds {dtype} values, not numbers. Every feature "
