@@ -537,6 +537,31 @@ def rig_runs():
 FAST = {"fine": False, "greedy": False, "max_samples": 100}
 
 
+def test_a_short_run_and_datetime_times(rig_runs):
+    rig, runs = rig_runs
+    short = pd.concat(
+        [runs[runs["run"] != "r2"], runs[runs["run"] == "r2"].iloc[:6]],
+        ignore_index=True,
+    )
+    report = diagnose(rig, short, candidates=["sensor_lag"], **FAST)
+    assert report.ranking["effect"].tolist() == ["sensor_lag"]
+    clock = runs.assign(time_s=pd.to_datetime(runs["time_s"], unit="s"))
+    with pytest.raises(ValueError, match="time_s in run 'r0' holds datetime64"):
+        diagnose(rig, clock, **FAST)
+    with pytest.raises(ValueError, match="time_s of run 'r0' holds datetime64"):
+        rig.calibrate(clock, ["q.bearing_W"])
+
+
+def test_campaign_arguments_are_checked():
+    for kwargs, message in (
+        ({"hours": 1}, "hours must be at least 2"),
+        ({"n_runs": 0}, "n_runs must be an integer >= 2"),
+        ({"perturbation": (1.5, 2.0)}, "perturbation must be"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            make_gap_campaign("tool_growth", **kwargs)
+
+
 def test_no_candidate_left_is_one_clear_error(rig_runs):
     from skthermal.simulate import EFFECTS
 
@@ -615,6 +640,17 @@ def test_cv_as_folds_over_runs(rig_runs):
         diagnose(rig, runs, cv=5, **FAST)
     with pytest.raises(ValueError, match="Fold 0 of cv has held-out runs \\[3\\]"):
         heldout_folds(3, [([0, 1], [3])])
+    # Every run held out exactly once, never by a fold that trains on it.
+    with pytest.raises(ValueError, match=r"run\(s\) \[0, 1\] are never held out"):
+        heldout_folds(3, [([0, 1], [2])])
+    with pytest.raises(ValueError, match="held out more than once"):
+        heldout_folds(3, [([1, 2], [0]), ([1], [0]), ([0], [1, 2])])
+    with pytest.raises(ValueError, match=r"trains on its held-out run\(s\) \[1\]"):
+        heldout_folds(3, [([0, 1], [1]), ([1], [0, 2])])
+    from sklearn.model_selection import ShuffleSplit
+
+    with pytest.raises(ValueError, match="never held out"):
+        heldout_folds(3, ShuffleSplit(1, test_size=1, random_state=0))
 
 
 def test_report_files_and_plots_with_awkward_run_labels(rig_runs, tmp_path):

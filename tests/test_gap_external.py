@@ -335,6 +335,39 @@ def test_mapping_typos_and_uncompared_channels(pair):
     assert "T3_C" not in report.settings["channels"]
 
 
+def test_another_tools_column_names_give_the_same_diagnosis(rng):
+    # The kind of a channel comes from the measured (run-table) name, and a
+    # mapping may start from a measured column of any name.
+    sim, meas = _tables(rng, "tool_growth", n_runs=3, hours=3.0)
+    kwargs = {"candidates": ["tool_growth", "sensor_lag"], "greedy": False}
+    standard = diagnose_runs(sim, meas, **kwargs)
+    renamed = sim.rename(columns={"disp_z_um": "uz", "T1_C": "temp1"})
+    other = diagnose_runs(
+        renamed, meas, mapping={"disp_z_um": "uz", "T1_C": "temp1"}, **kwargs
+    )
+    pd.testing.assert_frame_equal(
+        other.ranking[["effect", "gap_before", "gap_after", "shrink"]],
+        standard.ranking[["effect", "gap_before", "gap_after", "shrink"]],
+    )
+    custom = meas.rename(columns={"disp_z_um": "z_displacement"})
+    mapped = diagnose_runs(
+        sim, custom, mapping={"z_displacement": "disp_z_um"}, **kwargs
+    )
+    assert "z_displacement" in mapped.settings["channels"]
+    both_odd = renamed.rename(columns={"uz": "z"})
+    with pytest.raises(ValueError, match="temperature or a displacement"):
+        diagnose_runs(both_odd, custom, mapping={"z_displacement": "z"}, **kwargs)
+
+
+def test_report_dict_keeps_small_p_values(pair):
+    sim, meas = pair
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    row = report.to_dict()["ranking"][0]
+    expected = report.ranking.iloc[0]
+    for key in ("lr_p_value", "p_value", "shrink"):
+        assert row[key] == pytest.approx(float(expected[key]), rel=1e-12, abs=1e-300)
+
+
 def test_a_term_without_signal_is_not_scored(pair):
     sim, meas = pair  # no feed
     report = diagnose_runs(sim, meas, candidates=["feed_heating", "tool_growth"])

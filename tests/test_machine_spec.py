@@ -557,3 +557,15 @@ def test_per_sensor_noise_overrides_the_machine_figures():
     by_name = {s.name: s for s in machine.spec.sensors}
     assert by_name["T2_C"].noise_C == 0.5 and by_name["T1_C"].noise_C is None
     assert MachineSpec.from_dict(machine.spec.to_dict()) == machine.spec
+
+
+def test_parameters_that_cut_a_node_off_are_refused_at_construction():
+    # As the spec itself would: a machine that cannot be saved or solved is
+    # not made at all.
+    from skthermal.simulate import ThermalMachine
+
+    rig = ThermalMachine.from_preset("spindle-rig")
+    with pytest.raises(ValueError, match=r"node\(s\) \['nose'\] are not connected"):
+        rig.with_params({"G.spindle-nose": 0.0, "hA.nose": 0.0})
+    with pytest.raises(ValueError, match="'air' .* needs a positive convection"):
+        rig.with_params({"hA.air": 0.0})

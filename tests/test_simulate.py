@@ -359,6 +359,23 @@ def test_calibration_errors():
         machine.calibrate(runs, ["q.bearing_W"], bounds={"q.bearing_W": (5, 1)})
     with pytest.raises(ValueError, match=r"'q.bearing_W': high must be a number"):
         machine.calibrate(runs, ["q.bearing_W"], bounds=[(1, "ten")])
+    # Channels asked for are fitted or named, never dropped silently.
+    with pytest.raises(ValueError, match=r"\['disp_zz_um'\] are not columns"):
+        machine.calibrate(runs, ["q.bearing_W"], channels=["disp_z_um", "disp_zz_um"])
+    _, result = machine.calibrate(runs, ["q.bearing_W"], channels="disp_z_um")
+    assert list(result.rmse_after.index) == ["disp_z_um"]  # a name, not letters
+    with pytest.raises(ValueError, match=r"\['q.bearing_W'\] more than once"):
+        machine.calibrate(runs, ["q.bearing_W", "q.bearing_W"])
+    with pytest.raises(ValueError, match="empty"):
+        machine.calibrate(runs.iloc[:0], ["q.bearing_W"])
+
+
+def test_read_checks_the_sample_period():
+    machine = ThermalMachine.from_preset("vmc-b", effects=["sensor_lag"])
+    T = np.full((5, len(machine.spec.nodes)), 20.5)
+    for period in (0.0, -60.0, np.nan, np.inf):
+        with pytest.raises(ValueError, match="sample_period_s must be"):
+            machine.read(T, np.full(5, 20.0), sample_period_s=period)
 
 
 def test_calibration_flags_parameters_the_channels_do_not_see():

@@ -82,8 +82,13 @@ def _xcorr(problem, Rs, max_lag=10):
             drivers.setdefault(name, []).append((r, x))
     for pairs in drivers.values():
         for lag in range(max_lag + 1):
-            rs = np.concatenate([r[lag:] for r, _ in pairs])
-            xs = np.concatenate([x[: x.size - lag] for _, x in pairs])
+            # Runs shorter than the lag add nothing (x[: size - lag] would
+            # wrap around to a negative stop).
+            used = [(r, x) for r, x in pairs if x.size > lag]
+            if not used:
+                continue
+            rs = np.concatenate([r[lag:] for r, _ in used])
+            xs = np.concatenate([x[: x.size - lag] for _, x in used])
             if rs.size > 3 and np.std(xs) > 0 and np.std(rs) > 0:
                 best = max(best, abs(float(np.corrcoef(rs, xs)[0, 1])))
     return best
@@ -318,7 +323,8 @@ def diagnose(
         without a feed axis, or on runs without feed) is not scored: it is
         listed in ``report.not_applicable`` and in the verdict.
     cv : int, splitter or iterable of (train, test), optional
-        Held-out scheme over runs: default leave-one-run-out for up to 3
+        Held-out scheme over runs (every run held out exactly once, by a
+        fold that does not train on it): default leave-one-run-out for up to 3
         runs, else 3-fold GroupKFold; an int is a number of GroupKFold
         folds (at most the number of runs); a splitter splits the runs
         (one group each); (train, test) pairs are run indices, the runs

@@ -87,10 +87,12 @@ def _align(simulated, measured, channels, mapping, max_samples):
     )
     explicit = channels is not None
     if channels is None:
+        # Channels by name, and every measured column the mapping names.
         channels = [
             c
             for c in measured.columns
-            if is_channel(c) and mapping.get(c, c) in simulated.columns
+            if (is_channel(c) or c in mapping)
+            and mapping.get(c, c) in simulated.columns
         ]
     channels = list(channels)
     bad = [c for c in channels if c not in measured.columns]
@@ -258,9 +260,29 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
     return ~(flat_m & flat_s)
 
 
+def _kinds(channels, sim_cols):
+    """Which compared channels are displacements: by the measured column's
+    name (the run-table contract), else the simulated one's; a channel named
+    neither way is an error (displacements and temperatures are scaled and
+    corrected apart)."""
+    out = []
+    for measured, simulated in zip(channels, sim_cols, strict=True):
+        for name in (measured, simulated):
+            if is_channel(name):
+                out.append(str(name).startswith("disp_"))
+                break
+        else:
+            raise ValueError(
+                f"Cannot tell whether channel {measured!r} (simulated "
+                f"{simulated!r}) is a temperature or a displacement: name the "
+                "measured column T<name>_C or disp_<name>_um."
+            )
+    return np.array(out, dtype=bool)
+
+
 def _problem(runs, channels, sim_cols, noise):
     """The measured side as a :class:`Problem` (scales, weights, noise)."""
-    is_disp = np.array([c.startswith("disp_") for c in sim_cols])
+    is_disp = _kinds(channels, sim_cols)
     scale, weight = group_scales(np.vstack([r.y for r in runs]), is_disp)
     measured = [
         MeasuredRun(
@@ -558,7 +580,8 @@ def diagnose_runs(
     candidates : sequence of str, optional
         Effects to test (default: every discrepancy term).
     cv : int, splitter or iterable of (train, test), optional
-        Held-out scheme over runs: default leave-one-run-out for up to 3
+        Held-out scheme over runs (every run held out exactly once, by a
+        fold that does not train on it): default leave-one-run-out for up to 3
         runs, else 3-fold GroupKFold; an int is a number of GroupKFold
         folds (at most the number of runs); a splitter splits the runs
         (one group each); (train, test) pairs are run indices, the runs

@@ -20,6 +20,7 @@ from scipy.optimize import least_squares
 
 from skthermal._naming import suggest
 from skthermal.simulate import EFFECTS
+from skthermal.utils._runs import is_clock_dtype
 
 # Base calibration. The network's time scales are set by two multipliers (all
 # capacities, all convection coefficients), fitted by nonlinear least squares.
@@ -139,6 +140,11 @@ def driver_values(frame, col, run, table=""):
     run and the value when a value is missing or not finite, or when
     ``spindle_rpm`` is negative.
     """
+    if is_clock_dtype(frame[col].dtype):
+        raise ValueError(
+            f"{col} in {_where(run, table)} holds {frame[col].dtype} values; it must "
+            "hold numbers (time_s: the seconds since the start of the run)."
+        )
     values = pd.to_numeric(frame[col], errors="coerce").to_numpy(float)
     bad = ~np.isfinite(values)
     if col == "spindle_rpm":

@@ -141,9 +141,16 @@ class GapReport:
     noise_floor : float
         The gap that measurement noise alone would leave.
     machines : dict
-        The simulation calibrated on all runs, without and (when an effect
-        explains the gap) with the identified effects, for
-        :func:`skthermal.gap.downstream_error` and further use.
+        The simulation with the network parameters calibrated on all runs
+        (the capacity and convection multipliers, and an identified effect's
+        parameter), without and (when an effect explains the gap) with the
+        identified effects, for :func:`skthermal.gap.downstream_error`. The
+        calibration's per-channel gains of the air, bearing, drive and feed
+        parts are not part of these machines (a network has no such
+        parameter), so they do not reproduce the "calibrated" fit of the
+        where-table; to get a machine that does, fit it with
+        :meth:`ThermalMachine.calibrate` on the heat inputs and displacement
+        coefficients.
     not_applicable : dict
         Candidates that were not scored because they cannot change the
         compared channels on these runs, with the reason: ``{effect:
@@ -323,7 +330,7 @@ class GapReport:
         """Plain-Python content (tables as lists of records)."""
 
         def records(df):
-            return json.loads(df.to_json(orient="records"))
+            return json.loads(df.to_json(orient="records", double_precision=15))
 
         return {
             "verdict": self.verdict(),
@@ -335,7 +342,9 @@ class GapReport:
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
-            "regime_shrink": json.loads(self.regime_shrink.to_json(orient="index")),
+            "regime_shrink": json.loads(
+                self.regime_shrink.to_json(orient="index", double_precision=15)
+            ),
             "where": {k: records(v) for k, v in self.where.items()},
         }
 

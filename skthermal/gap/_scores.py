@@ -156,6 +156,29 @@ def heldout_folds(n_runs, cv):
                     f"needs at least one training and one held-out run, given as "
                     f"run indices 0-{n_runs - 1} (runs in their order in the table)."
                 )
+        both = np.intersect1d(tr, te)
+        if both.size:
+            raise ValueError(
+                f"Fold {k} of cv trains on its held-out run(s) {both.tolist()}: "
+                "a held-out run must not be a training run of the same fold."
+            )
+    # Every run is held out exactly once: the held-out gap is scored on all
+    # of them, each predicted by one model that did not see it.
+    held = np.concatenate([te for _, te in folds])
+    counts = np.bincount(held, minlength=n_runs)
+    if np.any(counts != 1):
+        never = np.flatnonzero(counts == 0).tolist()
+        twice = np.flatnonzero(counts > 1).tolist()
+        what = []
+        if never:
+            what.append(f"run(s) {never} are never held out")
+        if twice:
+            what.append(f"run(s) {twice} are held out more than once")
+        raise ValueError(
+            f"The held-out scheme cv={cv!r}: {' and '.join(what)}; the folds "
+            f"must hold out each of the {n_runs} runs exactly once (as "
+            "GroupKFold or LeaveOneGroupOut do)."
+        )
     return folds
 
 

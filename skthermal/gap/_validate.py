@@ -92,14 +92,14 @@ def make_gap_campaign(
         The effect the "real" machine has and the simulation lacks (None for
         the null case).
     preset : {"vmc-b", "vmc-a"}, default="vmc-b"
-    n_runs : int, default=4
-    hours : float, default=6.0
+    n_runs : int >= 2, default=4
+    hours : float >= 2, default=6.0
         Length of every run: random spindle speeds with stops, feed motion in
         some segments, day/night air and (in at least one run) a door event.
     strength : float, default=1.0
         Multiplier of the effect's parameter (for ``ambient_transient``, of
         the door-event drop).
-    perturbation : (float, float), default=(0.1, 0.2)
+    perturbation : (float, float) with 0 <= low <= high < 1, default=(0.1, 0.2)
         Every capacity, conductance, convection, heat input and
         displacement coefficient of the truth differs from the simulation by
         a random factor ``1 ± U(low, high)``.
@@ -124,6 +124,23 @@ def make_gap_campaign(
         raise ValueError(
             f"Unknown effect {effect!r}; the vocabulary is {list(EFFECTS)}."
         )
+    if isinstance(n_runs, bool) or not float(n_runs).is_integer() or n_runs < 2:
+        raise ValueError(
+            f"n_runs must be an integer >= 2 (the diagnosis holds runs out), got "
+            f"{n_runs!r}."
+        )
+    if not (np.isfinite(hours) and hours >= 2.0):
+        raise ValueError(
+            f"hours must be at least 2 (a run has a door event between 0.5 h "
+            f"and 1.5 h before its end), got {hours!r}."
+        )
+    low, high = (float(v) for v in perturbation)
+    if not (0.0 <= low <= high < 1.0):
+        raise ValueError(
+            "perturbation must be (low, high) with 0 <= low <= high < 1 (factors "
+            f"1 ± U(low, high) keep every parameter positive), got {perturbation!r}."
+        )
+    n_runs = int(n_runs)
     simulation = ThermalMachine.from_preset(preset, effects=[])
     truth = _perturbed(simulation, rng, *perturbation)
     if effect is not None:

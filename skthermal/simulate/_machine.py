@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
 
+from skthermal._naming import suggest
 from skthermal.simulate._drivers import AmbientProfile, DutyCycle, _check_number
 from skthermal.simulate._effects import EFFECTS, check_effects, default_effects
 from skthermal.simulate._presets import PRESETS
@@ -27,9 +28,11 @@ from skthermal.simulate._spec import (
     NUMBER_DEFAULTS,
     ROOM,
     MachineSpec,
+    check_connected,
     check_parameter_names,
     check_parameters,
 )
+from skthermal.utils._runs import is_clock_dtype
 from skthermal.utils._threads import single_threaded_blas
 
 
@@ -224,7 +227,9 @@ class ThermalMachine:
         return cls.from_spec(PRESETS[name](), effects=effects, params=params)
 
     def _validate_params(self, params):
-        return check_parameters(self.spec, params)
+        params = check_parameters(self.spec, params)
+        check_connected(self.spec, params)
+        return params
 
     @property
     def name(self):
@@ -533,6 +538,7 @@ class ThermalMachine:
             raise ValueError(
                 f"ambient_C has shape {air.shape}, expected ({T.shape[0]},)."
             )
+        _check_number(sample_period_s, "sample_period_s", positive=True)
         channels = self.sensors + self.targets if channels is None else list(channels)
         sensors, targets = set(self.sensors), set(self.targets)
         bad = [c for c in channels if c not in sensors and c not in targets]
@@ -1052,6 +1058,11 @@ def _run_drivers(frame, run):
                 f"Run {run!r} has no {col!r} column; simulating a measured run "
                 "needs time_s, spindle_rpm and ambient_C."
             )
+        if is_clock_dtype(frame[col].dtype):
+            raise ValueError(
+                f"{col} of run {run!r} holds {frame[col].dtype} values; it must "
+                "hold numbers (time_s: the seconds since the start of the run)."
+            )
     feed = frame["feed_mm_min"].to_numpy(float) if "feed_mm_min" in frame else None
     return (
         frame["time_s"].to_numpy(float),
@@ -1108,6 +1119,9 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     params = list(params)
     if not params:
         raise ValueError("Name at least one parameter to calibrate.")
+    twice = sorted({k for k in params if params.count(k) > 1})
+    if twice:
+        raise ValueError(f"params names {twice} more than once.")
     check_parameter_names(machine.spec, params)
     for k in params:
         effect = k.split(".")[0]
@@ -1134,13 +1148,25 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
 
     if "run" not in runs.columns:
         raise ValueError("The run table has no 'run' column.")
-    channels = machine.targets if channels is None else list(channels)
-    channels = [c for c in channels if c in runs.columns]
-    if not channels:
-        raise ValueError(
-            f"The runs have none of the channels to fit; the machine predicts "
-            f"{machine.targets + machine.sensors}."
-        )
+    if len(runs) == 0:
+        raise ValueError("The run table is empty (no rows).")
+    if channels is None:
+        channels = [c for c in machine.targets if c in runs.columns]
+        if not channels:
+            raise ValueError(
+                f"The runs have none of the channels to fit; the machine predicts "
+                f"{machine.targets + machine.sensors}."
+            )
+    else:
+        channels = [channels] if isinstance(channels, str) else list(channels)
+        missing = [c for c in channels if c not in runs.columns]
+        if missing:
+            raise ValueError(
+                f"channels {missing} are not columns of the runs"
+                f"{suggest(missing[0], runs.columns)}."
+            )
+        if not channels:
+            raise ValueError("channels is empty: name the channels to fit.")
     for c in channels:
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")

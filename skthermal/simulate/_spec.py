@@ -223,6 +223,40 @@ def check_parameter_names(spec, names):
     )
 
 
+def check_connected(spec, params):
+    """Raise a ValueError naming the nodes of ``spec`` that the parameters
+    ``params`` leave without a path to the air (no positive conductance or
+    convection): their temperature would be undefined."""
+    p = params
+    enclosure = spec.enclosure
+    reach = {enclosure}
+    adjacent = {n: set() for n in spec.nodes}
+    for a, b in spec.edges:
+        if p[f"G.{a}-{b}"] > 0:
+            adjacent[a].add(b)
+            adjacent[b].add(a)
+    for n in spec.nodes:
+        if p.get(f"hA.{n}", 0.0) > 0:
+            adjacent[n].add(enclosure)
+            adjacent[enclosure].add(n)
+    if p.get(f"hA.{enclosure}", 0.0) <= 0:
+        raise ValueError(
+            f"node {enclosure!r} (the enclosure air) needs a positive "
+            f"convection to the workshop air (hA.{enclosure}, W/K)."
+        )
+    todo = [enclosure]
+    while todo:
+        for m in adjacent[todo.pop()] - reach:
+            reach.add(m)
+            todo.append(m)
+    cut = [n for n in spec.nodes if n not in reach]
+    if cut:
+        raise ValueError(
+            f"node(s) {cut} are not connected to the air: give them a link "
+            "with a positive conductance or a positive convection."
+        )
+
+
 def check_parameters(spec, params, *, strict=False):
     """Check the names and values of a machine's parameters.
 
@@ -584,33 +618,7 @@ class MachineSpec:
             if f"G.{a}-{b}" not in p:
                 raise ValueError(f"link '{a}-{b}': no conductance (G.{a}-{b}, W/K).")
         p = check_parameters(self, p, strict=True)
-        # Every node must reach the air, or its temperature is undefined.
-        reach = {self.enclosure}
-        adjacent = {n: set() for n in self.nodes}
-        for a, b in self.edges:
-            if p[f"G.{a}-{b}"] > 0:
-                adjacent[a].add(b)
-                adjacent[b].add(a)
-        for n in self.nodes:
-            if p.get(f"hA.{n}", 0.0) > 0:
-                adjacent[n].add(self.enclosure)
-                adjacent[self.enclosure].add(n)
-        if p.get(f"hA.{self.enclosure}", 0.0) <= 0:
-            raise ValueError(
-                f"node {self.enclosure!r} (the enclosure air) needs a positive "
-                f"convection to the workshop air (hA.{self.enclosure}, W/K)."
-            )
-        todo = [self.enclosure]
-        while todo:
-            for m in adjacent[todo.pop()] - reach:
-                reach.add(m)
-                todo.append(m)
-        cut = [n for n in self.nodes if n not in reach]
-        if cut:
-            raise ValueError(
-                f"node(s) {cut} are not connected to the air: give them a link "
-                "with a positive conductance or a positive convection."
-            )
+        check_connected(self, p)
 
     # --- dict and TOML -------------------------------------------------------
 
