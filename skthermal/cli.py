@@ -21,7 +21,8 @@ Subcommands:
 
 The implementations live in the modules of :mod:`skthermal._cli`, imported
 only when their subcommand runs (``skthermal --help`` imports none of them).
-User errors print one line and exit with status 2, never a traceback.
+User errors print one line and exit with status 2, never a traceback;
+warnings print one line each, ``skthermal COMMAND: warning: ...``.
 """
 
 import argparse
@@ -556,15 +557,15 @@ def main(argv=None):
     args.command_line = " ".join(["skthermal", *argv])
     module, _, name = args.func.partition(":")
     command = getattr(importlib.import_module(f"skthermal._cli.{module}"), name)
-    from skthermal._cli._common import UserError
+    from skthermal._cli._common import UserError, warning_lines
 
     try:
-        return command(args)
-    except (UserError, ValueError, FileNotFoundError, IsADirectoryError) as exc:
+        with warning_lines(args.command):
+            return command(args)
+    except (UserError, ValueError, OSError) as exc:
+        # OSError: a file that cannot be read or written (missing, a folder,
+        # no permission, a parent that is a file).
         print(f"skthermal {args.command}: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except PermissionError as exc:
-        print(f"skthermal {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"skthermal {args.command}: interrupted", file=sys.stderr)

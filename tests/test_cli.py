@@ -617,3 +617,212 @@ def test_missing_sensor_values_get_advice_a_command_line_user_can_follow(
     status, _, err = _run(capsys, *argv)
     assert status == 2 and "'T1_C' has 1 missing value" in err
     assert "or drop those rows" in err and "allow_missing_sensors" not in err
+
+
+# --------------------------------------------------------------------------
+# Audit fixes: labels, output paths, evaluate joins, warnings
+# --------------------------------------------------------------------------
+
+
+def test_simulate_append_with_numeric_run_labels_to_csv(capsys, tmp_path):
+    from skthermal.datasets import read_runs
+
+    out = tmp_path / "e.csv"
+    base = ["simulate", "--segment", "4000:20min", "--sample-period", "300"]
+    assert _run(capsys, *base, "--run", "1", "--out", out)[0] == 0
+    status, text, err = _run(capsys, *base, "--run", "2", "--append", "--out", out)
+    assert status == 0, err
+    assert "2 run(s) (1, 2)" in text
+    runs, meta = read_runs(out, metadata=True)
+    assert list(pd.unique(runs["run"])) == ["1", "2"]
+    assert meta["run"].tolist() == ["1", "2"]
+
+
+@pytest.fixture(scope="module")
+def ridge_y(workdir):
+    """A ridge model of disp_y_um on three sensors."""
+    model = workdir / "ridge_y.joblib"
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "ridge"]
+    argv += ["--sensors", "T01_C,T02_C,T03_C", "--out", model]
+    assert main([str(a) for a in argv]) == 0
+    return model
+
+
+def test_evaluate_refuses_a_target_the_model_does_not_predict(capsys, workdir, ridge_y):
+    argv = ["evaluate", "--runs", workdir / "tests.csv", "--model", ridge_y]
+    status, _, err = _run(capsys, *argv, "--target", "disp_x_um")
+    assert status == 2 and err.count("\n") == 1
+    assert "--target disp_x_um: the model" in err and "predicts 'disp_y_um'" in err
+    assert _run(capsys, *argv, "--target", "disp_y_um")[0] == 0
+
+
+@pytest.fixture(scope="module")
+def predictions(workdir, ridge_y):
+    """The measured runs and a table of their predictions (run, time_s, pred)."""
+    pred = workdir / "ridge_pred.csv"
+    runs = workdir / "tests.csv"
+    argv = ["predict", "--model", ridge_y, "--runs", runs, "--out", pred]
+    assert main([str(a) for a in argv]) == 0
+    table = pd.read_csv(pred)[["run", "time_s", "pred_disp_y_um"]]
+    return runs, table
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            lambda t: pd.concat([t, t.iloc[[5]]]),
+            r"1 row\(s\) repeat a \(run, time_s\) pair, the first run 'I', time_s",
+        ),
+        (
+            lambda t: t.drop(index=t.index[t["run"] == "IV"][0]),
+            r"no prediction for 1 row\(s\) .* in run\(s\) \['IV'\], the first run "
+            r"'IV', time_s 0.0 \(the first row of the run",
+        ),
+        (
+            lambda t: t.iloc[::2],
+            r"no prediction for \d+ row\(s\) .* in run\(s\) \['I', 'IV', 'V', "
+            r"'extra'\]",
+        ),
+    ],
+)
+def test_evaluate_predictions_are_joined_row_for_row(
+    capsys, tmp_path, predictions, change, message
+):
+    import re
+
+    runs, table = predictions
+    bad = tmp_path / "bad.csv"
+    change(table).to_csv(bad, index=False)
+    status, _, err = _run(capsys, "evaluate", "--runs", runs, "--predictions", bad)
+    assert status == 2 and err.count("\n") == 1
+    assert re.search(message, err), err
+
+
+def test_evaluate_notes_runs_without_predictions(capsys, tmp_path, predictions):
+    runs, table = predictions
+    part = tmp_path / "part.csv"
+    table[table["run"] != "V"].to_csv(part, index=False)
+    out = tmp_path / "s.csv"
+    argv = ["evaluate", "--runs", runs, "--predictions", part, "--out", out]
+    status, text, _ = _run(capsys, *argv)
+    assert status == 0 and "Note: run(s) ['V'] of" in text
+    assert pd.read_csv(out)["run"].tolist() == ["I", "IV", "extra", "mean"]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["select", "--runs", "{runs}", "--out", "{runs}/s.json"], "not a folder"),
+        (["fit", "--runs", "{runs}", "--model", "ridge", "--out", "{runs}/m"], ""),
+        (["evaluate", "--runs", "{runs}", "--out", "{runs}/s.md"], ""),
+        (["search", "--runs", "{runs}", "--model", "mlp", "--out", "{runs}/b"], ""),
+        (
+            [
+                "search",
+                "--runs",
+                "{runs}",
+                "--model",
+                "mlp",
+                "--save-model",
+                "{runs}/m",
+            ],
+            "",
+        ),
+        (["simulate", "--out", "{runs}/x.csv"], ""),
+        (
+            [
+                "predict",
+                "--model",
+                "{tmp}/m",
+                "--runs",
+                "{runs}",
+                "--out",
+                "{runs}/p.csv",
+            ],
+            "",
+        ),
+        (
+            ["gap", "--runs", "{runs}", "--report", "{runs}"],
+            "a file of that name exists",
+        ),
+        (["gap-check", "--report", "{runs}"], "a file of that name exists"),
+        (["demo", "--out", "{runs}"], "a file of that name exists"),
+        (["reproduce", "--out", "{runs}"], "a file of that name exists"),
+        (
+            ["fit", "--runs", "{runs}", "--model", "ridge", "--out", "{tmp}"],
+            "is a folder",
+        ),
+    ],
+)
+def test_output_paths_are_checked_before_the_work(
+    capsys, workdir, tmp_path, argv, message
+):
+    names = {"tmp": tmp_path, "runs": workdir / "tests.csv"}
+    argv = [a.format(**names) for a in argv]
+    option = next(a for a in argv if a in ("--out", "--report", "--save-model"))
+    status, text, err = _run(capsys, *argv)
+    assert status == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"skthermal {argv[0]}: error: {option} ")
+    assert message in err and text == ""
+
+
+def test_os_errors_are_one_line(capsys, monkeypatch):
+    from skthermal._cli import _data
+
+    def fail(args):
+        raise NotADirectoryError(20, "Not a directory", "tests.csv/s.json")
+
+    monkeypatch.setattr(_data, "cmd_select", fail)
+    status, _, err = _run(capsys, "select", "--runs", "x.csv")
+    assert status == 2
+    assert err == (
+        "skthermal select: error: [Errno 20] Not a directory: 'tests.csv/s.json'\n"
+    )
+
+
+def test_gap_names_the_candidates_option(capsys, workdir):
+    pytest.importorskip("skthermal.gap")
+    argv = ["gap", "--runs", workdir / "tests.csv", "--candidates", "foo"]
+    status, _, err = _run(capsys, *argv, "--quiet")
+    assert status == 2 and "error: --candidates: unknown effect(s) ['foo']" in err
+
+
+def test_warnings_are_one_line_each_and_shown_once(capsys, workdir, tmp_path):
+    runs = pd.read_csv(workdir / "tests.csv")
+    hole = (runs["run"] == "IV") & runs["time_s"].between(3000, 9000)
+    gappy = tmp_path / "gappy.csv"
+    runs[~hole].to_csv(gappy, index=False)
+    model = tmp_path / "lag.joblib"
+    argv = ["fit", "--runs", gappy, "--model", "lag-ridge", "--sensors", "T01_C"]
+    status, _, err = _run(capsys, *argv, "--out", model)
+    assert status == 0
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("skthermal fit: warning: ")
+    assert "gap(s) in time_s" in lines[0] and "UserWarning" not in err
+    argv = ["predict", "--model", model, "--runs", gappy]
+    status, _, err = _run(capsys, *argv, "--out", tmp_path / "p.csv")
+    assert status == 0
+    assert err.startswith("skthermal predict: warning: ") and err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    "label, labels", [("3", [1, 2, 3]), ("hot", ["1", "2", "hot"])]
+)
+def test_simulate_append_to_a_table_with_integer_labels(
+    capsys, tmp_path, label, labels
+):
+    from skthermal.datasets import read_runs
+
+    out = tmp_path / "e.csv"
+    base = ["simulate", "--segment", "4000:20min", "--sample-period", "300"]
+    for run in ("1", "2"):
+        assert _run(capsys, *base, "--run", run, "--append", "--out", out)[0] == 0
+    table = pd.read_csv(out)  # the user's own table: integer labels, no sidecar
+    table.to_csv(out, index=False)
+    (tmp_path / "e.csv.json").unlink()
+    status, _, err = _run(capsys, *base, "--run", label, "--append", "--out", out)
+    assert status == 0, err
+    runs, meta = read_runs(out, metadata=True)
+    assert list(pd.unique(runs["run"])) == labels
+    assert meta["run"].tolist() == labels[-1:]

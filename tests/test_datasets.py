@@ -841,3 +841,201 @@ def test_ambient_proxy_picks_the_sensor_the_spindle_does_not_heat():
         ambient_proxy(runs.assign(spindle_rpm=0.0))
     with pytest.raises(ValueError, match="temperature sensors"):
         ambient_proxy(runs[["run", "time_s", "spindle_rpm"]])
+
+
+# --- CSV run labels, metadata and malformed CSV files -------------------------
+
+
+def _labelled(labels, n_rows=2):
+    return pd.DataFrame(
+        {
+            "run": np.repeat(np.asarray(labels, dtype=object), n_rows).tolist(),
+            "time_s": np.tile(np.arange(n_rows) * 60.0, len(labels)),
+            "T1_C": np.linspace(20.0, 22.0, n_rows * len(labels)),
+            "disp_y_um": np.linspace(0.0, 3.0, n_rows * len(labels)),
+        }
+    )
+
+
+@pytest.mark.parametrize(
+    "labels", [["01", "02"], ["NA", "None"], ["1", "2"], [1, 2], ["a", "2"]]
+)
+@pytest.mark.parametrize("name", ["runs.csv", "runs.csv.gz"])
+def test_csv_run_labels_survive_the_round_trip(tmp_path, labels, name):
+    df = _labelled(labels)
+    path = tmp_path / name
+    write_runs(df, path, metadata={labels[0]: {"machine": "B"}})
+    back, meta = read_runs(path, metadata=True)
+    assert back["run"].tolist() == df["run"].tolist()
+    assert meta["run"].tolist() == [labels[0]]
+    # The same without metadata.
+    write_runs(df, path)
+    assert read_runs(path)["run"].tolist() == df["run"].tolist()
+
+
+def test_csv_string_labels_that_look_like_numbers_are_recorded(tmp_path):
+    path = tmp_path / "runs.csv"
+    write_runs(_labelled(["1", "2"]), path)
+    assert json.loads((tmp_path / "runs.csv.json").read_text()) == {
+        "run_labels": "str",
+        "runs": [],
+    }
+    _, meta = read_runs(path, metadata=True)
+    assert len(meta) == 0 and meta.attrs == {}
+    # Integer labels need no sidecar; whole numbers without one read as ints.
+    write_runs(_labelled([1, 2]), path)
+    assert not (tmp_path / "runs.csv.json").exists()
+    assert read_runs(path)["run"].tolist() == [1, 1, 2, 2]
+
+
+def test_csv_labels_typed_by_the_sidecar_records(tmp_path):
+    # A file written before the labels were recorded: string labels in the
+    # sidecar say the table's labels are strings.
+    path = tmp_path / "runs.csv"
+    _labelled([1, 2]).to_csv(path, index=False)
+    (tmp_path / "runs.csv.json").write_text('{"runs": [{"run": "1", "m": "x"}]}')
+    back, meta = read_runs(path, metadata=True)
+    assert back["run"].tolist() == ["1", "1", "2", "2"]
+    assert set(meta["run"]) <= set(back["run"])
+    (tmp_path / "runs.csv.json").write_text('{"run_labels": "int", "runs": []}')
+    with pytest.raises(ValueError, match="'run_labels' must be 'str'"):
+        read_runs(path, metadata=True)
+
+
+@pytest.mark.parametrize(
+    "labels, message",
+    [
+        (["", "a"], r"Run label '' \(an empty string\) cannot be written to CSV"),
+        ([1, "1"], r"Run labels mix kinds: row 0 has 1 \(int\), row 2 has '1'"),
+        ([1.5, 2.0], r"Run label 1.5 \(float\) cannot be written to CSV"),
+        ([True, False], r"Run label True \(bool\) cannot be written to CSV"),
+    ],
+)
+def test_csv_refuses_labels_it_cannot_read_back(tmp_path, labels, message):
+    path = tmp_path / "runs.csv"
+    with pytest.raises(ValueError, match=message):
+        write_runs(_labelled(labels), path, validate=False)
+    assert not path.exists()
+
+
+def test_empty_metadata_is_accepted(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    write_runs(runs, path)
+    back, meta = read_runs(path, metadata=True)
+    copy = tmp_path / "copy.csv"
+    write_runs(back, copy, metadata=meta)
+    assert not (tmp_path / "copy.csv.json").exists()
+    for empty in ([], {}, pd.DataFrame()):
+        write_runs(runs, copy, metadata=empty)
+        assert not (tmp_path / "copy.csv.json").exists()
+    # A sidecar without records (as written before) reads as no metadata.
+    (tmp_path / "copy.csv.json").write_text('{"runs": []}')
+    _, meta = read_runs(copy, metadata=True)
+    assert list(meta.columns) == ["run"] and len(meta) == 0
+    # Top-level fields without records are kept.
+    meta = pd.DataFrame({"run": []})
+    meta.attrs["campaign"] = "spring"
+    write_runs(runs, copy, metadata=meta)
+    assert read_runs(copy, metadata=True)[1].attrs == {"campaign": "spring"}
+
+
+def test_failed_write_leaves_the_old_files(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    write_runs(runs, path, metadata={"r0": {"machine": "old"}})
+    before = path.read_bytes(), (tmp_path / "runs.csv.json").read_bytes()
+    new = runs.assign(run=runs["run"] + "x")
+    with pytest.raises(ValueError, match=r"run\(s\) \['r0'\] that are not in"):
+        write_runs(new, path, metadata={"r0": {"machine": "new"}})
+    assert (path.read_bytes(), (tmp_path / "runs.csv.json").read_bytes()) == before
+
+
+def test_csv_trailing_separators_are_ignored(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    text = runs.to_csv(index=False).replace("\n", ",\n")
+    path.write_text(text.replace(",\n", "\n", 1))  # not on the header line
+    pd.testing.assert_frame_equal(read_runs(path), runs)
+
+
+def test_csv_row_with_an_extra_field_names_the_line(tmp_path):
+    path = tmp_path / "runs.csv"
+    path.write_text("run,time_s,T1_C\nr1,1,0,20\nr1,1,60,21\n")
+    with pytest.raises(ValueError, match=r"line 2 has 4 fields but the header has 3"):
+        read_runs(path)
+    path.write_text("run,time_s,T1_C\nr1,0,20,,\nr1,60,21,,\n")
+    with pytest.raises(ValueError, match=r"line 2 .*trailing separators"):
+        read_runs(path)
+
+
+def test_csv_duplicated_header_names(tmp_path):
+    path = tmp_path / "runs.csv"
+    path.write_text("run,time_s,T1_C,T1_C\na,0,20,1\na,60,21,2\n")
+    with pytest.raises(ValueError, match=r"more than once: 'T1_C' \(columns 3, 4\)"):
+        read_runs(path)
+
+
+def test_spreadsheet_csv_files_are_named(tmp_path):
+    path = tmp_path / "runs.csv"
+    path.write_bytes(
+        "\ufeffrun;time_s;T1_C\r\na;0;20,5\r\na;60;21,25\r\n".encode("utf-8")
+    )
+    with pytest.raises(
+        ValueError, match=r"seems to use ';' as the separator and decimal commas"
+    ):
+        read_runs(path)
+    path.write_text('run,time_s,T1_C\na,0,"20,5"\na,60,"21,5"\n')
+    with pytest.raises(ValueError, match=r"holds '20,5', a number with a decimal"):
+        read_runs(path)
+
+
+def test_header_names_with_spaces_are_named(tmp_path):
+    path = tmp_path / "runs.csv"
+    path.write_text("run, time_s, T1_C\na, 0, 20\na, 60, 21\n")
+    with pytest.raises(ValueError, match=r"has ' time_s': its header name has spaces"):
+        read_runs(path)
+    df = _labelled(["a"]).rename(columns={"T1_C": " T1_C"}).assign(T2_C=20.0)
+    with pytest.raises(ValueError, match=r"' T1_C' looks like the column 'T1_C'"):
+        validate_runs(df)
+
+
+def test_concat_runs_with_a_metadata_frame_in_attrs(tmp_path):
+    a, b = _labelled(["a"]), _labelled(["b"])
+    write_runs(a, tmp_path / "a.csv", metadata={"a": {"machine": "B"}})
+    a, meta = read_runs(tmp_path / "a.csv", metadata=True)
+    a.attrs["metadata"] = meta
+    b.attrs["metadata"] = [{"run": "b", "machine": "C"}]
+    runs = concat_runs([a, b])
+    assert runs.attrs["metadata"] == [
+        {"run": "a", "machine": "B"},
+        {"run": "b", "machine": "C"},
+    ]
+    assert isinstance(a.attrs["metadata"], pd.DataFrame)  # input untouched
+
+
+def test_machine_b_tests_single_string_is_one_test():
+    from skthermal.datasets import make_machine_b_tests
+
+    runs = make_machine_b_tests("IV", sample_period_s=1200, random_state=0)
+    assert pd.unique(runs["run"]).tolist() == ["IV"]
+
+
+def test_ambient_proxy_refuses_missing_readings_and_unsorted_time():
+    from skthermal.datasets import ambient_proxy
+
+    runs = pd.DataFrame(
+        {
+            "run": ["a"] * 4,
+            "time_s": [0.0, 60.0, 120.0, 180.0],
+            "spindle_rpm": [0.0, 1000.0, 1000.0, 0.0],
+            "T1_C": [20.0, np.nan, 21.0, 22.0],
+            "T2_C": [20.0, 20.1, 20.2, 20.3],
+        }
+    )
+    with pytest.raises(
+        ValueError, match=r"column 'T1_C' has 1 missing .* run 'a', time_s 60"
+    ):
+        ambient_proxy(runs)
+    unsorted = runs.assign(T1_C=[20.0, 21.0, 21.5, 22.0], time_s=[0, 120, 60, 180])
+    with pytest.raises(
+        ValueError, match=r"strictly increasing within a run: in run 'a', row 2"
+    ):
+        ambient_proxy(unsorted)

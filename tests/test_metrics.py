@@ -8,6 +8,7 @@ from sklearn.metrics import r2_score
 from sklearn.model_selection import GroupKFold, cross_validate
 
 from skthermal.metrics import (
+    cross_batch_rmse,
     get_scorer,
     get_scorer_names,
     improvement,
@@ -15,6 +16,7 @@ from skthermal.metrics import (
     pearson_r,
     residual_band,
     rmse,
+    rmse_levels,
     thermal_scorers,
 )
 
@@ -251,3 +253,35 @@ def test_cross_validate_multioutput(rng):
     p = LinearRegression().fit(X[train], Y[train]).predict(X[test])
     per_output = np.sqrt(np.mean((Y[test] - p) ** 2, axis=0))
     assert cv["test_neg_rmse"][0] == pytest.approx(-per_output.mean())
+
+
+def test_rmse_levels_and_cross_batch_check_their_labels_and_inputs():
+    with pytest.raises(ValueError, match="Row 1 has no batch label"):
+        rmse_levels([1, 2, 3, 4], {"m": {"a": [1, 2, 3, 4]}}, ["a", None, "b", "b"])
+    # X as a list of rows, as scikit-learn accepts it.
+    X = [[0.0], [1.0], [2.0], [3.0]]
+    levels = cross_batch_rmse(
+        {"ols": LinearRegression()}, X, [0, 1, 2, 4], [1, 1, 2, 2]
+    )
+    arrays = cross_batch_rmse(
+        {"ols": LinearRegression()}, np.asarray(X), [0, 1, 2, 4], [1, 1, 2, 2]
+    )
+    pd.testing.assert_frame_equal(levels.per_batch, arrays.per_batch)
+    with pytest.raises(ValueError, match="X must be 2-D"):
+        cross_batch_rmse({"ols": LinearRegression()}, [0.0, 1.0], [0, 1], [1, 1])
+
+
+@pytest.mark.parametrize(
+    "weights, message",
+    [
+        ([0, 0], "weights are all 0"),
+        ([np.nan, 1], r"finite and 0 or more, got \[nan, 1.0\]"),
+        ([-1, 2], r"finite and 0 or more, got \[-1.0, 2.0\]"),
+        (["a", "b"], "weights must be numbers"),
+    ],
+)
+def test_output_weights_are_checked(weights, message):
+    y = np.array([[1.0, 2.0], [2.0, 3.0], [3.0, 5.0]])
+    with pytest.raises(ValueError, match=message):
+        rmse(y, y + 1, multioutput=weights)
+    assert rmse(y, y + 1, multioutput=[0, 1]) == pytest.approx(1.0)

@@ -372,3 +372,35 @@ def test_package_imports_without_matplotlib(monkeypatch):
     import skthermal.plotting as plotting
 
     assert "PredictionDisplay" in plotting.__all__
+
+
+def test_prediction_run_as_an_array_of_labels(run_data):
+    X, y, _, model = run_data
+    disp = PredictionDisplay.from_estimator(model, X, y, run=np.array(["a", "c"]))
+    assert disp.metrics_.index.tolist() == ["a", "c"]
+    disp = PredictionDisplay.from_estimator(model, X, y, run=pd.Index(["b"]))
+    assert disp.metrics_.index.tolist() == ["b"]
+    with pytest.raises(ValueError, match=r"Run\(s\) \['z'\] not found"):
+        PredictionDisplay.from_estimator(model, X, y, run=np.array(["a", "z"]))
+
+
+def test_membership_of_a_pipeline_or_a_wrapped_model(run_data):
+    from sklearn.exceptions import NotFittedError
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    from skthermal.models import make_model
+
+    X, y, _, _ = run_data
+    anfis = ANFISRegressor(n_clusters=2, epochs=3, random_state=0)
+    pipe = make_pipeline(StandardScaler(), anfis).fit(X, y)
+    disp = MembershipFunctionDisplay.from_estimator(pipe)
+    assert [ax.get_xlabel() for ax in disp.axes_] == ["T1_C", "T2_C"]
+    wrapped = make_model("anfis-fcm", random_state=0, quick=True).fit(X, y)
+    disp = MembershipFunctionDisplay.from_estimator(wrapped)
+    assert [ax.get_xlabel() for ax in disp.axes_] == ["T1_C", "T2_C"]
+    with pytest.raises(NotFittedError, match="RunStartRegressor"):
+        MembershipFunctionDisplay.from_estimator(make_model("anfis-fcm"))
+    other = make_pipeline(StandardScaler(), LinearRegression()).fit(X, y)
+    with pytest.raises(TypeError, match="got Pipeline ending in LinearRegression"):
+        MembershipFunctionDisplay.from_estimator(other)

@@ -7,9 +7,11 @@ out-of-range option -- into :class:`UserError`, which the command prints as
 one line with exit status 2.
 """
 
+import contextlib
 import importlib
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +75,24 @@ def check_out_table(path, what="--out"):
         check_table_name(path, what)
     except ValueError as exc:
         raise UserError(str(exc)) from exc
+
+
+def check_out_path(path, option, *, folder=False):
+    """A UserError, before any work, unless ``path`` can be written: a file
+    (or with ``folder=True`` a folder) where a folder (a file) of that name
+    exists, or a parent folder that is a file, would fail after the work."""
+    if path is None:
+        return
+    path = Path(path)
+    if folder and path.exists() and not path.is_dir():
+        raise UserError(f"{option} {path}: a file of that name exists; give a folder.")
+    if not folder and path.is_dir():
+        raise UserError(f"{option} {path} is a folder; give a file name.")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise UserError(f"{option} {path}: {parent} is a file, not a folder.")
+            break
 
 
 def write_table(df, path, *, metadata=None):
@@ -187,17 +207,26 @@ def check_positive(value, option, *, upper=None):
         raise UserError(f"{option} must be at most {upper}, got {value}.")
 
 
-def note_warnings(caught, command):
-    """Warnings of a fit as one line each on stderr (first line, no repeats)."""
+@contextlib.contextmanager
+def warning_lines(command):
+    """Show the warnings raised inside as one line each on stderr,
+    ``skthermal CMD: warning: ...`` (the message's first line), each once."""
     seen = set()
-    for w in caught:
-        first = str(w.message).strip().splitlines()[0] if str(w.message) else ""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = str(message).strip()
+        first = text.splitlines()[0] if text else ""
         if first and first not in seen:
             seen.add(first)
             print(f"skthermal {command}: warning: {first}", file=sys.stderr)
 
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
-def parse_effects(value):
+
+def parse_effects(value, option="--effects"):
+    """Effect names from the comma list of ``option`` (None: not given)."""
     from skthermal.simulate import EFFECTS
 
     if value is None:
@@ -210,7 +239,7 @@ def parse_effects(value):
     unknown = [n for n in names if n not in EFFECTS]
     if unknown:
         raise UserError(
-            f"--effects: unknown effect(s) {unknown}; known: {', '.join(EFFECTS)} "
+            f"{option}: unknown effect(s) {unknown}; known: {', '.join(EFFECTS)} "
             "(or 'all', 'none'; see --list-effects)."
         )
     return names

@@ -10,6 +10,8 @@ import pandas as pd
 
 from skthermal._cli._common import (
     UserError,
+    check_out_path,
+    check_out_table,
     check_positive,
     machine_from_args,
     machine_label,
@@ -90,6 +92,35 @@ def effects_text(table, width=None):
     return "\n\n".join(blocks)
 
 
+def _relabel(runs, convert):
+    """``runs`` and the records of its ``attrs["metadata"]`` with every run
+    label passed through ``convert``."""
+    out = runs.assign(run=runs["run"].map(convert))
+    out.attrs["metadata"] = [
+        {**record, "run": convert(record["run"])}
+        for record in runs.attrs.get("metadata", [])
+    ]
+    return out
+
+
+def _same_label_kind(old, new):
+    """The old table and the new runs with run labels of one kind.
+
+    A table read with integer labels (1, 2) gets new runs labelled by
+    ``--run`` (text): they become integers when they are whole numbers
+    (``--run 3``), else every label becomes text (``"1"``, ``"2"``,
+    ``"hot"``), so that the table never mixes kinds, which CSV cannot keep
+    apart.
+    """
+    integer = pd.api.types.is_integer_dtype
+    if not integer(old["run"]) or integer(new["run"]):
+        return old, new
+    text = new["run"].astype(str)
+    if text.str.fullmatch(r"-?(?:0|[1-9][0-9]{0,17})").all():
+        return old, _relabel(new, int)
+    return _relabel(old, str), _relabel(new, str)
+
+
 def cmd_simulate(args):
     from skthermal.datasets import concat_runs, make_machine_b_tests, read_runs
     from skthermal.simulate import (
@@ -102,6 +133,8 @@ def cmd_simulate(args):
         print(effects_text(describe_effects()))
         return 0
     check_positive(args.sample_period, "--sample-period")
+    check_out_table(args.out)
+    check_out_path(args.out, "--out")
     if args.ambient_noise < 0:
         raise UserError(f"--ambient-noise must be >= 0, got {args.ambient_noise}.")
     machine = machine_from_args(args, effects=parse_effects(args.effects))
@@ -154,6 +187,7 @@ def cmd_simulate(args):
                 "with --run."
             )
         old.attrs["metadata"] = old_meta.to_dict("records")
+        old, runs = _same_label_kind(old, runs)
         try:
             runs = concat_runs([old, runs])
         except ValueError as exc:
@@ -179,6 +213,10 @@ def cmd_select(args):
 
     if args.method not in SELECTORS:
         raise UserError(f"--method: choose one of {', '.join(SELECTORS)}.")
+    out = Path(args.out)
+    if out.suffix.lower() not in (".csv", ".json"):
+        raise UserError(f"--out {out}: write .json or .csv.")
+    check_out_path(out, "--out")
     df = read_table(args.runs)
     target = pick_target(df, args.target, args.runs)
     X, y, _ = split_runs(df, targets=target)
@@ -197,7 +235,6 @@ def cmd_select(args):
     table["selected"] = table["sensor"].isin(kept)
     if hasattr(selector, "labels_"):
         table["group"] = selector.labels_
-    out = Path(args.out)
     if out.parent and not out.parent.exists():
         out.parent.mkdir(parents=True, exist_ok=True)
     if out.suffix.lower() == ".csv":
@@ -213,8 +250,6 @@ def cmd_select(args):
         if "group" in table:
             doc["groups"] = dict(zip(names, map(int, table["group"]), strict=True))
         out.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-    else:
-        raise UserError(f"--out {out}: write .json or .csv.")
     print(
         f"{args.method}: kept {len(kept)} of {len(names)} sensors for {target}: "
         + ", ".join(kept)

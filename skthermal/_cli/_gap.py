@@ -8,6 +8,7 @@ import pandas as pd
 
 from skthermal._cli._common import (
     UserError,
+    check_out_path,
     machine_from_args,
     machine_label,
     parse_effects,
@@ -57,9 +58,10 @@ def cmd_gap_external(args):
                 f"--{option} is not used with --simulated: the simulation is the "
                 "run table given there."
             )
+    check_out_path(args.report, "--report", folder=True)
     simulated = read_table(args.simulated, what="--simulated")
     measured = read_table(args.runs)
-    candidates = parse_effects(args.candidates)
+    candidates = parse_effects(args.candidates, "--candidates")
     if candidates == []:
         raise UserError("--candidates: give at least one effect.")
     print(
@@ -91,7 +93,7 @@ def cmd_gap(args):
     if getattr(args, "simulated", None):
         return cmd_gap_external(args)
     log_progress(args.quiet)
-
+    check_out_path(args.report, "--report", folder=True)
     df = read_table(args.runs)
     effects = parse_effects(args.effects)
     machine = machine_from_args(args, effects=[] if effects is None else effects)
@@ -101,7 +103,7 @@ def cmd_gap(args):
         recorded = machine.spec.effects
         if recorded:
             machine = machine.with_effects([e for e, on in recorded.items() if on])
-    candidates = parse_effects(args.candidates)
+    candidates = parse_effects(args.candidates, "--candidates")
     print(
         f"Diagnosing {args.runs} ({df['run'].nunique()} run(s)) against "
         f"{machine_label(args)} "
@@ -124,6 +126,7 @@ def cmd_gap_check(args):
     log_progress(args.quiet)
     if args.seeds < 1:
         raise UserError(f"--seeds must be at least 1, got {args.seeds}.")
+    check_out_path(args.report, "--report", folder=True)
     effects = parse_effects(args.effects)
     print(
         f"Checking the gap diagnosis: {args.seeds} seed(s) per case, preset "

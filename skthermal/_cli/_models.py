@@ -15,9 +15,9 @@ from sklearn.exceptions import ConvergenceWarning
 
 from skthermal._cli._common import (
     UserError,
+    check_out_path,
     check_out_table,
     features_of,
-    note_warnings,
     pick_target,
     read_sensor_list,
     read_table,
@@ -163,6 +163,7 @@ def cmd_fit(args):
         )
     if args.sensors and args.selector:
         raise UserError("Give either --sensors or --selector, not both.")
+    check_out_path(args.out, "--out")
     df = read_table(args.runs)
     target = pick_target(df, args.target, args.runs)
     mask = run_mask(df, args.train_runs)
@@ -194,11 +195,11 @@ def cmd_fit(args):
     params = _resolve_params(model, _parse_params(args.set))
     if params:
         model.set_params(**params)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings():
         warnings.simplefilter("always", ConvergenceWarning)
         model.fit(X[mask], y[mask])
-    note_warnings(caught, "fit")
-    scores = score_runs(y[mask], model.predict(X[mask]), groups[mask])
+        fitted = model.predict(X[mask])
+    scores = score_runs(y[mask], fitted, groups[mask])
     bundle = {
         "format": MODEL_FORMAT,
         "version": 1,
@@ -230,6 +231,7 @@ def cmd_predict(args):
     from skthermal.datasets import read_runs
 
     check_out_table(args.out)
+    check_out_path(args.out, "--out")
     bundle = load_model(args.model)
     df = read_table(args.runs)
     pred = _predict(bundle, df)
@@ -274,6 +276,74 @@ def _prediction_column(df, target, where):
     return candidates[0][5:], candidates[0]
 
 
+def _join_keys(table):
+    """(run, time_s) of every row as join keys: the run label as text (as
+    --train-runs matches it), the time as a float."""
+    return pd.DataFrame(
+        {
+            "run": table["run"].astype(str).to_numpy(),
+            "time_s": pd.to_numeric(table["time_s"], errors="coerce").to_numpy(float),
+        }
+    )
+
+
+def _join_predictions(df, preds, col, runs_path, preds_path):
+    """The rows of ``df`` with the ``col`` of ``preds`` on the same (run,
+    time_s). Refuses predictions that repeat a (run, time_s) and runs that
+    are scored with rows missing (a missing first row would move the start
+    the changes are measured from); runs without any prediction are left
+    out with a note."""
+    from skthermal._naming import plain
+
+    keys = _join_keys(preds)
+    repeated = np.flatnonzero(keys.duplicated().to_numpy())
+    if repeated.size:
+        i = repeated[0]
+        raise UserError(
+            f"--predictions {preds_path}: {repeated.size} row(s) repeat a (run, "
+            f"time_s) pair, the first run {plain(preds['run'].iloc[i])!r}, time_s "
+            f"{plain(preds['time_s'].iloc[i])} (row {i}); every measured row needs "
+            "exactly one prediction."
+        )
+    right = keys.assign(**{"_pred": preds[col].to_numpy()})
+    joined = _join_keys(df).merge(
+        right, on=["run", "time_s"], how="left", indicator=True
+    )
+    have = (joined["_merge"] == "both").to_numpy()
+    if not have.any():
+        raise UserError(
+            f"--predictions {preds_path} shares no (run, time_s) rows with {runs_path}."
+        )
+    labels = df["run"].to_numpy()
+    scored = pd.Series(have).groupby(labels, sort=False).any()
+    partial = np.flatnonzero(~have & scored.reindex(labels).to_numpy())
+    if partial.size:
+        i = partial[0]
+        run = labels[i]
+        first = int(np.flatnonzero(labels == run)[0]) == i
+        start = (
+            " (the first row of the run, from which its changes are measured)"
+            if first
+            else ""
+        )
+        runs = list(dict.fromkeys(plain(r) for r in labels[partial]))
+        raise UserError(
+            f"--predictions {preds_path} has no prediction for {partial.size} "
+            f"row(s) of {runs_path} in run(s) {runs}, the first run "
+            f"{plain(run)!r}, time_s {plain(df['time_s'].iloc[i])}{start}; predict "
+            "every row of a run to score it."
+        )
+    unscored = [plain(r) for r, any_ in scored.items() if not any_]
+    if unscored:
+        print(
+            f"Note: run(s) {unscored} of {runs_path} have no predictions in "
+            f"{preds_path}; they are not scored."
+        )
+    data = df.drop(columns=[col], errors="ignore").loc[have].copy()
+    data[col] = joined["_pred"].to_numpy()[have]
+    return data
+
+
 def cmd_evaluate(args):
     from skthermal._markdown import markdown_table
     from skthermal.study import METRIC_COLUMNS, score_runs
@@ -282,10 +352,17 @@ def cmd_evaluate(args):
         raise UserError("Give either --model or --predictions, not both.")
     if args.out and Path(args.out).suffix.lower() not in (".csv", ".md"):
         raise UserError(f"--out {args.out}: write .csv or .md.")
+    check_out_path(args.out, "--out")
     df = read_table(args.runs)
     if args.model:
         bundle = load_model(args.model)
-        target = args.target or bundle["target"]
+        target = bundle["target"]
+        if args.target and args.target != target:
+            raise UserError(
+                f"--target {args.target}: the model {args.model} predicts "
+                f"{target!r} (it was fitted on that column); leave out --target "
+                f"or pass a model fitted on {args.target!r}."
+            )
         if target not in df.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
         pred = _predict(bundle, df)
@@ -301,14 +378,7 @@ def cmd_evaluate(args):
                     "its rows are joined to --runs on run and time_s."
                 )
             target, col = _prediction_column(preds, args.target, args.predictions)
-            data = df.merge(
-                preds[["run", "time_s", col]], on=["run", "time_s"], how="inner"
-            )
-            if data.empty:
-                raise UserError(
-                    f"--predictions {args.predictions} shares no (run, time_s) rows "
-                    f"with {args.runs}."
-                )
+            data = _join_predictions(df, preds, col, args.runs, args.predictions)
         else:
             target, col = _prediction_column(df, args.target, args.runs)
             data = df
@@ -360,6 +430,8 @@ def cmd_search(args):
         )
     if args.trials < 1:
         raise UserError(f"--trials must be at least 1, got {args.trials}.")
+    check_out_path(args.out, "--out")
+    check_out_path(args.save_model, "--save-model")
     optuna = require("optuna", extra="optuna", command="search")
     df = read_table(args.runs)
     target = pick_target(df, args.target, args.runs)
@@ -394,7 +466,7 @@ def cmd_search(args):
         + " ...",
         flush=True,
     )
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings():
         warnings.simplefilter("always", ConvergenceWarning)
         result = run_search(
             model,
@@ -407,7 +479,6 @@ def cmd_search(args):
             study_name=study_name,
             random_state=args.seed,
         )
-    note_warnings(caught, "search")
     trials = result.trials_dataframe()
     done = int((trials["state"] == "COMPLETE").sum()) if len(trials) else 0
     errors = [

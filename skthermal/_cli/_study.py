@@ -4,7 +4,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from skthermal._cli._common import UserError, check_positive, split_list
+from skthermal._cli._common import (
+    UserError,
+    check_out_path,
+    check_positive,
+    split_list,
+)
 
 
 def cmd_reproduce(args):
@@ -22,8 +27,7 @@ def cmd_reproduce(args):
                 f"{', '.join(MODELS)}."
             )
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a folder.")
+    check_out_path(out, "--out", folder=True)
     result = reproduce(
         out,
         seed=args.seed,
@@ -79,6 +83,7 @@ def cmd_demo(args):
         )
     if args.groups < 1 or args.sensors_per_group < 1:
         raise UserError("--groups and --sensors-per-group must be at least 1")
+    check_out_path(args.out, "--out", folder=True)
     runs, truth = make_sensor_groups(
         n_groups=args.groups,
         sensors_per_group=args.sensors_per_group,

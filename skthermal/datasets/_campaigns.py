@@ -68,8 +68,9 @@ def make_machine_b_tests(
 
     Parameters
     ----------
-    tests : sequence of {"I", "II", "III", "IV", "V", "VI"}, optional
-        Which tests (default all six, in order).
+    tests : str or sequence of {"I", "II", "III", "IV", "V", "VI"}, optional
+        Which tests (default all six, in order); a single string is one
+        test.
     machine : ThermalMachine, optional
         Default: the ``"vmc-b"`` preset with its default effects.
     sample_period_s : float, default=30.0
@@ -95,7 +96,12 @@ def make_machine_b_tests(
     from skthermal.simulate import AmbientProfile, DutyCycle, ThermalMachine
 
     machine = ThermalMachine.from_preset("vmc-b") if machine is None else machine
-    names = list(MACHINE_B_TESTS) if tests is None else list(tests)
+    if tests is None:
+        names = list(MACHINE_B_TESTS)
+    elif isinstance(tests, str):
+        names = [tests]  # one test: "IV" is not "I" and "V"
+    else:
+        names = list(tests)
     unknown = [t for t in names if t not in MACHINE_B_TESTS]
     if unknown:
         raise ValueError(

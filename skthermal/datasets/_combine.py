@@ -145,7 +145,14 @@ def concat_runs(frames, *, metadata=None, validate=True):
                 f"The metadata describes run(s) {[plain(r) for r in unknown]} "
                 "that are in none of the tables."
             )
-    joined = pd.concat([frame[columns] for frame in frames], ignore_index=True)
+    parts = []
+    for frame in frames:
+        # pandas compares the inputs' attrs, which fails on a DataFrame there
+        # (read_runs(..., metadata=True) gives one); the records are above.
+        part = frame[columns]
+        part.attrs = {}
+        parts.append(part)
+    joined = pd.concat(parts, ignore_index=True)
     joined.attrs = {} if records is None else {"metadata": records}
     if validate:
         validate_runs(joined)

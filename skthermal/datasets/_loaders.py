@@ -13,15 +13,20 @@ import io
 import json
 import lzma
 import math
+import re
+import warnings
 import zipfile
 import zlib
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from skthermal._naming import plain
 from skthermal._optional import import_optional, missing_dependency
 from skthermal.datasets._runtable import RUN, validate_runs
+from skthermal.utils._runs import check_labels
 
 _PARQUET_SUFFIXES = (".parquet", ".pq")
 FL_THERMAL_FILE = "fl_thermal_spindle.csv.gz"
@@ -155,7 +160,116 @@ def _check_complete(path, data):
     )
 
 
-def _read_csv(path):
+def _first_line(data):
+    """The first line of the CSV bytes ``data`` that is not blank (the header
+    line as pandas finds it), as text without the byte-order mark."""
+    start = 0
+    while True:
+        end = data.find(b"\n", start)
+        line = data[start : len(data) if end < 0 else end]
+        if line.strip() or end < 0:
+            break
+        start = end + 1
+    return line.decode("utf-8", errors="replace").lstrip("\ufeff").rstrip("\r")
+
+
+# Separators of spreadsheet exports that are not a comma (e.g. Excel in locales
+# with a decimal comma writes ';').
+_OTHER_SEPARATORS = {";": "';'", "\t": "a tab", "|": "'|'"}
+_DECIMAL_COMMA = re.compile(r"(?:^|[;\t|])\s*[-+]?[0-9]+,[0-9]+\s*(?:$|[;\t|])")
+
+
+def _check_header(path, data):
+    """Raise on a header a run table cannot have: one field holding another
+    separator (a ';'-separated spreadsheet export), or repeated names (which
+    pandas would rename silently to ``name.1``). Returns the header fields."""
+    header = _first_line(data)
+    fields = _csv_fields(header)
+    if len(fields) == 1:
+        for sep, name in _OTHER_SEPARATORS.items():
+            if sep in fields[0]:
+                sample = data[: 1 << 16].decode("utf-8", errors="replace")
+                lines = sample.splitlines()[1:6]
+                decimal = any(_DECIMAL_COMMA.search(line) for line in lines)
+                shown = header if len(header) <= 60 else header[:57] + "..."
+                convert = f"sep={sep!r}" + (", decimal=','" if decimal else "")
+                raise ValueError(
+                    f"{path}: the header line {shown!r} is a single column: the "
+                    f"file seems to use {name} as the separator"
+                    + (" and decimal commas" if decimal else "")
+                    + " (as spreadsheet programs write CSV in some locales). A "
+                    "run table is comma-separated, with decimal points: export it "
+                    "as comma-separated CSV, or convert it with "
+                    f"pandas.read_csv(path, {convert}) and write_runs."
+                )
+    seen = {}
+    for position, name in enumerate(fields, start=1):
+        if name.strip():
+            seen.setdefault(name, []).append(position)
+    repeated = {name: cols for name, cols in seen.items() if len(cols) > 1}
+    if repeated:
+        listing = "; ".join(
+            f"{name!r} (columns {', '.join(map(str, cols))})"
+            for name, cols in repeated.items()
+        )
+        raise ValueError(
+            f"{path}: the header names the same column more than once: {listing}. "
+            "Every column needs its own name; rename or delete the duplicates."
+        )
+    return fields
+
+
+def _long_line_error(path, data, n_header, warning):
+    """The error for rows with more fields than the header (pandas would drop
+    the extra fields or shift every column), naming the first such line."""
+    text = data.decode("utf-8", errors="replace").lstrip("\ufeff")
+    reader = csv.reader(io.StringIO(text, newline=""))
+    for row in reader:
+        if len(row) > n_header and reader.line_num > 1:
+            extra = row[n_header:]
+            trailing = (
+                " (empty fields at its end: trailing separators; remove them)"
+                if not any(field.strip() for field in extra)
+                else ""
+            )
+            shown = ",".join(row)
+            shown = shown if len(shown) <= 60 else shown[:57] + "..."
+            return ValueError(
+                f"{path}: line {reader.line_num} has {len(row)} fields but the "
+                f"header has {n_header}{trailing}: {shown!r}. Every row needs "
+                "one field per header name."
+            )
+    return ValueError(f"{path}: not a well-formed CSV file: {warning}")
+
+
+# A whole number as CSV writes one, so that it reads back as the same text.
+_CANONICAL_INT = re.compile(r"-?(?:0|[1-9][0-9]{0,17})")
+
+
+def _csv_run_labels(data, labels):
+    """The ``run`` column of the CSV bytes ``data``, read as the text written.
+
+    Labels are text: ``"01"``, ``"NA"`` and ``"None"`` stay what they are (an
+    empty field is a missing label). They are read as integers when every
+    label is a whole number written plainly (``1``, ``-2``, not ``01``),
+    unless ``labels`` is ``"str"`` (the sidecar says they are strings).
+    """
+    text = pd.read_csv(
+        io.BytesIO(data),
+        usecols=[RUN],
+        dtype=str,
+        keep_default_na=False,
+        index_col=False,
+    )[RUN]
+    values = text.to_numpy(dtype=object)
+    if labels != "str" and all(
+        _CANONICAL_INT.fullmatch(v) is not None for v in pd.unique(values)
+    ):
+        return text.astype("int64")
+    return text.where(text != "")
+
+
+def _read_csv(path, labels=None):
     data = _raw_bytes(path)
     if not data.strip():
         raise ValueError(
@@ -164,7 +278,18 @@ def _read_csv(path):
         )
     _check_complete(path, data)
     try:
-        return pd.read_csv(io.BytesIO(data), **_CSV_OPTIONS)
+        header = _check_header(path, data)
+        with warnings.catch_warnings():
+            # A row with more fields than the header: pandas drops the extra
+            # fields (index_col=False) and says so with this warning.
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            try:
+                df = pd.read_csv(io.BytesIO(data), index_col=False, **_CSV_OPTIONS)
+            except pd.errors.ParserWarning as exc:
+                raise _long_line_error(path, data, len(header), exc) from None
+        if RUN in df.columns:
+            df[RUN] = _csv_run_labels(data, labels)
+        return df
     except UnicodeDecodeError as exc:
         raise ValueError(
             f"{path}: not a UTF-8 text CSV run table ({exc}); use .csv, .csv.gz "
@@ -174,15 +299,18 @@ def _read_csv(path):
         raise ValueError(f"{path}: not a well-formed CSV file: {exc}") from exc
 
 
-def _read_table(path):
-    """Read the run table at ``path``, naming the file in every error."""
+def _read_table(path, labels=None):
+    """Read the run table at ``path``, naming the file in every error.
+
+    ``labels="str"`` reads the run labels of a CSV file as strings even when
+    they are all whole numbers."""
     if not path.is_file():
         what = "a folder, not a file" if path.is_dir() else "no such file"
         raise FileNotFoundError(f"No run table file at {path} ({what}).")
     if path.stat().st_size == 0:
         raise ValueError(f"{path}: empty file (0 bytes): it holds no run table.")
     if not _is_parquet(path):
-        return _read_csv(path)
+        return _read_csv(path, labels)
     try:
         return pd.read_parquet(path)
     except ImportError as exc:
@@ -195,7 +323,10 @@ def _read_table(path):
 
 
 def _meta_records(meta):
-    """Metadata as a DataFrame with a ``run`` column, from the accepted forms."""
+    """Metadata as a DataFrame with a ``run`` column, from the accepted forms.
+
+    Metadata without records (an empty DataFrame, dict or list) is a frame
+    with a ``run`` column and no rows."""
     if isinstance(meta, pd.DataFrame):
         frame = meta
         if RUN not in frame.columns and RUN in frame.index.names:
@@ -206,6 +337,8 @@ def _meta_records(meta):
         )
     else:
         frame = pd.DataFrame.from_records(list(meta))
+    if RUN not in frame.columns and len(frame) == 0:
+        frame = frame.reindex(columns=[RUN, *frame.columns])
     if RUN not in frame.columns:
         raise ValueError(
             "Run metadata must be keyed by run: a DataFrame with a 'run' column or "
@@ -234,29 +367,80 @@ def _jsonable(value):
     return str(value)
 
 
-def _write_sidecar(path, meta, df):
+# The sidecar field that says the run labels of a CSV table are strings
+# although every one is a whole number (which CSV would read back as ints).
+_LABELS_FIELD = "run_labels"
+
+
+def _sidecar_document(meta, df):
+    """The sidecar of ``df`` with the metadata ``meta`` as a JSON-ready dict,
+    or None when there is nothing to write (no records, no top-level
+    fields). Raises, before anything is written, unless every run the
+    metadata describes is in ``df``."""
     frame = _meta_records(meta)
-    unknown = sorted(set(frame[RUN]) - set(df[RUN]), key=str)
-    if unknown:
-        raise ValueError(
-            f"Run metadata describes run(s) {unknown} that are not in the table."
-        )
+    if len(frame):
+        if RUN not in df.columns:
+            raise ValueError("Run metadata needs a 'run' column in the table.")
+        unknown = sorted(set(frame[RUN]) - set(df[RUN]), key=str)
+        if unknown:
+            raise ValueError(
+                f"Run metadata describes run(s) {[plain(r) for r in unknown]} "
+                "that are not in the table."
+            )
+    document = {
+        str(k): _jsonable(v)
+        for k, v in frame.attrs.items()
+        if k not in ("runs", _LABELS_FIELD)
+    }
+    if not len(frame) and not document:
+        return None
     columns = [RUN, *(c for c in frame.columns if c != RUN)]
-    runs = [
+    document["runs"] = [
         {str(k): _jsonable(v) for k, v in zip(columns, row, strict=True)}
         for row in frame[columns].itertuples(index=False, name=None)
     ]
-    document = {str(k): _jsonable(v) for k, v in frame.attrs.items() if k != "runs"}
-    document["runs"] = runs
+    return document
+
+
+def _check_csv_labels(labels):
+    """Raise unless the run labels read back from CSV as written; return True
+    when they are strings that would read back as integers (all whole
+    numbers), which the sidecar must then record."""
+    values = labels.to_numpy(dtype=object)
+    check_labels(values, item="row", label="run")  # missing or mixed kinds
+    unique = pd.unique(values)
+    for value in unique:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, str | Integral):
+            raise ValueError(
+                f"Run label {plain(value)!r} ({type(value).__name__}) cannot be "
+                "written to CSV and read back as it is: run labels are strings "
+                "or integers (DATA_FORMAT). Convert them, e.g. "
+                "df['run'] = df['run'].astype(str), or write Parquet."
+            )
+        if isinstance(value, str) and value == "":
+            raise ValueError(
+                "Run label '' (an empty string) cannot be written to CSV: an "
+                "empty field reads back as a missing label. Name the run."
+            )
+    return all(
+        isinstance(v, str) and _CANONICAL_INT.fullmatch(v) is not None for v in unique
+    )
+
+
+def _write_document(path, document):
     with open(_sidecar_path(path), "w", encoding="utf-8") as fh:
         json.dump(document, fh, indent=2, ensure_ascii=False)
         fh.write("\n")
 
 
 def _read_sidecar(path):
+    """The metadata of the sidecar of ``path`` (an empty frame without one)
+    and how it says the run labels are written: ``"str"`` when it records
+    that they are strings, or when it describes runs and all by strings;
+    else None."""
     sidecar = _sidecar_path(path)
     if not sidecar.exists():
-        return pd.DataFrame({RUN: []})
+        return pd.DataFrame({RUN: []}), None
     data = sidecar.read_bytes()
     if not data.strip():
         raise ValueError(
@@ -292,13 +476,21 @@ def _read_sidecar(path):
         raise ValueError(
             f"Metadata sidecar {sidecar}: 'runs' must be a list of records."
         )
+    labels = attrs.pop(_LABELS_FIELD, None)
+    if labels not in (None, "str"):
+        raise ValueError(
+            f"Metadata sidecar {sidecar}: {_LABELS_FIELD!r} must be 'str' (the "
+            f"run labels are strings), got {labels!r}."
+        )
     try:
         frame = _meta_records(document)
     except ValueError as exc:
         raise ValueError(f"Metadata sidecar {sidecar}: {exc}") from exc
     frame = frame[[RUN, *(c for c in frame.columns if c != RUN)]]
     frame.attrs.update(attrs)
-    return frame
+    if labels is None and len(frame) and all(isinstance(r, str) for r in frame[RUN]):
+        labels = "str"
+    return frame, labels
 
 
 def read_runs(path, *, validate=True, metadata=False):
@@ -336,8 +528,11 @@ def read_runs(path, *, validate=True, metadata=False):
         is cut off (a compressed stream that ends early, a last CSV line with
         fewer fields than the header, a damaged Parquet file), a CSV that is
         not UTF-8 text or not well formed; if the table breaks the run-table
-        rules (see :func:`validate_runs`); or if the sidecar is malformed.
-        Every message starts with the file's path.
+        rules (see :func:`validate_runs`); or, with ``metadata=True``, if the
+        sidecar is malformed. Every message starts with the file's path (or
+        the sidecar's). A CSV whose header uses another separator (``;``),
+        names a column twice, or with rows holding more fields than the
+        header is refused with a message naming the problem.
 
     See Also
     --------
@@ -349,6 +544,14 @@ def read_runs(path, *, validate=True, metadata=False):
     ...], ...}`` (a bare list of records is accepted too); run labels keep
     their JSON type, so label the runs the same way in the table and in the
     sidecar.
+
+    CSV keeps no types, so the run labels of a CSV file are read as the text
+    written: ``"01"``, ``"NA"`` or ``"None"`` are labels like any other (an
+    empty field is a missing label). When every label is a whole number
+    written plainly (``1``, ``2``, not ``01``) they are read as integers,
+    unless the sidecar says they are strings: its field ``"run_labels":
+    "str"`` (written by :func:`write_runs` for such string labels) or run
+    records labelled by strings.
 
     Examples
     --------
@@ -370,14 +573,23 @@ def read_runs(path, *, validate=True, metadata=False):
     0   a       B
     """
     path = Path(path)
-    df = _read_table(path)
+    # The sidecar also says how the run labels of a CSV file are typed; its
+    # own problems are raised only when the metadata is asked for.
+    try:
+        meta, labels = _read_sidecar(path)
+        problem = None
+    except (ValueError, OSError) as exc:
+        meta, labels, problem = None, None, exc
+    df = _read_table(path, labels)
     if validate:
         try:
             validate_runs(df)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from exc
     if metadata:
-        return df, _read_sidecar(path)
+        if problem is not None:
+            raise problem
+        return df, meta
     return df
 
 
@@ -394,9 +606,12 @@ def write_runs(df, path, *, metadata=None, validate=True):
         Run metadata, written to the sidecar ``<file name>.json``: a DataFrame
         with a ``run`` column (or index level; its ``attrs`` become top-level
         fields), a dict ``{run: {field: value}}`` or a list of records with a
-        ``run`` key. Every run it names must be in ``df``. Without metadata, a
-        sidecar left by an earlier file at ``path`` is removed so that stale
-        metadata never describes new data.
+        ``run`` key. Every run it names must be in ``df``; this is checked
+        before any file is written. Metadata without records (and without
+        ``attrs``), as :func:`read_runs` returns for a file without sidecar,
+        writes no sidecar. Without metadata, a sidecar left by an earlier file
+        at ``path`` is removed so that stale metadata never describes new
+        data.
     validate : bool, default=True
         Check ``df`` with :func:`validate_runs` before writing.
 
@@ -404,11 +619,22 @@ def write_runs(df, path, *, metadata=None, validate=True):
     ------
     ValueError
         If ``df`` is not a valid run table or the metadata is not keyed by
-        runs of ``df``.
+        runs of ``df``; for CSV, if a run label would not read back as
+        written: an empty string, a label that is neither a string nor an
+        integer (a float, a bool), or labels of mixed kinds (``1`` and
+        ``"1"`` are the same text). Nothing is written then.
 
     See Also
     --------
     read_runs
+
+    Notes
+    -----
+    CSV run labels are read back as text, or as integers when all are whole
+    numbers (see :func:`read_runs`). String labels that are all whole numbers
+    (``"1"``, ``"2"``) are therefore recorded in the sidecar as strings
+    (``"run_labels": "str"``), which writes a sidecar even without metadata,
+    so that they read back as strings.
 
     Examples
     --------
@@ -422,11 +648,10 @@ def write_runs(df, path, *, metadata=None, validate=True):
         )
     path = Path(path)
     check_table_name(path)
-    if metadata is not None:
-        # Check the metadata before touching any file.
-        _meta_records(metadata)
-        if RUN not in df.columns:
-            raise ValueError("Run metadata needs a 'run' column in the table.")
+    # Check the metadata and the labels before touching any file.
+    document = None if metadata is None else _sidecar_document(metadata, df)
+    if not _is_parquet(path) and RUN in df.columns and _check_csv_labels(df[RUN]):
+        document = {_LABELS_FIELD: "str"} | (document or {"runs": []})
     if _is_parquet(path):
         try:
             df.to_parquet(path, index=False)
@@ -434,8 +659,8 @@ def write_runs(df, path, *, metadata=None, validate=True):
             raise _parquet_error(exc) from exc
     else:
         df.to_csv(path, index=False)
-    if metadata is not None:
-        _write_sidecar(path, metadata, df)
+    if document is not None:
+        _write_document(path, document)
     else:
         _sidecar_path(path).unlink(missing_ok=True)
 

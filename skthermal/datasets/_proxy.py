@@ -7,7 +7,13 @@ import pandas as pd
 from scipy.signal import lfilter
 from sklearn.utils._param_validation import Interval, validate_params
 
-from skthermal.datasets._runtable import RUN, sensor_columns
+from skthermal._naming import plain
+from skthermal.datasets._runtable import (
+    RUN,
+    _check_numeric,
+    _report_nonfinite,
+    sensor_columns,
+)
 from skthermal.utils._runs import run_slices
 
 
@@ -54,7 +60,9 @@ def ambient_proxy(runs, *, time_constant_s=7200.0, alpha=1.5, return_scores=Fals
     ------
     ValueError
         Naming what is missing: no ``spindle_rpm`` or ``time_s`` column, no
-        sensor, or a spindle that never turns (nothing to correlate with).
+        sensor, a missing or non-numeric reading (column and row named),
+        ``time_s`` not strictly increasing within a run, or a spindle that
+        never turns (nothing to correlate with).
 
     Examples
     --------
@@ -91,8 +99,32 @@ def _proxy_scores(runs, time_constant_s, alpha):
         )
     groups = runs[RUN].to_numpy() if RUN in runs.columns else None
     slices, _ = run_slices(groups, len(runs))
-    t = runs["time_s"].to_numpy(dtype=float)
-    rpm = runs["spindle_rpm"].to_numpy(dtype=float)
+    columns = ["time_s", "spindle_rpm", *temps]
+    try:
+        _check_numeric(runs, columns)
+        table = runs[columns].to_numpy(dtype=float, na_value=np.nan)
+        # DATA_FORMAT: a missing reading is an error, not a sensor to skip.
+        _report_nonfinite(
+            runs,
+            columns,
+            ~np.isfinite(table),
+            "missing or infinite",
+            "; ambient_proxy needs every reading (drop or impute those rows)",
+        )
+    except ValueError as exc:
+        raise ValueError(f"ambient_proxy: {exc}") from None
+    t, rpm = table[:, 0], table[:, 1]
+    for sl in slices:
+        bad = np.flatnonzero(~(np.diff(t[sl]) > 0))
+        if bad.size:
+            i = sl.start + int(bad[0]) + 1
+            where = "" if groups is None else f"in run {plain(groups[i])!r}, "
+            raise ValueError(
+                "ambient_proxy: time_s must be strictly increasing within a run: "
+                f"{where}row {i} has time_s {t[i]:g} after time_s {t[i - 1]:g} "
+                f"(row {i - 1}); sort the table, e.g. "
+                "df.sort_values(['run', 'time_s'], kind='stable')."
+            )
     if not np.any(rpm > 0):
         raise ValueError(
             "ambient_proxy: the spindle never turns (spindle_rpm is 0 "
@@ -101,7 +133,7 @@ def _proxy_scores(runs, time_constant_s, alpha):
     loss = (np.clip(rpm, 0.0, None) / 1000.0) ** alpha
     heating = np.empty_like(loss)
     change = np.empty((len(runs), len(temps)))
-    values = runs[temps].to_numpy(dtype=float)
+    values = table[:, 2:]
     for sl in slices:
         dt = float(np.median(np.diff(t[sl]))) if sl.stop - sl.start > 1 else 1.0
         a = np.exp(-dt / time_constant_s)

@@ -46,6 +46,10 @@ _RULES = {
 _TEMPERATURE_UNITS = {"c", "degc", "°c", "celsius", "k", "kelvin", "f", "degf"}
 _STRAIN_UNITS = {"ue", "µe", "μe", "με", "µε", "ustrain", "microstrain", "me"}
 _KNOWN = (RUN, TIME, *DRIVERS)
+_SPACES = (
+    "its header name has spaces around it; remove them (a CSV header written "
+    "with a space after each comma)"
+)
 
 
 def _is_temperature(name):
@@ -149,6 +153,11 @@ def _looks_like(name):
         return None
     if _is_temperature(name) or _is_strain(name) or _is_target(name):
         return None
+    bare = name.strip()
+    if bare != name and (
+        bare in _KNOWN or _is_temperature(bare) or _is_strain(bare) or _is_target(bare)
+    ):
+        return f"the column '{bare}'", _SPACES
     lower = name.lower()
     for known in _KNOWN:
         if lower == known.lower():
@@ -198,8 +207,17 @@ def _check_names(df):
 
 
 def _missing_column(name, meaning, candidates):
+    spaced = [c for c in candidates if isinstance(c, str) and c.strip() == name]
+    if spaced:
+        return ValueError(
+            f"The run table has no {name!r} column ({meaning}), but has "
+            f"{spaced[0]!r}: {_SPACES}."
+        )
     hint = f"; columns that might be it: {candidates}" if candidates else ""
     return ValueError(f"The run table has no {name!r} column ({meaning}){hint}.")
+
+
+_DECIMAL_COMMA = re.compile(r"\s*[-+]?[0-9]*,[0-9]+\s*")
 
 
 def _check_numeric(df, columns):
@@ -214,6 +232,11 @@ def _check_numeric(df, columns):
             if bad.size:
                 value = plain(col.iloc[bad[0]])
                 where = f": {_where(df, bad[0])} holds {value!r}"
+                if isinstance(value, str) and _DECIMAL_COMMA.fullmatch(value):
+                    where += (
+                        ", a number with a decimal comma; write numbers with a "
+                        "decimal point"
+                    )
         raise ValueError(
             f"Column {name!r} must be numeric but has dtype {col.dtype}{where}."
         )
@@ -367,11 +390,13 @@ def validate_runs(
         raise ValueError(f"The run table has duplicated columns: {duplicated}.")
     names = [c for c in df.columns if isinstance(c, str)]
     if RUN not in df.columns:
-        candidates = [c for c in names if c.lower().startswith(("run", "test"))]
+        candidates = [c for c in names if c.strip().lower().startswith(("run", "test"))]
         raise _missing_column(RUN, "the label of the run of every row", candidates)
     if TIME not in df.columns:
         candidates = [
-            c for c in names if c.lower().startswith(("time", "t_")) or c == "t"
+            c
+            for c in names
+            if c.strip().lower().startswith(("time", "t_")) or c.strip() == "t"
         ]
         raise _missing_column(TIME, "time since the start of the run, in s", candidates)
     _check_names(df)

@@ -14,6 +14,8 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
+from skthermal.utils._runs import check_labels
+
 RMSELevels = namedtuple("RMSELevels", ["per_batch", "per_model", "per_method"])
 RMSELevels.__doc__ = """The three levels of 004 eq. 16.
 
@@ -45,6 +47,17 @@ def _as_vector(a, name, n=None):
             f"row {int(np.flatnonzero(bad)[0])}."
         )
     return a
+
+
+def _batch_labels(groups, n):
+    """``groups`` as an array of one batch label per row, checked."""
+    groups = np.asarray(groups)
+    if groups.ndim != 1 or groups.shape[0] != n:
+        raise ValueError(
+            f"groups must hold one batch label per row ({n}), got shape {groups.shape}."
+        )
+    check_labels(groups, label="batch", whole="batch")  # missing or mixed kinds
+    return groups
 
 
 def _method_predictions(method, preds, n):
@@ -113,11 +126,7 @@ def rmse_levels(y_true, predictions, groups, *, include_self=True):
     n = y.shape[0]
     if n == 0:
         raise ValueError("y_true is empty.")
-    groups = np.asarray(groups)
-    if groups.ndim != 1 or groups.shape[0] != n:
-        raise ValueError(
-            f"groups must hold one batch label per row ({n}), got shape {groups.shape}."
-        )
+    groups = _batch_labels(groups, n)
     if not isinstance(predictions, Mapping) or not predictions:
         raise TypeError(
             "predictions must be a non-empty mapping {method: {model: y_pred}}, "
@@ -192,12 +201,11 @@ def cross_batch_rmse(estimators, X, y, groups, *, include_self=True):
             f"{type(estimators).__name__}."
         )
     y = _as_vector(y, "y")
-    groups = np.asarray(groups)
-    if groups.ndim != 1 or groups.shape[0] != y.shape[0]:
-        raise ValueError(
-            f"groups must hold one batch label per row ({y.shape[0]}), got shape "
-            f"{groups.shape}."
-        )
+    groups = _batch_labels(groups, y.shape[0])
+    if not hasattr(X, "shape"):  # a list of rows
+        X = np.asarray(X)
+    if X.ndim != 2:
+        raise ValueError(f"X must be 2-D (n_samples, n_features), got shape {X.shape}.")
     if X.shape[0] != y.shape[0]:
         raise ValueError(f"X has {X.shape[0]} rows but y has {y.shape[0]}.")
     take = X.iloc if hasattr(X, "iloc") else np.asarray(X)

@@ -57,11 +57,26 @@ def _check_targets(y_true, y_pred, multioutput):
             )
         weights = multioutput
     else:
-        weights = np.asarray(multioutput, dtype=float)
+        try:
+            weights = np.asarray(multioutput, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"multioutput weights must be numbers, got {multioutput!r}."
+            ) from exc
         if weights.shape != (y_true.shape[1],):
             raise ValueError(
                 f"multioutput weights have shape {weights.shape}, expected "
                 f"({y_true.shape[1]},): one weight per output."
+            )
+        if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+            raise ValueError(
+                "multioutput weights must be finite and 0 or more, got "
+                f"{weights.tolist()}."
+            )
+        if not weights.sum() > 0:
+            raise ValueError(
+                "multioutput weights are all 0; give at least one output a "
+                "positive weight."
             )
     return y_true, y_pred, weights
 

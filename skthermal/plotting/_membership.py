@@ -162,7 +162,9 @@ class MembershipFunctionDisplay:
         ----------
         estimator : ANFISRegressor
             Fitted model (or any estimator with ``mf``, ``mf_params_``,
-            ``initial_mf_params_`` and ``rules_``).
+            ``initial_mf_params_`` and ``rules_``), or a fitted pipeline or
+            wrapper ending in one (the last step of a pipeline, the
+            ``estimator_`` of a wrapper such as ``make_model("anfis-fcm")``).
         which : {"both", "trained", "initial"}, default="both"
             Which functions to draw: trained (solid), initial (dashed), or
             both.
@@ -183,6 +185,16 @@ class MembershipFunctionDisplay:
             raise ValueError(
                 f"which must be 'trained', 'initial' or 'both', got {which!r}."
             )
+        given = estimator
+        estimator, outer_names = _final_model(estimator)
+        if not hasattr(estimator, "mf"):
+            what = type(given).__name__
+            if estimator is not given:
+                what += f" ending in {type(estimator).__name__}"
+            raise TypeError(
+                f"{cls.__name__} needs a fitted ANFISRegressor (or a pipeline or "
+                f"wrapper ending in one), got {what}."
+            )
         check_is_fitted(estimator, "mf_params_")
         for attr in ("initial_mf_params_", "rules_", "mf"):
             if not hasattr(estimator, attr):
@@ -195,6 +207,8 @@ class MembershipFunctionDisplay:
         rules = np.asarray(estimator.rules_)
         d = trained_p.shape[0]
         names = getattr(estimator, "feature_names_in_", None)
+        if names is None and outer_names is not None and len(outer_names) == d:
+            names = outer_names
         names = (
             [str(s) for s in names]
             if names is not None
@@ -222,6 +236,32 @@ class MembershipFunctionDisplay:
             mf_labels=labels,
         )
         return display.plot(ax=ax, **plot_kwargs)
+
+
+def _final_model(estimator):
+    """The model that does the work inside ``estimator`` (the last step of a
+    pipeline, the fitted ``estimator_`` of a wrapper such as
+    :class:`~skthermal.models.RunStartRegressor`), and the names of its
+    inputs as the outer layers know them (None when unknown)."""
+    names = None
+    for _ in range(16):  # nesting depth; a loop guard, not a limit in practice
+        own = getattr(estimator, "feature_names_in_", None)
+        if own is not None:
+            names = list(own)
+        steps = getattr(estimator, "steps", None)
+        if steps:
+            try:
+                names = list(estimator[:-1].get_feature_names_out(names))
+            except Exception:  # unfitted, or a step without names
+                names = None if len(steps) > 1 else names
+            estimator = steps[-1][1]
+        elif not hasattr(estimator, "mf") and hasattr(estimator, "estimator_"):
+            estimator = estimator.estimator_
+        else:
+            if not hasattr(estimator, "mf") and hasattr(estimator, "estimator"):
+                check_is_fitted(estimator)  # an unfitted wrapper: say so
+            break
+    return estimator, names
 
 
 def _input_range(estimator, j, initial_p, trained_p):

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
+from skthermal._naming import plain
 from skthermal.metrics import nash_sutcliffe, pearson_r, residual_band, rmse
 from skthermal.plotting._base import (
     _as_1d,
@@ -338,7 +339,9 @@ default=None
                     "groups, or y indexed by (run, time_s)."
                 )
             groups = np.asarray(groups)
-            wanted = list(run) if isinstance(run, list | tuple) else [run]
+            # One label, or several in any sequence (list, tuple, array, Index).
+            several = not isinstance(run, str | bytes) and np.iterable(run)
+            wanted = [plain(r) for r in run] if several else [plain(run)]
             known = list(dict.fromkeys(groups.tolist()))
             missing = [r for r in wanted if r not in known]
             if missing:
