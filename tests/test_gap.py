@@ -10,6 +10,7 @@ import pytest
 from skthermal.gap import (
     GapReport,
     diagnose,
+    diagnose_runs,
     label_regimes,
     make_gap_campaign,
     validate,
@@ -472,6 +473,8 @@ def test_downstream_view(tool_report, tool_case):
     assert overall["+ tool_growth"] < overall["base calibrated"]
     with pytest.raises(ValueError, match="share no sensor"):
         downstream_error(Ridge(), machines, tool_case.runs[["run", "time_s"]])
+    with pytest.raises(ValueError, match="'disp_q_um' is not predicted"):
+        downstream_error(Ridge(), machines, tool_case.runs, target="disp_q_um")
 
 
 def test_broyden_jacobian_starts_as_forward_differences_then_updates():
@@ -550,6 +553,16 @@ def test_a_short_run_and_datetime_times(rig_runs):
         diagnose(rig, clock, **FAST)
     with pytest.raises(ValueError, match="time_s of run 'r0' holds datetime64"):
         rig.calibrate(clock, ["q.bearing_W"])
+
+
+def test_rows_without_a_run_label_are_named(rig_runs):
+    rig, runs = rig_runs
+    bad = runs.copy()
+    bad.loc[bad.index[3], "run"] = None
+    with pytest.raises(ValueError, match="Row 3 has no run label"):
+        diagnose(rig, bad, **FAST)
+    with pytest.raises(ValueError, match="measured run table: Row 3 has no run"):
+        diagnose_runs(runs, bad)
 
 
 def test_campaign_arguments_are_checked():

@@ -5,6 +5,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
+from skthermal.utils._runs import check_labels
 from skthermal.utils._threads import single_threaded_blas
 
 
@@ -66,6 +67,16 @@ def downstream_error(
                 "The measured runs have no displacement the simulations predict."
             )
         target = candidates[0]
+    for name in names:
+        if target not in machines[name].targets:
+            raise ValueError(
+                f"target {target!r} is not predicted by simulation {name!r} "
+                f"(its displacements: {machines[name].targets})."
+            )
+    missing = [c for c in ["run", *features, target] if c not in runs.columns]
+    if missing:
+        raise ValueError(f"The measured runs have no column(s) {missing}.")
+    check_labels(runs["run"].to_numpy())
     groups = list(runs.groupby("run", sort=False))
 
     def rel(frame, cols):

@@ -54,6 +54,7 @@ from skthermal.gap._scores import (
     regime_gaps,
 )
 from skthermal.gap._terms import TERMS, Base, FlexibleFeatures, RunSignals, Signals
+from skthermal.utils._runs import check_labels
 
 logger = logging.getLogger("skthermal.gap")
 
@@ -115,6 +116,11 @@ def _align(simulated, measured, channels, mapping, max_samples):
             measured.columns, channels, "the simulated table has no column for"
         )
     sim_cols = [mapping.get(c, c) for c in channels]
+    for table, label in ((simulated, "simulated"), (measured, "measured")):
+        try:
+            check_labels(table["run"].to_numpy())
+        except ValueError as exc:
+            raise ValueError(f"The {label} run table: {exc}") from None
     sim_runs = dict(tuple(simulated.groupby("run", sort=False)))
     meas_runs = list(measured.groupby("run", sort=False))
     missing = [name for name, _ in meas_runs if name not in sim_runs]

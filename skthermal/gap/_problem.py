@@ -20,7 +20,7 @@ from scipy.optimize import least_squares
 
 from skthermal._naming import suggest
 from skthermal.simulate import EFFECTS
-from skthermal.utils._runs import is_clock_dtype
+from skthermal.utils._runs import check_labels, is_clock_dtype
 
 # Base calibration. The network's time scales are set by two multipliers (all
 # capacities, all convection coefficients), fitted by nonlinear least squares.
@@ -255,6 +255,8 @@ def build_problem(
             "The measured run table is empty (no rows): the diagnosis needs at "
             "least 2 runs with their drivers and measured channels."
         )
+    # Rows without a run label would be dropped by the grouping.
+    check_labels(runs["run"].to_numpy())
     frames = list(runs.groupby("run", sort=False))
     for name, frame in frames:
         for col in DRIVER_COLUMNS:
