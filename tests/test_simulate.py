@@ -370,6 +370,24 @@ def test_calibration_errors():
         machine.calibrate(runs.iloc[:0], ["q.bearing_W"])
 
 
+def test_calibration_is_not_bent_by_sensor_offsets():
+    # Temperatures are compared as changes since the start, as displacements.
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    truth = rig.with_params(
+        {
+            "q.bearing_W": 1.4 * rig.params["q.bearing_W"],
+            "sensor.offset_C": 0.5,
+            "sensor.noise_C": 0.0,
+            "sensor.quantization_C": 0.0,
+        }
+    )
+    runs = truth.simulate(
+        DutyCycle([(3600, 4000, 0), (3600, 0, 0)]), sample_period_s=60, random_state=0
+    )
+    _, result = rig.calibrate(runs, ["q.bearing_W"], channels=rig.sensors)
+    assert result.params.iloc[0] == pytest.approx(truth.params["q.bearing_W"], rel=1e-6)
+
+
 def test_read_checks_the_sample_period():
     machine = ThermalMachine.from_preset("vmc-b", effects=["sensor_lag"])
     T = np.full((5, len(machine.spec.nodes)), 20.5)

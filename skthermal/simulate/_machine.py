@@ -687,8 +687,9 @@ class ThermalMachine:
         ``ambient_C`` and, if present, ``feed_mm_min``) without noise, and
         ``scipy.optimize.least_squares`` adjusts the named parameters to minimise
         the squared differences with the measured channels (each channel scaled by
-        its standard deviation). Displacements are compared as change since the
-        start of each run.
+        its standard deviation). Every channel is compared as its change since
+        the start of each run (a temperature sensor's calibration offset does
+        not bend the fit).
 
         Parameters
         ----------
@@ -1176,10 +1177,11 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         y = frame[channels].to_numpy(float, copy=True)
         if not np.all(np.isfinite(y)):
             raise ValueError(f"Run {run!r} has missing values in {channels}.")
-        # Displacements are compared as change since the start of the run,
-        # the way the simulation starts them.
-        disp = [i for i, c in enumerate(channels) if c in machine.targets]
-        y[:, disp] -= y[0, disp]
+        # Every channel is compared as its change since the start of the
+        # run: displacements start at zero in the simulation, and a sensor's
+        # calibration offset is not physics (compared as read, it would bend
+        # the fitted parameters).
+        y -= y[0]
         measured.append(y)
     scale = np.concatenate(measured).std(axis=0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -1192,7 +1194,8 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             sim = m.simulate_drivers(
                 t, rpm, air, feed, run=run, initial=initial, noise=False
             )
-            out.append(sim[channels].to_numpy(float))
+            values = sim[channels].to_numpy(float)
+            out.append(values - values[0])
         return out
 
     def residuals(values):
