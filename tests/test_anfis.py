@@ -572,8 +572,8 @@ def test_one_rule_with_free_intercept_is_a_ridge_regression(rng):
     X = rng.normal(size=(200, 4))
     y = X @ [1.0, 2.0, 0.0, -1.0] + 50.0 + rng.normal(size=200)
     ridge = 0.3
-    # Scale-free: the mean diagonal of the normal equations, of the inputs
-    # centred on their mean (as the consequents are solved).
+    # Scale-free: the mean diagonal of the normal equations; with free
+    # constant terms, of the inputs centred on their mean.
     lam = ridge * (np.sum((X - X.mean(axis=0)) ** 2) + 200) / 5
     reference = Ridge(alpha=lam).fit(X, y).predict(X)
     free = ANFISRegressor(n_clusters=1, ridge=ridge, penalize_intercepts=False)
@@ -583,18 +583,20 @@ def test_one_rule_with_free_intercept_is_a_ridge_regression(rng):
     assert abs(reference.mean() - y.mean()) < 1e-6
 
 
-def test_the_fit_does_not_depend_on_an_input_offset(rng):
-    # Temperatures in kelvin or far from zero: the stabilising ridge acts on
-    # the centred inputs, so a shift changes only the constant terms.
+def test_free_intercepts_do_not_depend_on_an_input_offset(rng):
+    # Temperatures in kelvin or far from zero: with free constant terms the
+    # stabilising ridge acts on the centred inputs, so a shift changes only
+    # the constant terms.
     x = np.linspace(-1, 1, 100)[:, None]
     y = 2 * x[:, 0] + 5
-    for kwargs in ({}, {"penalize_intercepts": False}):
-        model = ANFISRegressor(n_clusters=1, epochs=1, **kwargs).fit(x + 300, y)
-        assert_allclose(model.consequents_.ravel(), [2.0, -595.0], rtol=1e-6)
+    free = {"penalize_intercepts": False}
+    model = ANFISRegressor(n_clusters=1, epochs=1, **free).fit(x + 300, y)
+    assert_allclose(model.consequents_.ravel(), [2.0, -595.0], rtol=1e-6)
     X = rng.uniform(-1, 1, (300, 2))
     y = np.sin(3 * X[:, 0]) + X[:, 1] ** 2
-    near = ANFISRegressor(n_clusters=3, epochs=20, random_state=0).fit(X, y)
-    far = ANFISRegressor(n_clusters=3, epochs=20, random_state=0).fit(X + 293, y)
+    near = ANFISRegressor(n_clusters=3, epochs=20, random_state=0, **free).fit(X, y)
+    far = ANFISRegressor(n_clusters=3, epochs=20, random_state=0, **free)
+    far.fit(X + 293, y)
     assert_allclose(far.predict(X + 293), near.predict(X), atol=1e-6)
 
 

@@ -176,12 +176,15 @@ default="fcm"
         of the training error.
     ridge : float or "auto", default=1e-8
         Ridge regularisation of the consequents' least-squares solve,
-        relative to the mean diagonal of the normal equations (scale free),
-        which are formed with the inputs centred on their training mean
-        (each rule's ``f = p (x - m) + q'`` is stored as ``p x + q``), so an
-        offset of the inputs (kelvin, absolute readings) changes only the
-        constant terms; 0 uses the SVD-based minimum-norm least-squares
-        solution. Many
+        relative to the mean diagonal of the normal equations (scale free);
+        0 uses the SVD-based minimum-norm least-squares solution. With
+        ``penalize_intercepts=True`` it shrinks the consequents towards zero
+        at inputs of zero: inputs far from zero (kelvin, absolute readings)
+        then need centring or standardising first (a ``StandardScaler``), or
+        ``penalize_intercepts=False``, where the inputs are centred on their
+        training mean for the solve (each rule's ``f = p (x - m) + q'`` is
+        stored as ``p x + q``) and an offset changes only the constant
+        terms. Many
         collinear inputs (e.g. neighbouring temperature sensors) make the
         consequents overfit; a larger ridge (1e-3 .. 1) shrinks them.
         ``"auto"`` picks it from ``ridge_grid``: by the checking set when
@@ -195,11 +198,10 @@ default="fcm"
 0.1, 1.0)
         Candidate values for ``ridge="auto"``.
     penalize_intercepts : bool, default=True
-        Whether the ridge also shrinks every rule's constant term (its value
-        at the inputs' training mean). True shrinks all consequents towards
-        zero: the prior of the papers' set-up, where inputs and target are
-        changes since the run start and the error is zero where the
-        temperature changes are. False shrinks
+        Whether the ridge also shrinks every rule's constant term. True
+        shrinks all consequents towards zero: the prior of the papers'
+        set-up, where inputs and target are changes since the run start and
+        the error is zero where the temperature changes are. False shrinks
         the slopes only and leaves the constant terms free (with a
         stabilising ridge of 1e-8), as scikit-learn's ``Ridge`` leaves its
         intercept: use it with absolute readings, or any target that is far

@@ -601,12 +601,14 @@ penalize_intercepts, tol, n_iter_no_change, verbose
     # last, contiguous axis; consequent columns are ordered (input, rule).
     XT = np.ascontiguousarray(X.T)
     X1T = np.vstack([XT, np.ones((1, n))])
-    # The least squares see the inputs centred on their mean: each rule's
-    # f = p (x - m) + q' is f = p x + q with q = q' - p m (converted after
-    # every solve), the same model, but a ridge on q' shrinks the output at
-    # the data, not at x = 0, so inputs far from zero (kelvin, large offsets)
-    # are not biased by it.
-    centre = X.mean(axis=0) if n else np.zeros(d)
+    # With free constant terms the least squares see the inputs centred on
+    # their mean: each rule's f = p (x - m) + q' is f = p x + q with
+    # q = q' - p m (converted after every solve), the same model, but the
+    # stabilising ridge of q' acts at the data, not at x = 0, so inputs far
+    # from zero (kelvin, large offsets) are not biased by it. With shrunk
+    # constant terms the prior is "no error where the inputs are zero" (the
+    # papers' changes since the run start): the inputs are taken as given.
+    centre = X.mean(axis=0) if n and not penalize_intercepts else np.zeros(d)
     X1cT = np.vstack([XT - centre[:, None], np.ones((1, n))])
     YT = np.ascontiguousarray(Y.T)
     n_mfs = mf_params.shape[1]
