@@ -203,6 +203,26 @@ def test_lag_models_continue_a_training_run_after_a_pause(pause):
         np.testing.assert_allclose(alone, whole, rtol=1e-9, atol=1e-9)
 
 
+def test_one_row_after_a_pause_is_predicted_as_in_a_longer_block():
+    # A controller predicts one new sample at a time: a block of one or two
+    # rows after a pause is judged against the fitted sampling period.
+    from skthermal.linear_model import TransferFunctionRegressor
+    from skthermal.preprocessing import make_lag_pipeline
+
+    table, y, cut = _split_record()
+    start = cut + 10  # a pause of 10 samples
+    for model in (
+        make_lag_pipeline(time_constant_sets=[(300.0, 1800.0)]),
+        TransferFunctionRegressor(speed_column="spindle_rpm", n_grid=4, max_iter=3),
+    ):
+        model.fit(table.iloc[:cut], y[:cut])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            one = model.predict(table.iloc[start : start + 1])[0]
+            more = model.predict(table.iloc[start : start + 4])[0]
+        assert one == pytest.approx(more, rel=1e-9, abs=1e-9)
+
+
 @pytest.mark.parametrize("name", list(_sequence_models()))
 def test_sequence_models_refuse_rows_out_of_time_order(name):
     # Rows of a run shuffled: the run start would be a random row.

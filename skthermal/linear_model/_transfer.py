@@ -38,7 +38,7 @@ _DT_RTOL = 0.01
 
 
 def first_order_lags(
-    U, time_constants, dt, slices, state=None, times=None, previous=None
+    U, time_constants, dt, slices, state=None, times=None, previous=None, periods=None
 ):
     """Discrete first-order lags of the columns of ``U``, restarting per run.
 
@@ -66,6 +66,9 @@ def first_order_lags(
     previous : sequence, optional
         Per run, the input row before its first row, or None (see
         :func:`skthermal.preprocessing.exponential_filter`).
+    periods : array-like of shape (n_runs,), optional
+        Per run, the sampling period against which a step is a gap (see
+        :func:`skthermal.preprocessing.exponential_filter`).
 
     Returns
     -------
@@ -89,6 +92,7 @@ def first_order_lags(
         state=state,
         times=times,
         previous=previous,
+        periods=periods,
     )
 
 
@@ -324,17 +328,36 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         U[:, speed] = np.abs(X[:, speed]) ** self.speed_exponent
         return U
 
-    def _features(self, U, log_tau, dts, slices, state=None, times=None, previous=None):
+    def _features(
+        self,
+        U,
+        log_tau,
+        dts,
+        slices,
+        state=None,
+        times=None,
+        previous=None,
+        periods=None,
+    ):
         tau = np.exp(log_tau).reshape(-1)
         if previous is not None:
             previous = [
                 None if u is None else np.repeat(u, self.order) for u in previous
             ]
         return first_order_lags(
-            np.repeat(U, self.order, axis=1), tau, dts, slices, state, times, previous
+            np.repeat(U, self.order, axis=1),
+            tau,
+            dts,
+            slices,
+            state,
+            times,
+            previous,
+            periods,
         )
 
-    def _lag_states(self, U, dts, slices, states=None, times=None, previous=None):
+    def _lag_states(
+        self, U, dts, slices, states=None, times=None, previous=None, periods=None
+    ):
         """Lag features of every output (a list), given the lag outputs
         before each run (``states``: per run, None or an array (n_outputs,
         n_lags) of a continued run; ``dts`` is then the step before each
@@ -351,6 +374,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 [None if st is None else st[k] for st in states],
                 times,
                 previous,
+                periods,
             )
             for k, tau in enumerate(taus)
         ]
@@ -584,13 +608,17 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         ]
         # A given dt overrides the index's times, also across pauses.
         times = row_times(X_raw) if self.dt is None else None
+        # Gaps are judged against the fitted period for continued runs (a
+        # block of a few rows cannot tell it), else the run's own period.
+        periods = np.array(dts, dtype=float)
+        periods[[c is not None for c in cont]] = self.sample_period_s_
         dts = continued_steps(dts, slices, times, cont, memory)
         coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
         out = np.column_stack(
             [
                 F @ coef
                 for F, coef in zip(
-                    self._lag_states(U, dts, slices, states, times, previous),
+                    self._lag_states(U, dts, slices, states, times, previous, periods),
                     coefs,
                     strict=True,
                 )

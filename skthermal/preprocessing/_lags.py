@@ -44,6 +44,7 @@ def exponential_filter(
     state=None,
     times=None,
     previous=None,
+    periods=None,
 ):
     """First-order exponential (low-pass) filter, restarting at every run.
 
@@ -89,6 +90,10 @@ def exponential_filter(
         a gap the input is taken to change linearly from it over that step,
         as within a run, so a run continued after a pause is filtered as the
         whole run would be.
+    periods : array-like of shape (n_runs,), optional
+        With ``times``, every run's sampling period, against which a step is
+        a gap (longer than 1.5 periods); default: the median step of the
+        rows given (which a block of one or two rows cannot tell).
 
     Returns
     -------
@@ -163,16 +168,23 @@ def exponential_filter(
         # the gaps among them.
         steps = gap = None
         u_prev = None
-        if times is not None and sl.stop - sl.start > 1:
+        if times is not None:
             d = np.diff(times[sl])
+            # A gap is a step longer than GAP_STEPS sampling periods: the
+            # run's own period when given (a few rows of a longer run, even
+            # one, are judged as in the whole run), else its median step.
+            if periods is not None:
+                ref = float(periods[r])
+                inner = d > GAP_STEPS * ref
+            else:
+                ref = float(np.median(d)) if d.size else np.inf
+                inner = gap_steps(d) if d.size else np.zeros(0, dtype=bool)
             # The step from the row before the run (a continued run's last
             # training row) is a gap as a step within the run would be.
-            first_gap = previous[r] is not None and bool(
-                step > GAP_STEPS * np.median(d)
-            )
-            if first_gap or np.any(np.abs(d - step) > 1e-9 * step):
+            first_gap = previous[r] is not None and bool(step > GAP_STEPS * ref)
+            if first_gap or inner.any() or np.any(np.abs(d - step) > 1e-9 * step):
                 steps = np.concatenate(([step], d))
-                gap = np.concatenate(([first_gap], gap_steps(d)))
+                gap = np.concatenate(([first_gap], inner))
                 if first_gap:
                     u_prev = np.asarray(previous[r], dtype=float).reshape(-1)
         for j, tau in enumerate(uniq):
@@ -418,7 +430,15 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         return self
 
     def _compute(
-        self, X_arr, slices, dts, bases=None, states=None, times=None, lasts=None
+        self,
+        X_arr,
+        slices,
+        dts,
+        bases=None,
+        states=None,
+        times=None,
+        lasts=None,
+        periods=None,
     ):
         """The features. Per run, ``bases``: the first row of the training
         run it continues (None: its own first row); ``states``: the filters'
@@ -468,6 +488,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                     state=state,
                     times=times,
                     previous=U_last,
+                    periods=periods,
                 )
             )
             start += width
@@ -512,8 +533,13 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         states = continued_values(cont, memory, "state")
         lasts = continued_values(cont, memory, "x_last")
         times = row_times(X_raw)
+        # Against which steps are gaps: a continued run's rows are judged by
+        # the fitted period (a block of a few rows cannot tell it), others
+        # by their own.
+        periods = np.array(dts, dtype=float)
+        periods[[c is not None for c in cont]] = self.sample_period_s_
         dts = continued_steps(dts, slices, times, cont, memory)
-        return self._compute(X_arr, slices, dts, bases, states, times, lasts)
+        return self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).
