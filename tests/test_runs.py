@@ -258,6 +258,13 @@ def test_missing_reading_is_named_with_its_run_and_time(dtype):
     assert X.shape == (6, 2)
 
 
+def test_run_labels_of_the_wrong_shape_are_named():
+    table, y, cut = _split_record()
+    for groups in (["a"] * (len(table) - 1), np.zeros((len(table), 2))):
+        with pytest.raises(ValueError, match="run labels \\(groups\\) of shape"):
+            extract_runs(table, groups)
+
+
 def test_missing_time_duplicate_columns_and_no_rows_are_named():
     table, y, _ = _split_record()
     bad = table.copy()

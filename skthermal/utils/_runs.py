@@ -207,6 +207,15 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         names = getattr(index, "names", None)
         if names is not None and RUN_COLUMN in names:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
+    if groups is not None:
+        n_rows = getattr(X, "shape", (len(X),))[0]
+        shape = np.shape(groups)
+        if len(shape) != 1 or shape[0] != n_rows:
+            got = f"{shape[0]} run labels" if len(shape) == 1 else "run labels"
+            raise ValueError(
+                f"Got {got} (groups) of shape {shape} for {n_rows} rows; give "
+                "one label per row."
+            )
     if columns is not None and TIME_COLUMN in list(columns):
         import pandas as pd
 
