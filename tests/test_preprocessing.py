@@ -427,3 +427,31 @@ def test_fl_thermal_target():
         base = np.sqrt(np.mean((lr.predict(df[temps].iloc[cut:]) - y[cut:]) ** 2))
         pred = make_lag_pipeline().fit(X.iloc[:cut], y[:cut]).predict(X)[cut:]
         assert np.sqrt(np.mean((pred - y[cut:]) ** 2)) <= 0.5 * base
+
+
+def test_exponential_filter_names_bad_arguments():
+    from skthermal.preprocessing import exponential_filter
+
+    u = np.r_[0.0, 1.0, 1.0, 1.0]
+    cases = [
+        ({"dt": -1.0}, "dt must be finite and > 0"),
+        ({"dt": np.nan}, "dt must be finite and > 0"),
+        ({"dt": [1.0, 2.0]}, "dt must be a number or one per run"),
+        ({"dt": 1.0, "times": [0, 1, 2, 1.5]}, "increase strictly"),
+        ({"dt": 1.0, "times": [0, 1, np.nan, 3]}, "times must be finite"),
+        ({"dt": 1.0, "slices": [slice(0, 3)]}, "cover every row"),
+        ({"dt": 1.0, "state": [np.ones(3)]}, "one value per column"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=message):
+            exponential_filter(u, 1.0, **kwargs)
+    with pytest.raises(ValueError, match="single number"):
+        exponential_filter(1.0, 1.0, 1.0)
+
+
+def test_lag_ridge_on_too_few_rows_says_nothing_was_validated():
+    X = _frame().iloc[:2]
+    with pytest.warns(UserWarning, match="leave no cross-validation fold"):
+        LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0, 10.0]).fit(
+            X, np.arange(2.0)
+        )

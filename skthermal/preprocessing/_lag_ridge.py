@@ -324,6 +324,15 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             folds = _block_folds(n, self.n_splits)
         else:
             folds = _forward_folds(n, self.n_splits, self.first_fraction)
+        folds = [(tr, va) for tr, va in folds if tr.size and va.size]
+        if not folds:
+            warnings.warn(
+                f"{type(self).__name__}: {n} training row(s) leave no "
+                "cross-validation fold, so nothing is chosen by validation: the "
+                "first candidate and penalty are taken. Give more rows.",
+                UserWarning,
+                stacklevel=3,
+            )
         if self.relative == "auto":
             # Within one run both give the same fit (they differ by a
             # constant); only between runs can the data tell them apart.

@@ -120,6 +120,8 @@ def exponential_filter(
     U = np.asarray(U, dtype=float)
     if initial not in ("steady", "rest"):
         raise ValueError(f"initial must be 'steady' or 'rest', got {initial!r}.")
+    if U.ndim == 0:
+        raise ValueError("U must hold one row per sample, got a single number.")
     U2 = U.reshape(U.shape[0], -1)
     taus = np.asarray(time_constant, dtype=float)
     if taus.ndim > 1 or (taus.ndim == 1 and taus.size != U2.shape[1]):
@@ -133,12 +135,33 @@ def exponential_filter(
         )
     if slices is None:
         slices = [slice(0, U.shape[0])]
-    dts = np.broadcast_to(np.asarray(dt, dtype=float), (len(slices),))
+    slices = list(slices)
+    covered = np.zeros(U.shape[0], dtype=int)
+    for sl in slices:
+        covered[sl] += 1
+    if np.any(covered != 1):
+        raise ValueError(
+            f"slices must cover every row of U ({U.shape[0]}) exactly once, as "
+            "run_slices gives them."
+        )
+    dts = np.asarray(dt, dtype=float)
+    if dts.ndim > 1 or (dts.ndim == 1 and dts.size != len(slices)):
+        raise ValueError(
+            f"dt must be a number or one per run ({len(slices)}), got shape "
+            f"{dts.shape}."
+        )
+    if not (np.all(np.isfinite(dts)) and np.all(dts > 0)):
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}.")
+    dts = np.broadcast_to(dts, (len(slices),))
     if state is None:
         state = [None] * len(slices)
     if len(state) != len(slices):
         raise ValueError(
             f"state must hold one entry per run ({len(slices)}), got {len(state)}."
+        )
+    if any(st is not None and np.size(st) != U2.shape[1] for st in state):
+        raise ValueError(
+            f"Every state must hold one value per column of U ({U2.shape[1]})."
         )
     state = [
         None if st is None else np.asarray(st, dtype=float).reshape(U2.shape[1])
@@ -160,6 +183,14 @@ def exponential_filter(
                 f"times must hold one time per row ({U2.shape[0]}), got "
                 f"{times.shape[0]}."
             )
+        if not np.all(np.isfinite(times)):
+            raise ValueError("times must be finite (no NaN or infinite time).")
+        for sl in slices:
+            if np.any(np.diff(times[sl]) <= 0):
+                raise ValueError(
+                    "times must increase strictly within each run (slice "
+                    f"{sl.start}:{sl.stop})."
+                )
     Z = np.empty_like(U2)
     for r, (sl, step) in enumerate(zip(slices, dts, strict=True)):
         if sl.stop <= sl.start:
