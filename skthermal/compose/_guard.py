@@ -35,6 +35,7 @@ from skthermal.utils._runs import (
     extract_runs,
     has_time_index,
     run_first_rows,
+    target_names,
 )
 
 
@@ -107,15 +108,6 @@ def _limits(low, high, margin):
     width = high - low
     scale = np.where(width > 0, width, np.maximum(np.abs(high), 1.0))
     return low - margin * scale, high + margin * scale
-
-
-def _output_names(y):
-    """The names of the targets of a Series or DataFrame (None otherwise)."""
-    if isinstance(y, pd.DataFrame):
-        return [str(c) for c in y.columns]
-    if isinstance(y, pd.Series) and y.name is not None:
-        return [str(y.name)]
-    return None
 
 
 def _accepts_groups(method):
@@ -345,7 +337,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             fit_params["groups"] = groups
         self.estimator_.fit(X, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
-        self._output_names = _output_names(y)
+        self._output_names = target_names(y)
         return self
 
     def _resolve_inputs(self):
@@ -439,7 +431,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if first:  # partial_fit from scratch, as the wrapped model allows
             self.checked_inputs_ = self._resolve_inputs()
             self.estimator_ = clone(self.estimator)
-            self._output_names = _output_names(y)
+            self._output_names = target_names(y)
         kwargs = {}
         if groups is not None and _accepts_groups(self.estimator_.partial_fit):
             kwargs["groups"] = groups

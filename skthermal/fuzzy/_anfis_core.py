@@ -609,7 +609,8 @@ penalize_intercepts, tol, n_iter_no_change, verbose
     # constant terms the prior is "no error where the inputs are zero" (the
     # papers' changes since the run start): the inputs are taken as given.
     centre = X.mean(axis=0) if n and not penalize_intercepts else np.zeros(d)
-    X1cT = np.vstack([XT - centre[:, None], np.ones((1, n))])
+    centred = bool(centre.any())
+    X1cT = np.vstack([XT - centre[:, None], X1T[-1:]]) if centred else X1T
     YT = np.ascontiguousarray(Y.T)
     n_mfs = mf_params.shape[1]
     E = _rule_matrix(rules, n_mfs)
@@ -648,9 +649,9 @@ penalize_intercepts, tol, n_iter_no_change, verbose
                 theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge, free)
             # theta: rows (input, rule), columns outputs; back to f = p x + q.
             theta = theta.reshape(d + 1, n_rules, n_out)
-            theta[d] -= np.einsum("a,aro->ro", centre, theta[:d])
-            theta = theta.reshape((d + 1) * n_rules, n_out)
-            consequents = theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
+            if centred:
+                theta[d] -= np.einsum("a,aro->ro", centre, theta[:d])
+            consequents = theta.transpose(1, 0, 2)
             C = theta.reshape(d + 1, -1)
         else:
             C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)

@@ -23,6 +23,7 @@ from skthermal.utils._runs import (
     continued_steps,
     continued_values,
     extract_runs,
+    gap_periods,
     row_times,
     run_memory,
     run_sample_periods,
@@ -608,10 +609,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         ]
         # A given dt overrides the index's times, also across pauses.
         times = row_times(X_raw) if self.dt is None else None
-        # Gaps are judged against the fitted period for continued runs (a
-        # block of a few rows cannot tell it), else the run's own period.
-        periods = np.array(dts, dtype=float)
-        periods[[c is not None for c in cont]] = self.sample_period_s_
+        periods = gap_periods(dts, cont, self.sample_period_s_)
         dts = continued_steps(dts, slices, times, cont, memory)
         coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
         out = np.column_stack(

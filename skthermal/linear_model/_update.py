@@ -22,7 +22,7 @@ from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skthermal.utils._runs import extract_runs, run_slices
+from skthermal.utils._runs import extract_runs, run_slices, target_names
 
 
 def _design(X):
@@ -251,14 +251,6 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     return int(np.argmax(ok)) + 1 if ok.any() else None
 
 
-def _target_names(y):
-    """The names of a Series' or DataFrame's targets (None for arrays)."""
-    if hasattr(y, "columns"):
-        return [str(c) for c in y.columns]
-    name = getattr(y, "name", None)
-    return None if name is None else [str(name)]
-
-
 def _features(X, groups=None, y=None):
     """``X`` without the run table's ``run`` and ``time_s`` columns: the
     model is static, but takes a run table as stored (the labels are
@@ -378,7 +370,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         -------
         self : object
         """
-        names = _target_names(y)
+        names = target_names(y)
         X, y = validate_data(
             self,
             _features(X, groups, y),
@@ -477,7 +469,7 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
     def _new_samples(self, X, y, *, first, hint="", groups=None):
         """Validated new samples, their 2-D targets and the coefficients so far
         (zeros for the first ``partial_fit``)."""
-        names = _target_names(y)
+        names = target_names(y)
         known = getattr(self, "_target_names", None)
         if first:
             self._target_names = names

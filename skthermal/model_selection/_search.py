@@ -34,6 +34,7 @@ from skthermal.model_selection._spaces import (
     combine_spaces,
     search_space,
 )
+from skthermal.utils._runs import row_times, run_table_index
 
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 _JOURNAL_SUFFIXES = (".log", ".journal", ".jsonl")
@@ -392,12 +393,8 @@ def _with_runs(X, groups):
             f"groups has {len(groups)} run labels for {len(frame)} rows of X; "
             "give one label per row."
         )
-    arrays = [np.asarray(groups)]
-    level_names = ["run"]
-    if "time_s" in names:
-        arrays.append(frame.index.get_level_values("time_s"))
-        level_names.append("time_s")
-    return frame.set_axis(pd.MultiIndex.from_arrays(arrays, names=level_names))
+    times = row_times(frame)
+    return frame.set_axis(run_table_index(groups, times))
 
 
 def _resolve_cv(cv, groups):

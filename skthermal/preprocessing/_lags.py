@@ -22,6 +22,7 @@ from skthermal.utils._runs import (
     continued_values,
     driver_positions,
     extract_runs,
+    gap_periods,
     gap_steps,
     row_times,
     run_memory,
@@ -564,11 +565,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         states = continued_values(cont, memory, "state")
         lasts = continued_values(cont, memory, "x_last")
         times = row_times(X_raw)
-        # Against which steps are gaps: a continued run's rows are judged by
-        # the fitted period (a block of a few rows cannot tell it), others
-        # by their own.
-        periods = np.array(dts, dtype=float)
-        periods[[c is not None for c in cont]] = self.sample_period_s_
+        periods = gap_periods(dts, cont, self.sample_period_s_)
         dts = continued_steps(dts, slices, times, cont, memory)
         return self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
 

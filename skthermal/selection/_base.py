@@ -21,7 +21,9 @@ from skthermal.utils._runs import (
     check_run_lengths,
     check_time_order,
     extract_runs,
+    row_times,
     run_slices,
+    run_table_index,
 )
 
 
@@ -43,21 +45,10 @@ def _run_index(original, X, groups):
     """The ``(run[, time_s])`` index of a run table's rows, or None when
     ``original`` is not a DataFrame carrying runs or times (``X`` and
     ``groups`` as :func:`~skthermal.utils._runs.extract_runs` returns them)."""
-    if not hasattr(original, "columns"):
+    times = row_times(X)
+    if not hasattr(original, "columns") or (groups is None and times is None):
         return None
-    names = [n for n in (getattr(X.index, "names", None) or []) if n is not None]
-    if "time_s" in names:
-        if "run" in names or groups is None:
-            return X.index
-    elif groups is None:
-        return None
-    import pandas as pd
-
-    arrays, level_names = [np.asarray(groups)], ["run"]
-    if "time_s" in names:
-        arrays.append(X.index.get_level_values("time_s"))
-        level_names.append("time_s")
-    return pd.MultiIndex.from_arrays(arrays, names=level_names)
+    return run_table_index(groups, times)
 
 
 class RunAwareSelector(SelectorMixin, BaseEstimator):

@@ -229,10 +229,8 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
             )
         check_numeric_columns(time)
         X = X.drop(columns=TIME_COLUMN)
-        arrays = [] if groups is None else [np.asarray(groups)]
-        arrays.append(pd.to_numeric(time[TIME_COLUMN]).to_numpy(dtype=float))
-        names = ([] if groups is None else [RUN_COLUMN]) + [TIME_COLUMN]
-        X = X.set_axis(pd.MultiIndex.from_arrays(arrays, names=names), axis=0)
+        times = pd.to_numeric(time[TIME_COLUMN]).to_numpy(dtype=float)
+        X = X.set_axis(run_table_index(groups, times), axis=0)
     check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
@@ -242,6 +240,31 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         if y is not None:
             check_finite_target(y, X, groups)
     return X, groups
+
+
+def target_names(y):
+    """The names of the targets of a Series (its name) or DataFrame (its
+    columns), as strings; None for arrays and unnamed Series."""
+    if hasattr(y, "columns"):
+        return [str(c) for c in y.columns]
+    name = getattr(y, "name", None)
+    return None if name is None else [str(name)]
+
+
+def run_table_index(groups, times):
+    """The ``(run, time_s)`` MultiIndex of run-table rows, where the
+    time-aware estimators read them; a level whose values are None is left
+    out."""
+    import pandas as pd
+
+    arrays, names = [], []
+    if groups is not None:
+        arrays.append(np.asarray(groups))
+        names.append(RUN_COLUMN)
+    if times is not None:
+        arrays.append(np.asarray(times, dtype=float))
+        names.append(TIME_COLUMN)
+    return pd.MultiIndex.from_arrays(arrays, names=names)
 
 
 def _where(row, X, groups):
@@ -607,6 +630,15 @@ def continued_values(cont, memory, key):
     """Per predicted run, ``memory[label][key]`` of the training run it
     continues (``cont`` from :func:`continued_runs`), or None."""
     return [None if lab is None else memory[lab][key] for lab in cont]
+
+
+def gap_periods(dts, cont, fitted):
+    """The period against which each predicted run's steps are gaps: the
+    fitted sampling period for a run that continues a training run (a block
+    of a few rows cannot tell it), else the run's own period ``dts``."""
+    periods = np.array(dts, dtype=float)
+    periods[[c is not None for c in cont]] = fitted
+    return periods
 
 
 def continued_steps(dts, slices, times, cont, memory):
