@@ -918,6 +918,36 @@ def test_csv_refuses_labels_it_cannot_read_back(tmp_path, labels, message):
     assert not path.exists()
 
 
+@pytest.mark.parametrize("name", ["runs.parquet", "runs.csv"])
+@pytest.mark.parametrize(
+    "labels, message",
+    [
+        ([1, "b"], r"row 0 has 1 \(int\), row 2 has 'b' \(string\)"),
+        (["a", 2.5], r"row 0 has 'a' \(string\), row 2 has 2.5 \(float\)"),
+    ],
+)
+def test_run_labels_of_mixed_kinds_are_refused_by_name(tmp_path, name, labels, message):
+    # Parquet gave pyarrow's own error ("Could not convert 'b' with type
+    # str: tried to convert to int64"), which names no fix.
+    df = _labelled(labels)
+    full = (
+        r"Column 'run': Run labels mix kinds: " + message + r".*all strings.*"
+        r"df\['run'\] = df\['run'\]\.astype\(str\)"
+    )
+    with pytest.raises(ValueError, match=full):
+        validate_runs(df)
+    with pytest.raises(ValueError, match=full):
+        write_runs(df, tmp_path / name)
+    # Also unvalidated: the labels are checked for every format.
+    with pytest.raises(ValueError, match=full):
+        write_runs(df, tmp_path / name, validate=False)
+    assert not (tmp_path / name).exists()
+    # As the message says: strings write and read back.
+    fixed = df.assign(run=df["run"].astype(str))
+    write_runs(fixed, tmp_path / name)
+    assert read_runs(tmp_path / name)["run"].tolist() == fixed["run"].tolist()
+
+
 def test_empty_metadata_is_accepted(tmp_path, runs):
     path = tmp_path / "runs.csv"
     write_runs(runs, path)

@@ -1,13 +1,19 @@
 """ModularRegressor: modules trained on single-source tests, superposed."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
-from sklearn.base import clone
+from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.pipeline import make_pipeline
 
-from skthermal.datasets import changes_since_start
+from skthermal import GNNMCIRegressor, GreyPSORegressor
+from skthermal.datasets import changes_since_start, split_runs
 from skthermal.ensemble import ModularRegressor
+from skthermal.linear_model import TransferFunctionRegressor
+from skthermal.preprocessing import LagFeatures, LagRidgeCV
 from skthermal.simulate import DutyCycle, ThermalMachine
 
 
@@ -224,3 +230,195 @@ def test_simulated_spindle_and_feed_tests_predict_the_combined_test():
     rmse_single = np.sqrt(np.mean((single.predict(rel[head + axis]) - truth) ** 2))
     assert rmse < 0.05 * np.abs(truth).max()
     assert rmse < 0.5 * rmse_single
+
+
+# --- sequence modules get the run table's structure ---------------------------
+
+
+@pytest.fixture(scope="module")
+def machine_b_runs():
+    """Two training runs and a test run of the simulated Machine B."""
+    machine = ThermalMachine.from_preset("vmc-b")
+    kw = {"sample_period_s": 120}
+    train = pd.concat(
+        [
+            machine.simulate(
+                DutyCycle.heat_cool(8000, heat_h=2, cool_h=2),
+                20.0,
+                run="a",
+                random_state=0,
+                **kw,
+            ),
+            machine.simulate(
+                DutyCycle.heat_cool(4000, heat_h=3, cool_h=1),
+                20.5,
+                run="b",
+                random_state=1,
+                **kw,
+            ),
+        ],
+        ignore_index=True,
+    )
+    test = machine.simulate(
+        DutyCycle([(3 * 3600, 6000, 0), (3600, 0, 0)]),
+        20.5,
+        run="c",
+        random_state=2,
+        **kw,
+    )
+    return train, test
+
+
+_HEAD = ["T63_C", "T12_C", "T40_C", "spindle_rpm"]
+_SEQUENCE_MODULES = [
+    make_pipeline(LagFeatures(), Ridge(alpha=1.0)),  # drivers="auto": by name
+    LagRidgeCV(),
+    TransferFunctionRegressor(),
+    GreyPSORegressor(n_particles=10, epochs=5, random_state=0),
+    GNNMCIRegressor(n_particles=10, epochs=5, random_state=0),
+]
+
+
+@pytest.mark.parametrize("module", _SEQUENCE_MODULES, ids=lambda m: type(m).__name__)
+def test_sequence_module_predicts_as_when_fitted_alone(machine_b_runs, module):
+    # Given plain arrays, a module lost the runs, the times and the driver
+    # names: TransferFunctionRegressor was 3.7 um off on the test run.
+    train, test = machine_b_runs
+    X, y, _ = split_runs(train, sensors=[*_HEAD, "T25_C"], targets="disp_y_um")
+    X_test, _, _ = split_runs(test, sensors=[*_HEAD, "T25_C"], targets="disp_y_um")
+    alone = clone(module).fit(X[_HEAD], y)
+    model = ModularRegressor([("head", clone(module), _HEAD)], relative=False)
+    model.fit(X, y)
+    for data in (X_test, X):
+        np.testing.assert_allclose(
+            model.predict(data), alone.predict(data[_HEAD]), rtol=0, atol=1e-9
+        )
+    # The run table itself (run and time_s columns) works the same.
+    table = test[["run", "time_s", *model.feature_names_in_]]
+    np.testing.assert_allclose(
+        model.predict(table), alone.predict(X_test[_HEAD]), rtol=0, atol=1e-9
+    )
+
+
+def test_sequence_module_on_changes_since_the_run_start(machine_b_runs):
+    # relative=True: the module sees the changes, with the runs and times.
+    train, test = machine_b_runs
+    columns = [*_HEAD, "disp_y_um"]
+    X, y, _ = split_runs(train, sensors=_HEAD, targets="disp_y_um")
+    X_test, _, _ = split_runs(test, sensors=_HEAD, targets="disp_y_um")
+    rel = changes_since_start(train, columns).set_index(["run", "time_s"])
+    rel_test = changes_since_start(test, _HEAD).set_index(["run", "time_s"])
+    alone = TransferFunctionRegressor().fit(rel[_HEAD], rel["disp_y_um"])
+    model = ModularRegressor([("head", TransferFunctionRegressor(), _HEAD)])
+    np.testing.assert_allclose(
+        model.fit(X, y).predict(X_test),
+        alone.predict(rel_test[_HEAD]),
+        rtol=0,
+        atol=1e-9,
+    )
+
+
+def test_fit_modules_keeps_the_tests_runs_and_times(machine_b_runs):
+    train, test = machine_b_runs
+    spindle = train[train["run"] == "a"]
+    other = train[train["run"] == "b"]
+    model = ModularRegressor(
+        [
+            ("head", TransferFunctionRegressor(), _HEAD),
+            ("rest", LinearRegression(), ["T25_C"]),
+        ]
+    ).fit_modules({"head": spindle, "rest": other}, target="disp_y_um")
+    rel = changes_since_start(spindle, [*_HEAD, "disp_y_um"])
+    alone = TransferFunctionRegressor().fit(
+        rel.set_index(["run", "time_s"])[_HEAD], rel["disp_y_um"]
+    )
+    rel_test = changes_since_start(test, _HEAD).set_index(["run", "time_s"])
+    np.testing.assert_allclose(
+        model.predict_modules(test[["run", "time_s", *model.feature_names_in_]])[:, 0],
+        alone.predict(rel_test[_HEAD]),
+        rtol=0,
+        atol=1e-9,
+    )
+
+
+def test_plain_arrays_with_groups_give_the_modules_their_runs(machine_b_runs):
+    train, test = machine_b_runs
+    X, y, groups = split_runs(train, sensors=_HEAD, targets="disp_y_um")
+    X_test, _, groups_test = split_runs(test, sensors=_HEAD, targets="disp_y_um")
+    A, A_test = X.to_numpy(), X_test.to_numpy()
+    alone = TransferFunctionRegressor(dt=120).fit(A, y.to_numpy(), groups=groups)
+    model = ModularRegressor(
+        [("head", TransferFunctionRegressor(dt=120), None)], relative=False
+    ).fit(A, y.to_numpy(), groups=groups)
+    np.testing.assert_allclose(
+        model.predict(A_test, groups=groups_test),
+        alone.predict(A_test, groups=groups_test),
+        rtol=0,
+        atol=1e-9,
+    )
+
+
+class _Probe(RegressorMixin, BaseEstimator):
+    """Records what it is given; predicts zeros."""
+
+    def fit(self, X, y):
+        self.fit_input_ = X
+        return self
+
+    def predict(self, X):
+        self.predict_input_ = X
+        return np.zeros(len(X))
+
+
+def test_modules_get_sub_tables_of_a_run_table_and_arrays_of_arrays():
+    X, y, source = _two_tests()
+    frame = pd.DataFrame(X, columns=["T1_C", "T2_C", "T3_C"])
+    frame.insert(0, "time_s", np.tile(np.arange(40.0) * 60, 2))
+    frame.insert(0, "run", np.repeat(["r1", "r2"], 40))
+    by_source = {"source": np.where(source == "spindle", "a", "b")}
+    for kwargs, n_fit in (({}, 80), (by_source, 40)):
+        model = ModularRegressor(
+            [("a", _Probe(), ["T2_C", "T1_C"]), ("b", _Probe(), "T3_C")],
+            relative=False,
+        ).fit(frame, y, **kwargs)
+        model.predict(frame.iloc[40:])
+        seen = model.named_estimators_["a"]
+        for got, rows in ((seen.fit_input_, n_fit), (seen.predict_input_, 40)):
+            assert isinstance(got, pd.DataFrame)
+            assert list(got.columns) == ["T2_C", "T1_C"]
+            assert list(got.index.names) == ["run", "time_s"]
+            assert len(got) == rows
+        np.testing.assert_array_equal(seen.fit_input_.to_numpy(), X[:n_fit, [1, 0]])
+        np.testing.assert_array_equal(
+            seen.predict_input_.index.get_level_values("time_s"),
+            np.arange(40.0) * 60,
+        )
+        np.testing.assert_array_equal(seen.predict_input_.to_numpy(), X[40:, [1, 0]])
+    # groups win over the table's own runs.
+    model.fit(frame, y, groups=np.repeat(["g1", "g2"], 40))
+    seen = model.named_estimators_["a"].fit_input_
+    assert set(seen.index.get_level_values("run")) == {"g1", "g2"}
+    # Plain arrays without runs: plain arrays, as before.
+    model = ModularRegressor([("a", _Probe(), [1, 0])], relative=False).fit(X, y)
+    model.predict(X[:5])
+    seen = model.named_estimators_["a"]
+    assert isinstance(seen.fit_input_, np.ndarray)
+    assert isinstance(seen.predict_input_, np.ndarray)
+    np.testing.assert_array_equal(seen.predict_input_, X[:5, [1, 0]])
+
+
+def test_unlabelled_rows_warn_once_not_once_per_module(machine_b_runs):
+    train, _ = machine_b_runs
+    X, y, _ = split_runs(train, sensors=_HEAD, targets="disp_y_um")
+    model = ModularRegressor(
+        [
+            ("a", TransferFunctionRegressor(), _HEAD[:2]),
+            ("b", TransferFunctionRegressor(), _HEAD[2:]),
+        ],
+        max_iter=2,
+    ).fit(X, y)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.predict(X.to_numpy()[:30])
+    messages = [str(w.message) for w in caught if "labelled run" in str(w.message)]
+    assert len(messages) == 1 and messages[0].startswith("ModularRegressor")

@@ -25,8 +25,7 @@ import pandas as pd
 
 from skthermal._naming import plain
 from skthermal._optional import import_optional, missing_dependency
-from skthermal.datasets._runtable import RUN, validate_runs
-from skthermal.utils._runs import check_labels
+from skthermal.datasets._runtable import RUN, check_label_kinds, validate_runs
 
 _PARQUET_SUFFIXES = (".parquet", ".pq")
 FL_THERMAL_FILE = "fl_thermal_spindle.csv.gz"
@@ -407,7 +406,6 @@ def _check_csv_labels(labels):
     when they are strings that would read back as integers (all whole
     numbers), which the sidecar must then record."""
     values = labels.to_numpy(dtype=object)
-    check_labels(values, item="row", label="run")  # missing or mixed kinds
     unique = pd.unique(values)
     for value in unique:
         if isinstance(value, bool | np.bool_) or not isinstance(value, str | Integral):
@@ -619,10 +617,11 @@ def write_runs(df, path, *, metadata=None, validate=True):
     ------
     ValueError
         If ``df`` is not a valid run table or the metadata is not keyed by
-        runs of ``df``; for CSV, if a run label would not read back as
+        runs of ``df``; if run labels are missing or of mixed kinds (``1``
+        and ``"1"`` are the same text in CSV and Parquet alike), also with
+        ``validate=False``; for CSV, if a run label would not read back as
         written: an empty string, a label that is neither a string nor an
-        integer (a float, a bool), or labels of mixed kinds (``1`` and
-        ``"1"`` are the same text). Nothing is written then.
+        integer (a float, a bool). Nothing is written then.
 
     See Also
     --------
@@ -650,6 +649,8 @@ def write_runs(df, path, *, metadata=None, validate=True):
     check_table_name(path)
     # Check the metadata and the labels before touching any file.
     document = None if metadata is None else _sidecar_document(metadata, df)
+    if RUN in df.columns:  # missing labels or mixed kinds, for every format
+        check_label_kinds(df[RUN])
     if not _is_parquet(path) and RUN in df.columns and _check_csv_labels(df[RUN]):
         document = {_LABELS_FIELD: "str"} | (document or {"runs": []})
     if _is_parquet(path):

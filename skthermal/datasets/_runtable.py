@@ -21,6 +21,7 @@ from skthermal._naming import (
     plain,
 )
 from skthermal._run_changes import changes_since_first_row
+from skthermal.utils._runs import check_labels
 
 RUN = "run"
 TIME = "time_s"
@@ -258,8 +259,22 @@ def _report_nonfinite(df, columns, mask, what, hint=""):
     raise ValueError("; ".join(parts) + hint + ".")
 
 
+def check_label_kinds(run):
+    """Raise a ValueError, naming the ``run`` column, two rows and their
+    kinds, when the run labels ``run`` (a Series) mix kinds (a number among
+    strings): CSV and Parquet cannot store them as they are, and the
+    estimators refuse them. Missing labels are checked before."""
+    try:
+        check_labels(run.to_numpy())
+    except ValueError as exc:
+        raise ValueError(
+            f"Column 'run': {exc} Convert them, e.g. df['run'] = df['run'].astype(str)."
+        ) from None
+
+
 def _check_runs(df):
-    """Run labels present, runs contiguous and longer than one row."""
+    """Run labels present and of one kind, runs contiguous and longer than
+    one row."""
     run = df[RUN]
     missing = np.flatnonzero(run.isna().to_numpy())
     if missing.size:
@@ -267,6 +282,7 @@ def _check_runs(df):
             f"Column 'run' has {missing.size} missing label(s), the first at row "
             f"{missing[0]}; every row needs a run label."
         )
+    check_label_kinds(run)
     codes, _ = pd.factorize(run)
     n = codes.shape[0]
     starts = np.concatenate(([0], np.flatnonzero(codes[1:] != codes[:-1]) + 1))
@@ -320,9 +336,10 @@ def validate_runs(
 ):
     """Check that a DataFrame is a valid run table and return it unchanged.
 
-    The rules are those of DATA_FORMAT: a ``run`` label and a ``time_s``
-    column, at least one temperature sensor ``T<name>_C``, numeric sensors,
-    targets and drivers, runs that are contiguous blocks of at least two rows
+    The rules are those of DATA_FORMAT: a ``run`` label (of one kind: all
+    strings or all numbers) and a ``time_s`` column, at least one
+    temperature sensor ``T<name>_C``, numeric sensors, targets and drivers,
+    runs that are contiguous blocks of at least two rows
     with strictly increasing ``time_s``, no missing or infinite values in
     drivers, targets and (unless allowed) sensors, and physical ranges: a
     ``spindle_rpm`` of 0 or more (as the simulator requires) and

@@ -10,6 +10,7 @@ so do the displacements they cause; each module learns one source from the
 sensors that see it.
 """
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -28,16 +29,23 @@ from skthermal.datasets._runtable import (
 )
 from skthermal.utils._runs import (
     RUN_COLUMN,
+    TIME_COLUMN,
     changes_since_start,
     check_time_order,
     continued_runs,
     continued_values,
     extract_runs,
+    row_times,
     run_memory,
     run_slices,
+    run_table_index,
     run_times,
     warn_unlabelled_runs,
 )
+
+# What a module says when it gets rows without run labels although it was
+# fitted on labelled runs; ModularRegressor says it once itself.
+_UNLABELLED_WARNING = r".* was fitted on \d+ labelled run"
 
 
 class ModularRegressor(RegressorMixin, _BaseComposition):
@@ -51,13 +59,22 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
     backfitting (``fit(X, y)``), which fits every module in turn to what the
     others leave unexplained.
 
+    Given a run table (a DataFrame with ``run`` and ``time_s`` columns, or
+    the ``(run, time_s)`` index of :func:`skthermal.datasets.split_runs`) or
+    ``groups``, every module gets its columns as a sub-table that keeps their
+    names and the ``(run, time_s)`` index, in ``fit`` and ``predict``: a
+    sequence module (lag features, a transfer function, a grey model) sees
+    the runs, times and drivers it would see fitted alone.
+
     Parameters
     ----------
     modules : list of (str, estimator, columns) tuples or None, default=None
         The modules: a name, a regressor (cloned) and the columns of ``X`` it
         reads: column names (``X`` a DataFrame), integer positions, or
         ``None`` / ``"all"`` for every column. None: one ``LinearRegression``
-        on every column.
+        on every column. A module gets its columns as a DataFrame (their
+        names; the ``(run, time_s)`` index when runs or times are known) when
+        ``X`` has column names, runs or times, else as a numpy array.
     relative : bool, default=True
         Work on changes since the start of each run (inputs and targets in
         ``fit``, inputs in ``predict``), the papers' "temperature change" and
@@ -253,6 +270,30 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         slices, _ = run_slices(groups, A.shape[0])
         return changes_since_start(A, slices, bases)
 
+    def _frame_index(self, X_raw, groups, n_samples):
+        """The index of the modules' sub-tables: ``(run, time_s)`` when the
+        runs or times are known (``groups`` winning over ``X``'s own), the
+        index of a DataFrame ``X`` fitted with column names; None (plain
+        arrays, as given) otherwise."""
+        times = row_times(X_raw)
+        if groups is not None or times is not None:
+            return run_table_index(groups, times)
+        if getattr(self, "feature_names_in_", None) is None:
+            return None
+        index = getattr(X_raw, "index", None)
+        return pd.RangeIndex(n_samples) if index is None else index
+
+    def _module_input(self, A, cols, index):
+        """The input of the module reading ``cols``: those columns of ``A``,
+        as a sub-table on ``index`` with their names, or a plain array when
+        ``index`` is None."""
+        if index is None:
+            return A[:, cols]
+        names = getattr(self, "feature_names_in_", None)
+        return pd.DataFrame(
+            A[:, cols], index=index, columns=cols if names is None else names[cols]
+        )
+
     # --- fit / predict ------------------------------------------------------
 
     @_fit_context(prefer_skip_nested_validation=False)
@@ -263,7 +304,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         ----------
         X : {array-like, DataFrame} of shape (n_samples, n_features)
             Sensor readings of every module (a ``run`` column or index level
-            holds run labels and is not a feature).
+            holds run labels, a ``time_s`` column or index level the times;
+            neither is a feature).
         y : array-like of shape (n_samples,) or (n_samples, n_targets)
             Displacement(s).
         source : array-like of shape (n_samples,), optional
@@ -294,12 +336,15 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             if self.relative
             else {}
         )
+        index = self._frame_index(X_raw, groups, X.shape[0])
         X = self._relative(X, groups)
         y = self._relative(np.asarray(y, dtype=float), groups)
-        self._fit(X, y, modules, source)
+        self._fit(X, y, modules, source, index)
         return self
 
-    def _fit(self, X, y, modules, source):
+    def _fit(self, X, y, modules, source, index=None):
+        """Fit the modules on ``X`` (validated, relative as asked); ``index``:
+        that of their sub-tables (see :meth:`_frame_index`)."""
         names = [m[0] for m in modules]
         fitted = [clone(est) for _, est, _ in modules]
         self.module_columns_ = [cols for _, _, cols in modules]
@@ -322,19 +367,21 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 rows = source == name
                 if not rows.any():
                     raise ValueError(f"Module {name!r} has no training rows in source.")
-                est.fit(X[rows][:, cols], y[rows])
+                part = None if index is None else index[rows]
+                est.fit(self._module_input(X[rows], cols, part), y[rows])
             self.n_iter_ = 0
         else:
             parts = np.zeros((len(fitted), *y.shape))
             scale = float(np.std(y)) or 1.0
+            inputs = [
+                self._module_input(X, cols, index) for cols in self.module_columns_
+            ]
             for it in range(1, self.max_iter + 1):
                 change = 0.0
-                for k, (est, cols) in enumerate(
-                    zip(fitted, self.module_columns_, strict=True)
-                ):
+                for k, (est, X_k) in enumerate(zip(fitted, inputs, strict=True)):
                     rest = y - (parts.sum(axis=0) - parts[k])
-                    est.fit(X[:, cols], rest)
-                    new = np.asarray(est.predict(X[:, cols]), dtype=float)
+                    est.fit(X_k, rest)
+                    new = np.asarray(est.predict(X_k), dtype=float)
                     new = new.reshape(y.shape)
                     change = max(change, float(np.max(np.abs(new - parts[k]))))
                     parts[k] = new
@@ -354,7 +401,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         data : dict
             ``{module name: run table}`` (DataFrames with ``run``, ``time_s``,
             sensors and targets) or ``{module name: (X, y)}``. Every module
-            needs an entry; all entries need the same feature columns.
+            needs an entry; all entries need the same feature columns. The
+            modules get the tests' runs and, when every test has them, times.
         target : str or list of str, optional
             Target column(s) of run tables; default: their only
             ``disp_<axis>_um`` column.
@@ -365,7 +413,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         """
         if not isinstance(data, dict) or not data:
             raise ValueError("data must be a non-empty dict {module name: data}.")
-        Xs, ys, src, grp = [], [], [], []
+        Xs, ys, src, grp, times = [], [], [], [], []
         for name, item in data.items():
             if isinstance(item, pd.DataFrame):
                 targets = target_columns(item) if target is None else target
@@ -386,7 +434,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 if missing:
                     raise ValueError(f"The run table of {name!r} has no {missing}.")
                 features = sensor_columns(item) + driver_columns(item)
-                labels = [RUN_COLUMN] if RUN_COLUMN in item.columns else []
+                labels = [c for c in (RUN_COLUMN, TIME_COLUMN) if c in item.columns]
                 X_i, y_i = item[features + labels], item[targets]
             else:
                 try:
@@ -399,6 +447,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             g_i = np.zeros(len(X_i), dtype=int) if g_i is None else g_i
             g = np.array([f"{name}/{r}" for r in np.asarray(g_i).tolist()])
             Xs.append(X_i)
+            times.append(row_times(X_i))
             ys.append(np.asarray(y_i, dtype=float))
             src.append(np.full(len(g), name, dtype=object))
             grp.append(g)
@@ -411,6 +460,9 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                         f"{next(iter(data))!r}; every test needs the same columns."
                     )
             X = pd.concat([x.reset_index(drop=True) for x in Xs], ignore_index=True)
+            if all(t is not None for t in times):
+                # The tests' times, for the modules that read them.
+                X = X.set_axis(run_table_index(None, np.concatenate(times)))
         else:
             X = np.concatenate([np.asarray(x, dtype=float) for x in Xs])
         ndims = {y_.ndim for y_ in ys}
@@ -423,9 +475,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         check_is_fitted(self)
         X_raw, groups = extract_runs(X, groups)
         X = validate_data(self, X_raw, reset=False, dtype=np.float64)
-        warn_unlabelled_runs(
-            type(self).__name__, getattr(self, "_fit_runs", None), groups, X.shape[0]
-        )
+        fit_runs = getattr(self, "_fit_runs", None)
+        warn_unlabelled_runs(type(self).__name__, fit_runs, groups, X.shape[0])
         bases = None
         if self.relative:
             check_time_order(X_raw, groups)
@@ -435,18 +486,21 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
             )
             bases = continued_values(cont, memory, "x_first")
+        index = self._frame_index(X_raw, groups, X.shape[0])
         X = self._relative(X, groups, bases)
-        return np.stack(
-            [
-                np.asarray(est.predict(X[:, cols]), dtype=float).reshape(
-                    X.shape[0], *self._y_shape
-                )
+        with warnings.catch_warnings():
+            if fit_runs is not None and groups is None:
+                # Said once above, not again by every module.
+                warnings.filterwarnings("ignore", message=_UNLABELLED_WARNING)
+            outputs = [
+                np.asarray(
+                    est.predict(self._module_input(X, cols, index)), dtype=float
+                ).reshape(X.shape[0], *self._y_shape)
                 for est, cols in zip(
                     self.estimators_, self.module_columns_, strict=True
                 )
-            ],
-            axis=1,
-        )
+            ]
+        return np.stack(outputs, axis=1)
 
     def predict_modules(self, X, *, groups=None):
         """Contribution of every module.
