@@ -8,6 +8,7 @@ import zipfile
 
 import joblib
 import numpy as np
+import pandas as pd
 import pytest
 from numpy.testing import assert_array_equal
 from sklearn.base import BaseEstimator, RegressorMixin, clone
@@ -176,6 +177,65 @@ class _Custom(RegressorMixin, BaseEstimator):
 
     def predict(self, X):
         return np.full(len(X), self.mean_)
+
+
+RUN_LABELS = {
+    "Timestamp": [pd.Timestamp(f"2024-05-0{d} 07:30") for d in (1, 2, 3)],
+    "tuple": [("m1", 1), ("m1", 2), ("m2", 1)],
+    "bool": [True, False, None],  # the rows of the third run left out
+    "int": [3, 1, 2],
+}
+
+
+@pytest.mark.parametrize("kind", list(RUN_LABELS))
+@pytest.mark.parametrize(
+    "model",
+    [
+        LagRidgeCV(time_constant_sets=[(120.0, 600.0)], alphas=[0.1, 10.0]),
+        make_pipeline(LagFeatures(time_constants=(120.0, 600.0)), Ridge()),
+        TransferFunctionRegressor(n_grid=3, max_iter=2),
+        GreyPSORegressor(calibration="ls"),
+    ],
+    ids=_name,
+)
+def test_sequence_models_of_any_run_label_round_trip(model, kind, runs_data, tmp_path):
+    # The run memory of a model fitted on runs labelled by their start
+    # (Timestamps) or by tuples could not be written (JSON keys); bool
+    # labels came back as one key (True). The later rows of every training
+    # run, continued from that memory, are predicted alike after loading.
+    X, y = runs_data
+    runs = X.index.get_level_values("run")
+    labels = np.empty(len(X), dtype=object)
+    labels[:] = [RUN_LABELS[kind][int(r[-1]) - 1] for r in runs]
+    keep = np.array([lab is not None for lab in labels])
+    table = X.reset_index(level="time_s").assign(run=labels)[keep]
+    target = y.to_numpy()[keep]
+    early = table["time_s"].to_numpy() < 25 * 60.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # few rows: no CV fold
+        model = clone(model).fit(table[early], target[early])
+    loaded = load(save(model, tmp_path / "model.skops"))
+    later = model.predict(table[~early])
+    assert_array_equal(loaded.predict(table[~early]), later)
+    # Continued, not restarted: the same as the whole runs predicted.
+    np.testing.assert_allclose(later, model.predict(table)[~early], atol=1e-9)
+
+
+def test_a_dict_key_a_file_cannot_hold_is_named(runs_data, tmp_path):
+    X, y = runs_data
+    model = make_pipeline(LagFeatures(time_constants=(120.0,)), Ridge()).fit(X, y)
+    # As a model fitted by an older skthermal kept its run memory.
+    model[0].run_states_ = {pd.Timestamp("2024-05-01"): {}}
+    with pytest.raises(
+        TypeError,
+        match=r"Pipeline.steps\[0\]\[1\].run_states_ is a dict with the key "
+        r"Timestamp\('2024-05-01 00:00:00'\) of type Timestamp.*refit",
+    ):
+        save(model, tmp_path / "model.skops")
+    model[0].run_states_ = {True: {}, False: {}}  # skops gave back one key
+    with pytest.raises(TypeError, match="key True of type bool"):
+        save(model, tmp_path / "model.skops")
+    assert not (tmp_path / "model.skops").exists()
 
 
 def test_untrusted_type_refused(runs_data, tmp_path):

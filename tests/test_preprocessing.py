@@ -6,6 +6,7 @@ import pandas as pd
 import pytest
 from sklearn.base import clone
 from sklearn.linear_model import LinearRegression
+from sklearn.pipeline import make_pipeline
 
 from skthermal.preprocessing import (
     LagFeatures,
@@ -455,3 +456,102 @@ def test_lag_ridge_on_too_few_rows_says_nothing_was_validated():
         LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0, 10.0]).fit(
             X, np.arange(2.0)
         )
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"driver_powers": (-1.0, 1.5)}, r"'driver_powers'.*Got -1.0 at position 0"),
+        ({"driver_powers": (0.0,)}, r"'driver_powers'.*Got 0.0 at position 0"),
+        ({"driver_powers": (1.0, np.nan)}, r"'driver_powers'.*Got nan at position 1"),
+        ({"driver_powers": ("1",)}, r"'driver_powers'.*Got '1' at position 0"),
+        ({"driver_powers": ()}, r"'driver_powers'.*at least one.*drivers=None"),
+        ({"driver_powers": (1.0, 1.0)}, r"'driver_powers'.*repeats 1"),
+        ({"time_constants": (60.0, np.inf)}, r"'time_constants'.*Got inf at"),
+        ({"time_constants": ("60",)}, r"'time_constants'.*Got '60' at"),
+        ({"time_constants": (60.0, 60.0)}, r"'time_constants'.*repeats 60"),
+    ],
+)
+def test_lag_features_names_a_bad_power_or_time_constant(params, message):
+    # Negative powers made infinite features at rest, NaN ones NaN features,
+    # and 0 a constant one; repeated entries repeated a feature's name.
+    X = _frame()
+    with pytest.raises(ValueError, match=r"parameter of LagFeatures must be"):
+        LagFeatures(**params).fit(X)
+    with pytest.raises(ValueError, match=message):
+        LagFeatures(**params).fit(X)
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"alphas": [1.0, np.nan]}, r"'alphas'.*Got nan at position 1"),
+        ({"alphas": [np.inf]}, r"'alphas'.*Got inf at position 0"),
+        ({"alphas": [0.0, 1.0]}, r"'alphas'.*Got 0.0 at position 0"),
+        ({"alphas": ["1"]}, r"'alphas'.*Got '1' at position 0"),
+        ({"alphas": []}, r"'alphas'.*at least one"),
+        ({"time_constant_sets": [(), (60.0, np.nan)]}, r"'time_constant_sets\[1\]'"),
+        ({"time_constant_sets": [("60",)]}, r"'time_constant_sets\[0\]'.*'60'"),
+        ({"time_constant_sets": [(60.0, -5.0)]}, r"Got -5.0 at position 1"),
+        ({"time_constant_sets": [None]}, r"'time_constant_sets\[0\]'.*Got None"),
+        ({"time_constant_sets": []}, r"at least one candidate set"),
+    ],
+)
+def test_lag_ridge_names_a_bad_grid_entry(params, message):
+    X = _frame()
+    y = np.arange(len(X), dtype=float)
+    with pytest.raises(ValueError, match=message):
+        LagRidgeCV(**params).fit(X, y)
+
+
+def test_one_row_runs_do_not_pull_the_fitted_sampling_period():
+    # Run a sampled every 30 s, runs c and d of one row each: the period is
+    # 30 s (it was the median of 30, 1 and 1 s), which rows without times
+    # and the one-row runs are then filtered with.
+    X = _frame().loc[["a"]]
+    ones = X.iloc[:2].set_axis(
+        pd.MultiIndex.from_arrays([["c", "d"], [0.0, 0.0]], names=X.index.names)
+    )
+    data = pd.concat([X, ones])
+    lf = LagFeatures(time_constants=[60.0], driver_initial="rest").fit(data)
+    assert lf.sample_period_s_ == 30.0
+    F = lf.transform(data)
+    # A one-row run: its first row filtered from rest over one 30 s period.
+    a = np.exp(-30.0 / 60.0)
+    assert F[-1, -2] == pytest.approx((1 - a) * X["spindle_rpm"].iloc[1] / 1e3)
+    model = LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0])
+    model.fit(data, np.arange(len(data), dtype=float))
+    assert model.lag_features_.sample_period_s_ == 30.0
+    # No run of two rows: dt, or an error that names the fix.
+    assert LagFeatures(dt=15.0).fit(ones).sample_period_s_ == 15.0
+    with pytest.raises(ValueError, match="LagFeatures: no run has two rows.*dt="):
+        LagFeatures().fit(ones)
+
+
+def test_late_start_messages_name_the_estimator_called():
+    # LagRidgeCV.predict, not LagFeatures.predict; the warning points at
+    # the caller's line.
+    table = _long_run()
+    y = table["T1_C"].to_numpy()
+    cut = 50
+    model = LagRidgeCV(time_constant_sets=[(300.0,)], alphas=[1.0])
+    model.fit(table.iloc[:cut], y[:cut])
+    other = table.iloc[cut:].assign(run="other")
+    with pytest.warns(UserWarning, match=r"given to LagRidgeCV\.predict") as record:
+        model.predict(other)
+    assert len(record) == 1 and record[0].filename == __file__
+    with pytest.raises(ValueError, match=r"LagRidgeCV\.predict takes a run"):
+        model.predict(table.iloc[20:])
+    # A LagFeatures step: named alone (a pipeline calls it), the warning
+    # pointing at the caller of transform.
+    lf = LagFeatures(time_constants=[300.0]).fit(table.iloc[:cut])
+    with pytest.warns(UserWarning, match=r"'other' given to LagFeatures start") as rec:
+        lf.transform(other)
+    assert rec[0].filename == __file__
+    with pytest.raises(ValueError, match=r"LagFeatures takes a run"):
+        lf.transform(table.iloc[20:])
+    # In a pipeline, the step is named, not a LagFeatures.predict.
+    pipe = make_pipeline(LagFeatures(time_constants=[300.0]), LinearRegression())
+    pipe.fit(table.iloc[:cut], y[:cut])
+    with pytest.warns(UserWarning, match=r"'other' given to LagFeatures start"):
+        pipe.predict(other)

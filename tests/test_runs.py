@@ -1,5 +1,6 @@
 """Tests of the run helpers shared by the run-aware estimators."""
 
+import re
 import warnings
 
 import numpy as np
@@ -7,10 +8,14 @@ import pandas as pd
 import pytest
 
 from skthermal.utils._runs import (
+    RunMemory,
     check_numeric_columns,
+    check_positive_numbers,
     check_time_order,
     continued_runs,
     extract_runs,
+    fitted_sample_periods,
+    run_key,
     run_memory,
     run_slices,
     run_times,
@@ -329,3 +334,138 @@ def test_models_counting_rows_warn_about_gaps(name):
         model.fit(table.iloc[keep], y[keep])
     with pytest.warns(UserWarning, match=r"continues 1860 s after its last training"):
         model.predict(table.iloc[cut + 30 :])
+
+
+def _object_array(values):
+    out = np.empty(len(values), dtype=object)
+    out[:] = values
+    return out
+
+
+def test_tuple_and_timestamp_run_labels_are_runs():
+    # Tuples: one kind of label, not "mixed" ones (was a bare StopIteration).
+    slices, labels = run_slices(_object_array([("a", 1), ("a", 1), ("b", 2)]))
+    assert labels == [("a", 1), ("b", 2)] and slices[1] == slice(2, 3)
+    with pytest.raises(ValueError, match=r"mix kinds: row 0 has \('a', 1\) \(tuple"):
+        run_slices(_object_array([("a", 1), "b"]))
+    # Timestamps, whatever the resolution: Timestamps, not datetimes or
+    # nanoseconds as plain ints.
+    for stamps in (
+        pd.to_datetime(["2024-05-02", "2024-05-02", "2024-05-03"]),
+        pd.to_datetime(["2024-05-02"] * 2 + ["2024-05-03"]).as_unit("ns")
+        + pd.to_timedelta([0, 0, 1], unit="ns"),
+    ):
+        _, labels = run_slices(stamps.to_numpy())
+        assert all(type(lab) is pd.Timestamp for lab in labels)
+        assert labels == [stamps[0], stamps[2]]
+
+
+def test_run_memory_keys_any_label_as_a_model_file_holds():
+    import json
+    import pickle
+
+    day = pd.Timestamp("2024-05-02 07:30")
+    memory = RunMemory()
+    for label in (day, ("a", 1), True, False, "r1", 3, 2.5):
+        memory[label] = {"n": 1}
+    # JSON-able keys that JSON gives back with their type (skops rebuilds
+    # a key as type(key)(text)): a bool would come back True.
+    assert {type(k) for k in memory} == {str, int, float}
+    assert len(memory) == 7 and json.loads(json.dumps(list(memory)))
+    # Found by the labels as given, in any form of the same instant.
+    for label in (day, day.to_pydatetime(), day.to_datetime64(), np.int64(3)):
+        assert label in memory and memory.get(label) == {"n": 1}
+    assert memory[("a", 1)] == {"n": 1} and memory.get(("b", 2)) is None
+    assert run_key(np.str_("r1")) == "r1" and run_key(False) == "False"
+    copy = pickle.loads(pickle.dumps(memory))
+    assert type(copy) is RunMemory and copy[day] == {"n": 1} and copy == memory
+    # run_memory builds one.
+    X = np.arange(6.0).reshape(3, 2)
+    mem = run_memory(X, [slice(0, 2), slice(2, 3)], [day, None], None)
+    assert type(mem) is RunMemory and list(mem) == [run_key(day)]
+
+
+@pytest.mark.parametrize("kind", ["Timestamp", "tuple"])
+@pytest.mark.parametrize("name", list(_sequence_models()))
+def test_sequence_models_continue_runs_of_any_label(name, kind):
+    model = _sequence_models()[name]
+    table, y, cut = _split_record()
+    label = pd.Timestamp("2024-05-02 07:30") if kind == "Timestamp" else ("m1", 2)
+    table["run"] = _object_array([label] * len(table))
+    model.fit(table.iloc[:cut], y[:cut])
+    whole = model.predict(table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tail = model.predict(table.iloc[cut:])
+    np.testing.assert_allclose(tail, whole[cut:], rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match=rf"Run {re.escape(repr(label))} starts"):
+        model.predict(table.iloc[10:])
+
+
+def test_one_row_runs_do_not_pull_the_fitted_period():
+    # Runs a (60 s), b and c (one row each), d (30 s, uneven in fit order).
+    df = table(
+        [0.0, 60.0, 120.0, 0.0, 0.0, 0.0, 30.0, 60.0, 90.0],
+        ["a"] * 3 + ["b", "c"] + ["d"] * 4,
+    )
+    X, groups = extract_runs(df)
+    slices, labels = run_slices(groups, len(X))
+    dts, period = fitted_sample_periods(X, groups, slices, None, "Model")
+    assert period == 45.0  # the median of 60 and 30, not of 60, 1, 1, 30
+    np.testing.assert_allclose(dts, [60.0, 45.0, 45.0, 30.0])
+    # dt does not override the times.
+    assert fitted_sample_periods(X, groups, slices, 5.0, "Model")[1] == 45.0
+    # No run of two rows: dt, or an error naming the fix.
+    ones = table([0.0, 0.0], ["b", "c"])
+    X, groups = extract_runs(ones)
+    slices, _ = run_slices(groups, 2)
+    assert fitted_sample_periods(X, groups, slices, 5.0, "Model")[1] == 5.0
+    with pytest.raises(ValueError, match=r"Model: no run has two rows.*dt="):
+        fitted_sample_periods(X, groups, slices, None, "Model")
+    # Without times: dt, else one second.
+    bare = np.zeros((4, 1))
+    dts, period = fitted_sample_periods(bare, None, [slice(0, 4)], None, "Model")
+    assert period == 1.0 and dts.tolist() == [1.0]
+
+
+@pytest.mark.parametrize(
+    "values, kwargs, message",
+    [
+        ([1.0, -1.0], {}, r"finite numbers > 0.*Got -1.0 at position 1"),
+        ([0.0], {}, r"Got 0.0 at position 0"),
+        ([1.0, np.nan], {}, r"Got nan at position 1"),
+        ([1.0, np.inf], {}, r"Got inf at position 1"),
+        ([1.0, "2"], {}, r"Got '2' at position 1"),
+        ([True], {}, r"Got True at position 0"),
+        ([[1.0, 2.0]], {}, r"flat sequence"),
+        ([], {"empty": False}, r"sequence of at least one finite number > 0"),
+        ([1.0], {"size": 2}, r"must be a flat sequence of 2 finite.*Got 1 entries"),
+        ([2.0, 1.0, 2.0], {"distinct": True}, r"each once.*repeats 2"),
+    ],
+)
+def test_check_positive_numbers_names_the_entry(values, kwargs, message):
+    with pytest.raises(ValueError, match=r"The 'p' parameter of Model must be"):
+        check_positive_numbers(values, "p", "Model", **kwargs)
+    with pytest.raises(ValueError, match=message):
+        check_positive_numbers(values, "p", "Model", **kwargs)
+
+
+def test_check_positive_numbers_returns_floats():
+    out = check_positive_numbers((1, np.float32(2.5), 3), "p", "Model", size=3)
+    assert out.dtype == float and out.tolist() == [1.0, 2.5, 3.0]
+
+
+def test_continued_run_messages_name_the_method_called():
+    fit = table([0.0, 15.0, 30.0], ["a"] * 3)
+    Xf, gf = extract_runs(fit)
+    sl, lab = run_slices(gf, 3)
+    memory = run_memory(Xf.to_numpy(), sl, lab, run_times(Xf, sl))
+    late = table([45.0, 60.0], ["b"] * 2)
+    Xp, gp = extract_runs(late)
+    sl, lab = run_slices(gp, 2)
+    args = (Xp.to_numpy(), sl, lab, run_times(Xp, sl), memory)
+    with pytest.warns(UserWarning, match=r"Run 'b' given to Model\.predict start"):
+        continued_runs("Model", *args)
+    with pytest.warns(UserWarning, match=r"Run 'b' given to Step start") as record:
+        continued_runs("Step", *args, method=None, stacklevel=2)
+    assert record[0].filename == __file__

@@ -20,6 +20,8 @@ import warnings
 import zipfile
 import zlib
 
+import numpy as np
+
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
 
@@ -183,6 +185,57 @@ def _check_file(path):
     raise _not_skops(path, what, hint)
 
 
+# The dict keys a skops file gives back as they were: skops writes the keys
+# as JSON text and rebuilds each with its type from that text, which only
+# these types (and numpy's) survive; a bool comes back True.
+_KEY_TYPES = (str, int, float)
+
+
+def _bad_dict_key(obj, where, seen):
+    """``(where, key)`` of the first dict key inside ``obj`` (a model, its
+    attributes, lists, tuples and dicts, recursively) that a skops file
+    cannot hold, or None."""
+    if id(obj) in seen:
+        return None
+    seen.add(id(obj))
+    if isinstance(obj, dict):
+        for key in obj:
+            # skops writes a numpy scalar key as its Python value.
+            value = key.item() if isinstance(key, np.generic) else key
+            if type(value) not in _KEY_TYPES:
+                return where, key
+        children = ((f"[{k!r}]", v) for k, v in obj.items())
+    elif isinstance(obj, list | tuple):
+        children = ((f"[{i}]", v) for i, v in enumerate(obj))
+    elif type(obj).__module__.split(".")[0] in ("skthermal", "sklearn"):
+        children = ((f".{k}", v) for k, v in getattr(obj, "__dict__", {}).items())
+    else:
+        return None
+    for name, value in children:
+        found = _bad_dict_key(value, where + name, seen)
+        if found is not None:
+            return found
+    return None
+
+
+def _check_dict_keys(model):
+    """Raise a TypeError naming the first dict key that a skops file cannot
+    hold (skops would fail on it deep inside, or give back another key)."""
+    found = _bad_dict_key(model, type(model).__name__, set())
+    if found is None:
+        return
+    where, key = found
+    raise TypeError(
+        f"Cannot save {type(model).__name__}: {where} is a dict with the key "
+        f"{key!r} of type {type(key).__name__}, which a skops file cannot hold "
+        "(it stores dict keys as JSON text: only str, int and float come back "
+        "as they were). If it is a run_states_ of a model fitted by an older "
+        "skthermal (runs labelled by pandas.Timestamp, tuples or bools), "
+        "refit the model with this version, which keys it by str, int or "
+        "float; otherwise use str or int keys."
+    )
+
+
 def save(model, path, *, compress=True):
     """Save a fitted model to a skops file that loads without running code.
 
@@ -204,6 +257,9 @@ def save(model, path, *, compress=True):
     ------
     ImportError
         If skops (a dependency of skthermal) is missing from the environment.
+    TypeError
+        If the model holds a dict whose keys a skops file cannot hold (not
+        str, int or float); the message names the dict and the key.
 
     See Also
     --------
@@ -234,6 +290,7 @@ def save(model, path, *, compress=True):
     """
     sio = _skops_io()
     path = os.fspath(path)
+    _check_dict_keys(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(model, path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}

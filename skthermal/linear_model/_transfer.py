@@ -19,10 +19,12 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
     changes_since_start,
+    check_positive_numbers,
     continued_runs,
     continued_steps,
     continued_values,
     extract_runs,
+    fitted_sample_periods,
     gap_periods,
     row_times,
     run_memory,
@@ -36,6 +38,48 @@ from skthermal.utils._runs import (
 # Relative spread of the sampling interval tolerated within one run: the exact
 # discretisation below assumes a constant step.
 _DT_RTOL = 0.01
+# Least ratio of the two time constants of an input with order=2. Two lags
+# of nearly equal time constants are nearly the same column: their
+# difference, with huge opposite gains, approximates the derivative of a
+# lag with respect to its time constant (a second lag in series), which a
+# fit free to merge them drifts to. Kept apart, the pair stays a sum of two
+# distinct lags with gains of the size of the error; a series connection of
+# two lags is such a sum (partial fractions), and one of two nearly equal
+# lags is matched closely by a pair this far apart.
+MIN_TAU_RATIO = 2.0
+
+
+def _pair_log_tau(x, lo, hi, order):
+    """Log time constants from the coordinates of the refinement.
+
+    Order 1: the coordinates are the log time constants. Order 2, per input
+    ``(u, v)``: ``log tau_1 = u`` in ``[lo, hi - log r]`` and ``log tau_2``
+    the fraction ``v`` in ``[0, 1]`` of the way from ``u + log r`` to
+    ``hi`` (``r = MIN_TAU_RATIO``), so that box bounds keep every pair
+    ordered and at least ``r`` apart within ``[lo, hi]``.
+    """
+    if order == 1:
+        return x
+    u, v = x.reshape(-1, 2).T
+    gap = np.log(MIN_TAU_RATIO)
+    return np.column_stack([u, u + gap + v * (hi - u - gap)]).reshape(-1)
+
+
+def _pair_coordinates(log_tau, lo, hi, order):
+    """The inverse of :func:`_pair_log_tau` (pairs ordered and at least
+    ``MIN_TAU_RATIO`` apart), and the coordinates' bounds."""
+    if order == 1:
+        n = log_tau.size
+        return log_tau, (np.full(n, lo), np.full(n, hi))
+    a, b = log_tau.reshape(-1, 2).T
+    gap = np.log(MIN_TAU_RATIO)
+    room = hi - a - gap
+    v = np.divide(b - a - gap, room, out=np.zeros_like(room), where=room > 0)
+    x = np.column_stack([a, np.clip(v, 0.0, 1.0)]).reshape(-1)
+    n = a.size
+    low = np.column_stack([np.full(n, lo), np.zeros(n)]).reshape(-1)
+    high = np.column_stack([np.full(n, hi - gap), np.ones(n)]).reshape(-1)
+    return x, (low, high)
 
 
 def first_order_lags(
@@ -150,20 +194,26 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         power (1: proportional to speed; bearing friction grows faster).
     order : {1, 2}, default=1
         Lags per input: a first-order transfer function, or a second-order
-        one with real poles (the sum of two first-order lags).
+        one with real poles (the sum of two first-order lags). The two time
+        constants of an input are kept at least a factor ``MIN_TAU_RATIO``
+        (2) apart: closer ones cannot be told apart by the data, and a fit
+        free to merge them ends with huge gains of opposite signs.
     alpha : float, default=0.0
         Ridge penalty on the gains of the standardised lag features (each of
         sum of squares ``n_samples``, as ``Ridge`` after ``StandardScaler``);
         it steadies the gains of many collinear temperatures.
     dt : float or None, default=None
         Sampling interval. None: read from the ``time_s`` index level of
-        ``X`` (:func:`skthermal.datasets.split_runs`), one interval per run,
-        or 1 (time constants in samples) when ``X`` has no such level. A
-        number overrides the index.
+        ``X`` (:func:`skthermal.datasets.split_runs`), one interval per run
+        (a run of one row takes that of the others; an error when no run has
+        two rows), or 1 (time constants in samples) when ``X`` has no such
+        level. A number overrides the index.
     tau_bounds : (float, float) or None, default=None
-        Bounds of the time constants, in the unit of ``dt``. None: from a
-        tenth of the shortest sampling interval to the duration of the longest
-        run (a slower lag cannot be identified from the data).
+        Bounds ``(low, high)`` of the time constants, in the unit of ``dt``:
+        finite, ``0 < low < high`` (with ``order=2``, ``high >= 2 * low``).
+        None: from a tenth of the shortest sampling interval to the duration
+        of the longest run (a slower lag cannot be identified from the
+        data).
     n_grid : int, default=15
         Time constants tried in each grid search (log-spaced over
         ``tau_bounds``).
@@ -183,6 +233,10 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
     n_iter_ : int
         One for the grid search plus the evaluations of the refinement (the
         most over the outputs).
+    sample_period_s_ : float
+        Sampling interval in ``fit``: ``dt``, or the median over the runs of
+        two rows or more of their intervals. ``predict`` uses it for rows
+        without times.
     speed_columns_ : ndarray of int
         Positions of the speed drivers.
     n_fitted_runs_ : int or None
@@ -306,20 +360,44 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 )
         return np.unique(positions)
 
-    def _intervals(self, X_raw, groups, slices, labels, default):
-        """Sampling interval of every run (a run without times, e.g. of one
-        row: ``default``)."""
+    def _intervals(self, X_raw, groups, slices, labels, period=None):
+        """Sampling interval of every run, and the model's period: ``dt``
+        when given; in ``fit`` (``period`` None) from the times, a run of one
+        row taking that of the others (:func:`fitted_sample_periods`); in
+        ``predict``, a run without times takes the fitted ``period``."""
         if self.dt is not None:
-            return np.full(len(slices), float(self.dt))
-        return run_sample_periods(
-            X_raw,
-            groups,
-            slices,
-            default,
-            labels=labels,
-            regular="TransferFunctionRegressor",
-            rtol=_DT_RTOL,
+            return np.full(len(slices), float(self.dt)), float(self.dt)
+        name = type(self).__name__
+        kwargs = {"labels": labels, "regular": name, "rtol": _DT_RTOL}
+        if period is None:
+            return fitted_sample_periods(X_raw, groups, slices, None, name, **kwargs)
+        return run_sample_periods(X_raw, groups, slices, period, **kwargs), period
+
+    def _check_tau_bounds(self):
+        """``tau_bounds`` as (low, high), or None."""
+        if self.tau_bounds is None:
+            return None
+        name = type(self).__name__
+        low, high = check_positive_numbers(
+            self.tau_bounds,
+            "tau_bounds",
+            name,
+            size=2,
+            why="the least and the greatest time constant, in the unit of dt",
         )
+        if not low < high:
+            raise ValueError(
+                f"The 'tau_bounds' parameter of {name} must be (low, high) with "
+                f"low < high. Got {self.tau_bounds!r} instead."
+            )
+        if self.order == 2 and high < MIN_TAU_RATIO * low:
+            raise ValueError(
+                f"With order=2, the two time constants of an input are kept at "
+                f"least a factor {MIN_TAU_RATIO:g} apart, which tau_bounds="
+                f"{self.tau_bounds!r} leave no room for: widen tau_bounds, or "
+                "use order=1."
+            )
+        return float(low), float(high)
 
     def _inputs(self, X, slices, bases=None):
         """Temperature changes since each run's first row (``bases``: per
@@ -408,11 +486,16 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         if self.order == 1:
             starts = [np.full(n_in, g) for g in range(n_grid)]
         else:
-            starts = [
-                np.tile([g1, g2], n_in)
-                for g1 in range(n_grid)
-                for g2 in range(g1 + 1, n_grid)
-            ]
+            # Pairs ordered and at least MIN_TAU_RATIO apart (see there).
+            g1, g2 = np.nonzero(grid[None, :] >= MIN_TAU_RATIO * grid[:, None])
+            starts = [np.tile(pair, n_in) for pair in zip(g1, g2, strict=True)]
+
+        def apart(pick):
+            if self.order == 1:
+                return True
+            pairs = grid[pick.reshape(-1, 2)]
+            return bool(np.all(pairs[:, 1] >= MIN_TAU_RATIO * pairs[:, 0]))
+
         eye = self.alpha * np.eye(base.size)
 
         def cost(pick, k):
@@ -434,6 +517,8 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                             continue
                         trial = pick.copy()
                         trial[i] = g
+                        if not apart(trial):
+                            continue
                         c = cost(trial, k)
                         if c < best * (1 - 1e-9):
                             best, pick, improved = c, trial, True
@@ -447,41 +532,51 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
 
         U_lags = np.repeat(U, self.order, axis=1)
 
-        def residual(log_tau):
-            Phi = self._features(U, log_tau, dts, slices)
+        def to_log_tau(x):
+            return _pair_log_tau(x, lo, hi, self.order)
+
+        def residual(x):
+            Phi = self._features(U, to_log_tau(x), dts, slices)
             return _ridge_with_intercept(Phi, y, self.alpha)[2]
 
-        def jacobian(log_tau):
-            # Forward differences, refiltering only the lag whose time
-            # constant moves (the other columns of the design are unchanged).
+        def jacobian(x):
+            # Forward differences, refiltering only the lags whose time
+            # constants move (the other columns of the design are unchanged).
+            log_tau = to_log_tau(x)
             Phi = self._features(U, log_tau, dts, slices)
             r0 = _ridge_with_intercept(Phi, y, self.alpha)[2]
-            J = np.empty((r0.size, log_tau.size))
-            for j, x in enumerate(log_tau):
-                h = 1e-3 * max(1.0, abs(x))
-                h = h if x + h <= hi else -h
+            J = np.empty((r0.size, x.size))
+            for j, xj in enumerate(x):
+                h = 1e-3 * max(1.0, abs(xj))
+                h = h if xj + h <= x_high[j] else -h
+                step = x.copy()
+                step[j] += h
+                moved = to_log_tau(step)
+                cols = np.flatnonzero(moved != log_tau)
                 trial = Phi.copy()
-                trial[:, j] = exponential_filter(
-                    U_lags[:, j], np.exp(x + h), dts, slices, initial="rest"
+                trial[:, cols] = exponential_filter(
+                    U_lags[:, cols], np.exp(moved[cols]), dts, slices, initial="rest"
                 )
                 J[:, j] = (_ridge_with_intercept(trial, y, self.alpha)[2] - r0) / h
             return J
 
+        x, (x_low, x_high) = _pair_coordinates(log_tau, lo, hi, self.order)
         n_iter = 1  # the grid search
         if self.max_iter > 0:
             # Keep the start strictly inside the bounds for the trust region.
-            x0 = np.clip(log_tau, lo + 1e-9, hi - 1e-9)
+            x0 = np.clip(x, x_low + 1e-9, x_high - 1e-9)
             sol = least_squares(
                 residual,
                 x0,
-                bounds=(lo, hi),
+                bounds=(x_low, x_high),
                 jac=jacobian,
                 max_nfev=self.max_iter,
                 x_scale=1.0,
             )
             n_iter += int(sol.nfev)
-            if np.sum(sol.fun**2) <= np.sum(residual(log_tau) ** 2):
-                log_tau = sol.x
+            if np.sum(sol.fun**2) <= np.sum(residual(x) ** 2):
+                x = sol.x
+        log_tau = to_log_tau(x)
         Phi = self._features(U, log_tau, dts, slices)
         coef, intercept, _ = _ridge_with_intercept(Phi, y, self.alpha)
         shape = (U.shape[1], self.order)
@@ -507,6 +602,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self : object
             Fitted estimator.
         """
+        bounds = self._check_tau_bounds()
         X_raw, groups = extract_runs(X, groups, y=y)
         X, y = validate_data(
             self, X_raw, y, y_numeric=True, multi_output=True, dtype=np.float64
@@ -520,20 +616,12 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self.n_fitted_runs_ = None if groups is None else len(slices)
         self.speed_columns_ = self._speed_positions()
         warn_no_time(type(self).__name__, X_raw, self.dt)
-        dts = self._intervals(X_raw, groups, slices, labels, 1.0)
-        self.sample_period_s_ = float(np.median(dts))
-        if self.tau_bounds is None:
+        dts, self.sample_period_s_ = self._intervals(X_raw, groups, slices, labels)
+        if bounds is None:
             longest = max((sl.stop - sl.start) * d for sl, d in zip(slices, dts))
             # A lag much slower than the longest run cannot be told from a
             # ramp by the data, and extrapolates like one.
             bounds = (0.1 * float(dts.min()), float(longest))
-        else:
-            bounds = tuple(float(b) for b in self.tau_bounds)
-            if len(bounds) != 2 or not 0 < bounds[0] < bounds[1]:
-                raise ValueError(
-                    f"tau_bounds must be (low, high) with 0 < low < high, got "
-                    f"{self.tau_bounds!r}."
-                )
         U = self._inputs(X, slices)
         Y = y.reshape(X.shape[0], -1)
         grid = np.exp(np.linspace(*np.log(bounds), self.n_grid))
@@ -591,7 +679,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             type(self).__name__, self.n_fitted_runs_, groups, X.shape[0]
         )
         slices, labels = run_slices(groups, X.shape[0])
-        dts = self._intervals(X_raw, groups, slices, labels, self.sample_period_s_)
+        dts, _ = self._intervals(X_raw, groups, slices, labels, self.sample_period_s_)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
             type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory

@@ -12,10 +12,13 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.preprocessing._lags import GAP_BRIDGE, LagFeatures
 from skthermal.utils._runs import (
+    check_positive_numbers,
     check_time_order,
+    continued_runs,
     extract_runs,
     has_time_index,
     run_slices,
+    run_times,
     warn_gaps,
     warn_no_time,
     warn_unlabelled_runs,
@@ -105,8 +108,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     Parameters
     ----------
     time_constant_sets : sequence of sequences of float, default=None
-        Candidate sets of filter time constants (seconds). ``None`` means
-        ``((), (900, 3600, 14400), (600, 1800, 5400, 16200))``.
+        Candidate sets of filter time constants (seconds; in a set finite,
+        > 0 and distinct). ``None`` means ``((), (900, 3600, 14400), (600,
+        1800, 5400, 16200))``.
     drivers : "auto", None or sequence of str or int, default="auto"
         Driver columns, see :class:`LagFeatures`.
     try_without_drivers : bool, default=True
@@ -121,7 +125,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         State of the drivers' filters before each run, see
         :class:`LagFeatures`.
     alphas : array-like of float, default=None
-        Candidate ridge penalties; ``None`` means ``np.logspace(-2, 5, 15)``.
+        Candidate ridge penalties, finite and > 0; ``None`` means
+        ``np.logspace(-2, 5, 15)``.
     cv : {"auto", "forward", "blocks", "runs"}, default="auto"
         Folds: expanding-window (``"forward"``), contiguous blocks left out
         (``"blocks"``) or whole runs left out (``"runs"``). ``"auto"``:
@@ -264,21 +269,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         -------
         self : LagRidgeCV
         """
+        sets, alphas = self._check_grids()
         X_raw, groups = extract_runs(X, groups, y=y)
         _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
-        sets = (
-            DEFAULT_TIME_CONSTANT_SETS
-            if self.time_constant_sets is None
-            else self.time_constant_sets
-        )
-        flat = [s for s in sets if isinstance(s, Real) or isinstance(s, str)]
-        if flat:
-            raise ValueError(
-                "time_constant_sets is a list of candidate sets, each a sequence "
-                f"of time constants (s), got {self.time_constant_sets!r}; for one "
-                f"set write [{tuple(sets)!r}], for one candidate each "
-                f"{[(s,) for s in sets]!r}."
-            )
         # Without times, warn once here (not once per candidate), then give
         # the candidates one second per row explicitly.
         warn_no_time(
@@ -301,20 +294,55 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
-            return self._fit(X_raw, y, groups, slices, sets, dt)
+            return self._fit(X_raw, y, groups, slices, sets, alphas, dt)
 
-    def _fit(self, X_raw, y, groups, slices, sets, dt):
-        """The CV over the candidate settings and the refit of ``fit``."""
-        n = y.shape[0]
+    def _check_grids(self):
+        """The candidate time-constant sets (tuples of float) and penalties
+        (an array), checked: every entry a finite number > 0."""
+        name = type(self).__name__
+        sets = (
+            DEFAULT_TIME_CONSTANT_SETS
+            if self.time_constant_sets is None
+            else self.time_constant_sets
+        )
+        flat = [s for s in sets if isinstance(s, Real) or isinstance(s, str)]
+        if flat:
+            raise ValueError(
+                "time_constant_sets is a list of candidate sets, each a sequence "
+                f"of time constants (s), got {self.time_constant_sets!r}; for one "
+                f"set write [{tuple(sets)!r}], for one candidate each "
+                f"{[(s,) for s in sets]!r}."
+            )
+        if len(sets) == 0:
+            raise ValueError(
+                f"The 'time_constant_sets' parameter of {name} must hold at "
+                "least one candidate set (() for none of the filters). Got "
+                f"{self.time_constant_sets!r} instead."
+            )
+        sets = [
+            tuple(
+                check_positive_numbers(
+                    taus,
+                    f"time_constant_sets[{i}]",
+                    name,
+                    distinct=True,
+                    why="time constants in seconds, each a filter of its own",
+                ).tolist()
+            )
+            for i, taus in enumerate(sets)
+        ]
         alphas = (
             np.logspace(-2, 5, 15)
             if self.alphas is None
-            else np.asarray(self.alphas, dtype=float).ravel()
-        )
-        if len(sets) == 0 or alphas.size == 0 or np.any(alphas <= 0):
-            raise ValueError(
-                "time_constant_sets and alphas must be non-empty, alphas > 0."
+            else check_positive_numbers(
+                self.alphas, "alphas", name, empty=False, why="ridge penalties"
             )
+        )
+        return sets, alphas
+
+    def _fit(self, X_raw, y, groups, slices, sets, alphas, dt):
+        """The CV over the candidate settings and the refit of ``fit``."""
+        n = y.shape[0]
         cv = self.cv
         if cv == "auto":
             cv = "runs" if len(slices) > 1 else "forward"
@@ -343,7 +371,6 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             relatives = (bool(self.relative),)
         cands = []
         for taus in sets:
-            taus = tuple(float(t) for t in taus)
             for rel in relatives:
                 cands.append((taus, True, rel))
                 if self.try_without_drivers and self.drivers is not None:
@@ -413,13 +440,25 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, self.n_fitted_runs_, groups, X_arr.shape[0]
         )
+        slices, labels = run_slices(groups, X_arr.shape[0])
+        check_time_order(X_raw, groups)
+        # The runs that continue training runs, as lag_features_ takes them:
+        # the errors and warnings then name the estimator the user called.
+        continued_runs(
+            type(self).__name__,
+            X_arr,
+            slices,
+            labels,
+            run_times(X_raw, slices),
+            self.lag_features_.run_states_,
+        )
         with warnings.catch_warnings():
             # LagFeatures names itself; the user called LagRidgeCV, and was
-            # just warned about rows without run labels.
+            # just warned about rows without run labels or a late start.
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
+            warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")
             F = self.lag_features_.transform(X_raw, groups=groups)
-        slices, labels = run_slices(groups, X_arr.shape[0])
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         return self.ridge_.predict(self.scaler_.transform(F))
 

@@ -17,11 +17,13 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from skthermal.utils._runs import (
     GAP_STEPS,
     changes_since_start,
+    check_positive_numbers,
     continued_runs,
     continued_steps,
     continued_values,
     driver_positions,
     extract_runs,
+    fitted_sample_periods,
     gap_periods,
     gap_steps,
     row_times,
@@ -317,7 +319,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     Parameters
     ----------
     time_constants : sequence of float, default=(900.0, 3600.0, 14400.0)
-        Filter time constants in seconds. May be empty.
+        Filter time constants in seconds, finite, > 0 and distinct. May be
+        empty.
     include_changes : bool, default=True
         Include the unfiltered temperatures (``dT`` or ``T``) themselves.
     relative : bool, default=True
@@ -329,7 +332,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         ``feed_mm_min`` when present. All other columns are temperatures.
     driver_powers : sequence of float, default=(1.0, 1.5)
         Powers applied to the magnitude of the scaled drivers (a spindle
-        turning either way, an axis travelling either way, heats alike).
+        turning either way, an axis travelling either way, heats alike):
+        at least one, each finite, > 0 and distinct.
     driver_scale : float, default=1000.0
         Drivers are divided by this before the power.
     driver_initial : {"steady", "rest"}, default="steady"
@@ -337,16 +341,18 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         run's first value, or zero (the heat source off before the run).
     dt : float or None, default=None
         Seconds per row when ``X`` has no times (no ``time_s`` column or
-        index level). None: in ``fit``, one second per row, with a warning,
-        since the time constants are in seconds; in ``transform``, the
-        sampling period found in ``fit``.
+        index level), or when no run has two rows (then an error if None).
+        None: in ``fit``, one second per row, with a warning, since the time
+        constants are in seconds; in ``transform``, the sampling period
+        found in ``fit``.
 
     Attributes
     ----------
     sample_period_s_ : float
-        Sampling period (s) in ``fit``: the median spacing of the runs'
-        times, or ``dt`` (1 when None) without times. ``transform`` uses it
-        for rows without times.
+        Sampling period (s) in ``fit``: the median over the runs of two
+        rows or more of the median spacing of their times (a run of one row
+        is filtered with it), or ``dt`` (1 when None) without times.
+        ``transform`` uses it for rows without times.
     n_features_in_ : int
     feature_names_in_ : ndarray of str
         Only when fitted on a DataFrame with string column names.
@@ -402,12 +408,25 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self.dt = dt
 
     def _taus(self):
-        taus = np.asarray(self.time_constants, dtype=float).ravel()
-        if np.any(~np.isfinite(taus)) or np.any(taus <= 0):
-            raise ValueError(
-                f"time_constants must be finite and > 0, got {list(taus)}."
-            )
-        return taus
+        return check_positive_numbers(
+            self.time_constants,
+            "time_constants",
+            type(self).__name__,
+            distinct=True,
+            why="in seconds; each a filter of its own",
+        )
+
+    def _powers(self):
+        return check_positive_numbers(
+            self.driver_powers,
+            "driver_powers",
+            type(self).__name__,
+            empty=False,
+            distinct=True,
+            why="0 would make a constant feature and a negative power an "
+            "infinite one for a driver at rest; drivers=None leaves the "
+            "drivers out",
+        )
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y=None, *, groups=None):
@@ -424,25 +443,24 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         -------
         self : LagFeatures
         """
+        taus, powers = self._taus(), self._powers()
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64)
         slices, labels = run_slices(groups, X_arr.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
-        warn_no_time(type(self).__name__, X_raw, self.dt, self._taus())
-        # From the times, else dt (one second when None): not a period kept
-        # from an earlier fit.
-        dts = run_sample_periods(
-            X_raw, groups, slices, 1.0 if self.dt is None else self.dt
+        warn_no_time(type(self).__name__, X_raw, self.dt, taus)
+        # From the times (runs of one row take the others' period), else dt
+        # (one second when None): not a period kept from an earlier fit.
+        dts, self.sample_period_s_ = fitted_sample_periods(
+            X_raw, groups, slices, self.dt, type(self).__name__
         )
-        self.sample_period_s_ = float(np.median(dts))
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         self.driver_indices_ = driver_positions(
             self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
         )
-        powers = np.asarray(self.driver_powers, dtype=float).ravel()
         n_temp = X_arr.shape[1] - self.driver_indices_.size
-        n_out = n_temp * (int(self.include_changes) + self._taus().size)
-        n_out += self.driver_indices_.size * powers.size * self._taus().size
+        n_out = n_temp * (int(self.include_changes) + taus.size)
+        n_out += self.driver_indices_.size * powers.size * taus.size
         if n_out == 0:
             raise ValueError(
                 "LagFeatures would produce no features: set include_changes=True "
@@ -501,7 +519,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 None if x is None else x[self.driver_indices_] / self.driver_scale
                 for x in lasts
             ]
-            for p in np.asarray(self.driver_powers, dtype=float).ravel():
+            for p in self._powers():
                 Dp = np.abs(D) ** p
                 Dp_last = [None if x is None else np.abs(x) ** p for x in D_last]
                 filtered += [(Dp, Dp_last, tau, self.driver_initial) for tau in taus]
@@ -551,7 +569,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         slices, labels = run_slices(groups, X_arr.shape[0])
         # From the times (checked to increase), else the fitted period.
         dts = run_sample_periods(X_raw, groups, slices, self.sample_period_s_)
-        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
+        # Level 4: the caller of transform, which scikit-learn's set_output
+        # wraps.
+        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 4)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
             type(self).__name__,
@@ -560,6 +580,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             labels,
             run_times(X_raw, slices),
             memory,
+            # A step that a pipeline may call: the class alone, not a method.
+            method=None,
+            stacklevel=4,
         )
         bases = continued_values(cont, memory, "x_first")
         states = continued_values(cont, memory, "state")
@@ -610,7 +633,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         taus = self._taus()
         for tau in taus:
             out += [f"{c}_lp{tau:g}" for c in tnames]
-        for p in np.asarray(self.driver_powers, dtype=float).ravel():
+        for p in self._powers():
             for tau in taus:
                 out += [
                     f"{input_features[i]}_pow{p:g}_lp{tau:g}"

@@ -8,9 +8,11 @@ explicitly as ``groups``, as a ``run`` column of a DataFrame, or as a ``run``
 level of a DataFrame's index.
 """
 
-from numbers import Integral
+import datetime
+from numbers import Integral, Real
 
 import numpy as np
+from sklearn.utils._param_validation import InvalidParameterError
 
 from skthermal._naming import plain
 
@@ -65,7 +67,14 @@ def run_slices(groups, n_samples=None):
     change = np.flatnonzero(groups[1:] != groups[:-1]) + 1
     starts = np.concatenate(([0], change))
     stops = np.concatenate((change, [groups.shape[0]]))
-    labels = groups[starts].tolist()
+    if groups.dtype.kind in "mM":
+        import pandas as pd
+
+        # Timestamps (durations), as the run column held them: numpy's
+        # tolist would give datetimes, or nanoseconds as plain ints.
+        labels = pd.Index(groups[starts]).tolist()
+    else:
+        labels = groups[starts].tolist()
     # A label that starts more than one block means the run is split up.
     seen, bad = set(), None
     for lab in labels:
@@ -111,7 +120,11 @@ def check_labels(groups, *, item="row", label="run", whole="run (test)"):
         return "string" if isinstance(v, str) else type(v).__name__
 
     first = kind(groups[0])
-    i = next(i for i, v in enumerate(groups.tolist()) if kind(v) != first)
+    # "mixed" also covers labels of one kind that pandas does not name
+    # (tuples): those are fine.
+    i = next((i for i, v in enumerate(groups.tolist()) if kind(v) != first), None)
+    if i is None:
+        return
     raise ValueError(
         f"{label.capitalize()} labels mix kinds: {item} 0 has {groups[0]!r} "
         f"({first}), {item} {i} has {groups[i]!r} ({kind(groups[i])}); give every "
@@ -462,6 +475,53 @@ def run_sample_periods(
     return out
 
 
+def fitted_sample_periods(X, groups, slices, dt, name, **kwargs):
+    """Sampling period of every run in ``fit``, and the model's period.
+
+    With times, a run's period is the median step of its times
+    (:func:`run_sample_periods`, which takes ``labels``, ``regular`` and
+    ``rtol`` from ``kwargs``) and the model's period is the median of those
+    of the runs of two rows or more. A run of one row has no step to
+    measure: it takes the model's period (that of the other runs) and does
+    not pull it. Without times, ``dt`` (one second when None) for every run.
+
+    Parameters
+    ----------
+    X, groups, slices
+        As for :func:`run_sample_periods`.
+    dt : float or None
+        The estimator's ``dt``: the period without times, or when no run
+        has two rows.
+    name : str
+        The estimator's class name, for the error.
+
+    Returns
+    -------
+    dts : ndarray of shape (n_runs,)
+    period : float
+
+    Raises
+    ------
+    ValueError
+        If ``X`` has times, no run has two rows (so the times tell no
+        period) and ``dt`` is None.
+    """
+    dts = run_sample_periods(X, groups, slices, np.nan, **kwargs)
+    measured = np.isfinite(dts)
+    if measured.any():
+        period = float(np.median(dts[measured]))
+    elif dt is not None or not has_time_index(X):
+        period = 1.0 if dt is None else float(dt)
+    else:
+        raise ValueError(
+            f"{name}: no run has two rows, so time_s tells no sampling period "
+            f"({len(slices)} run(s) of one row). Pass dt=<sampling period in "
+            "s>, or runs of at least two rows."
+        )
+    dts[~measured] = period
+    return dts, period
+
+
 def check_run_lengths(slices, labels, what, min_samples=2):
     """Raise a ValueError naming the first run shorter than ``min_samples``.
 
@@ -688,6 +748,77 @@ def driver_positions(drivers, names, n_features):
     return np.array(sorted(set(out)), dtype=int)
 
 
+def check_positive_numbers(
+    values, name, owner, *, size=None, empty=True, distinct=False, why=""
+):
+    """The array-like parameter ``name`` of the estimator ``owner`` as a 1-D
+    float array of finite numbers > 0.
+
+    ``"array-like"`` in ``_parameter_constraints`` lets through strings,
+    bools, NaN, infinities and negative numbers inside the sequence; this
+    checks the entries, at the start of ``fit``.
+
+    Parameters
+    ----------
+    values : array-like
+        The parameter's value.
+    name, owner : str
+        The parameter's name (e.g. ``"alphas"`` or
+        ``"time_constant_sets[1]"``) and the estimator's class name.
+    size : int, optional
+        The number of entries required (any when None).
+    empty : bool, default=True
+        Whether no entry at all is allowed.
+    distinct : bool, default=False
+        Whether an entry may not repeat (it would repeat a feature).
+    why : str, optional
+        Appended to the message: why the entries must be so.
+
+    Raises
+    ------
+    sklearn.utils._param_validation.InvalidParameterError
+        (a ValueError) naming the parameter, the first offending entry and
+        its position, and what was expected.
+    """
+    want = "finite numbers > 0"
+    if size is not None:
+        want = f"{size} {want}"
+    elif not empty:
+        want = "at least one finite number > 0"
+    msg = f"The {name!r} parameter of {owner} must be a flat sequence of {want}"
+    why = f" ({why})" if why else ""
+    try:
+        arr = np.asarray(values, dtype=object)
+    except ValueError:  # ragged nesting
+        arr = np.empty(0)
+    if arr.ndim != 1:
+        raise InvalidParameterError(f"{msg}{why}. Got {values!r} instead.")
+    number = np.array(
+        [isinstance(v, Real) and not isinstance(v, bool | np.bool_) for v in arr],
+        dtype=bool,
+    )
+    num = np.full(arr.shape, np.nan)
+    num[number] = arr[number].astype(float)
+    bad = np.flatnonzero(~(np.isfinite(num) & (num > 0)))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidParameterError(
+            f"{msg}{why}. Got {plain(arr[i])!r} at position {i} of {values!r} instead."
+        )
+    if (size is not None and num.size != size) or (not empty and num.size == 0):
+        raise InvalidParameterError(
+            f"{msg}{why}. Got {num.size} entries ({values!r}) instead."
+        )
+    ordered = np.sort(num)
+    repeated = ordered[1:][np.diff(ordered) == 0]
+    if distinct and repeated.size:
+        raise InvalidParameterError(
+            f"{msg}, each once{why}. Got {values!r}, which repeats "
+            f"{repeated[0]:g}, instead."
+        )
+    return num
+
+
 def is_clock_dtype(dtype):
     """Whether ``dtype`` holds datetimes or durations (numpy or pandas), which
     converting to numbers would read as nanoseconds."""
@@ -750,16 +881,75 @@ def run_times(X, slices):
     return np.array([[t[sl.start], t[sl.stop - 1]] for sl in slices]).reshape(-1, 2)
 
 
+def run_key(label):
+    """The key of a run label in a :class:`RunMemory`: one that a model file
+    can hold (skops writes the keys of a dict as JSON and rebuilds them from
+    their type and text).
+
+    ``str``, ``int`` and ``float`` labels (also as numpy scalars) are their
+    own key. Any other label, such as a ``pandas.Timestamp`` (a run named by
+    its start), a tuple or a bool, is keyed by its ``repr``, datetimes and
+    durations as ``pandas.Timestamp`` and ``pandas.Timedelta`` whatever form
+    they came in.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from skthermal.utils._runs import run_key
+    >>> run_key("r1"), run_key(3), run_key(("a", 1))
+    ('r1', 3, "('a', 1)")
+    >>> run_key(pd.Timestamp("2024-05-02 07:30"))
+    "Timestamp('2024-05-02 07:30:00')"
+    """
+    import pandas as pd
+
+    if isinstance(label, datetime.timedelta | np.timedelta64):
+        label = pd.Timedelta(label)
+    elif isinstance(label, datetime.datetime | np.datetime64):
+        label = pd.Timestamp(label)
+    elif isinstance(label, np.generic):
+        label = label.item()
+    if type(label) in (str, int, float):
+        return label
+    return repr(label)
+
+
+class RunMemory(dict):
+    """What a sequence model keeps of its labelled training runs, by run label.
+
+    A dict whose keys are :func:`run_key` of the run labels, so that a model
+    keeping it can be saved to a skops file whatever its labels are
+    (``skthermal.io.save``). Items are read and set by the labels as given:
+    ``memory[label]``, ``label in memory`` and ``memory.get(label)``
+    convert the label first.
+    """
+
+    def __getitem__(self, label):
+        return super().__getitem__(run_key(label))
+
+    def __setitem__(self, label, value):
+        super().__setitem__(run_key(label), value)
+
+    def __delitem__(self, label):
+        super().__delitem__(run_key(label))
+
+    def __contains__(self, label):
+        return super().__contains__(run_key(label))
+
+    def get(self, label, default=None):
+        return super().get(run_key(label), default)
+
+
 def run_memory(X, slices, labels, times):
     """What a sequence model keeps of each labelled training run, to continue it.
 
-    Returns a dict ``label -> {"n", "x_first", "x_last", "t_first",
-    "t_last"}`` for every labelled run (rows without labels are one anonymous
-    run, never continued): the number of rows, the first and last rows of
-    inputs and the first and last ``time_s`` (NaN without a time index). A
-    model adds its own end state.
+    Returns a :class:`RunMemory` ``label -> {"n", "x_first", "x_last",
+    "t_first", "t_last"}`` for every labelled run (rows without labels are
+    one anonymous run, never continued): the number of rows, the first and
+    last rows of inputs and the first and last ``time_s`` (NaN without a
+    time index). A model adds its own end state.
     """
-    memory = {}
+    memory = RunMemory()
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         if lab is None:
             continue
@@ -774,7 +964,9 @@ def run_memory(X, slices, labels, times):
     return memory
 
 
-def continued_runs(name, X, slices, labels, times, memory):
+def continued_runs(
+    name, X, slices, labels, times, memory, *, method="predict", stacklevel=3
+):
     """Which predicted runs continue a training run: its label, else None.
 
     The rules, shared by the sequence models (documented in their
@@ -794,7 +986,7 @@ def continued_runs(name, X, slices, labels, times, memory):
     Parameters
     ----------
     name : str
-        The estimator's class name, for the messages.
+        The class name of the estimator the user called, for the messages.
     X : ndarray of shape (n_samples, n_features)
         The validated inputs.
     slices, labels
@@ -803,6 +995,12 @@ def continued_runs(name, X, slices, labels, times, memory):
         From :func:`run_times`.
     memory : dict
         From :func:`run_memory` at fit time.
+    method : str or None, default="predict"
+        The method the user called, for the messages (``name.method``);
+        None names the class alone, for a step that a pipeline may call.
+    stacklevel : int, default=3
+        Of the warning: 3 points at the caller of the method that calls
+        this function.
 
     Returns
     -------
@@ -810,6 +1008,7 @@ def continued_runs(name, X, slices, labels, times, memory):
     """
     import warnings
 
+    who = name if method is None else f"{name}.{method}"
     out = []
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         state = memory.get(lab) if lab is not None else None
@@ -824,9 +1023,9 @@ def continued_runs(name, X, slices, labels, times, memory):
                         f"Run {lab!r} starts at time_s={t0:g}, neither at the "
                         f"start of the span {state['t_first']:g}-"
                         f"{state['t_last']:g} seen in fit nor after it. "
-                        f"{name} predicts a run either from its start or after "
-                        "the end of its training rows: pass the run from its "
-                        "start, or only its rows after the training ones."
+                        f"{who} takes a run either from its start or "
+                        "after the end of its training rows: pass the run from "
+                        "its start, or only its rows after the training ones."
                     )
                 out.append(lab)
                 continue
@@ -837,12 +1036,12 @@ def continued_runs(name, X, slices, labels, times, memory):
         if t0 is not None and t0 != 0:
             run = "The rows" if lab is None else f"Run {lab!r}"
             warnings.warn(
-                f"{run} given to {name}.predict start(s) at time_s={t0:g}, not 0, "
-                "and continue(s) no run seen in fit, so they are predicted as a "
-                "run that starts at their first row. To predict the later part "
-                "of a training run, keep its run label (the model continues "
-                "it); otherwise pass the run from its start.",
+                f"{run} given to {who} start(s) at time_s={t0:g}, not "
+                "0, and continue(s) no run seen in fit, so they are taken as a "
+                "run that starts at their first row. To continue the later "
+                "part of a training run, keep its run label (the model "
+                "continues it); otherwise pass the run from its start.",
                 UserWarning,
-                stacklevel=3,
+                stacklevel=stacklevel,
             )
     return out
