@@ -138,3 +138,54 @@ def test_cmeans_names_bad_arguments():
         fuzzy_memberships(X, np.ones((2, 2)), m=1.0)
     with pytest.raises(ValueError, match="must be finite"):
         fuzzy_memberships(np.where(X > 1, np.nan, X), np.ones((2, 2)))
+
+
+# ------------------------------------- ANFIS membership functions, as plotted
+
+
+def test_anfis_membership_degrees_are_the_membership_functions():
+    from skthermal.fuzzy import ANFISRegressor, gaussian_mf, gbell_mf
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, size=(80, 2))
+    y = X[:, 0] - X[:, 1] ** 2
+    points = np.c_[np.linspace(-1.5, 1.5, 7), np.linspace(2.0, -2.0, 7)]
+    for mf, func in (("gaussian", gaussian_mf), ("gbell", gbell_mf)):
+        model = ANFISRegressor(init="grid", n_mfs=3, mf=mf, epochs=3).fit(X, y)
+        for which, params in (
+            ("trained", model.mf_params_),
+            ("initial", model.initial_mf_params_),
+        ):
+            mu = model.membership_degrees(points, which=which)
+            assert mu.shape == (7, 2, 3)
+            for j in range(2):
+                for m in range(3):
+                    expected = func(points[:, j], *params[j, m])
+                    np.testing.assert_allclose(mu[:, j, m], expected, rtol=1e-12)
+        assert not np.allclose(
+            model.membership_degrees(points),
+            model.membership_degrees(points, which="initial"),
+        )
+    np.testing.assert_array_equal(
+        model.get_input_range(), np.c_[X.min(axis=0), X.max(axis=0)]
+    )
+
+
+def test_anfis_membership_degrees_errors():
+    from sklearn.exceptions import NotFittedError
+
+    from skthermal.fuzzy import ANFISRegressor
+
+    with pytest.raises(NotFittedError):
+        ANFISRegressor().membership_degrees([[0.0]])
+    with pytest.raises(NotFittedError):
+        ANFISRegressor().get_input_range()
+    model = ANFISRegressor.from_parameters(
+        mf="gbell", mf_params=[[[1.0, 2.0, 0.0]]], consequents=[[1.0, 0.0]]
+    )
+    with pytest.raises(ValueError, match="which must be 'trained' or 'initial'"):
+        model.membership_degrees([[0.0]], which="both")
+    with pytest.raises(ValueError, match="X has 2 features, but ANFISRegressor has 1"):
+        model.membership_degrees([[0.0, 1.0]])
+    # A model from parameters: the span of its functions (centre +- 2 a).
+    np.testing.assert_allclose(model.get_input_range(), [[-2.0, 2.0]])

@@ -1,6 +1,8 @@
 """Tests of skthermal.plotting: artists, labels, shading, ax reuse, errors."""
 
+import ast
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -17,6 +19,7 @@ from skthermal import ANFISRegressor, FCMClusterPicker, GreyInfluenceSelector  #
 from skthermal.datasets import make_sensor_groups, split_runs  # noqa: E402
 from skthermal.metrics import nash_sutcliffe, residual_band, rmse  # noqa: E402
 from skthermal.plotting import (  # noqa: E402
+    GapOverlayDisplay,
     GapTimelineDisplay,
     MembershipFunctionDisplay,
     PredictionDisplay,
@@ -404,3 +407,189 @@ def test_membership_of_a_pipeline_or_a_wrapped_model(run_data):
     other = make_pipeline(StandardScaler(), LinearRegression()).fit(X, y)
     with pytest.raises(TypeError, match="got Pipeline ending in LinearRegression"):
         MembershipFunctionDisplay.from_estimator(other)
+
+
+# ------------------------------------------------------------ GapOverlayDisplay
+
+
+def test_gap_overlay_lines_and_labels():
+    t = np.arange(0.0, 4 * 3600, 600.0)
+    measured = np.sqrt(t)
+    disp = GapOverlayDisplay.from_arrays(
+        t,
+        measured,
+        0.5 * measured,
+        simulated_after=0.9 * measured,
+        channel_name="disp_z_um",
+        after_name="simulated + tool_growth",
+        time_unit="h",
+    )
+    assert [line.get_label() for line in disp.ax_.get_lines()] == [
+        "measured",
+        "simulated",
+        "simulated + tool_growth",
+    ]
+    assert [disp.lines_[k].get_color() for k in ("measured", "simulated", "after")] == [
+        "k",
+        "C3",
+        "C0",
+    ]
+    np.testing.assert_allclose(disp.lines_["after"].get_xdata(), t / 3600.0)
+    np.testing.assert_allclose(disp.lines_["simulated"].get_ydata(), 0.5 * measured)
+    assert disp.ax_.get_xlabel() == "time (h)"
+    assert disp.ax_.get_ylabel() == "disp_z_um"
+    assert tuple(disp.figure_.get_size_inches()) == (9.0, 3.0)
+
+
+def test_gap_overlay_without_correction_on_given_axes():
+    _, ax = plt.subplots()
+    disp = GapOverlayDisplay.from_arrays(
+        [0, 1, 2], [1.0, 2.0, 3.0], [1.0, 1.5, 2.0], ax=ax, time_unit=None
+    )
+    assert disp.ax_ is ax and set(disp.lines_) == {"measured", "simulated"}
+    assert disp.ax_.get_xlabel() == "time" and disp.ax_.get_ylabel() == "value"
+    assert disp.legend_.get_texts()[0].get_fontsize() == pytest.approx(
+        matplotlib.font_manager.FontProperties(size="small").get_size_in_points()
+    )
+
+
+def test_gap_overlay_errors():
+    with pytest.raises(ValueError, match="simulated must hold one value"):
+        GapOverlayDisplay.from_arrays([0, 1, 2], [0, 0, 0], [0, 0])
+    with pytest.raises(ValueError, match="simulated_after must hold one value"):
+        GapOverlayDisplay.from_arrays([0, 1], [0, 0], [0, 0], simulated_after=[0])
+    with pytest.raises(ValueError, match="time must hold one value"):
+        GapOverlayDisplay.from_arrays([0], [0, 0], [0, 0])
+    with pytest.raises(ValueError, match="non-empty 1-D"):
+        GapOverlayDisplay.from_arrays([], [], [])
+
+
+def test_gap_overlay_import_error_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.pyplot", None)
+    with pytest.raises(ImportError, match=r'pip install "skthermal\[plot\]"'):
+        GapOverlayDisplay.from_arrays([0, 1], [0, 0], [0, 0])
+
+
+# ------------------------------------------- package structure: no import cycle
+
+PACKAGE = Path(__import__("skthermal").__file__).parent
+# The estimator packages that have plots drawn by skthermal.plotting.
+ESTIMATOR_PACKAGES = ("fuzzy", "gap", "selection")
+
+
+def _imports(path):
+    """``(line, module, names, at_module_level)`` of every import in a file,
+    relative imports resolved; imports inside functions (lazy ones) included
+    with ``at_module_level`` False."""
+    parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+    package = parts[:-1]
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    found = []
+
+    def visit(node, in_function):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                found.append((node.lineno, alias.name, [], not in_function))
+        elif isinstance(node, ast.ImportFrom):
+            module = node.module or ""
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                module = ".".join(base + ([module] if module else []))
+            names = [alias.name for alias in node.names]
+            found.append((node.lineno, module, names, not in_function))
+        inside = in_function or isinstance(
+            node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda
+        )
+        for child in ast.iter_child_nodes(node):
+            visit(child, inside)
+
+    visit(tree, False)
+    return found
+
+
+def _subpackage(module):
+    """The skthermal subpackage a dotted name lies in, or None."""
+    parts = module.split(".")
+    if parts[0] != "skthermal" or len(parts) < 2:
+        return None
+    return parts[1] if (PACKAGE / parts[1] / "__init__.py").is_file() else None
+
+
+def _import_graph():
+    """Edges between skthermal subpackages: ``{(a, b): [import, ...]}`` where
+    an import is ``(file:line, module, names, at_module_level)``."""
+    edges = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        source = _subpackage(".".join(path.relative_to(PACKAGE.parent).parts[:2]))
+        if source is None:  # skthermal/__init__.py, cli.py, ...: not a package
+            continue
+        for line, module, names, top in _imports(path):
+            # "from skthermal import plotting" names a subpackage too.
+            targets = {_subpackage(module)} | {
+                _subpackage(f"{module}.{name}") for name in names
+            }
+            for target in targets - {None, source}:
+                where = f"{path.relative_to(PACKAGE.parent)}:{line}"
+                edges.setdefault((source, target), []).append(
+                    (where, module, names, top)
+                )
+    return edges
+
+
+def _path(edges, start, goal):
+    """A chain of subpackages from ``start`` to ``goal``, or None."""
+    graph = {}
+    for a, b in edges:
+        graph.setdefault(a, set()).add(b)
+    paths, seen = [[start]], {start}
+    while paths:
+        path = paths.pop(0)
+        for nxt in sorted(graph.get(path[-1], ())):
+            if nxt == goal:
+                return [*path, nxt]
+            if nxt not in seen:
+                seen.add(nxt)
+                paths.append([*path, nxt])
+    return None
+
+
+def test_import_graph_sees_module_and_function_level_imports():
+    edges = _import_graph()
+    # Module level: the fuzzy c-means selector imports skthermal.fuzzy.
+    assert any(top for *_, top in edges[("selection", "fuzzy")])
+    # Function level: ANFISRegressor.plot_membership_functions and the gap
+    # report's plots import their displays lazily; the graph includes them.
+    for package in ("fuzzy", "gap"):
+        lazy = edges[(package, "plotting")]
+        assert lazy and not any(top for *_, top in lazy)
+
+
+@pytest.mark.parametrize("package", ESTIMATOR_PACKAGES)
+def test_no_import_cycle_between_plotting_and(package):
+    edges = _import_graph()
+    there = _path(edges, "plotting", package)
+    back = _path(edges, package, "plotting")
+    assert there is None or back is None, (
+        f"import cycle: {' -> '.join(there)} and {' -> '.join(back)}; "
+        f"plotting imports {edges.get(('plotting', there[1]))}, "
+        f"{package} imports {edges.get((package, back[1]))}"
+    )
+
+
+def test_plotting_is_on_no_import_cycle():
+    cycle = _path(_import_graph(), "plotting", "plotting")
+    assert cycle is None, f"import cycle: {' -> '.join(cycle)}"
+
+
+@pytest.mark.parametrize("package", ESTIMATOR_PACKAGES)
+def test_plotting_and_estimator_packages_use_each_others_public_api(package):
+    edges = _import_graph()
+    for source, target in (("plotting", package), (package, "plotting")):
+        for where, module, names, top in edges.get((source, target), []):
+            private = [p for p in module.split(".") if p.startswith("_")]
+            private += [n for n in names if n.startswith("_")]
+            assert not private, f"{where}: {source} imports private {private}"
+    # The estimator packages import plotting only inside their plot methods.
+    eager = [w for w, *_, top in edges.get((package, "plotting"), []) if top]
+    assert not eager, f"{package} imports skthermal.plotting at module level: {eager}"

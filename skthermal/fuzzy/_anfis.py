@@ -24,7 +24,7 @@ from skthermal.fuzzy._anfis_core import (
     grid_mf_params,
     grid_rules,
 )
-from skthermal.fuzzy._membership import MF_PARAMS
+from skthermal.fuzzy._membership import MF_PARAMS, membership
 from skthermal.grey._ago import ago, iago
 from skthermal.utils._runs import (
     check_time_order,
@@ -991,6 +991,75 @@ default="fcm"
             )
         return "\n".join(lines)
 
+    def get_input_range(self):
+        """Range of every input as the membership functions see it.
+
+        The smallest and largest training value of every input (with
+        ``grey=True``, of the accumulated inputs); for a model made by
+        :meth:`from_parameters`, the span of its membership functions (the
+        centres +- two half widths). Used to choose the x-axis of
+        :meth:`plot_membership_functions`.
+
+        Returns
+        -------
+        ndarray of shape (n_features_in_, 2)
+            ``(min, max)`` of every input.
+
+        Examples
+        --------
+        >>> from skthermal.fuzzy import ANFISRegressor
+        >>> X = [[0.0], [1.0], [2.0], [4.0]]
+        >>> model = ANFISRegressor(n_clusters=2, epochs=2, random_state=0)
+        >>> model.fit(X, [0.0, 1.0, 2.0, 4.0]).get_input_range().tolist()
+        [[0.0, 4.0]]
+        """
+        check_is_fitted(self, "mf_params_")
+        return np.array(self._input_range, dtype=float)
+
+    def membership_degrees(self, X, *, which="trained"):
+        """Membership of every input value in every membership function.
+
+        Layer 1 of ANFIS: ``out[i, j, m]`` is the degree to which ``X[i, j]``
+        belongs to the m-th membership function of input j (``in{j+1}mf{m+1}``
+        of :meth:`describe_rules`).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features_in_)
+            Input values as the membership functions see them (with
+            ``grey=True``, accumulated inputs).
+        which : {"trained", "initial"}, default="trained"
+            The trained functions (``mf_params_``) or those before training
+            (``initial_mf_params_``).
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_features_in_, n_mfs)
+            Membership degrees in [0, 1].
+
+        Examples
+        --------
+        >>> from skthermal.fuzzy import ANFISRegressor
+        >>> model = ANFISRegressor.from_parameters(
+        ...     mf="gaussian",
+        ...     mf_params=[[[1.0, 0.0], [1.0, 2.0]]],
+        ...     consequents=[[0.0, -1.0], [0.0, 1.0]],
+        ... )
+        >>> model.membership_degrees([[0.0], [1.0]]).round(4).tolist()
+        [[[1.0, 0.1353]], [[0.6065, 0.6065]]]
+        """
+        check_is_fitted(self, "mf_params_")
+        if which not in ("trained", "initial"):
+            raise ValueError(f"which must be 'trained' or 'initial', got {which!r}.")
+        params = self.mf_params_ if which == "trained" else self.initial_mf_params_
+        X = check_array(X, dtype=np.float64)
+        if X.shape[1] != params.shape[0]:
+            raise ValueError(
+                f"X has {X.shape[1]} features, but {type(self).__name__} has "
+                f"{params.shape[0]} inputs."
+            )
+        return membership(X[:, :, None], params, self.mf)
+
     def plot_membership_functions(self, ax=None, which="trained", n_points=201):
         """Plot the membership functions of every input (001 Fig. 6-6).
 
@@ -1018,6 +1087,8 @@ default="fcm"
             the curves and artists as attributes.
         """
         check_is_fitted(self)
+        # Imported here: plotting is optional, and it reads this model only
+        # through its public attributes and methods (no import of fuzzy).
         from skthermal.plotting import MembershipFunctionDisplay
 
         display = MembershipFunctionDisplay.from_estimator(

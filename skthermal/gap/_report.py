@@ -155,6 +155,24 @@ class GapReport:
         Candidates that were not scored because they cannot change the
         compared channels on these runs, with the reason: ``{effect:
         reason}``.
+    explainable : dict
+        The flexible discrepancy model of the drivers (holding every
+        candidate's signal): held-out ``gap_before`` (the base's) and
+        ``gap_after``, ``share`` (share of the base's held-out gap above the
+        noise floor it removes: an estimate of what any added term could
+        close; not clipped, negative when it makes the held-out gap worse)
+        and its whiteness. ``share_of_explainable`` in the ranking is each
+        shrink divided by that share (above 1 when a term removes more; NaN
+        when the share is not positive). Empty when no candidate was scored.
+
+    The ranking also holds, per candidate, the evidence grey-box
+    identification selects structure by: the likelihood-ratio test of the
+    calibration with the candidate against the base, in sample
+    (``lr_statistic``, ``lr_p_value``, ``delta_aic``, ``delta_bic``), and
+    the whiteness of the held-out residual before and after
+    (``whiteness_before``, ``whiteness_after``: largest deviation of the
+    cumulated periodogram from the diagonal; ``white_band``, the 95%
+    Kolmogorov-Smirnov band; ``white_after``).
     """
 
     ranking: pd.DataFrame
@@ -169,6 +187,7 @@ class GapReport:
     timelines: dict = field(default_factory=dict, repr=False)
     machines: dict = field(default_factory=dict, repr=False)
     not_applicable: dict = field(default_factory=dict)
+    explainable: dict = field(default_factory=dict)
 
     @classmethod
     def _build(
@@ -339,6 +358,7 @@ class GapReport:
             "how_far_evidence": self.how_far_evidence,
             "settings": self.settings,
             "not_applicable": self.not_applicable,
+            "explainable": self.explainable,
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
@@ -397,6 +417,12 @@ class GapReport:
             "## Where: jumps",
             table(where["jumps"].head(20)),
         ]
+        if self.explainable:
+            parts += [
+                "",
+                "## How much any added term could close",
+                table(pd.DataFrame([self.explainable])),
+            ]
         return "\n".join(parts) + "\n"
 
     def to_html(self):
@@ -497,32 +523,40 @@ class GapReport:
         return ax
 
     def plot_overlay(self, run=None, channel=None, ax=None):
-        """Measured and simulated channel, before and after the best effect."""
+        """Measured and simulated channel, before and after the best effect.
+
+        A :class:`skthermal.plotting.GapOverlayDisplay` of the run.
+
+        Parameters
+        ----------
+        run : run label, optional
+            Default: the first run.
+        channel : str, optional
+            Default: the displacement channel with the largest gap.
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib Axes
+        """
         run, frame, channel = self._timeline(run, channel)
-        plt = _pyplot()
-        if ax is None:
-            _, ax = plt.subplots(figsize=(9, 3))
-        t = frame["time_s"].to_numpy() / 3600.0
-        measured = frame[f"measured:{channel}"]
-        ax.plot(t, measured, color="k", label="measured")
-        ax.plot(
-            t,
-            measured + frame[f"residual_before:{channel}"],
-            color="C3",
-            label="simulated",
-        )
+        # Imported here: plotting is optional (and imports nothing of gap).
+        from skthermal.plotting import GapOverlayDisplay
+
+        measured = frame[f"measured:{channel}"].to_numpy()
         col = f"residual_after:{channel}"
-        if col in frame:
-            ax.plot(
-                t,
-                measured + frame[col],
-                color="C0",
-                label=f"simulated + {self.best_effect}",
-            )
-        ax.set_xlabel("time (h)")
-        ax.set_ylabel(channel)
-        ax.legend(fontsize=7)
-        return ax
+        display = GapOverlayDisplay.from_arrays(
+            frame["time_s"].to_numpy(),
+            measured,
+            measured + frame[f"residual_before:{channel}"].to_numpy(),
+            simulated_after=measured + frame[col].to_numpy() if col in frame else None,
+            channel_name=channel,
+            after_name=f"simulated + {self.best_effect}",
+            ax=ax,
+            time_unit="h",
+            legend_kwargs={"fontsize": 7},
+        )
+        return display.ax_
 
     def save(self, folder):
         """Write report.md, report.html, report.json, the tables as CSV and,
@@ -606,10 +640,9 @@ def gap_table(df):
 
 
 def _pyplot():
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            'Plotting needs matplotlib: pip install "skthermal[plot]"'
-        ) from exc
-    return plt
+    """``matplotlib.pyplot`` for :meth:`GapReport.save`, or the ImportError
+    naming the ``plot`` extra: skthermal's one optional-import helper, which
+    the plotting package's displays use too."""
+    from skthermal._optional import import_optional
+
+    return import_optional("matplotlib.pyplot", extra="plot", caller="GapReport.save")

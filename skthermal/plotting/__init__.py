@@ -6,12 +6,13 @@ attributes ending in ``_`` (``ax_``, ``figure_``, lines, spans). matplotlib
 is needed only when drawing: ``pip install "skthermal[plot]"``.
 """
 
-from skthermal.plotting._gap import GapTimelineDisplay
+from skthermal.plotting._gap import GapOverlayDisplay, GapTimelineDisplay
 from skthermal.plotting._membership import MembershipFunctionDisplay
 from skthermal.plotting._prediction import PredictionDisplay
 from skthermal.plotting._selection import SensorScoreDisplay
 
 __all__ = [
+    "GapOverlayDisplay",
     "GapTimelineDisplay",
     "MembershipFunctionDisplay",
     "PredictionDisplay",

@@ -1,4 +1,5 @@
-"""GapTimelineDisplay: a residual over time, shaded by operating regime.
+"""GapTimelineDisplay: a residual over time, shaded by operating regime;
+GapOverlayDisplay: the measured and the simulated channel over time.
 
 For diagnosing the gap between a simulation (or model) and the measurement:
 where in a test the residual grows -- while heating, after a stop, dwelling, during
@@ -227,5 +228,195 @@ class GapTimelineDisplay:
         check_matplotlib_support(f"{cls.__name__}.from_arrays")
         display = cls(
             time=time, residual=residual, regimes=regimes, residual_name=residual_name
+        )
+        return display.plot(ax=ax, **plot_kwargs)
+
+
+class GapOverlayDisplay:
+    """A measured channel and its simulation, before (and after) a correction.
+
+    The measured values in black, the simulation in red and, when given, the
+    corrected simulation (e.g. with the unmodelled effect a gap diagnosis
+    found) in blue: the companion of :class:`GapTimelineDisplay`, which shows
+    the difference of the first two.
+
+    Create it with :meth:`from_arrays`; the constructor only stores the data.
+
+    Parameters
+    ----------
+    time : array-like of shape (n_samples,)
+        Sample times, increasing, in seconds (or any unit with
+        ``time_unit=None`` in :meth:`plot`).
+    measured : array-like of shape (n_samples,)
+        The measured channel.
+    simulated : array-like of shape (n_samples,)
+        The simulated (or predicted) channel.
+    simulated_after : array-like of shape (n_samples,), default=None
+        The simulation after a correction; None draws no third line.
+    channel_name : str, default="value"
+        Label of the y axis, e.g. the channel ``"disp_z_um"``.
+    after_name : str, default="simulated + correction"
+        Legend label of ``simulated_after``.
+
+    Attributes
+    ----------
+    lines_ : dict of str to matplotlib Line2D
+        ``"measured"``, ``"simulated"`` and (when drawn) ``"after"``.
+    ax_ : matplotlib Axes
+        Axes with the lines.
+    figure_ : matplotlib Figure
+        Figure holding the Axes.
+    legend_ : matplotlib Legend
+        One entry per line.
+
+    See Also
+    --------
+    GapTimelineDisplay : The residual, shaded by operating regime.
+    skthermal.gap.GapReport.plot_overlay : This plot of a gap report's run.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import numpy as np
+    >>> from skthermal.plotting import GapOverlayDisplay
+    >>> t = np.arange(0, 6 * 3600, 300.0)
+    >>> measured = 10 * (1 - np.exp(-t / 7200))
+    >>> disp = GapOverlayDisplay.from_arrays(
+    ...     t, measured, 0.8 * measured, simulated_after=0.97 * measured
+    ... )
+    >>> [line.get_label() for line in disp.ax_.get_lines()]
+    ['measured', 'simulated', 'simulated + correction']
+    """
+
+    def __init__(
+        self,
+        *,
+        time,
+        measured,
+        simulated,
+        simulated_after=None,
+        channel_name="value",
+        after_name="simulated + correction",
+    ):
+        self.time = time
+        self.measured = measured
+        self.simulated = simulated
+        self.simulated_after = simulated_after
+        self.channel_name = channel_name
+        self.after_name = after_name
+
+    def _validated(self):
+        measured = np.asarray(self.measured, dtype=float)
+        if measured.ndim != 1 or measured.size == 0:
+            raise ValueError(
+                f"measured must be a non-empty 1-D array, got shape {measured.shape}."
+            )
+        n = measured.size
+        arrays = {"time": np.asarray(self.time)}
+        arrays["simulated"] = np.asarray(self.simulated, dtype=float)
+        if self.simulated_after is not None:
+            arrays["simulated_after"] = np.asarray(self.simulated_after, dtype=float)
+        for name, arr in arrays.items():
+            if arr.shape != (n,):
+                raise ValueError(
+                    f"{name} must hold one value per measured sample ({n}), got "
+                    f"shape {arr.shape}."
+                )
+        return (
+            arrays["time"],
+            measured,
+            arrays["simulated"],
+            arrays.get("simulated_after"),
+        )
+
+    def plot(self, ax=None, *, time_unit="auto", legend_kwargs=None):
+        """Draw the measured, simulated and corrected lines.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, default=None
+            Axes to draw on; None creates a figure.
+        time_unit : {"auto", "s", "min", "h"} or None, default="auto"
+            Unit of the time axis (``time`` is in seconds); None plots
+            ``time`` as given.
+        legend_kwargs : dict, default=None
+            Keyword arguments of ``Axes.legend`` (default
+            ``fontsize="small"``).
+
+        Returns
+        -------
+        display : GapOverlayDisplay
+            The display, with the drawn artists as attributes.
+        """
+        plt = check_matplotlib_support(f"{type(self).__name__}.plot")
+        time, measured, simulated, after = self._validated()
+        t, xlabel = _time_scale(time, time_unit)
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(9, 3))
+        else:
+            fig = ax.figure
+        self.lines_ = {}
+        (self.lines_["measured"],) = ax.plot(t, measured, color="k", label="measured")
+        (self.lines_["simulated"],) = ax.plot(
+            t, simulated, color="C3", label="simulated"
+        )
+        if after is not None:
+            (self.lines_["after"],) = ax.plot(
+                t, after, color="C0", label=self.after_name
+            )
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(self.channel_name)
+        self.legend_ = ax.legend(**{"fontsize": "small"} | (legend_kwargs or {}))
+        self.ax_ = ax
+        self.figure_ = fig
+        return self
+
+    @classmethod
+    def from_arrays(
+        cls,
+        time,
+        measured,
+        simulated,
+        *,
+        simulated_after=None,
+        channel_name="value",
+        after_name="simulated + correction",
+        ax=None,
+        **plot_kwargs,
+    ):
+        """Plot a measured channel against its simulation.
+
+        Parameters
+        ----------
+        time : array-like of shape (n_samples,)
+            Sample times in seconds, increasing.
+        measured, simulated : array-like of shape (n_samples,)
+            The measured and the simulated channel.
+        simulated_after : array-like of shape (n_samples,), default=None
+            The simulation after a correction.
+        channel_name : str, default="value"
+            Label of the y axis.
+        after_name : str, default="simulated + correction"
+            Legend label of ``simulated_after``.
+        ax : matplotlib Axes, default=None
+            Axes to draw on.
+        **plot_kwargs
+            Further keyword arguments of :meth:`plot` (``time_unit``,
+            ``legend_kwargs``).
+
+        Returns
+        -------
+        display : GapOverlayDisplay
+            The display, with the drawn artists as attributes.
+        """
+        check_matplotlib_support(f"{cls.__name__}.from_arrays")
+        display = cls(
+            time=time,
+            measured=measured,
+            simulated=simulated,
+            simulated_after=simulated_after,
+            channel_name=channel_name,
+            after_name=after_name,
         )
         return display.plot(ax=ax, **plot_kwargs)

@@ -7,10 +7,13 @@ and after it (solid), as 001 Fig. 6-6 and Jang (1993) Fig. 13.
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
-from skthermal.fuzzy._membership import log_membership
 from skthermal.plotting._base import _new_figure_or_axes, check_matplotlib_support
 
 _WHICH = ("trained", "initial", "both")
+# The public methods of a fitted ANFISRegressor this display draws from: it
+# reads the model through them and its fitted attributes, never through
+# skthermal.fuzzy's internals (so skthermal.fuzzy can import this module).
+_METHODS = ("get_input_range", "membership_degrees")
 
 
 class MembershipFunctionDisplay:
@@ -162,9 +165,12 @@ class MembershipFunctionDisplay:
         ----------
         estimator : ANFISRegressor
             Fitted model (or any estimator with ``mf``, ``mf_params_``,
-            ``initial_mf_params_`` and ``rules_``), or a fitted pipeline or
-            wrapper ending in one (the last step of a pipeline, the
-            ``estimator_`` of a wrapper such as ``make_model("anfis-fcm")``).
+            ``initial_mf_params_``, ``rules_`` and ANFISRegressor's
+            ``get_input_range()`` and ``membership_degrees(X, which=...)``),
+            or a fitted pipeline or wrapper ending in one (the last step of a
+            pipeline, the ``estimator_`` of a wrapper such as
+            ``make_model("anfis-fcm")``). The curves span the training range
+            of every input plus 5 % on either side.
         which : {"both", "trained", "initial"}, default="both"
             Which functions to draw: trained (solid), initial (dashed), or
             both.
@@ -196,16 +202,14 @@ class MembershipFunctionDisplay:
                 f"wrapper ending in one), got {what}."
             )
         check_is_fitted(estimator, "mf_params_")
-        for attr in ("initial_mf_params_", "rules_", "mf"):
+        for attr in ("initial_mf_params_", "rules_", "mf", *_METHODS):
             if not hasattr(estimator, attr):
                 raise TypeError(
                     f"{type(estimator).__name__} has no {attr}; "
                     f"{cls.__name__} needs a fitted ANFISRegressor."
                 )
-        trained_p = np.asarray(estimator.mf_params_, dtype=float)
-        initial_p = np.asarray(estimator.initial_mf_params_, dtype=float)
         rules = np.asarray(estimator.rules_)
-        d = trained_p.shape[0]
+        d = np.shape(estimator.mf_params_)[0]
         names = getattr(estimator, "feature_names_in_", None)
         if names is None and outer_names is not None and len(outer_names) == d:
             names = outer_names
@@ -214,24 +218,30 @@ class MembershipFunctionDisplay:
             if names is not None
             else [f"x{j + 1}" for j in range(d)]
         )
-        x, initial, trained, labels = [], [], [], []
-        for j in range(d):
-            lo, hi = _input_range(estimator, j, initial_p, trained_p)
+        # One column of evaluation points per input: its range plus 5 %.
+        grid = np.empty((n_points, d))
+        for j, (lo, hi) in enumerate(np.asarray(estimator.get_input_range())):
+            lo, hi = float(lo), float(hi)
             pad = 0.05 * (hi - lo) if hi > lo else 1.0
-            xj = np.linspace(lo - pad, hi + pad, n_points)
+            grid[:, j] = np.linspace(lo - pad, hi + pad, n_points)
+        # The model evaluates its own functions (layer 1 of ANFIS).
+        degrees = {
+            kind: np.asarray(estimator.membership_degrees(grid, which=kind))
+            for kind in ("initial", "trained")
+            if which in (kind, "both")
+        }
+        x, labels = [], []
+        curves = {kind: [] for kind in degrees}
+        for j in range(d):
             used = np.unique(rules[:, j])
-            x.append(xj)
+            x.append(grid[:, j].copy())
             labels.append([f"in{j + 1}mf{m + 1}" for m in used])
-            initial.append(
-                np.exp(log_membership(xj[:, None], initial_p[j][used], estimator.mf))
-            )
-            trained.append(
-                np.exp(log_membership(xj[:, None], trained_p[j][used], estimator.mf))
-            )
+            for kind, mu in degrees.items():
+                curves[kind].append(mu[:, j, used])
         display = cls(
             x=x,
-            initial=initial if which in ("initial", "both") else None,
-            trained=trained if which in ("trained", "both") else None,
+            initial=curves.get("initial"),
+            trained=curves.get("trained"),
             input_names=names,
             mf_labels=labels,
         )
@@ -262,13 +272,3 @@ def _final_model(estimator):
                 check_is_fitted(estimator)  # an unfitted wrapper: say so
             break
     return estimator, names
-
-
-def _input_range(estimator, j, initial_p, trained_p):
-    """The training range of input j, else the span of the functions."""
-    rng = getattr(estimator, "_input_range", None)
-    if rng is not None:
-        return float(rng[j][0]), float(rng[j][1])
-    params = np.concatenate([initial_p[j], trained_p[j]])
-    centre, width = params[:, -1], np.abs(params[:, 0])
-    return float((centre - 2 * width).min()), float((centre + 2 * width).max())
