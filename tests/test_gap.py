@@ -221,6 +221,34 @@ def test_diagnose_names_the_withheld_effect(tool_report):
 
 
 @ONE_WORKER
+def test_structure_evidence_and_explainable_gap(tool_report):
+    """The evidence grey-box identification selects structure by, beside
+    the held-out shrink: in-sample likelihood ratio and information criteria,
+    the held-out residual's whiteness, and the share of the explainable gap
+    (a flexible model of the drivers that contains every candidate)."""
+    ranking = tool_report.ranking.set_index("effect")
+    for col in ("lr_statistic", "lr_p_value", "delta_aic", "delta_bic"):
+        assert np.isfinite(ranking[col]).all(), col
+    # The withheld effect is a better structure in sample, by a wide margin.
+    assert ranking.loc["tool_growth", "lr_p_value"] < 1e-6
+    assert ranking.loc["tool_growth", "delta_bic"] < 0
+    assert (ranking["white_band"] > 0).all()
+    assert (ranking["whiteness_before"] > 0).all()
+    explainable = tool_report.explainable
+    assert {"gap_before", "gap_after", "share", "white_after"} <= set(explainable)
+    assert explainable["gap_before"] == pytest.approx(
+        ranking.loc["tool_growth", "gap_before"]
+    )
+    # The flexible model holds the candidate's own signature, so it closes
+    # about as much as the candidate or more; the candidate is most of it.
+    share = ranking.loc["tool_growth", "share_of_explainable"]
+    assert explainable["share"] > 0.3
+    assert 0.6 < share < 1.3
+    assert tool_report.to_dict()["explainable"]["share"] == explainable["share"]
+    assert "could close" in tool_report.to_markdown()
+
+
+@ONE_WORKER
 def test_where_tables(tool_report):
     where = tool_report.where
     assert set(where) >= {"runs", "regimes", "channels", "bands", "jumps"}

@@ -381,7 +381,7 @@ def test_a_term_without_signal_is_not_scored(pair):
 
 
 def test_share_of_the_explainable_gap_is_not_clipped(pair):
-    from skthermal.gap._external import _share
+    from skthermal.gap._evidence import share_of_explainable as _share
 
     assert _share(0.95, 0.84) == pytest.approx(0.95 / 0.84)  # above 1
     assert np.isnan(_share(0.3, -0.2))  # no share of a worse flexible model

@@ -8,11 +8,20 @@ from numbers import Integral, Real
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
+from scipy import stats
 from sklearn.utils._param_validation import Interval, validate_params
 
+from skthermal.gap._evidence import (
+    effective_samples,
+    explainable_gap,
+    likelihood_ratio,
+    share_of_explainable,
+    whiteness,
+)
 from skthermal.gap._problem import (
     EFFECT_PARAMETER,
     RESIDUAL_EFFECTS,
+    apply_gains,
     build_problem,
     calibrate,
     drift_mask,
@@ -34,6 +43,7 @@ from skthermal.gap._scores import (
     heldout_folds,
     regime_gaps,
 )
+from skthermal.gap._terms import RunSignals, Signals, flexible_heldout
 from skthermal.simulate import EFFECTS, ThermalMachine
 
 logger = logging.getLogger("skthermal.gap")
@@ -136,6 +146,24 @@ class _Context:
         }
         return residuals(problem, preds, fit.gain, test), fit
 
+    def predictions(self, fit):
+        """Parts of the prediction of every run with ``fit``
+        (:func:`predict_run` with ``parts``), by run index."""
+        problem = self.problem
+        return {
+            i: predict_run(fit.machine, problem, run, parts=True)
+            for i, run in enumerate(problem.runs)
+        }
+
+    def in_sample(self, effects, fits, preds):
+        """Residuals of every fold's training runs with its own fit
+        (``preds``: :meth:`predictions` of each fit), one list per fold."""
+        drift = drift_mask(self.problem, effects)
+        return [
+            residuals(self.problem, p, f.gain, train, drift)
+            for (train, _), f, p in zip(self.folds, fits, preds, strict=True)
+        ]
+
     def assemble(self, effects, results):
         """Held-out residuals of every run from the folds' ``results``."""
         out = [None] * len(self.problem.runs)
@@ -164,6 +192,9 @@ class Evaluation:
     regime_shrink: pd.Series  # shrink per regime
     residuals: list  # held-out residuals of every run, with the candidate
     fits: list  # the folds' calibrations
+    preds: list  # per fold, ctx.predictions of its calibration
+    # per fold, {run: what the candidate adds to its prediction (n, c, 1)}
+    signature: list = None
 
     @property
     def effect(self):
@@ -180,6 +211,7 @@ def _evaluate(
     before_effects,
     before_R,
     before_fits,
+    before_preds,
     candidate,
     regimes,
     floor2,
@@ -193,6 +225,15 @@ def _evaluate(
     row, (rb, ra) = _score(
         ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
     )
+    preds = [ctx.predictions(f) for f in fits]
+    row.update(
+        _lr_evidence(
+            ctx,
+            ctx.in_sample(before_effects, before_fits, before_preds),
+            ctx.in_sample(effects, fits, preds),
+            candidate,
+        )
+    )
     _log_row("Which", row)
     regime_shrink = (1.0 - ra / rb.reindex(ra.index)).rename(candidate)
     param = EFFECT_PARAMETER.get(candidate)
@@ -202,7 +243,19 @@ def _evaluate(
         )
     else:
         row["fitted"] = np.nan
-    return Evaluation(row, regime_shrink, after_R, fits)
+    signature = None
+    if candidate not in RESIDUAL_EFFECTS:
+        # What the candidate adds to the prediction of every run, per fold:
+        # a feature of the flexible model (which then contains every
+        # candidate).
+        signature = [
+            {
+                i: (apply_gains(p[i], f.gain) - apply_gains(b[i], bf.gain))[:, :, None]
+                for i in p
+            }
+            for p, f, b, bf in zip(preds, fits, before_preds, before_fits, strict=True)
+        ]
+    return Evaluation(row, regime_shrink, after_R, fits, preds, signature)
 
 
 def _log_row(step, row):
@@ -250,8 +303,122 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         "xcorr_before": _xcorr(ctx.problem, b),
         "xcorr_after": _xcorr(ctx.problem, a),
     }
+    white_b, white_a = whiteness(b), whiteness(a)
+    row["whiteness_before"] = white_b["max_deviation"]
+    row["whiteness_after"] = white_a["max_deviation"]
+    row["white_band"] = white_a["band"]
+    row["white_after"] = white_a["white"]
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
     return row, (rb, ra)
+
+
+def _lr_evidence(ctx, before_in, after_in, candidate):
+    """Likelihood-ratio test and information criteria of adding
+    ``candidate``, in sample on every fold's training runs (``before_in``,
+    ``after_in``: their residuals, one list per fold), averaged over the
+    folds.
+
+    Each fold's statistic (per channel, effective samples corrected for the
+    residual's autocorrelation, :func:`likelihood_ratio`) is chi-squared
+    under the model without the candidate; their mean has the same mean and
+    less spread, so its p-value from the same distribution is conservative.
+    The degrees of freedom are the candidate's parameter (one slope per
+    temperature channel and training run for ``sensor_drift``, whose trends
+    are fitted per run)."""
+    n_temp = int((~ctx.problem.is_disp).sum())
+    tests = []
+    for (train, _), rb, ra in zip(ctx.folds, before_in, after_in, strict=True):
+        if candidate in RESIDUAL_EFFECTS:
+            df = n_temp * len(train)
+        else:
+            df = effect_parameters([candidate])
+        rss0 = np.maximum(sum(np.sum(R * R, axis=0) for R in rb), 1e-300)
+        rss1 = np.maximum(sum(np.sum(R * R, axis=0) for R in ra), 1e-300)
+        tests.append(
+            likelihood_ratio(
+                rss0,
+                np.minimum(rss1, rss0),
+                effective_samples(list(rb), per_channel=True),
+                max(df, 1),
+            )
+        )
+    df = max(int(round(np.mean([t.df for t in tests]))), 1)
+    statistic = float(np.mean([t.statistic for t in tests]))
+    return {
+        "lr_statistic": statistic,
+        "lr_p_value": float(stats.chi2.sf(statistic, df)),
+        "delta_aic": float(np.mean([t.delta_aic for t in tests])),
+        "delta_bic": float(np.mean([t.delta_bic for t in tests])),
+    }
+
+
+def _run_signals(problem, fold_preds):
+    """The runs as :class:`Signals` of a fixed simulation (``fold_preds``:
+    the prediction of every run, change since start at the compared
+    rows), for the flexible discrepancy model."""
+    runs = []
+    for i, run in enumerate(problem.runs):
+        rows = run.rows
+        runs.append(
+            RunSignals(
+                run.name,
+                run.time_s[rows] - run.time_s[rows[0]],
+                run.spindle_rpm[rows],
+                run.ambient_C[rows],
+                run.feed_mm_min[rows],
+                fold_preds[i],
+                np.arange(rows.size),
+                run.y,
+            )
+        )
+    return Signals(runs, ~problem.is_disp, np.sqrt(problem.weight) / problem.scale)
+
+
+def _explainable(ctx, screen, floor2):
+    """The flexible discrepancy model on the base calibrated on each
+    fold's training runs, with every candidate's signature among its
+    features: its held-out gap and the share of the base's held-out gap
+    above the noise floor it removes (what any added term could close)."""
+    folds = ctx.folds
+    fold_signals = []
+    for fit in screen.base_fits:
+        parts = ctx.predictions(fit)
+        fold_signals.append(
+            _run_signals(
+                ctx.problem, {i: apply_gains(p, fit.gain) for i, p in parts.items()}
+            )
+        )
+    signatures = [
+        ev.signature for ev in screen.evaluations.values() if ev.signature is not None
+    ]
+    extra = [
+        [[sig[k][i] for sig in signatures] for i in range(len(ctx.problem.runs))]
+        for k in range(len(folds))
+    ]
+    flex_R = flexible_heldout(fold_signals, folds, extra)
+    if any(e in RESIDUAL_EFFECTS for e in screen.evaluations):
+        # The drift candidate fits a trend per run, which the flexible
+        # model's shared coefficients do not: it gets the same.
+        flex_R = [_detrend_first_half(R, ~ctx.problem.is_disp) for R in flex_R]
+    gap_base = gap_of(screen.base_R)[0]
+    gap_flex = gap_of(flex_R)[0]
+    share = explainable_gap(gap_base, gap_flex, floor2)
+    white = whiteness(flex_R)
+    logger.info(
+        "Base held-out gap %.3g; a flexible model of the drivers reaches %.3g "
+        "(%.0f%% of the excess above noise).",
+        gap_base,
+        gap_flex,
+        100 * share,
+    )
+    return {
+        "gap_before": gap_base,
+        "gap_after": gap_flex,
+        "share": share,
+        "whiteness_after": white["max_deviation"],
+        "white_band": white["band"],
+        "white_after": white["white"],
+    }
 
 
 @validate_params(
@@ -406,7 +573,17 @@ def diagnose(
     rules = (_regimes_of(problem), floor_squared(problem), min_shrink, alpha)
     where = _where(ctx, simulated)
     screen = _screen(ctx, candidates, rules, n_jobs)
+    explainable = _explainable(ctx, screen, rules[1]) if len(candidates) else {}
+    if explainable:
+        screen.ranking["share_of_explainable"] = [
+            share_of_explainable(v, explainable["share"])
+            for v in screen.ranking["shrink"]
+        ]
     how_far = _how_far(ctx, screen, rules, fine, n_jobs)
+    if how_far is not None:
+        how_far.row["share_of_explainable"] = share_of_explainable(
+            how_far.row["shrink"], explainable["share"]
+        )
     best = how_far.effect if how_far is not None and how_far.explains else None
     added, steps = _greedy(ctx, screen, how_far, candidates, rules, greedy, n_jobs)
     logger.info(
@@ -453,6 +630,7 @@ def diagnose(
     )
     report.machines = machines
     report.not_applicable = not_applicable
+    report.explainable = explainable
     return report
 
 
@@ -548,8 +726,10 @@ class Screen:
 def _screen(ctx, candidates, rules, n_jobs):
     logger.info("Which: calibrating the base on %d fold(s).", len(ctx.folds))
     base_R, base_fits = ctx.heldout(())
+    base_preds = [ctx.predictions(f) for f in base_fits]
     evaluations = Parallel(n_jobs=n_jobs)(
-        delayed(_evaluate)(ctx, (), base_R, base_fits, c, *rules) for c in candidates
+        delayed(_evaluate)(ctx, (), base_R, base_fits, base_preds, c, *rules)
+        for c in candidates
     )
     if n_jobs not in (None, 1):  # workers' log records stay in the workers
         for ev in evaluations:
@@ -640,7 +820,13 @@ def _greedy(ctx, screen, how_far, candidates, rules, greedy, n_jobs):
     while greedy and remaining:
         more = Parallel(n_jobs=n_jobs)(
             delayed(_evaluate)(
-                ctx, tuple(added), current.residuals, current.fits, c, *rules
+                ctx,
+                tuple(added),
+                current.residuals,
+                current.fits,
+                current.preds,
+                c,
+                *rules,
             )
             for c in remaining
         )

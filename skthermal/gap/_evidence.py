@@ -421,3 +421,19 @@ def explainable_gap(gap_before, gap_flexible, floor2):
     -0.2
     """
     return excess_shrink(gap_before, gap_flexible, floor2)
+
+
+def share_of_explainable(shrink, explainable):
+    """A shrink (above noise) as a share of the explainable part
+    (:func:`explainable_gap`), not clipped: above 1 when a term removes
+    more of the held-out gap than the flexible model (regularised, it may
+    fall short of a term it contains); NaN when the flexible model removes
+    nothing (there is no share of nothing).
+
+    Examples
+    --------
+    >>> from skthermal.gap._evidence import share_of_explainable
+    >>> share_of_explainable(0.3, 0.6), share_of_explainable(0.3, -0.1)
+    (0.5, nan)
+    """
+    return float(shrink / explainable) if explainable > 0 else float("nan")

@@ -13,7 +13,7 @@ model structure (:mod:`skthermal.gap._evidence`).
 
 import logging
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -24,7 +24,7 @@ from skthermal.gap._evidence import (
     effective_samples,
     explainable_gap,
     likelihood_ratio,
-    ridge_heldout,
+    share_of_explainable,
     whiteness,
 )
 from skthermal.gap._problem import (
@@ -42,7 +42,7 @@ from skthermal.gap._problem import (
     warn_uncompared,
 )
 from skthermal.gap._regimes import label_regimes
-from skthermal.gap._report import GapReport, gap_table
+from skthermal.gap._report import GapReport
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
     applicable,
@@ -53,7 +53,13 @@ from skthermal.gap._scores import (
     heldout_folds,
     regime_gaps,
 )
-from skthermal.gap._terms import TERMS, Base, FlexibleFeatures, RunSignals, Signals
+from skthermal.gap._terms import (
+    TERMS,
+    Base,
+    RunSignals,
+    Signals,
+    flexible_heldout,
+)
 from skthermal.utils._runs import check_labels
 
 logger = logging.getLogger("skthermal.gap")
@@ -375,45 +381,23 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
     return row, (rb, ra), after_R, {"folds": models, "all": full}
 
 
-def _share(shrink, explainable):
-    """A shrink (above noise) as a share of the explainable part, not
-    clipped: above 1 when the term removes more of the held-out gap than the
-    flexible model (regularised, it may fall short of a term it contains);
-    NaN when the flexible model removes nothing (there is no share of
-    nothing)."""
-    return float(shrink / explainable) if explainable > 0 else np.nan
-
-
 def _flexible_heldout(signals, folds, fitted):
-    """Held-out residuals of the flexible discrepancy model.
-
-    Per channel, a ridge regression (penalty chosen by leave-one-run-out on
-    the training runs) on the simulated channel (not penalised), low-passes
-    of the drivers, of the channel's own lag and speed-weighted rise and the
-    time since the start (:class:`FlexibleFeatures`), and the signals of
-    every candidate term with its parameters fitted on the fold's training
-    runs (``fitted``: per candidate, ``{"folds": [...]}``).
-    """
-    flex = FlexibleFeatures()
-    generic = [flex.features(signals, r) for r in signals.runs]
-    w = signals.w[None, :, None]
-    targets = [r.y * signals.w for r in signals.runs]
-    out = [None] * len(signals.runs)
-    for k, (train, test) in enumerate(folds):
-        feats = []
-        for i, run in enumerate(signals.runs):
-            parts = [generic[i]]
-            for fit in fitted:
-                term = fit["folds"][k]
-                if term.n_signals:
-                    parts.append(term.features(signals, run, term.theta_))
-            feats.append(np.concatenate(parts, axis=2) * w)
-        pen = np.ones(feats[0].shape[2], dtype=bool)
-        pen[0] = False  # the base gain is not penalised
-        R = ridge_heldout(targets, feats, [(train, test)], penalize=pen)
-        for i in test:
-            out[i] = -R[i]  # prediction minus measurement
-    return out
+    """Held-out residuals of the flexible discrepancy model
+    (:func:`flexible_heldout`) on the external simulation, with the signals
+    of every candidate term fitted on the fold's training runs (``fitted``:
+    per candidate, ``{"folds": [...]}``) among its features."""
+    extra = [
+        [
+            [
+                fit["folds"][k].features(signals, run, fit["folds"][k].theta_)
+                for fit in fitted
+                if fit["folds"][k].n_signals
+            ]
+            for run in signals.runs
+        ]
+        for k in range(len(folds))
+    ]
+    return flexible_heldout([signals] * len(folds), folds, extra)
 
 
 def _order(ranking):
@@ -450,19 +434,9 @@ class ExternalGapReport(GapReport):
     95% Kolmogorov-Smirnov ``white_band``, ``white_after``) and
     ``share_of_explainable``.
 
-    Attributes
-    ----------
-    explainable : dict
-        The flexible discrepancy model of the drivers: held-out ``gap_after``
-        and ``share`` (share of the base's held-out gap above the noise floor
-        it removes: an estimate of what any added term could close; not
-        clipped, negative when it makes the held-out gap worse), and its
-        whiteness. ``share_of_explainable`` in the ranking is each shrink
-        divided by that share (above 1 when a term removes more; NaN when
-        the share is not positive).
+    ``explainable`` is as in :class:`GapReport`; here the flexible model
+    corrects the external simulation itself.
     """
-
-    explainable: dict = field(default_factory=dict)
 
     def _verdict(self):
         row = self.how_far_evidence
@@ -499,20 +473,6 @@ class ExternalGapReport(GapReport):
 
     def __repr__(self):
         return f"ExternalGapReport(best_effect={self.best_effect!r}): {self.verdict()}"
-
-    def to_dict(self):
-        out = super().to_dict()
-        out["explainable"] = self.explainable
-        return out
-
-    def to_markdown(self):
-        text = super().to_markdown()
-        extra = [
-            "",
-            "## How much any added term could close",
-            gap_table(pd.DataFrame([self.explainable])),
-        ]
-        return text + "\n".join(extra) + "\n"
 
 
 @validate_params(
@@ -702,7 +662,7 @@ def diagnose_runs(
     )
     rows = [j[0] for j in jobs]
     for row in rows:
-        row["share_of_explainable"] = _share(row["shrink"], explainable)
+        row["share_of_explainable"] = share_of_explainable(row["shrink"], explainable)
         logger.info(
             "Which: %s: held-out gap %.3g -> %.3g, shrink %.0f%% above noise "
             "(%.0f%% of the explainable), p = %.2g, likelihood ratio p = %.2g%s.",

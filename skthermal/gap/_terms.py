@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from skthermal.gap._evidence import ridge_heldout
 from skthermal.gap._problem import START_SAMPLES
 from skthermal.preprocessing import exponential_filter
 
@@ -492,3 +493,53 @@ class FlexibleFeatures:
         clock = run.compared(run.time_s / 3600.0)
         parts.append(np.broadcast_to(clock[:, None, None], (clock.size, c, 1)))
         return np.concatenate(parts, axis=2)
+
+
+def flexible_heldout(fold_signals, folds, extra=None):
+    """Held-out residuals (prediction minus measurement, weighted) of the
+    flexible discrepancy model: what any added term could explain.
+
+    Per fold and channel, a ridge regression (penalty chosen by
+    leave-one-run-out on the training runs, :func:`ridge_heldout`) of the
+    measurement on the simulated channel (not penalised) and the
+    :class:`FlexibleFeatures` of the drivers and of that channel, plus any
+    ``extra`` features, fitted on the fold's training runs and applied to
+    its held-out runs.
+
+    Parameters
+    ----------
+    fold_signals : list of Signals
+        One per fold: the simulation the flexible model corrects in that
+        fold (the same object for every fold when the simulation is fixed,
+        e.g. an external run table; the base calibrated on the fold's
+        training runs for a simulator).
+    folds : list of (train, test)
+        Run indices.
+    extra : list of list of list of ndarray, optional
+        ``extra[k][i]``: further features ``(n_rows, c, m)`` of run ``i`` in
+        fold ``k`` (e.g. the candidates' signals fitted on that fold).
+
+    Returns
+    -------
+    list of ndarray of shape (n_rows, c)
+        One per run, from the fold that holds it out.
+    """
+    flex = FlexibleFeatures()
+    generic = {}
+    out = [None] * len(fold_signals[0].runs)
+    for k, (train, test) in enumerate(folds):
+        signals = fold_signals[k]
+        if id(signals) not in generic:
+            generic[id(signals)] = [flex.features(signals, r) for r in signals.runs]
+        w = signals.w[None, :, None]
+        targets = [r.y * signals.w for r in signals.runs]
+        feats = []
+        for i, base in enumerate(generic[id(signals)]):
+            parts = [base, *(() if extra is None else extra[k][i])]
+            feats.append(np.concatenate(parts, axis=2) * w)
+        pen = np.ones(feats[0].shape[2], dtype=bool)
+        pen[0] = False  # the simulated channel's gain is not penalised
+        R = ridge_heldout(targets, feats, [(train, test)], penalize=pen)
+        for i in test:
+            out[i] = -R[i]
+    return out
