@@ -12,11 +12,10 @@ from scipy import stats
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal.gap._evidence import (
-    effective_samples,
-    explainable_gap,
-    likelihood_ratio,
+    explainable_summary,
+    residual_lr_test,
     share_of_explainable,
-    whiteness,
+    whiteness_columns,
 )
 from skthermal.gap._problem import (
     EFFECT_PARAMETER,
@@ -303,11 +302,7 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         "xcorr_before": _xcorr(ctx.problem, b),
         "xcorr_after": _xcorr(ctx.problem, a),
     }
-    white_b, white_a = whiteness(b), whiteness(a)
-    row["whiteness_before"] = white_b["max_deviation"]
-    row["whiteness_after"] = white_a["max_deviation"]
-    row["white_band"] = white_a["band"]
-    row["white_after"] = white_a["white"]
+    row.update(whiteness_columns(b, a))
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
     return row, (rb, ra)
 
@@ -332,16 +327,7 @@ def _lr_evidence(ctx, before_in, after_in, candidate):
             df = n_temp * len(train)
         else:
             df = effect_parameters([candidate])
-        rss0 = np.maximum(sum(np.sum(R * R, axis=0) for R in rb), 1e-300)
-        rss1 = np.maximum(sum(np.sum(R * R, axis=0) for R in ra), 1e-300)
-        tests.append(
-            likelihood_ratio(
-                rss0,
-                np.minimum(rss1, rss0),
-                effective_samples(list(rb), per_channel=True),
-                max(df, 1),
-            )
-        )
+        tests.append(residual_lr_test(rb, ra, df))
     df = max(int(round(np.mean([t.df for t in tests]))), 1)
     statistic = float(np.mean([t.statistic for t in tests]))
     return {
@@ -400,25 +386,7 @@ def _explainable(ctx, screen, floor2):
         # The drift candidate fits a trend per run, which the flexible
         # model's shared coefficients do not: it gets the same.
         flex_R = [_detrend_first_half(R, ~ctx.problem.is_disp) for R in flex_R]
-    gap_base = gap_of(screen.base_R)[0]
-    gap_flex = gap_of(flex_R)[0]
-    share = explainable_gap(gap_base, gap_flex, floor2)
-    white = whiteness(flex_R)
-    logger.info(
-        "Base held-out gap %.3g; a flexible model of the drivers reaches %.3g "
-        "(%.0f%% of the excess above noise).",
-        gap_base,
-        gap_flex,
-        100 * share,
-    )
-    return {
-        "gap_before": gap_base,
-        "gap_after": gap_flex,
-        "share": share,
-        "whiteness_after": white["max_deviation"],
-        "white_band": white["band"],
-        "white_after": white["white"],
-    }
+    return explainable_summary(screen.base_R, flex_R, floor2)
 
 
 @validate_params(

@@ -16,12 +16,15 @@ count by the residual's correlation time; pass it as ``n`` to
 :func:`likelihood_ratio`.
 """
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
-from skthermal.gap._scores import excess_shrink
+from skthermal.gap._scores import excess_shrink, gap_of
+
+logger = logging.getLogger("skthermal.gap")
 
 
 def _as_series(residual):
@@ -437,3 +440,86 @@ def share_of_explainable(shrink, explainable):
     (0.5, nan)
     """
     return float(shrink / explainable) if explainable > 0 else float("nan")
+
+
+def explainable_summary(base_R, flexible_R, floor2):
+    """What the flexible discrepancy model makes of the base's held-out gap.
+
+    Parameters
+    ----------
+    base_R, flexible_R : list of ndarray
+        Held-out residuals of every run, of the base and with the flexible
+        model.
+    floor2 : float
+        Squared gap that noise alone would leave.
+
+    Returns
+    -------
+    dict
+        ``gap_before`` and ``gap_after`` (held out), ``share`` (of the gap
+        above noise it removes, :func:`explainable_gap`) and the whiteness of
+        its residual (``whiteness_after``, ``white_band``, ``white_after``):
+        the ``explainable`` of a gap report.
+    """
+    gap_base = gap_of(base_R)[0]
+    gap_flex = gap_of(flexible_R)[0]
+    share = explainable_gap(gap_base, gap_flex, floor2)
+    white = whiteness(flexible_R)
+    logger.info(
+        "Base held-out gap %.3g; a flexible model of the drivers reaches %.3g "
+        "(%.0f%% of the excess above noise).",
+        gap_base,
+        gap_flex,
+        100 * share,
+    )
+    return {
+        "gap_before": gap_base,
+        "gap_after": gap_flex,
+        "share": share,
+        "whiteness_after": white["max_deviation"],
+        "white_band": white["band"],
+        "white_after": white["white"],
+    }
+
+
+def residual_lr_test(before, after, extra_params):
+    """:func:`likelihood_ratio` of two fits from their in-sample residuals.
+
+    Per channel (each with its own noise variance), with the samples counted
+    by their effective number (:func:`effective_samples` of ``before``);
+    ``after`` is taken as no worse than ``before`` channel by channel (a
+    nested fit cannot be).
+
+    Parameters
+    ----------
+    before, after : list of ndarray of shape (n_i, n_channels)
+        Residuals of every run of the smaller and the larger fit.
+    extra_params : int
+        Parameters the larger fit adds (at least 1 is counted).
+
+    Returns
+    -------
+    LikelihoodRatio
+    """
+    rss0 = np.maximum(sum(np.sum(R * R, axis=0) for R in before), 1e-300)
+    rss1 = np.maximum(sum(np.sum(R * R, axis=0) for R in after), 1e-300)
+    return likelihood_ratio(
+        rss0,
+        np.minimum(rss1, rss0),
+        effective_samples(list(before), per_channel=True),
+        max(int(extra_params), 1),
+    )
+
+
+def whiteness_columns(before, after):
+    """The whiteness columns of a ranking row: the largest deviation of the
+    cumulated periodogram of the held-out residuals ``before`` and ``after``
+    a candidate, the 95% band and whether ``after`` is white
+    (:func:`whiteness`)."""
+    white_b, white_a = whiteness(before), whiteness(after)
+    return {
+        "whiteness_before": white_b["max_deviation"],
+        "whiteness_after": white_a["max_deviation"],
+        "white_band": white_a["band"],
+        "white_after": white_a["white"],
+    }

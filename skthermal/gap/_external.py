@@ -21,11 +21,10 @@ from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
 from skthermal.gap._evidence import (
-    effective_samples,
-    explainable_gap,
-    likelihood_ratio,
+    explainable_summary,
+    residual_lr_test,
     share_of_explainable,
-    whiteness,
+    whiteness_columns,
 )
 from skthermal.gap._problem import (
     START_SAMPLES,
@@ -345,15 +344,7 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
     after_in = _residuals(signals, full.apply(signals, all_idx), all_idx)
     # Per channel (each with its own noise), effective samples corrected for
     # the residual's autocorrelation.
-    rss0 = np.maximum(sum(np.sum(R * R, axis=0) for R in before_in), 1e-300)
-    rss1 = np.maximum(sum(np.sum(R * R, axis=0) for R in after_in), 1e-300)
-    lr = likelihood_ratio(
-        rss0,
-        np.minimum(rss1, rss0),
-        effective_samples(before_in, per_channel=True),
-        max(full.n_params(signals), 1),
-    )
-    white_b, white_a = whiteness(before_R), whiteness(after_R)
+    lr = residual_lr_test(before_in, after_in, full.n_params(signals))
     thetas = [m.theta_ for m in models]
     row = {
         "effect": name,
@@ -369,10 +360,7 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         "lr_p_value": lr.p_value,
         "delta_aic": lr.delta_aic,
         "delta_bic": lr.delta_bic,
-        "whiteness_before": white_b["max_deviation"],
-        "whiteness_after": white_a["max_deviation"],
-        "white_band": white_a["band"],
-        "white_after": white_a["white"],
+        **whiteness_columns(before_R, after_R),
         "fitted": {k: float(np.median([t[k] for t in thetas])) for k in full.theta_},
     }
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
@@ -642,7 +630,6 @@ def diagnose_runs(
 
     # Which: the base held out, then every candidate.
     base_R, _ = _heldout(signals, folds, lambda train: Base())
-    gap_base = gap_of(base_R)[0]
     ctx = (regimes, floor2, min_shrink, alpha, all_idx, regime_gaps(base_R, regimes))
     jobs = Parallel(n_jobs=n_jobs)(
         delayed(_evaluate)(signals, folds, (), base_R, calibrated, c, ctx)
@@ -650,19 +637,12 @@ def diagnose_runs(
     )
     # How much any added term could close: the flexible model.
     flex_R = _flexible_heldout(signals, folds, [j[3] for j in jobs])
-    gap_flex = gap_of(flex_R)[0]
-    explainable = explainable_gap(gap_base, gap_flex, floor2)
-    white_flex = whiteness(flex_R)
-    logger.info(
-        "Base held-out gap %.3g; a flexible model of the drivers reaches %.3g "
-        "(%.0f%% of the excess above noise).",
-        gap_base,
-        gap_flex,
-        100 * explainable,
-    )
+    explainable = explainable_summary(base_R, flex_R, floor2)
     rows = [j[0] for j in jobs]
     for row in rows:
-        row["share_of_explainable"] = share_of_explainable(row["shrink"], explainable)
+        row["share_of_explainable"] = share_of_explainable(
+            row["shrink"], explainable["share"]
+        )
         logger.info(
             "Which: %s: held-out gap %.3g -> %.3g, shrink %.0f%% above noise "
             "(%.0f%% of the explainable), p = %.2g, likelihood ratio p = %.2g%s.",
@@ -757,14 +737,7 @@ def diagnose_runs(
             "mode": "external",
         },
     )
-    report.explainable = {
-        "gap_before": gap_base,
-        "gap_after": gap_flex,
-        "share": explainable,
-        "whiteness_after": white_flex["max_deviation"],
-        "white_band": white_flex["band"],
-        "white_after": white_flex["white"],
-    }
+    report.explainable = explainable
     report.machines = {"base calibrated": base_all}
     report.not_applicable = not_applicable
     logger.info("Verdict: %s", report.verdict())
