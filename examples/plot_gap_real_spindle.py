@@ -15,7 +15,7 @@ are compared. The 46 h record is one run; it is held out in 8 h blocks, each
 simulated from the start of the record.
 
 Run: ``python examples/plot_gap_real_spindle.py [path/to/fl_thermal_spindle.csv.gz]``
-(default: ``../shared/data/fl_thermal_spindle.csv.gz``; takes a few minutes).
+(default: ``../shared/data/fl_thermal_spindle.csv.gz``; about half a minute).
 """
 
 # %%

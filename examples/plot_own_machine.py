@@ -17,7 +17,7 @@ The record has no air temperature: as in the gap example, the sensor least
 correlated with low-passed spindle losses stands in for it.
 
 Run: ``python examples/plot_own_machine.py [path/to/fl_thermal_spindle.csv.gz]``
-(default: ``../shared/data/fl_thermal_spindle.csv.gz``; about a minute).
+(default: ``../shared/data/fl_thermal_spindle.csv.gz``; under ten seconds).
 """
 
 # %%

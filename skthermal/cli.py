@@ -97,7 +97,7 @@ def _add_reproduce(sub):
         "tables as CSV, figures as PNG (cf. 001 Figs. 5-11..5-15), the run "
         "table and settings.json (settings, versions, seed, timings). Progress "
         "goes to stderr. Default settings (10 s sampling, as the thesis) take "
-        "about a minute on two idle cores.",
+        "about half a minute on two cores.",
         "  skthermal reproduce\n"
         "  skthermal reproduce --out report/ --seed 3\n"
         "  skthermal reproduce --quick --no-figures          # a few seconds\n"
@@ -518,7 +518,7 @@ def build_parser():
         prog="skthermal",
         description="Thermal-error modelling of CNC machine tools.",
         epilog="examples:\n"
-        "  skthermal reproduce                  # the papers' study, about a minute\n"
+        "  skthermal reproduce                  # the papers' study, about 30 s\n"
         "  skthermal simulate --tests I,IV,V --out tests.csv\n"
         "  skthermal select --runs tests.csv --train-runs IV --out sensors.json\n"
         "  skthermal fit --runs tests.csv --train-runs IV --model anfis-fcm \\\n"

@@ -4,7 +4,6 @@ METHODS §6 (000 §2, 001 §3.3, 003 §5; Jang 1993); the array-level algorithm
 lives in :mod:`skthermal.fuzzy._anfis_core`.
 """
 
-import contextlib
 import numbers
 
 import numpy as np
@@ -15,7 +14,6 @@ from sklearn.utils.validation import check_array, check_is_fitted, validate_data
 
 from skthermal.fuzzy._anfis_core import (
     _HALF,
-    _SINGLE_THREAD_COLUMNS,
     _CheckingSet,
     _rmse,
     anfis_predict,
@@ -310,6 +308,13 @@ default="fcm"
     :class:`skthermal.compose.GuardedRegressor`. Abdulshahed et al.
     (000) found 3 FCM rules to beat a 243-rule grid for thermal error.
 
+    Training runs its linear algebra on one BLAS thread, as scikit-learn's
+    ``KMeans`` does for its iterations: an epoch is a chain of products too
+    small to share well between threads, and on cores shared with other jobs
+    waiting threads made a 1458-consequent grid three times slower (5.7 s
+    against 1.9 s for 30 epochs on 2 busy cores). Parallelise over fits
+    instead (``n_jobs`` of a search or of ``cross_validate``).
+
     Examples
     --------
     >>> import numpy as np
@@ -542,9 +547,11 @@ default="fcm"
         return self.grey or self.validation_fraction is not None or self.ridge == "auto"
 
     def _train(self, X, Y, mf_params, rules, ridge, checking, verbose):
-        n_columns = rules.shape[0] * (X.shape[1] + 1)
-        small = n_columns <= _SINGLE_THREAD_COLUMNS
-        with single_threaded_blas() if small else contextlib.nullcontext():
+        # One BLAS thread: an epoch is a chain of matrix products too small
+        # to share well, and on cores shared with other jobs OpenBLAS threads
+        # wait for each other (a 1458-consequent grid, 30 epochs on 2 busy
+        # cores: 5.7 s with two threads, 1.9 s with one).
+        with single_threaded_blas():
             return anfis_train(
                 X,
                 Y,

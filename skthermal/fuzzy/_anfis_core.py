@@ -39,10 +39,6 @@ _HALF = np.sqrt(2.0 * np.log(2.0))
 # widths relative to each input's spread.
 _WIDTH_FLOOR = 1e-6
 _SLOPE_FLOOR = 1e-3
-# Up to this many consequent columns the per-epoch linear algebra is small:
-# one BLAS thread is then faster than several, and much faster when the cores
-# are shared (oversubscribed OpenBLAS threads slow small solves down 10-50x).
-_SINGLE_THREAD_COLUMNS = 512
 
 
 # --------------------------------------------------------------------------
