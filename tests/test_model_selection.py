@@ -355,6 +355,42 @@ def test_anfis_epoch_pruning(runs_data, validation_fraction):
     assert result.best_estimator_[-1].epoch_callback is None
 
 
+def test_epoch_pruning_keeps_the_users_epoch_callback(runs_data):
+    # The pruning callback is chained after the estimator's own in the first
+    # fold; best_estimator_ keeps the user's callback, not the pruning one.
+    X, y, groups = runs_data
+    calls = []
+
+    def user_callback(epoch, train_rmse, check_rmse):
+        calls.append(epoch)
+
+    result = run_search(
+        ANFISRegressor(random_state=0, epoch_callback=user_callback),
+        X,
+        y,
+        groups=groups,
+        space=_small_anfis_space(epochs=3),
+        n_trials=1,
+        pruner=_pruner(10),  # reports every epoch, never prunes
+        random_state=0,
+    )
+    assert sorted(result.study.trials[0].intermediate_values) == [1, 2, 3]
+    assert calls == [1, 2, 3] * 4  # three folds, then the refit
+    assert result.best_estimator_.epoch_callback is user_callback
+    # A user's callback asking to stop still stops the first fold.
+    result = run_search(
+        ANFISRegressor(random_state=0, epoch_callback=lambda e, t, c: e == 2),
+        X,
+        y,
+        groups=groups,
+        space=_small_anfis_space(epochs=5),
+        n_trials=1,
+        pruner=_pruner(10),
+        refit=False,
+    )
+    assert sorted(result.study.trials[0].intermediate_values) == [1, 2]
+
+
 def test_fold_pruning_for_other_estimators(runs_data):
     X, y, groups = runs_data
     result = run_search(
@@ -386,7 +422,11 @@ def test_fold_pruning_for_other_estimators(runs_data):
 
 def test_bad_draws_fail_trials_not_the_search(runs_data):
     X, y, groups = runs_data
-    with pytest.warns(UserWarning, match="No trial of the study completed"):
+    with pytest.warns(
+        UserWarning,
+        match=r"none of the study's 2 trial\(s\) completed \(2 fail\); see the "
+        "failed trials' 'error'",
+    ):
         result = run_search(
             ANFISRegressor(),
             X,
@@ -399,6 +439,100 @@ def test_bad_draws_fail_trials_not_the_search(runs_data):
     assert [t.state for t in result.study.trials] == [FAIL, FAIL]
     assert "n_clusters=10000" in result.study.trials[0].user_attrs["error"]
     assert result.best_params_ is None and result.best_estimator_ is None
+
+
+class _StopAfter:
+    """A callback failing the test once this call has run ``n`` trials (a
+    search that should have stopped, or never started, loops otherwise)."""
+
+    def __init__(self, n):
+        self.n = n
+        self.seen = 0
+        self.study = None
+
+    def __call__(self, study, trial):
+        self.study = study
+        self.seen += 1
+        if self.seen >= self.n:
+            raise AssertionError(f"the search ran {self.seen} trials")
+
+
+def test_failing_trials_end_a_search_with_total_trials(runs_data):
+    # The worker recipe (n_trials=None, total_trials=N): failed trials never
+    # count towards N, so without a limit it would loop for ever.
+    X, y, groups = runs_data
+    watch = _StopAfter(50)
+    with pytest.raises(ValueError, match="stopped: 4 trials in a row failed") as info:
+        run_search(
+            ANFISRegressor(),
+            X,
+            y,
+            groups=groups,
+            space=search_space("anfis", init="fcm", n_clusters=10_000, epochs=2),
+            n_trials=None,
+            total_trials=3,
+            max_failed_trials=4,
+            callbacks=[watch],
+        )
+    message = str(info.value)
+    assert "The first of them, trial 0, failed in fold 0: ValueError:" in message
+    assert "n_clusters=10000" in message and "raise max_failed_trials" in message
+    assert isinstance(info.value.__cause__, ValueError)  # the trial's own error
+    assert [t.state for t in watch.study.trials] == [FAIL] * 4
+
+
+def test_only_failures_in_a_row_end_a_search(runs_data):
+    # Two failures, then a complete trial, and again: never 3 in a row.
+    X, y, groups = runs_data
+
+    def space(trial):
+        n_clusters = 2 if trial.number % 3 == 2 else 10_000
+        return {"init": "fcm", "n_clusters": n_clusters, "epochs": 2}
+
+    result = run_search(
+        ANFISRegressor(random_state=0),
+        X,
+        y,
+        groups=groups,
+        space=space,
+        n_trials=9,
+        max_failed_trials=3,
+        refit=False,
+    )
+    assert [t.state for t in result.study.trials] == [FAIL, FAIL, COMPLETE] * 3
+
+
+def test_a_search_needs_a_stopping_criterion(runs_data):
+    X, y, groups = runs_data
+    with pytest.raises(ValueError, match=r"n_trials=None\) would never stop: pass"):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups=groups,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            n_trials=None,
+            callbacks=[_StopAfter(1)],
+        )
+
+
+def test_no_trial_run_says_so(runs_data, tmp_path):
+    X, y, groups = runs_data
+    kwargs = {
+        "space": lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+        "storage": tmp_path / "zero.db",
+        "study_name": "zero",
+    }
+    est = GreyPSORegressor(calibration="ls")
+    with pytest.warns(UserWarning, match="the study holds no trial") as record:
+        result = run_search(est, X, y, groups=groups, n_trials=0, **kwargs)
+    assert "error" not in str(record[0].message)
+    assert result.best_params_ is None and result.study.trials == []
+    # n_trials=0 on a stored study: its best trial, refitted.
+    run_search(est, X, y, groups=groups, n_trials=2, refit=False, **kwargs)
+    result = run_search(est, X, y, groups=groups, n_trials=0, **kwargs)
+    assert len(result.study.trials) == 2
+    assert result.best_estimator_.delay == result.best_params_["delay"]
 
 
 def test_total_trials_counts_every_worker(runs_data, tmp_path):
@@ -489,6 +623,86 @@ def test_a_study_of_another_search_is_refused(runs_data, tmp_path):
             n_trials=1,
             **kwargs,
         )
+
+
+def _grey_search(X, y, groups, storage, **kwargs):
+    return run_search(
+        GreyPSORegressor(calibration="ls"),
+        X,
+        y,
+        groups=groups,
+        space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+        n_trials=1,
+        storage=storage,
+        study_name="s",
+        refit=False,
+        **kwargs,
+    )
+
+
+def test_a_study_on_other_inputs_rows_or_folds_is_refused(runs_data, tmp_path):
+    # Scores on other sensors, rows or folds, or optimised the other way, are
+    # not comparable: joining such a study would report the other search's
+    # best trial as this one's.
+    X, y, groups = runs_data
+    storage = tmp_path / "other.db"
+    _grey_search(X.iloc[:, :3], y, groups, storage)
+    first, second, third, fourth = X.columns[:4]
+    refused = {
+        rf"features: only there \['{first}'\], only here \['{fourth}'\]": {
+            "X": X.iloc[:, 1:4]
+        },
+        rf"features in the order \['{first}', '{second}', '{third}'\] there": {
+            "X": X[[third, second, first]]
+        },
+        r"features \[.*\] there, '3 unnamed columns' here": {
+            "X": X.iloc[:, :3].to_numpy()
+        },
+        r"\(cv 'GroupKFold, 3 folds' there, 'GroupKFold, 2 folds' here; data": {
+            "cv": 2
+        },
+        r"; data '150 rows, 3 runs, run labels and folds \w+' there, '100 rows, "
+        r"2 runs, run labels and folds \w+' here\)": {"rows": slice(0, 100)},
+        r"made to maximize, this search gives direction='minimize'": {
+            "direction": "minimize"
+        },
+    }
+    for message, change in refused.items():
+        rows = change.pop("rows", slice(None))
+        data = change.pop("X", X.iloc[:, :3])
+        data, y_rows = (
+            v.iloc[rows] if hasattr(v, "iloc") else v[rows] for v in (data, y)
+        )
+        with pytest.raises(ValueError, match=message):
+            _grey_search(data, y_rows, groups[rows], storage, **change)
+    # The same search, seeded otherwise, joins.
+    result = _grey_search(X.iloc[:, :3], y, groups, storage, random_state=1)
+    assert len(result.study.trials) == 2
+    assert result.study.user_attrs["skthermal_features"] == [first, second, third]
+
+
+def test_a_study_of_an_older_skthermal_is_joined_with_a_warning(runs_data, tmp_path):
+    # Made before the features, cv and data were recorded: no way to check
+    # them; the search warns, records its own, and later searches are checked.
+    X, y, groups = runs_data
+    storage = tmp_path / "old.db"
+    study = optuna.create_study(
+        study_name="s", storage=make_storage(storage), direction="maximize"
+    )
+    for key, value in {
+        "skthermal_estimator": "GreyPSORegressor",
+        "skthermal_scoring": "neg_rmse",
+        "skthermal_target": str(y.name),
+    }.items():
+        study.set_user_attr(key, value)
+    study.enqueue_trial({"delay": 0})
+    study.optimize(lambda trial: -float(trial.suggest_int("delay", 0, 1)), n_trials=1)
+    with pytest.warns(UserWarning, match="does not record their features, cv, data"):
+        result = _grey_search(X, y, groups, storage)
+    assert len(result.study.trials) == 2
+    assert result.study.user_attrs["skthermal_features"] == list(X.columns)
+    with pytest.raises(ValueError, match="features: only there"):
+        _grey_search(X.iloc[:, :2], y, groups, storage)
 
 
 def test_groups_given_apart_reach_every_fit(runs_data):

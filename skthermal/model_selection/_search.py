@@ -9,10 +9,12 @@ every worker runs the same call against the same storage and study name.
 """
 
 import contextlib
+import hashlib
 import math
 import numbers
 import os
 import socket
+import threading
 import time
 import warnings
 
@@ -417,26 +419,83 @@ def _resolve_cv(cv, groups):
 
 
 class _PruningCallback:
-    """ANFIS ``epoch_callback`` reporting the monitored error to the trial."""
+    """ANFIS ``epoch_callback`` reporting the monitored error to the trial,
+    after calling the estimator's own ``epoch_callback`` (``user``), if any:
+    training stops when either asks."""
 
-    def __init__(self, trial, sign):
+    def __init__(self, trial, sign, user=None):
         self.trial = trial
         self.sign = sign
+        self.user = user
         self.pruned_at = None
 
     def __call__(self, epoch, train_rmse, check_rmse):
+        stop = False
+        if self.user is not None:
+            stop = bool(self.user(epoch, train_rmse, check_rmse))
         error = train_rmse if check_rmse is None else check_rmse
         if not math.isfinite(error):
-            return False
+            return stop
         self.trial.report(self.sign * error, epoch)
         if self.trial.should_prune():
             self.pruned_at = epoch
             return True
-        return False
+        return stop
+
+
+class _FailureGuard:
+    """Optuna callback stopping the study once ``limit`` trials of this call
+    failed in a row (a complete or pruned trial resets the count); the
+    objective hands it each failure's exception (``record``)."""
+
+    def __init__(self, limit):
+        self.limit = limit
+        self.lock = threading.Lock()
+        self.errors = {}  # trial number -> exception, until its callback
+        self.in_a_row = 0
+        self.first = None  # (frozen trial, exception) opening the failures
+        self.tripped = None  # ``first`` when the limit was reached
+
+    def record(self, number, exc):
+        with self.lock:
+            self.errors[number] = exc
+
+    def __call__(self, study, trial):
+        optuna = _import_optuna()
+        with self.lock:
+            exc = self.errors.pop(trial.number, None)
+            if trial.state == optuna.trial.TrialState.FAIL:
+                if self.in_a_row == 0:
+                    self.first = (trial, exc)
+                self.in_a_row += 1
+                if self.in_a_row >= self.limit and self.tripped is None:
+                    self.tripped = self.first
+                    study.stop()
+            else:
+                self.in_a_row = 0
+                self.first = None
+
+    def raise_if_tripped(self):
+        if self.tripped is None:
+            return
+        trial, exc = self.tripped
+        error = trial.user_attrs.get("error")
+        if error is None:
+            what = "recorded no error (Optuna failed it, e.g. for a NaN value)"
+        else:
+            fold = trial.user_attrs.get("error_fold")
+            what = f"failed in fold {fold}: {error.rstrip('.')}"
+        raise ValueError(
+            f"The search stopped: {self.limit} trials in a row failed in this call "
+            f"(max_failed_trials={self.limit}). The first of them, trial "
+            f"{trial.number}, {what}. Fix the estimator, the data or the search "
+            "space (every failed trial keeps its error in the user attribute "
+            "'error'), or raise max_failed_trials."
+        ) from exc
 
 
 class _Objective:
-    def __init__(self, estimator, space, X, y, splits, scorer, pruning, sign):
+    def __init__(self, estimator, space, X, y, splits, scorer, pruning, sign, guard):
         self.estimator = estimator
         self.space = space
         self.X = X
@@ -445,6 +504,7 @@ class _Objective:
         self.scorer = scorer
         self.pruning = pruning
         self.sign = sign
+        self.guard = guard
 
     def __call__(self, trial):
         optuna = _import_optuna()
@@ -462,9 +522,10 @@ class _Objective:
             model = clone(base)
             hook = None
             if self.pruning == "epochs" and fold == 0:
-                hook = _PruningCallback(trial, self.sign)
                 _, prefix = _final_step(model)
-                model.set_params(**{f"{prefix}epoch_callback": hook})
+                key = f"{prefix}epoch_callback"
+                hook = _PruningCallback(trial, self.sign, model.get_params()[key])
+                model.set_params(**{key: hook})
             try:
                 model.fit(_take(self.X, train), _take(self.y, train))
                 if hook is not None and hook.pruned_at is not None:
@@ -479,6 +540,7 @@ class _Objective:
             except Exception as exc:  # a bad draw fails the trial, not the study
                 trial.set_user_attr("error", f"{type(exc).__name__}: {exc}")
                 trial.set_user_attr("error_fold", fold)
+                self.guard.record(trial.number, exc)
                 # Raised as the cause of the failure, which Optuna logs and
                 # records (the study's optimize catches it).
                 raise _TrialFailed(f"fold {fold}: {type(exc).__name__}: {exc}") from exc
@@ -497,8 +559,16 @@ class _TrialFailed(Exception):
 
 
 # What a stored study records of the search that made it, so that another
-# search does not join it by a clash of names.
-_SETUP_KEYS = ("skthermal_estimator", "skthermal_scoring", "skthermal_target")
+# search does not join it by a clash of names: scores are comparable only for
+# the same model, scoring, target, inputs, folds and rows.
+_SETUP_KEYS = (
+    "skthermal_estimator",
+    "skthermal_scoring",
+    "skthermal_target",
+    "skthermal_features",
+    "skthermal_cv",
+    "skthermal_data",
+)
 
 
 def _estimator_kind(estimator):
@@ -526,23 +596,93 @@ def _scoring_name(scoring):
     return f"{module}.{name}"
 
 
-def _check_study_setup(study, estimator, scoring, y):
-    """Record the estimator, scoring and target in a new study; refuse to
-    join a study that another search made (naming what differs)."""
+def _target_name(y):
     name = getattr(y, "name", None)
     if name is None and hasattr(y, "columns"):
         name = ",".join(map(str, y.columns))
-    target = "" if name is None else str(name)
-    values = (_estimator_kind(estimator), _scoring_name(scoring), target)
-    setup = dict(zip(_SETUP_KEYS, values, strict=True))
+    return "" if name is None else str(name)
+
+
+def _feature_names(X):
+    """X's column names when they are all strings (scikit-learn's rule for
+    ``feature_names_in_``), else the number of unnamed columns."""
+    columns = getattr(X, "columns", None)
+    if (
+        columns is not None
+        and len(columns)
+        and all(isinstance(c, str) for c in columns)
+    ):
+        return [str(c) for c in columns]
+    shape = np.shape(X)
+    return f"{shape[1] if len(shape) > 1 else 1} unnamed columns"
+
+
+def _cv_kind(cv, splits):
+    kind = type(cv).__name__ if hasattr(cv, "split") else "given folds"
+    return f"{kind}, {len(splits)} folds"
+
+
+def _data_fingerprint(X, groups, splits):
+    """Rows, runs and a hash of the run labels (in row order) and of the
+    folds' rows: equal for the same runs split the same way."""
+    digest = hashlib.sha256()
+    if groups is not None:
+        digest.update("\x1f".join(map(str, groups)).encode())
+    for train, test in splits:
+        digest.update(b"\x1e" + np.asarray(train, dtype="<i8").tobytes())
+        digest.update(b"\x1d" + np.asarray(test, dtype="<i8").tobytes())
+    runs = "" if groups is None else f", {len(dict.fromkeys(groups))} runs"
+    return f"{len(X)} rows{runs}, run labels and folds {digest.hexdigest()[:16]}"
+
+
+def _search_setup(estimator, scoring, X, y, groups, cv, splits):
+    """What :func:`run_search` records in a study (``_SETUP_KEYS``); ``X``
+    as the caller gave it (its column names)."""
+    values = (
+        _estimator_kind(estimator),
+        _scoring_name(scoring),
+        _target_name(y),
+        _feature_names(X),
+        _cv_kind(cv, splits),
+        _data_fingerprint(X, groups, splits),
+    )
+    return dict(zip(_SETUP_KEYS, values, strict=True))
+
+
+def _describe_difference(key, there, here):
+    what = key.removeprefix("skthermal_")
+    if (
+        key == "skthermal_features"
+        and isinstance(there, list)
+        and isinstance(here, list)
+    ):
+        only_there = [c for c in there if c not in here]
+        only_here = [c for c in here if c not in there]
+        if only_there or only_here:
+            return f"features: only there {only_there}, only here {only_here}"
+        return f"features in the order {there} there, {here} here"
+    return f"{what} {there!r} there, {here!r} here"
+
+
+def _check_study_setup(study, setup, direction):
+    """Record the search's setup (``_search_setup``) in a new study; refuse
+    to join a study that another search made, naming what differs. A study
+    holding trials but not (all of) the keys, made by an older skthermal or
+    outside :func:`run_search`, is joined with a warning and the missing
+    keys are recorded."""
+    directions = [d.name.lower() for d in study.directions]
+    if directions != [direction]:
+        raise ValueError(
+            f"Study {study.study_name!r} was made to {' and '.join(directions)}, "
+            f"this search gives direction={direction!r}: give the study's "
+            "direction, or another study_name (or storage)."
+        )
+    # Trials first: a search records its keys before its first trial, so a
+    # trial seen here means that its keys are visible below.
+    n_trials = len(study.get_trials(deepcopy=False))
     stored = study.user_attrs
-    if not any(k in stored for k in _SETUP_KEYS):
-        if not study.get_trials(deepcopy=False):
-            for key, value in setup.items():
-                study.set_user_attr(key, value)
-        return
     differ = [
-        f"{key.removeprefix('skthermal_')} {stored[key]!r} there, {value!r} here"
+        _describe_difference(key, stored[key], value)
         for key, value in setup.items()
         if key in stored and stored[key] != value
     ]
@@ -553,6 +693,20 @@ def _check_study_setup(study, estimator, scoring, y):
             + "): its trials cannot be compared with this one's. Give another "
             "study_name (or storage)."
         )
+    missing = [key for key in setup if key not in stored]
+    if missing and n_trials:
+        names = ", ".join(key.removeprefix("skthermal_") for key in missing)
+        warnings.warn(
+            f"Study {study.study_name!r} holds {n_trials} trial(s) but does not "
+            f"record their {names} (made by an older skthermal or outside "
+            "run_search): cannot check that its trials are comparable with this "
+            "search's. This search records its own; later searches are checked "
+            "against them.",
+            UserWarning,
+            stacklevel=4,
+        )
+    for key in missing:
+        study.set_user_attr(key, setup[key])
 
 
 class SearchResult:
@@ -601,6 +755,28 @@ class SearchResult:
         )
 
 
+def _no_best_trial(study):
+    """Why a study has no best trial, by the states of its trials."""
+    trials = study.get_trials(deepcopy=False)
+    if not trials:
+        return (
+            "No best trial: the study holds no trial (this call ran none, and "
+            "none were stored before)."
+        )
+    counts = {}
+    for trial in trials:
+        state = trial.state.name.lower()
+        counts[state] = counts.get(state, 0) + 1
+    states = ", ".join(f"{n} {state}" for state, n in counts.items())
+    hint = (
+        "; see the failed trials' 'error' user attributes" if "fail" in counts else ""
+    )
+    return (
+        f"No best trial: none of the study's {len(trials)} trial(s) completed "
+        f"({states}){hint}."
+    )
+
+
 def _resolve_pruning(pruning, study, estimator):
     optuna = _import_optuna()
     last, _ = _final_step(estimator)
@@ -643,6 +819,7 @@ def _resolve_pruning(pruning, study, estimator):
         "pruning": [StrOptions({"auto", "epochs", "folds"}), None],
         "timeout": [Interval(numbers.Real, 0, None, closed="neither"), None],
         "total_trials": [Interval(numbers.Integral, 1, None, closed="left"), None],
+        "max_failed_trials": [Interval(numbers.Integral, 1, None, closed="left")],
         "n_jobs": [numbers.Integral],
         "random_state": [Interval(numbers.Integral, 0, None, closed="left"), None],
         "load_if_exists": ["boolean"],
@@ -673,6 +850,7 @@ def run_search(
     pruning="auto",
     timeout=None,
     total_trials=None,
+    max_failed_trials=20,
     n_jobs=1,
     random_state=None,
     load_if_exists=True,
@@ -710,7 +888,8 @@ def run_search(
         step that has one.
     n_trials : int or None, default=20
         Trials run by this call (this worker). None: until ``timeout`` or
-        ``total_trials``.
+        ``total_trials``, one of which is then required. 0 runs none: the
+        result (and refit) of the trials already in a stored study.
     cv : int, cross-validation generator or iterable, optional
         Default ``GroupKFold(n_splits=min(5, n_runs))`` over the runs; an int
         sets the number of folds. The folds must be the same for every
@@ -725,7 +904,8 @@ def run_search(
     study_name : str, optional
         Required with a storage: the name every worker uses.
     direction : {"maximize", "minimize"}, default="maximize"
-        "maximize" suits every scorer name (errors are negated).
+        "maximize" suits every scorer name (errors are negated). Joining a
+        stored study, it must be the study's direction.
     sampler : optuna sampler, optional
         Default ``TPESampler(seed=random_state)``; joining a stored study that
         already holds trials, the seed also counts them, so a resumed search
@@ -745,7 +925,13 @@ def run_search(
         Stop starting trials after this many seconds.
     total_trials : int, optional
         Stop when the study holds this many complete or pruned trials (over
-        all workers), Optuna's ``MaxTrialsCallback``.
+        all workers), Optuna's ``MaxTrialsCallback``. Failed trials do not
+        count; ``max_failed_trials`` ends a search whose trials keep failing.
+    max_failed_trials : int, default=20
+        Raise a ValueError naming the first of them when this many trials of
+        this call (this worker; ``n_jobs`` threads together) fail in a row. A
+        complete or pruned trial of this call resets the count; other
+        workers' trials do not count.
     n_jobs : int, default=1
         Trials run in parallel threads of this process (Optuna's
         ``n_jobs``); for more throughput start more processes instead.
@@ -760,7 +946,9 @@ def run_search(
         Before searching, mark failed the trials left running by dead workers
         (:func:`fail_stale_trials`).
     refit : bool, default=True
-        Refit the best parameters on all of X, y (``best_estimator_``).
+        Refit the best parameters on all of X, y (``best_estimator_``). The
+        refitted estimator keeps an ``epoch_callback`` of ``estimator``, never
+        the pruning one.
     callbacks : list of callable, optional
         Passed to ``Study.optimize``.
 
@@ -779,14 +967,22 @@ def run_search(
     -----
     A draw the estimator rejects (e.g. more clusters than sensors) fails its
     trial, with the error in the trial's user attribute ``"error"``; the
-    search goes on. Every trial records the worker's host name and process
-    id (user attributes ``worker_host``, ``worker_pid``) and its fold scores
-    (``fold_scores``).
+    search goes on, until ``max_failed_trials`` trials fail in a row. Every
+    trial records the worker's host name and process id (user attributes
+    ``worker_host``, ``worker_pid``) and its fold scores (``fold_scores``).
 
     Per-epoch pruning only watches the first fold: the pruner compares the
     trials at equal epochs of the same training data, which is sound, while
     reports from later folds would mix folds of different difficulty at one
-    step. The other folds run in full once the first survives.
+    step. The other folds run in full once the first survives. An
+    ``epoch_callback`` of the estimator is kept: it is called before the
+    pruning callback in the first fold, and either can stop training.
+
+    A stored study records the estimator's classes, the scoring, the target,
+    the feature names (or their number), the kind and number of folds, and
+    the rows (their number, the runs, and a hash of the run labels and of
+    the folds' rows); joining it with a search that differs in any of them,
+    or in ``direction``, raises a ValueError naming what differs.
 
     Examples
     --------
@@ -807,14 +1003,22 @@ def run_search(
     True
     """
     optuna = _import_optuna()
+    if n_trials is None and total_trials is None and timeout is None:
+        raise ValueError(
+            "run_search(n_trials=None) would never stop: pass total_trials (the "
+            "trials of the study over all workers), timeout (seconds), or an "
+            "int n_trials."
+        )
     space = _resolve_space(space, estimator)
     groups = _run_groups(X, groups)
+    given_X = X
     X = _with_runs(X, groups)
     cv = _resolve_cv(cv, groups)
     splits = list(
         cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
     )
     scorer = get_scorer(scoring)
+    setup = _search_setup(estimator, scoring, given_X, y, groups, cv, splits)
 
     store = make_storage(
         storage,
@@ -837,9 +1041,9 @@ def run_search(
         pruner=pruner,
         load_if_exists=load_if_exists,
     )
+    _check_study_setup(study, setup, direction)
     if fail_stale and store is not None:
         fail_stale_trials(study)
-    _check_study_setup(study, estimator, scoring, y)
     if sampler is None:
         # A seeded sampler resuming a stored study would draw the points of
         # its first session again: the seed also counts the trials there.
@@ -852,8 +1056,9 @@ def run_search(
 
     mode = _resolve_pruning(pruning, study, estimator)
     sign = -1.0 if direction == "maximize" else 1.0
-    objective = _Objective(estimator, space, X, y, splits, scorer, mode, sign)
-    all_callbacks = list(callbacks or [])
+    guard = _FailureGuard(max_failed_trials)
+    objective = _Objective(estimator, space, X, y, splits, scorer, mode, sign, guard)
+    all_callbacks = [*(callbacks or []), guard]
     if total_trials is not None:
         counted = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
         all_callbacks.append(
@@ -870,16 +1075,13 @@ def run_search(
             callbacks=all_callbacks,
             catch=(_TrialFailed,),
         )
+        guard.raise_if_tripped()
 
     best_trial = best_params = best_estimator = None
     try:
         best_trial = study.best_trial
     except ValueError:
-        warnings.warn(
-            "No trial of the study completed; see the trials' 'error' user attributes.",
-            UserWarning,
-            stacklevel=2,
-        )
+        warnings.warn(_no_best_trial(study), UserWarning, stacklevel=3)
     if best_trial is not None:
         try:
             best_params = space(optuna.trial.FixedTrial(best_trial.params))
