@@ -605,3 +605,39 @@ def test_fl_thermal_not_worse_than_linear_regression():
             pred = est.fit(T[:k], y[:k]).predict(T) + y[0]
             ratios[ch, type(est).__name__] = rmse(pred[k:], y[k:]) / base
     assert max(ratios.values()) <= 1.0, ratios
+
+
+@pytest.mark.parametrize(
+    "est",
+    [GreyPSORegressor(calibration="ls"), GNNMCIRegressor(epochs=2, random_state=0)],
+)
+def test_a_numpy_step_in_front_warns_that_the_runs_become_one(est, run_table):
+    # A scikit-learn step that outputs numpy drops the run index: the model
+    # took all training runs as one, without a word.
+    import warnings
+
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    y = run_table.pop("y").to_numpy()
+    X = run_table.set_index("run")
+    name = type(est).__name__
+    with pytest.warns(
+        UserWarning,
+        match=rf"{name}\.fit got 360 rows that carry no run labels \(and no "
+        r"time_s\), so they are taken as ONE run.*set_output\(transform='pandas'\)",
+    ):
+        merged = make_pipeline(StandardScaler(), clone(est)).fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kept = make_pipeline(StandardScaler(), clone(est)).set_output(
+            transform="pandas"
+        )
+        kept.fit(X, y)
+        scaled = StandardScaler().set_output(transform="pandas").fit_transform(X)
+        np.testing.assert_allclose(
+            kept.predict(X), clone(est).fit(scaled, y).predict(scaled)
+        )
+        # Rows that are one run, said so: no warning.
+        clone(est).fit(X.to_numpy(), y, groups=np.zeros(len(X)))
+    assert not np.allclose(merged.predict(X), kept.predict(X))

@@ -422,3 +422,37 @@ def test_unlabelled_rows_warn_once_not_once_per_module(machine_b_runs):
         model.predict(X.to_numpy()[:30])
     messages = [str(w.message) for w in caught if "labelled run" in str(w.message)]
     assert len(messages) == 1 and messages[0].startswith("ModularRegressor")
+
+
+def test_a_numpy_step_in_front_warns_once_that_the_runs_become_one(machine_b_runs):
+    # The changes since the start of the run need the runs: a step that
+    # outputs numpy dropped them, and all training runs became one.
+    from sklearn.preprocessing import StandardScaler
+
+    train, _ = machine_b_runs
+    X, y, _ = split_runs(train, sensors=_HEAD[:3], targets="disp_y_um")
+    modules = [("grey", GreyPSORegressor(calibration="ls"), None)]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        make_pipeline(StandardScaler(), ModularRegressor(modules)).fit(X, y)
+    messages = [str(w.message) for w in caught if "no run labels" in str(w.message)]
+    assert len(messages) == 1, messages  # not again by the grey module
+    assert messages[0].startswith(f"ModularRegressor.fit got {len(X)} rows")
+    assert "set_output(transform='pandas')" in messages[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make_pipeline(StandardScaler(), ModularRegressor(modules)).set_output(
+            transform="pandas"
+        ).fit(X, y)
+        # Without relative changes and with a module that reads no runs,
+        # nothing to say.
+        ModularRegressor(relative=False).fit(X.to_numpy(), y)
+    # A sequence module says it itself, once, not once per backfitting sweep.
+    two = [*modules, ("linear", LinearRegression(), [0])]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = ModularRegressor(two, relative=False, max_iter=5)
+        model.fit(X.to_numpy(), y)
+    messages = [str(w.message) for w in caught if "no run labels" in str(w.message)]
+    assert model.n_iter_ > 1
+    assert len(messages) == 1 and messages[0].startswith("GreyPSORegressor.fit")

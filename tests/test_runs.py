@@ -469,3 +469,175 @@ def test_continued_run_messages_name_the_method_called():
     with pytest.warns(UserWarning, match=r"Run 'b' given to Step start") as record:
         continued_runs("Step", *args, method=None, stacklevel=2)
     assert record[0].filename == __file__
+
+
+def _clock_indexed(table, kind):
+    """``table`` (a run table) with its (run, time_s) as the index, the times
+    as durations or time stamps, or as text."""
+    frame = table.set_index(["run", "time_s"])
+    t = frame.index.get_level_values("time_s")
+    t = {
+        "timedelta": pd.to_timedelta(t, unit="s"),
+        "datetime": pd.Timestamp("2024-05-02") + pd.to_timedelta(t, unit="s"),
+        "text": t.astype(str).astype(object).where(t != 120.0, "2 min"),
+    }[kind]
+    return frame.set_axis(
+        pd.MultiIndex.from_arrays(
+            [frame.index.get_level_values("run"), t], names=["run", "time_s"]
+        )
+    )
+
+
+@pytest.mark.parametrize(
+    "kind, message",
+    [
+        ("timedelta", r"'time_s' index level holds timedelta64\[\w+\] values.*seconds"),
+        ("datetime", r"'time_s' index level holds datetime64\[\w+\] values.*seconds"),
+        ("text", r"'time_s' index level is not numeric: row 2 holds '2 min'"),
+    ],
+)
+def test_clock_times_in_the_index_are_an_error_as_in_a_column(kind, message):
+    # Read as floats, durations and time stamps became integer ticks: a
+    # sampling period of 6e7 "s" and predictions changed, without a word.
+    table, y, _ = _split_record()
+    X = _clock_indexed(table.drop(columns="spindle_rpm"), kind)
+    with pytest.raises(ValueError, match=message):
+        extract_runs(X)
+    with pytest.raises(ValueError, match=message):
+        run_times(X, [slice(0, len(X))])
+    for name, model in _regressors().items():
+        with pytest.raises(ValueError, match=message):
+            model.fit(X, y)
+    # The same values as a column: the same words.
+    column = X.reset_index()
+    as_column = message.replace("'time_s' index level", "Column 'time_s'")
+    with pytest.raises(ValueError, match=as_column):
+        extract_runs(column)
+
+
+def _two_runs():
+    table, y, _ = _split_record(n=30)
+    other = table.assign(run="rec2", T1_C=table["T1_C"] + 1.0)
+    table = pd.concat([table, other], ignore_index=True)
+    y = pd.Series(np.r_[y, y + 3.0], name="disp_y_um")
+    return table, y
+
+
+@pytest.mark.parametrize("name", list(_regressors()))
+def test_y_in_another_row_order_is_an_error(name):
+    # X and y both labelled, y sorted otherwise (after a merge): paired by
+    # position, they were accepted and the model learnt from the wrong rows.
+    table, y = _two_runs()
+    X = table.set_index(["run", "time_s"])
+    y = y.set_axis(X.index)
+    shuffled = y.sort_index(level="run", ascending=False)
+    model = _regressors()[name]
+    with pytest.raises(
+        ValueError,
+        match=r"y holds the rows of X in another order: row 0 of X is at run "
+        r"'rec', time_s=0, but row 0 of y is at run 'rec2', time_s=1740 \(60 of 60 "
+        r"rows differ\).*y\.loc\[X\.index\]",
+    ):
+        model.fit(X, shuffled)
+    # The run table as stored, with y indexed by (run, time_s): the same.
+    with pytest.raises(ValueError, match=r"row 0 of y is at run 'rec2'"):
+        model.fit(table, shuffled)
+    # y's plain index, another order: named by its labels.
+    with pytest.raises(
+        ValueError, match=r"row 0 of X is labelled 0, but row 0 of y is labelled 59"
+    ):
+        model.fit(table, y.reset_index(drop=True).iloc[::-1])
+
+
+def test_y_in_x_order_or_with_other_labels_pairs_by_position():
+    table, y = _two_runs()
+    X = table.set_index(["run", "time_s"])
+    y = y.set_axis(X.index)
+    shuffled = y.sort_index(level="run", ascending=False)
+    for target in (
+        y,
+        shuffled.loc[X.index],  # the fix the message gives
+        y.to_numpy(),
+        y.reset_index(drop=True),  # the table's own rows
+        y.set_axis(pd.RangeIndex(100, 160)),  # other labels: by position
+    ):
+        for features in (X, table):
+            extract_runs(features, y=target)
+    # Times changed in X alone (resampled, shifted): by position too.
+    later = X.set_axis(
+        pd.MultiIndex.from_arrays(
+            [X.index.get_level_values("run"), X.index.get_level_values(1) + 30.0],
+            names=["run", "time_s"],
+        )
+    )
+    extract_runs(later, y=y)
+
+
+def test_missing_target_names_the_row_label_of_y():
+    table, y = _two_runs()
+    X = table.set_index(["run", "time_s"])
+    target = y.set_axis(pd.RangeIndex(100, 160))
+    target.iloc[35] = np.nan
+    with pytest.raises(
+        ValueError,
+        match=r"'disp_y_um' is missing \(NaN\) at row 35, run 'rec2', time_s=300 "
+        r"\(y's row label 135; 1 non-finite",
+    ):
+        extract_runs(X, y=target)
+    with pytest.raises(ValueError, match=r"at row 35, run 'rec2', time_s=300 \(1 "):
+        extract_runs(X, y=target.set_axis(X.index))
+
+
+@pytest.mark.parametrize("name", list(_regressors()))
+def test_no_feature_columns_is_named(name):
+    table, y, _ = _split_record()
+    model = _regressors()[name]
+    message = r"X has no feature columns \(run and time_s are the index"
+    with pytest.raises(ValueError, match=message + r".*only \['run', 'time_s'\]"):
+        model.fit(table[["run", "time_s"]], y)
+    X = table.set_index(["run", "time_s"])
+    with pytest.raises(ValueError, match=message + ".*no column at all"):
+        model.fit(X[[]], y)
+    model.fit(X[["T1_C", "T2_C"]], y)
+    with pytest.raises(ValueError, match=message):
+        model.predict(X[[]])
+
+
+def test_run_labels_alone_are_not_an_error():
+    # Asking extract_runs for the labels of a table (a frame of its run
+    # column) is no model input.
+    table, _, _ = _split_record()
+    X, groups = extract_runs(table[["run"]])
+    assert X.shape == (len(table), 0) and set(groups) == {"rec"}
+    assert extract_runs(table[[]])[1] is None
+    with pytest.raises(ValueError, match="X has no feature columns"):
+        extract_runs(table[["run", "time_s"]])
+    with pytest.raises(ValueError, match="X has no feature columns"):
+        extract_runs(table[["run"]], y=np.zeros(len(table)))
+
+
+def test_fit_without_run_labels_or_times_warns_once():
+    from skthermal.utils._runs import UNLABELLED_WARNING, warn_unlabelled_runs
+
+    def caught(*args, **kwargs):
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            warn_unlabelled_runs(*args, **kwargs)
+        return [str(x.message) for x in w]
+
+    table, _, _ = _split_record()
+    X, groups = extract_runs(table)
+    plain = np.zeros((5, 2))
+    [message] = caught("Model", None, None, 5, X=plain)
+    assert message.startswith("Model.fit got 5 rows that carry no run labels")
+    assert "set_output(transform='pandas')" in message
+    assert message.endswith(
+        "pass them with their time_s (a run table), or their run label as groups."
+    )
+    assert re.match(UNLABELLED_WARNING, message)
+    assert not caught("Model", None, groups, len(X), X=X)  # labelled
+    assert not caught("Model", None, None, len(X), X=X.droplevel("run"))  # times
+    assert not caught("Model", None, None, 1, X=plain[:1])  # one row
+    [message] = caught("Model", 2, None, 5)  # predict
+    assert re.match(UNLABELLED_WARNING, message) and "set_output" in message
+    assert not caught("Model", None, None, 5)

@@ -30,6 +30,7 @@ from skthermal.datasets._runtable import (
 from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
+    UNLABELLED_WARNING,
     changes_since_start,
     check_time_order,
     continued_runs,
@@ -42,10 +43,6 @@ from skthermal.utils._runs import (
     run_times,
     warn_unlabelled_runs,
 )
-
-# What a module says when it gets rows without run labels although it was
-# fitted on labelled runs; ModularRegressor says it once itself.
-_UNLABELLED_WARNING = r".* was fitted on \d+ labelled run"
 
 
 class ModularRegressor(RegressorMixin, _BaseComposition):
@@ -81,7 +78,9 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         "thermal drift": the prediction is then the displacement *change*
         since the start of the run. Runs come from ``groups``, a ``run``
         column or a ``run`` index level (:func:`skthermal.datasets.split_runs`);
-        without them all rows are one run. A run label seen in ``fit``
+        without them all rows are one run (``fit`` warns when the rows carry
+        no ``time_s`` either: a plain array, as a scikit-learn step that
+        outputs numpy makes of a run table). A run label seen in ``fit``
         continues that run in ``predict`` (changes since its first training
         row, so its later rows given alone are predicted as inside the whole
         run); a labelled run starting inside its training span is an error;
@@ -326,6 +325,10 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         modules = self._resolve_modules()
         if self.relative:
             check_time_order(X_raw, groups)
+            # Changes since the start of the run need the runs.
+            warn_unlabelled_runs(
+                type(self).__name__, None, groups, X.shape[0], X=X_raw, stacklevel=4
+            )
         slices, labels = run_slices(groups, X.shape[0])
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = len(slices) if self.relative and groups is not None else None
@@ -339,7 +342,11 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         index = self._frame_index(X_raw, groups, X.shape[0])
         X = self._relative(X, groups)
         y = self._relative(np.asarray(y, dtype=float), groups)
-        self._fit(X, y, modules, source, index)
+        with warnings.catch_warnings():
+            if self.relative and groups is None:
+                # Said once above, not again by every module.
+                warnings.filterwarnings("ignore", message=UNLABELLED_WARNING)
+            self._fit(X, y, modules, source, index)
         return self
 
     def _fit(self, X, y, modules, source, index=None):
@@ -380,7 +387,12 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 change = 0.0
                 for k, (est, X_k) in enumerate(zip(fitted, inputs, strict=True)):
                     rest = y - (parts.sum(axis=0) - parts[k])
-                    est.fit(X_k, rest)
+                    with warnings.catch_warnings():
+                        if it > 1:  # a module says it in the first sweep
+                            warnings.filterwarnings(
+                                "ignore", message=UNLABELLED_WARNING
+                            )
+                        est.fit(X_k, rest)
                     new = np.asarray(est.predict(X_k), dtype=float)
                     new = new.reshape(y.shape)
                     change = max(change, float(np.max(np.abs(new - parts[k]))))
@@ -491,7 +503,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         with warnings.catch_warnings():
             if fit_runs is not None and groups is None:
                 # Said once above, not again by every module.
-                warnings.filterwarnings("ignore", message=_UNLABELLED_WARNING)
+                warnings.filterwarnings("ignore", message=UNLABELLED_WARNING)
             outputs = [
                 np.asarray(
                     est.predict(self._module_input(X, cols, index)), dtype=float

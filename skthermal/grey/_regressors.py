@@ -94,9 +94,13 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         slices, labels = run_slices(groups, _num_samples(X))
         times = run_times(X, slices)
         warn_row_gaps(type(self).__name__, X, slices, labels, stacklevel=6)
+        frame = X
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, dtype=float)
         check_run_lengths(slices, labels, type(self).__name__)
+        warn_unlabelled_runs(
+            type(self).__name__, None, groups, X.shape[0], X=frame, stacklevel=5
+        )
         return X, y, slices, run_memory(X, slices, labels, times)
 
     def _runs_for_predict(self, X, groups):
@@ -308,9 +312,12 @@ class GreyPSORegressor(_GreyRunRegressor):
     first training row are taken to follow its last one. A run not seen in
     ``fit`` starts at its first row, with a warning if its ``time_s`` does not
     start at 0. Rows without run labels given to a model fitted on labelled
-    runs are taken as one new run, with a warning (plain arrays fitted without
-    labels stay silent: one run each time). ``time_s`` must increase strictly
-    within a run, in ``fit`` and in ``predict``.
+    runs are taken as one new run, with a warning. ``fit`` on rows with
+    neither run labels nor ``time_s`` (a plain array, as a scikit-learn step
+    that outputs numpy makes of a run table) takes them as one run, with a
+    warning (rows with a ``time_s``, or with ``groups``, say where runs
+    start). ``time_s`` must increase strictly within a run, in ``fit`` and in
+    ``predict``.
 
     Tien's least squares fits the trapezoidal (Tustin) discretisation of the
     equation, one step at a time (an equation error), while the prediction

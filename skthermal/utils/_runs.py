@@ -185,8 +185,10 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         pass False. Plain arrays are left to
         :func:`sklearn.utils.validation.validate_data`.
     y : array-like of shape (n_samples,) or (n_samples, n_targets), optional
-        The target of a fit; with ``finite``, a missing or infinite target
-        value is an error naming the row, its run and its time.
+        The target of a fit. A ``y`` with row labels (a Series or DataFrame)
+        must label its rows as ``X`` does (:func:`check_target_rows`); with
+        ``finite``, a missing or infinite target value is an error naming
+        the row, its run and its time.
 
     Returns
     -------
@@ -197,12 +199,20 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     Raises
     ------
     ValueError
-        If a feature column of a DataFrame is not numeric, or a ``time_s``
-        column holds something other than numbers (naming the column and an
-        offending value), or (``finite``) a feature or target value is not
-        finite.
+        If a feature column of a DataFrame is not numeric, or ``time_s`` (a
+        column or an index level) holds something other than numbers (naming
+        the column and an offending value), or a DataFrame has no feature
+        column left, or ``y``'s row labels are not ``X``'s, or (``finite``)
+        a feature or target value is not finite.
+
+    Notes
+    -----
+    A DataFrame of run labels alone (no feature column, no ``time_s``, no
+    ``y``) is not an error: it asks for the labels. With a ``time_s`` or a
+    ``y`` it is a model's input without features, an error.
     """
     columns = getattr(X, "columns", None)
+    given_index = getattr(X, "index", None)
     if columns is not None and not columns.is_unique:
         duplicated = list(dict.fromkeys(columns[columns.duplicated()]))
         raise ValueError(
@@ -230,29 +240,67 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
                 "one label per row."
             )
     if columns is not None and TIME_COLUMN in list(columns):
-        import pandas as pd
-
-        time = X[[TIME_COLUMN]]
-        kind = time[TIME_COLUMN].dtype
-        if is_clock_dtype(kind):
-            raise ValueError(
-                f"Column {TIME_COLUMN!r} holds {kind} values; it must hold the "
-                "seconds since the start of each run as numbers, e.g. "
-                "(t - t.groupby(run).transform('first')).dt.total_seconds()."
-            )
-        check_numeric_columns(time)
+        times = _time_seconds(X[TIME_COLUMN], f"Column {TIME_COLUMN!r}")
         X = X.drop(columns=TIME_COLUMN)
-        times = pd.to_numeric(time[TIME_COLUMN]).to_numpy(dtype=float)
         X = X.set_axis(run_table_index(groups, times), axis=0)
+    _check_feature_columns(X, columns, y)
     check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
     _check_finite_times(X, groups)
     if finite:
         check_finite_columns(X, groups)
-        if y is not None:
-            check_finite_target(y, X, groups)
+    if y is not None:
+        check = check_finite_target if finite else check_target_rows
+        check(y, X, groups, given_index=given_index)
     return X, groups
+
+
+def _check_feature_columns(X, columns, y):
+    """Raise a ValueError when a DataFrame ``X`` (after :func:`extract_runs`
+    took its ``run`` and ``time_s`` out; ``columns``: those it was given
+    with) has no feature column left, unless it holds run labels alone (no
+    ``time_s``, no ``y``): scikit-learn would fail on it with numpy's "at
+    least one array or dtype is required"."""
+    if columns is None or X.shape[1] != 0:
+        return
+    if y is None and not has_time_index(X):
+        return  # run labels alone, asked for as such
+    given = [str(c) for c in columns]
+    held = f"only {given}" if given else "no column at all"
+    raise ValueError(
+        f"X has no feature columns (run and time_s are the index, not "
+        f"features): it holds {held}. Give the model at least one sensor or "
+        "driver column, e.g. runs[['run', 'time_s', 'T05_C']]."
+    )
+
+
+def _time_seconds(values, what):
+    """``time_s`` values (a column or index level, named by ``what``) as
+    float seconds; a ValueError names what it holds when that is not
+    numbers: datetimes or durations (converting would give nanoseconds or
+    microseconds, with no error) or text."""
+    import pandas as pd
+
+    kind = values.dtype
+    if is_clock_dtype(kind):
+        raise ValueError(
+            f"{what} holds {kind} values; it must hold the seconds since the "
+            "start of each run as numbers, e.g. "
+            "(t - t.groupby(run).transform('first')).dt.total_seconds()."
+        )
+    if pd.api.types.is_numeric_dtype(kind):
+        return np.asarray(values, dtype=float)
+    raw = np.asarray(values, dtype=object)
+    converted = pd.to_numeric(pd.Series(raw), errors="coerce").to_numpy(dtype=float)
+    bad = np.isnan(converted) & ~pd.isna(raw)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"{what} is not numeric: row {i} holds {plain(raw[i])!r}; it must "
+            "hold the seconds since the start of each run as numbers."
+        )
+    return converted
 
 
 def target_names(y):
@@ -307,11 +355,118 @@ def _check_finite_times(X, groups):
     )
 
 
-def check_finite_target(y, X, groups):
+def _label(value):
+    """A row label for messages: numpy scalars (also inside a tuple) as
+    Python values."""
+    if isinstance(value, tuple):
+        return tuple(plain(v) for v in value)
+    return plain(value)
+
+
+def _same_index(y_index, X, given_index):
+    """Whether ``y_index`` is the index of ``X`` or the one ``X`` was given
+    with (before :func:`extract_runs` made a ``time_s`` column its index)."""
+    import pandas as pd
+
+    return any(
+        isinstance(idx, pd.Index) and y_index.equals(idx)
+        for idx in (getattr(X, "index", None), given_index)
+    )
+
+
+def check_target_rows(y, X, groups, *, given_index=None):
+    """Raise a ValueError when ``y`` holds the rows of ``X`` in another order.
+
+    scikit-learn pairs ``X`` and ``y`` by position. A ``y`` with row labels
+    (a Series or DataFrame) that are ``X``'s in another order (sorted
+    otherwise after a merge) would be paired with the wrong rows without a
+    word, so it is an error naming the first row that differs, when:
+
+    - ``y``'s index has a ``run`` or ``time_s`` level, ``X`` carries the same
+      (``groups``; the ``time_s`` index level, as :func:`extract_runs`
+      returns ``X``), and ``y``'s (run, time) labels are ``X``'s in another
+      order;
+    - or, without such levels, ``y``'s row labels are those of ``X`` (its
+      index, or ``given_index``: the one ``X`` was given with) in another
+      order.
+
+    Other row labels than ``X``'s (a ``RangeIndex`` after a filter, times
+    or runs changed in ``X`` only) pair by position, as in scikit-learn. A
+    ``y`` of another length is left to scikit-learn.
+    """
+    import pandas as pd
+
+    y_index = getattr(y, "index", None)
+    n = getattr(X, "shape", (None,))[0]
+    if not isinstance(y_index, pd.Index) or len(y_index) != n or n == 0:
+        return
+    if _same_index(y_index, X, given_index):
+        return
+    names, x_levels, y_levels = [], [], []
+    if RUN_COLUMN in y_index.names and groups is not None:
+        names.append(RUN_COLUMN)
+        x_levels.append(np.asarray(groups))
+        y_levels.append(y_index.get_level_values(RUN_COLUMN))
+    times = row_times(X)
+    if TIME_COLUMN in y_index.names and times is not None:
+        names.append(TIME_COLUMN)
+        x_levels.append(times)
+        y_levels.append(
+            _time_seconds(
+                y_index.get_level_values(TIME_COLUMN),
+                f"y's {TIME_COLUMN!r} index level",
+            )
+        )
+    if names:
+        x_rows = pd.MultiIndex.from_arrays(x_levels, names=names)
+        y_rows = pd.MultiIndex.from_arrays(y_levels, names=names)
+    else:
+        x_rows = next(
+            (
+                idx
+                for idx in (getattr(X, "index", None), given_index)
+                if isinstance(idx, pd.Index)
+                and idx.nlevels == y_index.nlevels
+                and y_index.isin(idx).all()
+            ),
+            None,
+        )
+        y_rows = y_index
+        if x_rows is None:
+            return
+    differ = np.asarray(x_rows != y_rows, dtype=bool)
+    if not differ.any() or not (
+        y_rows.isin(x_rows).all() and x_rows.isin(y_rows).all()
+    ):
+        return  # the same rows, or others: paired by position
+
+    def at(rows, row):
+        if not names:
+            return f"labelled {_label(rows[row])!r}"
+        values = rows[row] if isinstance(rows[row], tuple) else (rows[row],)
+        return "at " + ", ".join(
+            f"time_s={v:g}" if name == TIME_COLUMN else f"run {plain(v)!r}"
+            for name, v in zip(names, values, strict=True)
+        )
+
+    row = int(np.flatnonzero(differ)[0])
+    raise ValueError(
+        f"y holds the rows of X in another order: row {row} of X is "
+        f"{at(x_rows, row)}, but row {row} of y is {at(y_rows, row)} "
+        f"({int(differ.sum())} of {n} rows differ). scikit-learn pairs X and y "
+        "by position: reorder y to X's rows (e.g. y.loc[X.index] when both "
+        "carry the same index)."
+    )
+
+
+def check_finite_target(y, X, groups, *, given_index=None):
     """Raise a ValueError naming the first missing or infinite target value
     (row, its run and time from ``X`` and ``groups`` as returned by
-    :func:`extract_runs`); non-numeric targets and a length that differs
-    from ``X`` are left to scikit-learn."""
+    :func:`extract_runs`, and ``y``'s own row label when it has other ones
+    than ``X``); first, a ``y`` whose row labels are not ``X``'s is an error
+    (:func:`check_target_rows`). Non-numeric targets and a length that
+    differs from ``X`` are left to scikit-learn."""
+    check_target_rows(y, X, groups, given_index=given_index)
     try:
         values = np.asarray(y, dtype=float)
     except (TypeError, ValueError):
@@ -332,10 +487,14 @@ def check_finite_target(y, X, groups):
     if name is None and values.ndim == 2 and hasattr(y, "columns"):
         name = y.columns[col]
     target = "The target" if name is None else f"The target {name!r}"
+    note = f"{int(bad.sum())} non-finite value(s) in y"
+    y_index = getattr(y, "index", None)
+    if y_index is not None and not _same_index(y_index, X, given_index):
+        # y's rows have labels of their own: name that too.
+        note = f"y's row label {_label(y_index[row])!r}; {note}"
     raise ValueError(
-        f"{target} is {kind} at {_where(row, X, groups)} "
-        f"({int(bad.sum())} non-finite value(s) in y). Drop the rows without "
-        "a measured target value before fitting."
+        f"{target} is {kind} at {_where(row, X, groups)} ({note}). Drop the "
+        "rows without a measured target value before fitting."
     )
 
 
@@ -370,10 +529,20 @@ def has_time_index(X):
 
 def row_times(X):
     """The ``time_s`` index level of ``X`` as floats (seconds), or None when
-    ``X`` carries no times."""
+    ``X`` carries no times.
+
+    Raises
+    ------
+    ValueError
+        If the level holds datetimes or durations (which would be read as
+        integer ticks) or text, as for a ``time_s`` column
+        (:func:`extract_runs`).
+    """
     if not has_time_index(X):
         return None
-    return np.asarray(X.index.get_level_values(TIME_COLUMN), dtype=float)
+    return _time_seconds(
+        X.index.get_level_values(TIME_COLUMN), f"The {TIME_COLUMN!r} index level"
+    )
 
 
 def changes_since_start(X, slices, bases=None):
@@ -538,38 +707,77 @@ def check_run_lengths(slices, labels, what, min_samples=2):
             )
 
 
-def warn_unlabelled_runs(name, n_fitted_runs, groups, n_samples):
-    """Warn when a model fitted on labelled runs gets rows without run labels.
+# The warnings of warn_unlabelled_runs, for a model that says it once for
+# its inner models (warnings.filterwarnings(message=...)).
+UNLABELLED_WARNING = (
+    r".*(was fitted on \d+ labelled run|got \d+ rows that carry no run)"
+)
+
+
+def warn_unlabelled_runs(
+    name, n_fitted_runs, groups, n_samples, *, X=None, stacklevel=3
+):
+    """Warn when a sequence model gets rows without run labels.
 
     A sequence model (its prediction for a row depends on the earlier rows of
     the run) fitted on a ``split_runs`` DataFrame knows where each run starts;
     given the same rows as a plain array it would treat them all as one run
     starting at the first row, and predict something different without a word.
+    The same happens in ``fit`` when a scikit-learn step in front of the model
+    outputs numpy: the run index is gone and all training runs become one.
 
     Parameters
     ----------
     name : str
         The estimator's class name, for the message.
     n_fitted_runs : int or None
-        Number of labelled runs seen in ``fit``; ``None`` when ``fit`` got no
-        run labels (then nothing is checked).
+        In ``predict``: the number of labelled runs seen in ``fit``; ``None``
+        when ``fit`` got no run labels (then nothing is checked). None in
+        ``fit``.
     groups : array-like or None
-        The run labels found for the rows being predicted.
+        The run labels found for the rows.
     n_samples : int
-        Number of rows being predicted.
+        Number of rows.
+    X : array-like or DataFrame, optional
+        In ``fit``: the rows as :func:`extract_runs` returns them. A warning
+        then says that rows of two or more with neither run labels nor
+        ``time_s`` (a plain array) are taken as one run. Rows with a
+        ``time_s`` but no run labels are one run (several runs would restart
+        their times, an error).
+    stacklevel : int, default=3
+        Of the warning: 3 points at the caller of the method that calls this
+        function.
     """
-    if n_fitted_runs is None or groups is not None:
+    if groups is not None:
         return
+    if X is not None:
+        if n_samples < 2 or has_time_index(X):
+            return
+        head = (
+            f"{name}.fit got {n_samples} rows that carry no run labels (and no time_s)"
+        )
+        one = (
+            " Rows that are one run: pass them with their time_s (a run table), "
+            "or their run label as groups."
+        )
+    elif n_fitted_runs is None:
+        return
+    else:
+        head = (
+            f"{name} was fitted on {n_fitted_runs} labelled run(s), but the "
+            f"{n_samples} rows given now carry no run labels"
+        )
+        one = ""
     import warnings
 
     warnings.warn(
-        f"{name} was fitted on {n_fitted_runs} labelled run(s), but the {n_samples} "
-        "rows given now carry no run labels, so they are taken as ONE run that "
-        "starts at the first row. Pass the run labels: groups=..., a 'run' "
-        "column, or the (run, time_s) index that skthermal.datasets.split_runs "
-        "makes.",
+        f"{head}, so they are taken as ONE run that starts at the first row. "
+        "Pass the run labels: groups=..., a 'run' column, or the (run, time_s) "
+        "index that skthermal.datasets.split_runs makes; a scikit-learn step "
+        "in front of the model must keep that index: "
+        f"set_output(transform='pandas').{one}",
         UserWarning,
-        stacklevel=3,
+        stacklevel=stacklevel,
     )
 
 
