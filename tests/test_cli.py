@@ -826,3 +826,97 @@ def test_simulate_append_to_a_table_with_integer_labels(
     runs, meta = read_runs(out, metadata=True)
     assert list(pd.unique(runs["run"])) == labels
     assert meta["run"].tolist() == labels[-1:]
+
+
+@pytest.fixture(scope="module")
+def absurd_reading(workdir):
+    """The measured runs with readings of 1e308 (finite, far outside any
+    physical range): T02_C and T18_C of run 'I' at time_s 960."""
+    runs = pd.read_csv(workdir / "tests.csv")
+    at = (runs["run"] == "I") & (runs["time_s"] == 960.0)
+    runs.loc[at, ["T02_C", "T18_C"]] = 1e308
+    path = workdir / "absurd.csv"
+    runs.to_csv(path, index=False)
+    return path
+
+
+def test_predict_refuses_to_write_non_finite_predictions(
+    capsys, workdir, tmp_path, absurd_reading
+):
+    model = tmp_path / "ridge.joblib"
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "ridge"]
+    argv += ["--sensors", "T18_C,T46_C", "--train-runs", "IV", "--out", model]
+    assert _run(capsys, *argv)[0] == 0
+    out = tmp_path / "pred.csv"
+    argv = ["predict", "--model", model, "--runs", absurd_reading, "--out", out]
+    status, text, err = _run(capsys, *argv)
+    assert status == 2 and err.count("\n") == 1 and not text
+    assert err.startswith("skthermal predict: error: The model predicts ")
+    assert "inf for pred_disp_y_um at run 'I', time_s 960.0 (1 of " in err
+    assert "nothing was written to" in err and not out.exists()
+    assert "physical range" in err and "'T18_C' = 1e+308 at that row" in err
+    assert "overflow" not in err and "RuntimeWarning" not in err
+    # evaluate with the model refuses to score them
+    argv = ["evaluate", "--runs", absurd_reading, "--model", model]
+    status, text, err = _run(capsys, *argv)
+    assert status == 2 and err.count("\n") == 1 and not text
+    assert "run 'I', time_s 960.0" in err and "nothing was scored" in err
+
+
+def test_predict_names_the_reading_a_model_step_overflowed_on(
+    capsys, tmp_path, ridge_y, absurd_reading
+):
+    # Scaled, the reading overflows to inf, which the ridge step refuses.
+    out = tmp_path / "pred.csv"
+    argv = ["predict", "--model", ridge_y, "--runs", absurd_reading, "--out", out]
+    status, text, err = _run(capsys, *argv)
+    assert status == 2 and err.count("\n") == 1 and not text
+    assert "could not predict pred_disp_y_um (Input X contains infinity" in err
+    assert "'T02_C' = 1e+308 at run 'I', time_s 960.0" in err
+    assert "physical range" in err and not out.exists()
+
+
+def test_a_finite_prediction_after_an_overflow_names_the_largest_reading(
+    capsys, workdir, tmp_path, absurd_reading
+):
+    model = tmp_path / "mlp.joblib"
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "mlp", "--quick"]
+    argv += ["--sensors", "T18_C,T46_C", "--train-runs", "IV", "--out", model]
+    assert _run(capsys, *argv)[0] == 0
+    out = tmp_path / "pred.csv"
+    argv = ["predict", "--model", model, "--runs", absurd_reading, "--out", out]
+    status, _, err = _run(capsys, *argv)
+    assert status == 0 and np.isfinite(pd.read_csv(out)["pred_disp_y_um"]).all()
+    (line,) = err.splitlines()
+    assert line.startswith("skthermal predict: warning: overflow encountered in ")
+    assert "'T18_C' = 1e+308 at run 'I', time_s 960.0" in line
+
+
+@pytest.mark.parametrize(
+    "value, kind", [(np.inf, "inf"), (-np.inf, "-inf"), (np.nan, r"missing \(NaN\)")]
+)
+def test_evaluate_names_the_run_and_time_of_a_non_finite_prediction(
+    capsys, tmp_path, predictions, value, kind
+):
+    import re
+
+    runs, table = predictions
+    table = table.copy()
+    table.loc[(table["run"] == "V") & (table["time_s"] == 480.0), "pred_disp_y_um"] = (
+        value
+    )
+    bad = tmp_path / "bad.csv"
+    table.to_csv(bad, index=False)
+    for argv in (["--runs", runs, "--predictions", bad], ["--runs", bad]):
+        if argv[1] == bad:  # the predictions beside the measured columns
+            full = pd.read_csv(runs)
+            full["pred_disp_y_um"] = table["pred_disp_y_um"].to_numpy()
+            full.to_csv(bad, index=False)
+        status, _, err = _run(capsys, "evaluate", *argv)
+        assert status == 2 and err.count("\n") == 1, err
+        assert re.search(
+            rf"Column 'pred_disp_y_um' of \S*bad.csv is {kind} at run 'V', "
+            r"time_s 480.0 \(1 of \d+ rows without a finite prediction\)",
+            err,
+        ), err
+        assert "Warning" not in err

@@ -23,8 +23,10 @@ from skthermal.compose import (
     SensorFaultWarning,
     SensorRangeWarning,
 )
+from skthermal.compose._guard import RunStartWarning
 from skthermal.fuzzy import ANFISRegressor
 from skthermal.grey import GreyPSORegressor
+from skthermal.preprocessing import LagFeatures
 
 SENSORS = ["T1_C", "T2_C", "T3_C", "T4_C"]
 GAINS = np.array([4.0, 2.5, 1.0, 0.5])  # temperature rise per unit of heat
@@ -421,6 +423,64 @@ def test_sequence_model_sees_the_runs(train, new_run):
     np.testing.assert_allclose(pred2, np.r_[pred, pred])
 
 
+SEQUENCE_MODELS = pytest.mark.parametrize(
+    "inner",
+    [
+        GreyPSORegressor(),
+        make_pipeline(LagFeatures(time_constants=[600.0]), LinearRegression()),
+    ],
+    ids=["grey", "lag-pipeline"],
+)
+
+
+@SEQUENCE_MODELS
+@pytest.mark.parametrize("mode", ["warn", "hold"])
+def test_a_window_of_recent_rows_is_not_ok_for_a_sequence_model(
+    train, new_run, inner, mode
+):
+    # The controller gives the last rows of a new run: a sequence model takes
+    # them as a run that starts there (its compensation collapses to ~0),
+    # which must not pass as ok.
+    X, y = train
+    window = new_run[0].rename(index={"r0": "new"}, level="run").iloc[-20:]
+    guard = GuardedRegressor(inner, mode=mode).fit(X, y)
+    checked, caught = _caught(guard.predict_checked, window)
+    assert not checked["ok"].any()
+    assert (
+        checked["reason"]
+        == "run starts at time_s=3000, not at its start: a sequence model needs "
+        "the whole run or a continued run"
+    ).all()
+    (msg,) = _messages(caught, RunStartWarning)
+    assert "run 'new' at time_s=3000 to time_s=3570" in msg
+    assert "a window of recent rows suits only static models" in msg
+    assert _caught(guard.predict, window)[0].shape == (20,)
+    # the whole run so far is fine
+    whole, caught = _caught(guard.predict_checked, new_run[0].iloc[:70])
+    assert whole["ok"].all() and not _messages(caught, GuardWarning)
+
+
+def test_a_window_of_recent_rows_is_fine_for_a_static_model(train, new_run):
+    X, y = train
+    window = new_run[0].rename(index={"r0": "new"}, level="run").iloc[-20:]
+    guard = GuardedRegressor(make_pipeline(StandardScaler(), Ridge())).fit(X, y)
+    checked, caught = _caught(guard.predict_checked, window)
+    assert checked["ok"].all() and not _messages(caught, GuardWarning)
+
+
+@SEQUENCE_MODELS
+def test_the_rows_after_a_training_run_continue_it(train, new_run, inner):
+    X, y = train
+    run = new_run[0].rename(index={"r0": "c"}, level="run")
+    target = new_run[1].rename(index={"r0": "c"}, level="run")
+    X_fit, y_fit = pd.concat([X, run.iloc[:60]]), pd.concat([y, target.iloc[:60]])
+    guard = GuardedRegressor(inner).fit(X_fit, y_fit)
+    later, caught = _caught(guard.predict_checked, run.iloc[60:])
+    assert later["ok"].all() and not _messages(caught, GuardWarning)
+    whole, _ = _caught(guard.predict_checked, run)
+    np.testing.assert_allclose(later["prediction"], whole["prediction"].iloc[60:])
+
+
 def test_hold_repairs_the_input_of_a_sequence_model(train, spiked):
     X, y = train
     guard = GuardedRegressor(GreyPSORegressor(calibration="ls"), mode="hold")
@@ -524,7 +584,13 @@ def test_joblib_and_skthermal_io_round_trip(tmp_path, train, spiked):
 
 
 def test_warnings_share_a_base_class():
-    for cls in (SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning):
+    classes = (
+        SensorRangeWarning,
+        SensorFaultWarning,
+        PredictionRangeWarning,
+        RunStartWarning,
+    )
+    for cls in classes:
         assert issubclass(cls, GuardWarning) and issubclass(cls, UserWarning)
 
 

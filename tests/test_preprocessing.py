@@ -555,3 +555,60 @@ def test_late_start_messages_name_the_estimator_called():
     pipe.fit(table.iloc[:cut], y[:cut])
     with pytest.warns(UserWarning, match=r"'other' given to LagFeatures start"):
         pipe.predict(other)
+
+
+def _five_runs(seed=0):
+    rng = np.random.default_rng(seed)
+    frames = []
+    for r, label in enumerate(["r1", "r2", "r3", "r4", "r5"]):
+        T = 20 + r + np.cumsum(rng.normal(scale=0.3, size=(40, 2)), axis=0)
+        y = 3 * (T[:, 0] - T[0, 0]) + 0.5 * T[:, 1] + rng.normal(scale=0.5, size=40)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": label,
+                    "time_s": np.arange(40) * 60.0,
+                    "T1_C": T[:, 0],
+                    "T2_C": T[:, 1],
+                    "y": y,
+                }
+            )
+        )
+    return pd.concat(frames, ignore_index=True)
+
+
+def test_lag_ridge_is_the_same_model_whatever_the_order_of_the_runs():
+    # The runs were dealt into the CV folds in table order: another order of
+    # the same runs chose another penalty (here 10 or 0.1).
+    table = _five_runs()
+    inputs = ["run", "time_s", "T1_C", "T2_C"]
+    kw = {
+        "time_constant_sets": [(), (300.0,)],
+        "alphas": [0.1, 10.0, 1000.0],
+        "n_splits": 2,
+    }
+    base = LagRidgeCV(**kw).fit(table[inputs], table["y"])
+    expected = base.predict(table[inputs])
+    for order in (["r4", "r2", "r5", "r1", "r3"], ["r5", "r4", "r3", "r2", "r1"]):
+        shuffled = pd.concat([table[table["run"] == r] for r in order])
+        model = LagRidgeCV(**kw).fit(shuffled[inputs], shuffled["y"])
+        assert (model.alpha_, model.relative_) == (base.alpha_, base.relative_)
+        np.testing.assert_allclose(
+            model.predict(table[inputs]), expected, rtol=0, atol=1e-9
+        )
+
+
+def test_run_folds_do_not_depend_on_the_order_of_unsortable_labels():
+    from skthermal.preprocessing._lag_ridge import _group_folds
+
+    # Tuples of a number and a string do not sort: their repr orders them.
+    labels = [("a", 1), (1, "a"), ("b", 2), (2, "b")]
+
+    def held_out(order):
+        """The labels of the runs each fold leaves out, runs stacked in order."""
+        labs = [labels[r] for r in order]
+        slices = [slice(3 * i, 3 * i + 3) for i in range(len(labs))]
+        folds = _group_folds(slices, 2, labs)
+        return sorted(sorted({repr(labs[int(i) // 3]) for i in va}) for _, va in folds)
+
+    assert held_out([0, 1, 2, 3]) == held_out([3, 1, 0, 2]) == held_out([2, 0, 3, 1])

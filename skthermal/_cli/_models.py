@@ -6,6 +6,7 @@ with :func:`skthermal.io.save` (``.skops``) or joblib (any other name).
 """
 
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -222,9 +223,103 @@ def cmd_fit(args):
     return 0
 
 
-def _predict(bundle, df):
+def _row(table, i):
+    """``run 'I', time_s 1500.0``: where row ``i`` of a run table is."""
+    from skthermal._naming import plain
+
+    return (
+        f"run {plain(table['run'].iloc[i])!r}, time_s {plain(table['time_s'].iloc[i])}"
+    )
+
+
+def _first_non_finite(values, table, nan="NaN"):
+    """Row and value (``nan`` for NaN, else inf or -inf) of the first
+    missing or infinite value of ``values`` (one or more per row of
+    ``table``), with the number of such rows; None when all are finite."""
+    values = np.asarray(values, dtype=float).reshape(len(table), -1)
+    bad = ~np.isfinite(values).all(axis=1)
+    if not bad.any():
+        return None
+    i = int(np.flatnonzero(bad)[0])
+    value = values[i][~np.isfinite(values[i])][0]
+    return i, nan if np.isnan(value) else f"{value}", int(bad.sum())
+
+
+def _largest_reading(X, row=None):
+    """``'T18_C' = 1e+308 at run 'I', time_s 1500.0``: the input reading of
+    largest magnitude in the run of ``row`` up to it (a sequence model
+    carries a reading on to later rows), or in all of ``X`` (None)."""
+    values = X.to_numpy(dtype=float)
+    rows = np.arange(len(X))
+    if row is not None:
+        runs = np.asarray(X.index.get_level_values("run"))
+        rows = rows[: row + 1][runs[: row + 1] == runs[row]]
+    size = np.abs(values[rows])
+    r, c = np.unravel_index(int(np.argmax(size)), size.shape)
+    i = int(rows[r])
+    where = "that row" if i == row else _row(X.index.to_frame(index=False), i)
+    return f"{X.columns[c]!r} = {values[i, c]:.4g} at {where}"
+
+
+def _is_float_error(caught):
+    """Whether a caught warning is numpy's floating-point error report
+    ("overflow encountered in matmul")."""
+    return issubclass(caught.category, RuntimeWarning) and (
+        " encountered in " in str(caught.message)
+    )
+
+
+def _predict(bundle, df, then):
+    """The model's predictions for the rows of ``df``, every one finite.
+
+    A non-finite prediction is a :class:`UserError` naming the column, the
+    run and the time of the first one, ``then`` (what was not done) and
+    the likely cause: the input reading of largest magnitude in the run up
+    to there; so is a step of the model refusing a non-finite value (the
+    readings themselves are finite). numpy's floating-point warnings
+    ("overflow encountered in matmul"), which name neither, are replaced by
+    that error, or by one warning naming the largest reading when the
+    predictions are finite all the same.
+    """
     X = features_of(df, bundle["sensors"])
-    return bundle["estimator"].predict(X)
+    col = f"pred_{bundle['target']}"
+    cause = "Likely cause: an input reading far outside any physical range; "
+    fix = "Check or drop that reading and predict again."
+    with warnings.catch_warnings(record=True) as caught:
+        try:
+            pred = np.asarray(bundle["estimator"].predict(X), dtype=float)
+        except ValueError as exc:
+            # The readings are finite (read_table checked them): a step of
+            # the model met a value its arithmetic overflowed to.
+            if not re.search(r"contains (infinity|NaN)", str(exc)):
+                raise
+            raise UserError(
+                f"The model could not predict {col} ({str(exc).rstrip('.')}), so "
+                f"{then}. {cause}the largest input reading is "
+                f"{_largest_reading(X)}. {fix}"
+            ) from exc
+    numeric = [w for w in caught if _is_float_error(w)]
+    for w in caught:
+        if not _is_float_error(w):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    found = _first_non_finite(pred, df)
+    if found is not None:
+        i, kind, count = found
+        raise UserError(
+            f"The model predicts {kind} for {col} at {_row(df, i)} ({count} of "
+            f"{len(df)} rows without a finite prediction), so {then}. {cause}"
+            f"the largest in the run up to there is {_largest_reading(X, i)}. {fix}"
+        )
+    if numeric:
+        warnings.warn(
+            f"{numeric[0].message} while predicting {col} (the predictions are "
+            "finite); the largest input reading is "
+            f"{_largest_reading(X)}: check it if it is far outside any "
+            "physical range.",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return pred
 
 
 def cmd_predict(args):
@@ -234,7 +329,7 @@ def cmd_predict(args):
     check_out_path(args.out, "--out")
     bundle = load_model(args.model)
     df = read_table(args.runs)
-    pred = _predict(bundle, df)
+    pred = _predict(bundle, df, f"nothing was written to {args.out}")
     out = df.copy()
     out[f"pred_{bundle['target']}"] = pred
     try:
@@ -365,7 +460,7 @@ def cmd_evaluate(args):
             )
         if target not in df.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
-        pred = _predict(bundle, df)
+        pred = _predict(bundle, df, "nothing was scored")
         data = df
     else:
         if args.predictions:
@@ -385,8 +480,15 @@ def cmd_evaluate(args):
         if target not in data.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
         pred = data[col].to_numpy(dtype=float)
-        if not np.all(np.isfinite(pred)):
-            raise UserError(f"Column {col!r} has missing or infinite values.")
+        found = _first_non_finite(pred, data, nan="missing (NaN)")
+        if found is not None:
+            i, kind, count = found
+            raise UserError(
+                f"Column {col!r} of {args.predictions or args.runs} is {kind} at "
+                f"{_row(data, i)} ({count} of {len(data)} rows without a finite "
+                "prediction); every scored row needs one: predict that run again "
+                "or leave it out."
+            )
     table = score_runs(data[target], pred, data["run"].to_numpy())
     mean = {"run": "mean", "n_samples": int(table["n_samples"].sum())}
     mean.update(table[list(METRIC_COLUMNS)].mean().to_dict())

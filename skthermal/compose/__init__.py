@@ -4,6 +4,7 @@ from skthermal.compose._guard import (
     GuardedRegressor,
     GuardWarning,
     PredictionRangeWarning,
+    RunStartWarning,
     SensorFaultWarning,
     SensorRangeWarning,
 )
@@ -12,6 +13,7 @@ __all__ = [
     "GuardWarning",
     "GuardedRegressor",
     "PredictionRangeWarning",
+    "RunStartWarning",
     "SensorFaultWarning",
     "SensorRangeWarning",
 ]

@@ -32,9 +32,11 @@ from skthermal._naming import plain
 from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
+    RunMemory,
     extract_runs,
     has_time_index,
     run_first_rows,
+    run_slices,
     target_names,
 )
 
@@ -57,6 +59,12 @@ class SensorFaultWarning(GuardWarning):
 
 class PredictionRangeWarning(GuardWarning):
     """A prediction is outside the plausible band of the training output."""
+
+
+class RunStartWarning(GuardWarning):
+    """A run given to a sequence model starts after its beginning and
+    continues no run the model knows: the model takes it as a run that
+    starts there."""
 
 
 # Fault kinds, in the order they are reported.
@@ -110,6 +118,55 @@ def _limits(low, high, margin):
     return low - margin * scale, high + margin * scale
 
 
+def _estimators_in(value):
+    """The estimators an attribute holds: itself, or the items (or the
+    estimators in tuples such as pipeline steps) of a list, tuple or dict."""
+    if isinstance(value, BaseEstimator):
+        yield value
+    elif isinstance(value, list | tuple) or (
+        isinstance(value, dict) and not isinstance(value, RunMemory)
+    ):
+        for item in value.values() if isinstance(value, dict) else value:
+            if isinstance(item, BaseEstimator):
+                yield item
+            elif isinstance(item, tuple):
+                yield from (v for v in item if isinstance(v, BaseEstimator))
+
+
+def _sequence_models(estimator):
+    """``(class name, run memory)`` of every fitted sequence model inside
+    ``estimator`` (itself, pipeline steps, modules, ...), outermost first.
+
+    A sequence model reads the rows of a run in order from its start (grey
+    accumulation, lag filters, changes since the run start) and keeps what
+    continuing its labelled training runs needs in ``run_states_``, a
+    :class:`~skthermal.utils._runs.RunMemory`; static models keep none.
+    """
+    found, seen, todo = [], set(), [estimator]
+    while todo:
+        est = todo.pop(0)
+        if id(est) in seen:
+            continue
+        seen.add(id(est))
+        memory = getattr(est, "run_states_", None)
+        if isinstance(memory, RunMemory):
+            found.append((type(est).__name__, memory))
+        for value in vars(est).values():
+            todo.extend(_estimators_in(value))
+    return found
+
+
+def _continues(memory, label, t0):
+    """Whether a run ``label`` that starts at ``t0`` is one the model knows:
+    the run seen in fit again from its start, or its rows after the training
+    ones (as :func:`skthermal.utils._runs.continued_runs` takes them)."""
+    state = None if label is None else memory.get(label)
+    if state is None:
+        return False
+    t_first, t_last = state["t_first"], state["t_last"]
+    return not np.isfinite(t_first) or t0 == t_first or t0 > t_last
+
+
 def _accepts_groups(method):
     try:
         return "groups" in inspect.signature(method).parameters
@@ -138,7 +195,15 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
       for ``flat`` samples in a row (:class:`SensorFaultWarning`);
     - *prediction out of band*: a prediction beyond the training output range
       by more than ``output_span`` times its width
-      (:class:`PredictionRangeWarning`).
+      (:class:`PredictionRangeWarning`);
+    - *late run start*, for a sequence model (one that reads a run from its
+      start: grey models, lag filters, changes since the run start): the
+      rows of a run that starts after ``time_s`` 0 and continues no run the
+      model knows (:class:`RunStartWarning`). The model takes them as a run
+      that starts there, so a window of recent rows would give the
+      compensation of a run that just began. Those rows are not ok; their
+      predictions are the model's (in the safe modes clipped to the band:
+      the run has no good row to hold).
 
     With ``mode="warn"`` (the default) predictions are those of the wrapped
     model, unchanged. The safe modes bound them: ``"clip"`` clips the inputs
@@ -227,8 +292,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     All checks compare one batch of rows with the training statistics; no
     state is kept between calls. A jump and a flat-line show only between
     consecutive rows of one call, so on the machine's controller give
-    ``predict`` the rows of the current run so far (or a window of recent
-    rows, as sequence models need anyway) and use the last row. After a
+    ``predict`` the rows of the current run so far and use the last row. A
+    window of recent rows will do for a static model only: a sequence model
+    needs the run from its start, or the rows after those of a run it saw in
+    ``fit`` or ``partial_fit`` (same run label), which it continues; other
+    rows that start after ``time_s`` 0 are flagged (late run start). After a
     one-sample spike both the spike and the next sample (the step back) are
     flagged as jumps. Run boundaries come from ``groups``, a ``run`` column
     or a ``run`` index level; steps and stretches never cross them. Times
@@ -467,6 +535,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -----
         SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning
             Naming the sensors, the run and the time of the first finding.
+        RunStartWarning
+            Naming the first run given to a sequence model from after its
+            start.
         """
         return self._guard(X, groups)["prediction"]
 
@@ -488,12 +559,16 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             - ``prediction`` (``prediction_<name>`` per output for several
               outputs): the value to apply, as returned by :meth:`predict`;
             - ``ok``: True when no input of the row is out of range, jumps,
-              flat-lines or is missing, and the prediction is in its band;
+              flat-lines or is missing, the prediction is in its band, and
+              (for a sequence model) the row's run starts at its beginning
+              or continues a run the model knows;
             - ``action``: ``""`` (prediction of the model), ``"clipped"``
               (inputs or prediction clipped) or ``"held"`` (last good
               prediction of the run repeated);
             - ``reason``: what was found, e.g. ``"out of range: T03_C;
-              jump: T03_C"``, empty when ``ok``.
+              jump: T03_C"`` or ``"run starts at time_s=4920, not at its
+              start: a sequence model needs the whole run or a continued
+              run"``, empty when ``ok``.
 
         Warns
         -----
@@ -527,6 +602,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         where = _Where(features, runs, self._sensor_names())
         flags = self._input_flags(A, first, where)
         fault = np.logical_or.reduce(list(flags.values()))
+        late = self._late_starts(runs, where, n)
 
         inputs_changed = np.zeros(n, dtype=bool)
         X_inner = X
@@ -563,7 +639,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         out_band = ~((P >= olo) & (P <= ohi))
         self._warn_output(P, out_band, olo, ohi, where)
 
-        bad = fault.any(axis=1) | out_band.any(axis=1)
+        bad = fault.any(axis=1) | out_band.any(axis=1) | (late != "")
         action = np.full(n, "", dtype=object)
         if self.mode == "warn":
             final = P
@@ -589,7 +665,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                     )
                     + "); no safe compensation can be given there."
                 )
-        reason = _reasons(flags, out_band, self._sensor_names(), n)
+        reason = _reasons(flags, out_band, self._sensor_names(), n, late)
         return {
             "prediction": final.reshape(raw.shape),
             "bad": bad,
@@ -692,6 +768,46 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         return flags
 
+    def _late_starts(self, runs, where, n):
+        """Per row, why its run cannot be predicted by the wrapped sequence
+        model (``""`` when it can): the run starts after time_s 0 and
+        continues no run the model knows, so the model would take it as a
+        run that starts there. Warns (:class:`RunStartWarning`)."""
+        reason = np.full(n, "", dtype=object)
+        if where.times is None or n == 0:
+            return reason
+        models = _sequence_models(self.estimator_)
+        if not models:
+            return reason  # a static model: any rows will do
+        slices, labels = run_slices(runs, n)
+        late = []
+        for sl, label in zip(slices, labels, strict=True):
+            t0 = float(where.times[sl.start])
+            if t0 == 0 or all(_continues(memory, label, t0) for _, memory in models):
+                continue
+            reason[sl] = (
+                f"run starts at time_s={t0:g}, not at its start: a sequence "
+                "model needs the whole run or a continued run"
+            )
+            late.append(sl)
+        if late:
+            sl = late[0]
+            more = f" ({len(late) - 1} more run(s) like it)" if len(late) > 1 else ""
+            warnings.warn(
+                f"The rows {where.at(sl.start)} to time_s="
+                f"{where.times[sl.stop - 1]:g} do not start at the beginning of "
+                f"their run, which continues no run seen in fit{more}. "
+                f"{models[0][0]} reads a run from its start, so it takes them "
+                "as a run that starts there: its predictions are not those of "
+                "the run, and the rows are marked not ok. Give the rows of the "
+                "run from its start (the run so far), or continue a run seen "
+                "in fit or partial_fit (its run label, rows after its training "
+                "rows); a window of recent rows suits only static models.",
+                RunStartWarning,
+                stacklevel=4,
+            )
+        return reason
+
     def _warn_output(self, P, out_band, olo, ohi, where):
         if not out_band.any():
             return
@@ -738,15 +854,16 @@ def _with_values(X, B):
     return out
 
 
-def _reasons(flags, out_band, sensors, n):
-    """Per row, e.g. ``"out of range: T03_C, T04_C; jump: T03_C"``."""
+def _reasons(flags, out_band, sensors, n, late=None):
+    """Per row, e.g. ``"out of range: T03_C, T04_C; jump: T03_C"``; first
+    ``late`` (per row, why the run cannot be predicted, or ``""``)."""
     labels = {
         "missing": "missing",
         "range": "out of range",
         "jump": "jump",
         "flat": "flat-line",
     }
-    parts = []
+    parts = [] if late is None else [late]
     for kind in _KINDS:
         F = flags.get(kind)
         if F is None or not F.any():

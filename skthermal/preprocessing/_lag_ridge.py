@@ -17,6 +17,7 @@ from skthermal.utils._runs import (
     continued_runs,
     extract_runs,
     has_time_index,
+    run_key,
     run_slices,
     run_times,
     warn_gaps,
@@ -52,16 +53,32 @@ def _block_folds(n, n_splits):
     ]
 
 
-def _group_folds(slices, n_splits):
-    """Leave-runs-out folds (runs dealt round-robin into n_splits groups)."""
+def _run_order(labels):
+    """Positions of the runs ``labels`` in a fixed order that does not depend
+    on the order of the runs in the table: by label, or, when the labels do
+    not sort (mixed kinds, unorderable objects), by the ``repr`` of their
+    :func:`~skthermal.utils._runs.run_key`."""
+    positions = range(len(labels))
+    try:
+        return sorted(positions, key=lambda r: labels[r])
+    except TypeError:
+        return sorted(positions, key=lambda r: repr(run_key(labels[r])))
+
+
+def _group_folds(slices, n_splits, labels=None):
+    """Leave-runs-out folds: the runs, in the order of their labels (else of
+    ``slices``), dealt round-robin into n_splits groups, so that the folds do
+    not depend on the order the runs were stacked in."""
     k = min(n_splits, len(slices))
+    order = range(len(slices)) if labels is None else _run_order(labels)
     parts = [[] for _ in range(k)]
-    for r, sl in enumerate(slices):
-        parts[r % k].append(np.arange(sl.start, sl.stop))
-    n = slices[-1].stop
+    for i, r in enumerate(order):
+        sl = slices[r]
+        parts[i % k].append(np.arange(sl.start, sl.stop))
+    n = max(sl.stop for sl in slices)
     folds = []
     for p in parts:
-        va = np.concatenate(p)
+        va = np.sort(np.concatenate(p))
         mask = np.ones(n, bool)
         mask[va] = False
         folds.append((np.flatnonzero(mask), va))
@@ -129,8 +146,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         ``np.logspace(-2, 5, 15)``.
     cv : {"auto", "forward", "blocks", "runs"}, default="auto"
         Folds: expanding-window (``"forward"``), contiguous blocks left out
-        (``"blocks"``) or whole runs left out (``"runs"``). ``"auto"``:
-        ``"runs"`` with several runs, else ``"forward"``.
+        (``"blocks"``) or whole runs left out (``"runs"``; the runs are
+        dealt into the folds in the order of their labels, so the chosen
+        model does not depend on the order of the runs in the table).
+        ``"auto"``: ``"runs"`` with several runs, else ``"forward"``.
     selection : {"min", "1se"}, default="min"
         The least total validation error, or the one-standard-error rule
         (the largest penalty, then the fewest features, within one standard
@@ -294,7 +313,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
-            return self._fit(X_raw, y, groups, slices, sets, alphas, dt)
+            return self._fit(X_raw, y, groups, slices, labels, sets, alphas, dt)
 
     def _check_grids(self):
         """The candidate time-constant sets (tuples of float) and penalties
@@ -340,14 +359,14 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         )
         return sets, alphas
 
-    def _fit(self, X_raw, y, groups, slices, sets, alphas, dt):
+    def _fit(self, X_raw, y, groups, slices, labels, sets, alphas, dt):
         """The CV over the candidate settings and the refit of ``fit``."""
         n = y.shape[0]
         cv = self.cv
         if cv == "auto":
             cv = "runs" if len(slices) > 1 else "forward"
         if cv == "runs" and len(slices) > 1:
-            folds = _group_folds(slices, self.n_splits)
+            folds = _group_folds(slices, self.n_splits, labels)
         elif cv == "blocks":
             folds = _block_folds(n, self.n_splits)
         else:
