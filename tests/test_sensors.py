@@ -403,6 +403,19 @@ def test_strain_channels_restart_every_run(machine):
     )
     starts = out.groupby("run")["Sb_ue"].first()
     np.testing.assert_allclose(starts, 0.0)
+    # A run table whose runs are the index (as split_runs gives X) is read
+    # the same way: its run level, not one run for all rows.
+    indexed = runs.set_index(["run", "time_s"])
+    temp = next(c for c in runs.columns if c.startswith("T") and c.endswith("_C"))
+    by_index = add_strain_channels(
+        indexed, states, {"b": FBGGauge({"boss": 1.0})}, noise_ue=0.0
+    )
+    np.testing.assert_allclose(by_index["Sb_ue"].to_numpy(), out["Sb_ue"].to_numpy())
+    back = correct_strain_channels(by_index, {"Sb_ue": temp})
+    np.testing.assert_allclose(
+        back["Sb_ue"].to_numpy(),
+        correct_strain_channels(out, {"Sb_ue": temp})["Sb_ue"].to_numpy(),
+    )
 
 
 @pytest.mark.parametrize(

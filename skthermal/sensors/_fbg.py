@@ -22,7 +22,7 @@ from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import STRAIN_PATTERN, TEMPERATURE_PATTERN
 from skthermal._run_changes import changes_since_first_row
-from skthermal.utils._runs import RUN_COLUMN, check_numeric_columns, extract_runs
+from skthermal.utils._runs import check_numeric_columns, frame_run_labels
 
 FBG_SENSITIVITY_UE_PER_C = 8.64
 """Apparent strain of a grating per °C of its own temperature (µε/°C, 001
@@ -313,7 +313,7 @@ def add_strain_channels(
     if not np.all(np.isfinite(T)):
         row = int(np.argwhere(~np.isfinite(T))[0][0])
         raise ValueError(f"states is NaN or infinite at row {row}.")
-    _, groups = extract_runs(runs[[RUN_COLUMN]] if RUN_COLUMN in runs else runs[[]])
+    groups = frame_run_labels(runs)
     dT = changes_since_first_row(T, groups)
     index = {n: i for i, n in enumerate(states.columns)}
     # Gauges are linear in the node rises: one matrix product for all of them.
@@ -414,7 +414,7 @@ def correct_strain_channels(
             if not pattern.fullmatch(str(col)):
                 raise ValueError(f"{col!r} is not a {what} column name.")
     strain = list(colocated)
-    _, groups = extract_runs(runs[[RUN_COLUMN]] if RUN_COLUMN in runs else runs[[]])
+    groups = frame_run_labels(runs)
     corrected = correct_fbg_strain(
         runs[strain].to_numpy(dtype=float),
         runs[[colocated[s] for s in strain]].to_numpy(dtype=float),

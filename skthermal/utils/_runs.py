@@ -161,6 +161,33 @@ def run_first_rows(groups, n_samples):
     )
 
 
+def frame_run_labels(frame):
+    """The run label of every row of a DataFrame: its ``run`` column, else
+    the ``run`` level of its index, else None (all rows are one run).
+
+    For helpers that need a run table's runs but not its features (a table
+    of channels to add to, say); :func:`extract_runs` is the reader of a
+    model's input.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from skthermal.utils._runs import frame_run_labels
+    >>> index = pd.MultiIndex.from_tuples([("a", 0.0), ("a", 60.0), ("b", 0.0)],
+    ...                                   names=["run", "time_s"])
+    >>> frame_run_labels(pd.DataFrame({"T1_C": [1.0, 2.0, 3.0]}, index=index))
+    array(['a', 'a', 'b'], dtype=object)
+    """
+    if RUN_COLUMN in frame.columns:
+        labels = frame[RUN_COLUMN].to_numpy()
+    elif RUN_COLUMN in (frame.index.names or ()):
+        labels = frame.index.get_level_values(RUN_COLUMN).to_numpy()
+    else:
+        return None
+    check_labels(labels)
+    return labels
+
+
 def extract_runs(X, groups=None, *, finite=True, y=None):
     """Separate run labels (and times) from the features of ``X``.
 
