@@ -82,6 +82,30 @@ def _as_1d(values, name):
     return arr
 
 
+def _per_sample(lead_name, lead, **arrays):
+    """``lead`` as a non-empty 1-D float array and every other array (None
+    left out) as one value per sample of it; a ValueError names the first
+    that is not. Returns ``(lead, {name: array})``."""
+    lead = np.asarray(lead, dtype=float)
+    if lead.ndim != 1 or lead.size == 0:
+        raise ValueError(
+            f"{lead_name} must be a non-empty 1-D array, got shape {lead.shape}."
+        )
+    n = lead.size
+    out = {}
+    for name, values in arrays.items():
+        if values is None:
+            continue
+        arr = np.asarray(values)
+        if arr.shape != (n,):
+            raise ValueError(
+                f"{name} must hold one value per {lead_name} sample ({n}), got "
+                f"shape {arr.shape}."
+            )
+        out[name] = arr
+    return lead, out
+
+
 def _new_figure_or_axes(plt, ax, shape, caller, **subplots_kw):
     """Axes of the requested shape: new ones, or ``ax`` checked and reshaped."""
     if ax is None:

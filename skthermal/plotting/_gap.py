@@ -9,7 +9,11 @@ an ambient event -- is the first clue to the missing physics.
 import numpy as np
 import pandas as pd
 
-from skthermal.plotting._base import _time_scale, check_matplotlib_support
+from skthermal.plotting._base import (
+    _per_sample,
+    _time_scale,
+    check_matplotlib_support,
+)
 
 # Default colours of the common regimes; others cycle through the tab palette.
 REGIME_COLORS = {
@@ -103,20 +107,13 @@ class GapTimelineDisplay:
         self.residual_name = residual_name
 
     def _validated(self):
-        residual = np.asarray(self.residual, dtype=float)
-        if residual.ndim != 1 or residual.size == 0:
-            raise ValueError(
-                f"residual must be a non-empty 1-D array, got shape {residual.shape}."
-            )
-        n = residual.size
-        time = np.asarray(self.time)
-        regimes = np.asarray(self.regimes, dtype=object)
-        for name, arr in (("time", time), ("regimes", regimes)):
-            if arr.shape != (n,):
-                raise ValueError(
-                    f"{name} must hold one value per residual sample ({n}), got "
-                    f"shape {arr.shape}."
-                )
+        residual, arrays = _per_sample(
+            "residual",
+            self.residual,
+            time=self.time,
+            regimes=np.asarray(self.regimes, dtype=object),
+        )
+        time, regimes, n = arrays["time"], arrays["regimes"], residual.size
         if n > 1 and not np.all(time[1:] > time[:-1]):
             bad = int(np.flatnonzero(~(time[1:] > time[:-1]))[0]) + 1
             raise ValueError(
@@ -307,22 +304,15 @@ class GapOverlayDisplay:
         self.after_name = after_name
 
     def _validated(self):
-        measured = np.asarray(self.measured, dtype=float)
-        if measured.ndim != 1 or measured.size == 0:
-            raise ValueError(
-                f"measured must be a non-empty 1-D array, got shape {measured.shape}."
-            )
-        n = measured.size
-        arrays = {"time": np.asarray(self.time)}
-        arrays["simulated"] = np.asarray(self.simulated, dtype=float)
-        if self.simulated_after is not None:
-            arrays["simulated_after"] = np.asarray(self.simulated_after, dtype=float)
-        for name, arr in arrays.items():
-            if arr.shape != (n,):
-                raise ValueError(
-                    f"{name} must hold one value per measured sample ({n}), got "
-                    f"shape {arr.shape}."
-                )
+        measured, arrays = _per_sample(
+            "measured",
+            self.measured,
+            time=self.time,
+            simulated=np.asarray(self.simulated, dtype=float),
+            simulated_after=None
+            if self.simulated_after is None
+            else np.asarray(self.simulated_after, dtype=float),
+        )
         return (
             arrays["time"],
             measured,
