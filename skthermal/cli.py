@@ -136,11 +136,13 @@ def _add_simulate(sub):
     p = _sub(
         sub,
         "simulate",
-        "simulate test runs of a preset machine as a run table",
-        "Simulate a test programme on a preset machine (thermal network, "
-        "sensors, displacements) and write it as a run table. Either a duty "
-        "cycle of --segment steps and an ambient profile (one run), or "
-        "Machine B's Tests I-VI with --tests.",
+        "simulate test runs of a preset machine or your own as a run table",
+        "Simulate a test programme on a preset machine (--preset) or on your "
+        "own (--machine FILE.toml; thermal network, sensors, displacements) "
+        "and write it as a run table. Either a duty cycle of --segment steps "
+        "and an ambient profile (one run), or Machine B's Tests I-VI with "
+        "--tests. Speeds above 100000 rpm, feeds above 200000 mm/min and air "
+        "outside -50..100 °C are refused as typos.",
         "  skthermal simulate --segment 4000:1h --segment 0:1h --out runs.csv\n"
         "  skthermal simulate --segment 6000:2h:1500,0:90min --ambient-mean 22 \\\n"
         "      --ambient-trend 0.3 --run hot --append --out runs.csv\n"
@@ -152,23 +154,23 @@ def _add_simulate(sub):
     p.add_argument(
         "--preset",
         choices=["vmc-b", "vmc-a", "spindle-rig"],
-        default="vmc-b",
         help="machine: vmc-b (Machine B, 77 sensors), vmc-a (26) or spindle-rig "
         "(16 sensors, 5 spindle-nose channels); default vmc-b",
     )
     p.add_argument(
         "--machine",
         metavar="FILE.toml",
-        help="your own machine description (see docs/own_machine.md); "
-        "overrides --preset",
+        help="your own machine description (see docs/own_machine.md) instead "
+        "of a preset; not together with --preset",
     )
     p.add_argument(
         "--segment",
         action="append",
         metavar="RPM:DURATION[:FEED]",
-        help="a duty-cycle step, repeatable or comma-separated; DURATION in hours "
-        "(at most 48 without a unit) or with a unit (1h, 90min, 600s), FEED in "
-        "mm/min (default: 4000:1h 0:1h)",
+        help="a duty-cycle step, repeatable or comma-separated; RPM at most "
+        "100000, DURATION in hours (at most 48 without a unit) or with a unit "
+        "(1h, 90min, 600s), FEED in mm/min, at most 200000 (default: 4000:1h "
+        "0:1h)",
     )
     p.add_argument(
         "--tests",
@@ -196,7 +198,7 @@ def _add_simulate(sub):
         "--effects",
         metavar="LIST",
         help="physical effects to switch on (comma list, 'all' or 'none'; "
-        "default: the preset's); see --list-effects",
+        "default: the machine's); see --list-effects",
     )
     p.add_argument(
         "--list-effects", action="store_true", help="print the effects and exit"
@@ -448,19 +450,19 @@ def _add_gap(sub):
         metavar="FILE",
         help="run table of your own simulation of the same runs (same drivers; "
         "at the measured times, or at its own step, then interpolated onto "
-        "them); replaces --preset/--machine (see docs/gap_external.md)",
+        "them); not together with --preset or --machine (see "
+        "docs/gap_external.md)",
     )
     p.add_argument(
         "--preset",
         choices=["vmc-b", "vmc-a", "spindle-rig"],
-        default="vmc-b",
         help="default vmc-b",
     )
     p.add_argument(
         "--machine",
         metavar="FILE.toml",
-        help="your own machine description (see docs/own_machine.md); "
-        "overrides --preset",
+        help="your own machine description (see docs/own_machine.md) instead "
+        "of a preset; not together with --preset",
     )
     p.add_argument(
         "--effects",

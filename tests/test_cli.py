@@ -194,6 +194,103 @@ def test_bad_machine_file_is_one_user_error(capsys, tmp_path):
     assert "bad.toml" in err and "nodes must be a table" in err
 
 
+_MINI_MACHINE = """\
+name = "mini"
+axes = ["z"]
+[roles]
+enclosure = "air"
+tool = {tool}
+[nodes.spindle]
+capacity_J_per_K = 2000.0
+convection_W_per_K = 0.5
+[nodes.air]
+capacity_J_per_K = 50000.0
+convection_W_per_K = 40.0
+[[links]]
+between = ["spindle", "air"]
+conductance_W_per_K = 5.0
+[heat.bearing]
+node = "spindle"
+W_at_1000_rpm = 4.0
+[displacement.z]
+spindle = 2.0
+{sensors}"""
+
+
+def _mini_machine(tmp_path, name="mini.toml", *, tool='"spindle"', sensors=True):
+    path = tmp_path / name
+    block = '[sensors.T1_C]\nnode = "spindle"\n' if sensors else ""
+    path.write_text(_MINI_MACHINE.format(tool=tool, sensors=block))
+    return path
+
+
+def test_machine_file_of_wrong_types_names_the_file(capsys, tmp_path, monkeypatch):
+    # A list where a node name belongs: whatever the loader says, the one
+    # line names the file.
+    bad = _mini_machine(tmp_path, "tool_list.toml", tool='["spindle"]')
+    argv = ["simulate", "--machine", bad, "--out", tmp_path / "x.csv"]
+    status, _, err = _run(capsys, *argv)
+    assert status == 2 and err.count("\n") == 1
+    assert err.startswith("skthermal simulate: error: --machine") and str(bad) in err
+    # An unexpected TypeError or KeyError of the loader is not shown bare.
+    from skthermal.simulate import ThermalMachine
+
+    good = _mini_machine(tmp_path)
+    for exc in (TypeError("unhashable type: 'list'"), KeyError("between")):
+
+        def fail(*args, exc=exc, **kwargs):
+            raise exc
+
+        monkeypatch.setattr(ThermalMachine, "from_spec", fail)
+        argv = ["simulate", "--machine", good, "--out", tmp_path / "x.csv"]
+        status, _, err = _run(capsys, *argv)
+        assert status == 2 and err.count("\n") == 1
+        assert f"--machine: could not read machine file {good}: " in err
+        assert type(exc).__name__ in err
+
+
+def test_machine_without_sensors_is_named(capsys, tmp_path):
+    path = _mini_machine(tmp_path, sensors=False)
+    out = tmp_path / "x.csv"
+    status, _, err = _run(capsys, "simulate", "--machine", path, "--out", out)
+    assert status == 2 and err.count("\n") == 1
+    assert (
+        f"error: the machine in {path} has no [sensors]: a run table needs at "
+        "least one temperature sensor" in err
+    )
+    assert not out.exists()
+    status, text, _ = _run(
+        capsys,
+        "simulate",
+        "--machine",
+        _mini_machine(tmp_path),
+        "--segment",
+        "1000:10min",
+        "--sample-period",
+        "60",
+        "--out",
+        out,
+    )
+    assert status == 0 and "T1_C" in pd.read_csv(out).columns
+
+
+def test_simulate_help_options_are_in_the_docs(capsys):
+    """docs/command_line.md names every option of ``simulate --help``."""
+    import re
+
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    options = set(re.findall(r"(?<![\w-])(--[a-z][a-z-]*)", capsys.readouterr().out))
+    docs = Path(__file__).parents[1] / "docs" / "command_line.md"
+    text = docs.read_text(encoding="utf-8")
+    section = text[text.index("### `simulate`") :]
+    section = section[: section.index("\n### ", 1)]
+    assert "--machine" in options and "--help" in options
+    missing = sorted(o for o in options - {"--help"} if o not in section)
+    assert not missing, f"simulate options missing from the docs: {missing}"
+    assert "spindle-rig" in section and "skthermal simulate --machine" in section
+
+
 def test_select_fit_predict_evaluate_chain(capsys, workdir):
     runs, sensors = workdir / "tests.csv", workdir / "sensors.json"
     status, text, _ = _run(
@@ -546,6 +643,43 @@ def test_top_level_help_lists_the_subcommands(capsys):
             "3600 would be 150 days; write the unit (3600s, 3600min or 3600h)",
         ),
         (["simulate", "--segment", "3000:inf", "--out", "{tmp}/r.csv"], "finite"),
+        (
+            ["simulate", "--segment", "100000000:1h", "--out", "{tmp}/r.csv"],
+            "--segment '100000000:1h': spindle speed 1e+08 rpm is above the "
+            "limit of 100000 rpm",
+        ),
+        (
+            ["simulate", "--segment", "4000:1h:300000", "--out", "{tmp}/r.csv"],
+            "feed 300000 mm/min is above the limit of 200000 mm/min",
+        ),
+        (
+            ["simulate", "--ambient-mean", "500", "--out", "{tmp}/r.csv"],
+            "the air reaches 500 °C at 0 h, outside the -50..100 °C",
+        ),
+        (
+            ["simulate", "--ambient-trend", "10", "--segment", "0:10h"]
+            + ["--out", "{tmp}/r.csv"],
+            "the air reaches 120 °C at 10 h",
+        ),
+        (
+            ["simulate", "--machine", "{tmp}", "--out", "{tmp}/r.csv"],
+            "is a folder (a directory), not a machine file",
+        ),
+        (
+            ["simulate", "--machine", "{tmp}/m.toml", "--preset", "vmc-a"]
+            + ["--out", "{tmp}/r.csv"],
+            "give --preset or --machine, not both",
+        ),
+        (
+            ["gap", "--runs", "{runs}", "--machine", "{tmp}/m.toml"]
+            + ["--preset", "vmc-b"],
+            "give --preset or --machine, not both",
+        ),
+        (
+            ["gap", "--runs", "{runs}", "--simulated", "{runs}"]
+            + ["--preset", "vmc-b"],
+            "--preset is not used with --simulated",
+        ),
         (["simulate", "--effects", "magic", "--out", "{tmp}/r.csv"], "magic"),
         (["simulate", "--tests", "VII", "--out", "{tmp}/r.csv"], "VII"),
         (["reproduce", "--sample-period", "-5", "--out", "{tmp}/r"], "positive"),

@@ -245,31 +245,73 @@ def parse_effects(value, option="--effects"):
     return names
 
 
+# The machine of a command with neither --preset nor --machine.
+DEFAULT_PRESET = "vmc-b"
+
+
 def machine_from_args(args, *, effects=None):
     """The machine of ``--machine FILE`` (if given) or of ``--preset``.
 
-    ``effects=None`` keeps the machine's default effects. A machine file that
-    is missing or does not describe a valid machine is a :class:`UserError`
-    naming the file and the offending entry.
+    ``effects=None`` keeps the machine's default effects. Both options at
+    once, a machine file that is missing or a folder, or one that does not
+    describe a valid machine is a :class:`UserError` naming the file (and,
+    where the loader names it, the offending entry).
     """
     from skthermal.simulate import ThermalMachine
 
     path = getattr(args, "machine", None)
+    preset = getattr(args, "preset", None)
     if path is None:
-        return ThermalMachine.from_preset(args.preset, effects=effects)
+        return ThermalMachine.from_preset(preset or DEFAULT_PRESET, effects=effects)
+    if preset is not None:
+        raise UserError(
+            f"give --preset or --machine, not both (--preset {preset}, "
+            f"--machine {path})."
+        )
     path = Path(path)
-    if not path.is_file():
+    if path.is_dir():
+        raise UserError(
+            f"--machine: {path} is a folder (a directory), not a machine file; "
+            "give a FILE.toml."
+        )
+    if not path.exists():
         raise UserError(f"--machine: no such file: {path}")
     try:
         return ThermalMachine.from_spec(path, effects=effects)
-    except (ValueError, TypeError, OSError) as exc:
-        raise UserError(f"--machine: {exc}") from exc
+    except (TypeError, KeyError, AttributeError, IndexError) as exc:
+        # Not a message written for the user: a wrong type the loader did
+        # not check. Say which file, and what Python said.
+        raise UserError(
+            f"--machine: could not read machine file {path}: "
+            f"{type(exc).__name__}: {exc} (check the types of its entries "
+            "against docs/own_machine.md)."
+        ) from exc
+    except (ValueError, OSError) as exc:
+        message = str(exc)
+        if str(path) not in message:
+            message = f"{path}: {message}"
+        raise UserError(f"--machine: {message}") from exc
 
 
 def machine_label(args):
     """How a command names the machine it used: the file or the preset."""
     path = getattr(args, "machine", None)
-    return f"machine {path}" if path is not None else f"preset {args.preset}"
+    if path is not None:
+        return f"machine {path}"
+    return f"preset {getattr(args, 'preset', None) or DEFAULT_PRESET}"
+
+
+def check_machine_sensors(machine, args):
+    """A UserError unless ``machine`` has a temperature sensor: a run table
+    needs at least one ``T<name>_C`` column (DATA_FORMAT)."""
+    if machine.sensors:
+        return
+    path = getattr(args, "machine", None)
+    where = f"the machine in {path}" if path is not None else machine_label(args)
+    raise UserError(
+        f"{where} has no [sensors]: a run table needs at least one temperature "
+        'sensor (add e.g. [sensors.T1_C] node = "<node>"; see docs/own_machine.md).'
+    )
 
 
 def require(package, *, extra, command):

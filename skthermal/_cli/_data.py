@@ -3,6 +3,7 @@
 import json
 import shutil
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ import pandas as pd
 
 from skthermal._cli._common import (
     UserError,
+    check_machine_sensors,
     check_out_path,
     check_out_table,
     check_positive,
@@ -26,6 +28,11 @@ from skthermal._cli._common import (
 _HOURS = {"h": 1.0, "hr": 1.0, "min": 1 / 60, "m": 1 / 60, "s": 1 / 3600}
 # Longest duration accepted as a bare number (hours); longer needs a unit.
 BARE_HOURS_LIMIT = 48.0
+# Plausibility limits of the command's drivers: beyond them a value is a
+# typo or a unit slip (the simulator would write millions of degrees).
+MAX_RPM = 100_000.0
+MAX_FEED_MM_MIN = 200_000.0
+AIR_RANGE_C = (-50.0, 100.0)
 
 
 def parse_segments(specs):
@@ -56,6 +63,15 @@ def parse_segments(specs):
                 f"--segment {spec!r}: speed and feed must be >= 0 and the duration "
                 "positive."
             )
+        for value, name, unit_name, limit in (
+            (rpm, "spindle speed", "rpm", MAX_RPM),
+            (feed, "feed", "mm/min", MAX_FEED_MM_MIN),
+        ):
+            if value > limit:
+                raise UserError(
+                    f"--segment {spec!r}: {name} {value:g} {unit_name} is above "
+                    f"the limit of {limit:g} {unit_name} this command accepts."
+                )
         if unit is None and hours > BARE_HOURS_LIMIT:
             # A bare number is hours: 3600 would be 150 days, surely seconds.
             raise UserError(
@@ -65,6 +81,21 @@ def parse_segments(specs):
             )
         segments.append((hours * 3600.0, rpm, feed))
     return segments
+
+
+def check_air(ambient, duration_s):
+    """A UserError if the air of ``ambient`` (without its noise) leaves
+    :data:`AIR_RANGE_C` during the first ``duration_s`` seconds."""
+    low, high = AIR_RANGE_C
+    time_s = np.linspace(0.0, duration_s, 2001)
+    air = replace(ambient, noise_C=0.0).sample(time_s)
+    worst = int(np.argmax(np.maximum(air - high, low - air)))
+    if not low <= air[worst] <= high:
+        raise UserError(
+            "--ambient-mean/--ambient-trend/--day-amplitude: the air reaches "
+            f"{air[worst]:.4g} °C at {time_s[worst] / 3600:.3g} h, outside the "
+            f"{low:g}..{high:g} °C this command accepts."
+        )
 
 
 def effects_text(table, width=None):
@@ -138,6 +169,7 @@ def cmd_simulate(args):
     if args.ambient_noise < 0:
         raise UserError(f"--ambient-noise must be >= 0, got {args.ambient_noise}.")
     machine = machine_from_args(args, effects=parse_effects(args.effects))
+    check_machine_sensors(machine, args)
     noise = not args.no_noise
     if args.tests:
         if args.segment:
@@ -165,6 +197,7 @@ def cmd_simulate(args):
             start_hour=args.start_hour,
             noise_C=args.ambient_noise,
         )
+        check_air(ambient, duty.duration_s)
         runs = machine.simulate(
             duty,
             ambient,

@@ -52,7 +52,7 @@ def cmd_gap_external(args):
     from skthermal.gap import diagnose_runs
 
     log_progress(args.quiet)
-    for option in ("machine", "effects"):
+    for option in ("preset", "machine", "effects"):
         if getattr(args, option, None):
             raise UserError(
                 f"--{option} is not used with --simulated: the simulation is the "
