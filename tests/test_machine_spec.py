@@ -1,6 +1,8 @@
 """The machine description: validation, dict and TOML, presets, response API."""
 
 import ast
+import json
+import re
 import tomllib
 from pathlib import Path
 
@@ -232,7 +234,7 @@ def test_a_small_machine_from_a_dict_simulates():
         ),
         (
             lambda d: d.update(effects={"sensor_lag": {"tau_s": 0.0}}),
-            r"effect 'sensor_lag': .*'sensor_lag.tau_s' must be positive",
+            r"effect 'sensor_lag'.*'sensor_lag.tau_s' must be positive",
         ),
         (
             lambda d: d.update(params={"q.bearng_W": 3.0}),
@@ -569,3 +571,165 @@ def test_parameters_that_cut_a_node_off_are_refused_at_construction():
         rig.with_params({"G.spindle-nose": 0.0, "hA.nose": 0.0})
     with pytest.raises(ValueError, match="'air' .* needs a positive convection"):
         rig.with_params({"hA.air": 0.0})
+
+
+# --- audit fixes: ranges, TOML text, names and types -----------------------------
+
+
+@pytest.mark.parametrize("name", ["vmc-b", "vmc-a", "spindle-rig"])
+def test_parameter_range_is_the_rule_check_parameters_applies(name):
+    # One home for the ranges: every value at an edge passes the check, every
+    # value just outside fails it, for every parameter (effects' included).
+    from skthermal.simulate._spec import check_parameters, parameter_range
+
+    machine = ThermalMachine.from_preset(name)
+    spec, params = machine.spec, machine.params
+    assert str(parameter_range("q.alpha")) == "[0.5, 3]"
+    assert str(parameter_range("feed_heating.measure_at")) == "[0, 1]"
+    assert str(parameter_range("C.x")) == "(0, inf)"
+    for key in params:
+        valid = parameter_range(key)
+        inside = [valid.high] if np.isfinite(valid.high) else []
+        outside = [valid.high + 1e-3] if np.isfinite(valid.high) else []
+        if np.isfinite(valid.low):
+            inside.append(valid.low + 1e-3 if valid.low_open else valid.low)
+            outside.append(valid.low if valid.low_open else valid.low - 1e-3)
+        if key in ("feed_heating.nut_share", "feed_heating.motor_share"):
+            inside = [v for v in inside if v <= 0.5]  # their sum is at most 1
+            others = {"feed_heating.nut_share": 0.0, "feed_heating.motor_share": 0.0}
+        else:
+            others = {}
+        for value in inside:
+            check_parameters(spec, {**params, **others, key: value})
+        for value in outside:
+            with pytest.raises(ValueError, match=re.escape(repr(key))):
+                check_parameters(spec, {**params, **others, key: value})
+
+
+@pytest.mark.parametrize(
+    "edit",
+    [
+        lambda d: d.__setitem__("description", "line1\r\nline2\ttab\x1besc\x7fdel"),
+        lambda d: d.__setitem__("name", 'a"b\\c\x00'),
+        lambda d: d["sensors"]["T1_C"].__setitem__("location", "x\x7f\x08\x0c"),
+        lambda d: d.__setitem__("groups", {"Spindelköpfe": ["T1_C"], "a.b c": []}),
+        lambda d: d["heat"].__setitem__(
+            "custom", {"kühlung": {"node": "air", "W": 1.0}}
+        ),
+    ],
+)
+def test_to_toml_writes_what_from_toml_reads_back(edit, tmp_path):
+    data = _small()
+    edit(data)
+    spec = MachineSpec.from_dict(data)
+    path = tmp_path / "m.toml"
+    spec.to_toml(path)
+    assert MachineSpec.from_toml(path) == spec
+    assert tomllib.loads(spec.to_toml()) == spec.to_dict()
+
+
+@pytest.mark.parametrize("node", ["gehäuse", "²", "front housing", "Ä-1"])
+def test_non_ascii_and_spaced_node_names_are_written_quoted(node, tmp_path):
+    data = json.loads(json.dumps(_small()).replace('"housing"', json.dumps(node)))
+    spec = MachineSpec.from_dict(data)
+    assert node in spec.nodes
+    path = tmp_path / "m.toml"
+    spec.to_toml(path)
+    assert f'[nodes."{node}"]' in path.read_text(encoding="utf-8")
+    assert MachineSpec.from_toml(path) == spec
+
+
+def test_link_parameter_names_cannot_collide():
+    data = _small()
+    for n in ("a-b", "c", "a", "b-c"):
+        data["nodes"][n] = {"capacity_J_per_K": 1000.0, "convection_W_per_K": 1.0}
+    data["links"] += [
+        {"between": ["a-b", "c"], "conductance_W_per_K": 1.0},
+        {"between": ["a", "b-c"], "conductance_W_per_K": 100.0},
+    ]
+    with pytest.raises(
+        ValueError,
+        match=r"links \['a-b', 'c'\] and \['a', 'b-c'\] would share the "
+        r"conductance parameter 'G.a-b-c'",
+    ):
+        MachineSpec.from_dict(data)
+    data["links"].pop()  # one link with a '-' in a name is fine
+    spec = MachineSpec.from_dict(data)
+    assert spec.params["G.a-b-c"] == 1.0
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (
+            lambda d: d["roles"].__setitem__("tool", ["spindle"]),
+            r"role 'tool' must be a node name, got \['spindle'\]",
+        ),
+        (
+            lambda d: d["roles"].__setitem__("enclosure", {"air": 1}),
+            r"role 'enclosure' must be a node name, got \{'air': 1\}",
+        ),
+        (
+            lambda d: d["links"][0].__setitem__("between", [["spindle"], "housing"]),
+            r"link 0: 'between' must list two node names, got \[\['spindle'\], "
+            r"'housing'\]",
+        ),
+        (
+            lambda d: d["heat"].__setitem__("feed", {"nut": "housing", "axis": "z"}),
+            r"\[heat.feed\] needs screw = \[...\]",
+        ),
+        (
+            lambda d: d["heat"].__setitem__("feed", {"screw": []}),
+            r"\[heat.feed\] needs screw = \[...\]",
+        ),
+        (
+            lambda d: d.__setitem__("name", {"a": 1}),
+            r"name must be a string \(text\), got dict",
+        ),
+        (
+            lambda d: d.__setitem__("description", ["a", "b"]),
+            r"description must be a string \(text\), got list",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].__setitem__("location", 5),
+            r"sensor 'T1_C': location must be a string",
+        ),
+    ],
+)
+def test_wrong_types_name_the_entry(edit, message):
+    data = _small()
+    edit(data)
+    with pytest.raises(ValueError, match=message):
+        MachineSpec.from_dict(data)
+
+
+def test_spec_built_in_python_checks_types_and_the_screw():
+    nodes = ("tool", "enclosure", "bearings", "motor", "carrier2")
+    with pytest.raises(ValueError, match=r"link \[\['tool'\], 'motor'\]"):
+        MachineSpec("m", "", nodes, ((["tool"], "motor"),), ())
+    with pytest.raises(ValueError, match="role 'nut': feed heating needs the ball"):
+        MachineSpec("m", "", nodes, (), (), nut="motor")
+
+
+def test_a_spec_is_explicitly_unhashable():
+    spec = MachineSpec.from_dict(_small())
+    assert MachineSpec.__hash__ is None
+    with pytest.raises(TypeError, match="unhashable type: 'MachineSpec'"):
+        hash(spec)
+    assert spec == MachineSpec.from_dict(_small())
+
+
+def test_an_unquoted_dotted_parameter_name_gets_a_hint(tmp_path):
+    spec = MachineSpec.from_dict(_small())
+    path = tmp_path / "m.toml"
+    path.write_text(
+        spec.to_toml() + "\n[params]\nq.bearing_W = 6.0\n", encoding="utf-8"
+    )
+    with pytest.raises(
+        ValueError, match=r"params: 'q' is a table.*write \"q.bearing_W\" = \.\.\."
+    ):
+        MachineSpec.from_toml(path)
+    path.write_text(
+        spec.to_toml() + '\n[params]\n"q.bearing_W" = 6.0\n', encoding="utf-8"
+    )
+    assert MachineSpec.from_toml(path).params["q.bearing_W"] == 6.0

@@ -491,3 +491,174 @@ def test_simulated_runs_can_carry_fbg_strain_channels(vmc_b):
     # member's mechanical strain, smaller for a heating carrier.
     corrected = correct_strain_channels(run)  # gauges recorded in run.attrs
     assert abs(corrected["Scarrier_ue"].iloc[120]) < abs(run["Scarrier_ue"].iloc[120])
+
+
+# --- audit fixes: calibration bounds and inputs, read, response times -----------
+
+
+def test_default_bounds_stay_inside_the_valid_range():
+    # The truth at the edge of the valid range (alpha 3): the default bounds
+    # (a tenth to ten times, here [0.15, 15]) are cut to [0.5, 3], so neither
+    # the optimiser nor its finite-difference steps leave it.
+    from skthermal.simulate._machine import _default_bounds
+
+    lo, hi = _default_bounds(
+        np.array([1.5, 0.5, 6000.0]), ["q.alpha", "feed_heating.measure_at", "C.x"]
+    )
+    np.testing.assert_array_equal(lo, [0.5, 0.05, 600.0])
+    np.testing.assert_array_equal(hi, [3.0, 1.0, 60000.0])
+    truth = ThermalMachine.from_preset(
+        "spindle-rig", effects=[], params={"q.alpha": 3.0}
+    )
+    runs = truth.simulate(
+        DutyCycle([(3600, 8000), (1800, 0)]), sample_period_s=300, noise=False
+    )
+    runs[truth.targets] *= 1.5  # the best fit lies beyond the range
+    model = ThermalMachine.from_preset("spindle-rig", effects=[])
+    _, result = model.calibrate(runs, ["q.alpha"], max_nfev=20)
+    assert 0.5 <= result.params["q.alpha"] <= 3.0
+    assert result.params["q.alpha"] == pytest.approx(3.0, abs=1e-6)
+
+
+def test_feed_heating_fraction_is_fitted_inside_zero_to_one():
+    truth = ThermalMachine.from_preset("vmc-a", params={"feed_heating.measure_at": 1.0})
+    runs = truth.simulate(
+        DutyCycle([(3600, 3000, 3000), (1800, 0, 0)]), sample_period_s=300, noise=False
+    )
+    runs["disp_x_um"] += 3 * np.linspace(0, 1, len(runs))
+    model = ThermalMachine.from_preset("vmc-a")
+    _, result = model.calibrate(
+        runs, ["feed_heating.measure_at"], channels=["disp_x_um"], max_nfev=20
+    )
+    assert 0.0 <= result.params.iloc[0] <= 1.0
+
+
+@pytest.mark.parametrize(
+    "key, bounds, valid",
+    [
+        ("q.alpha", (-2.0, 5.0), r"\[0.5, 3\]"),
+        ("q.bearing_W", (-10.0, 10.0), r"\[0, inf\)"),
+        ("C.spindle", (-5000.0, 5000.0), r"\(0, inf\)"),
+        ("C.spindle", (0.0, 5000.0), r"\(0, inf\)"),
+    ],
+)
+def test_bounds_outside_the_valid_range_are_refused_before_any_work(
+    key, bounds, valid, monkeypatch
+):
+    model = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = model.simulate(DutyCycle([(600, 3000)]), sample_period_s=60, noise=False)
+
+    def no_simulation(*args, **kwargs):  # pragma: no cover - must not run
+        raise AssertionError("calibrate simulated before checking its bounds")
+
+    monkeypatch.setattr(ThermalMachine, "simulate_drivers", no_simulation)
+    with pytest.raises(
+        ValueError,
+        match=rf"bounds of '{key}': .* reach outside its valid range {valid}",
+    ):
+        model.calibrate(runs, [key], bounds=[bounds])
+
+
+def test_calibration_input_gaps_are_named():
+    machine = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = machine.simulate(DutyCycle([(1200, 4000)]), sample_period_s=300, noise=False)
+    with pytest.warns(UserWarning, match=r"no column \['disp_ch3_um'\], which the"):
+        _, result = machine.calibrate(
+            runs.drop(columns="disp_ch3_um"), ["q.bearing_W"], max_nfev=2
+        )
+    assert "disp_ch3_um" not in result.rmse_after.index
+    with pytest.raises(ValueError, match=r"channels names \['disp_ch1_um'\] more"):
+        machine.calibrate(runs, ["q.bearing_W"], channels=["disp_ch1_um"] * 2)
+    with pytest.raises(
+        TypeError, match=r"keyword argument 'max_nfevs' \(did you mean 'max_nfev'"
+    ):
+        machine.calibrate(runs, ["q.bearing_W"], max_nfevs=2)
+    with pytest.raises(ValueError, match=r"bounds names \['q.bearng_W'\], not"):
+        machine.calibrate(
+            runs,
+            ["q.bearing_W"],
+            bounds={"q.bearing_W": (1, 50), "q.bearng_W": (0, 1)},
+        )
+    with pytest.raises(TypeError, match="runs must be a run table .* got dict"):
+        machine.calibrate(runs.to_dict("list"), ["q.bearing_W"])
+
+
+def test_read_takes_a_dataframe_by_column_name():
+    m = ThermalMachine.from_preset("spindle-rig", effects=[])
+    _, states = m.simulate(
+        DutyCycle.heat_cool(6000, heat_h=1, cool_h=1), noise=False, return_states=True
+    )
+    air = np.full(len(states), 20.0)
+    channels = ["T1_C", "disp_ch1_um"]
+    good = m.read(states.to_numpy(), air, channels, sample_period_s=30)
+    shuffled = states[sorted(states.columns)]
+    np.testing.assert_array_equal(
+        m.read(shuffled, air, channels, sample_period_s=30), good
+    )
+    with pytest.raises(ValueError, match=r"no column for node\(s\) \['air'\]"):
+        m.read(states.drop(columns="air"), air, channels, sample_period_s=30)
+    # One channel by name, not its letters; a reference per node.
+    np.testing.assert_array_equal(
+        m.read(states, air, "T1_C", sample_period_s=30), good[:, :1]
+    )
+    with pytest.raises(ValueError, match="reference must be 9 node temperatures"):
+        m.read(states, air, channels, sample_period_s=30, reference=[20, 20])
+    with pytest.raises(ValueError, match="with n >= 1"):
+        m.read(np.empty((0, 9)), np.empty(0), sample_period_s=30)
+
+
+def test_response_times_are_nan_for_nodes_that_do_not_heat():
+    m = ThermalMachine.from_preset("spindle-rig", effects=[])
+    assert m.response_times(0, hours=4).isna().all()
+    minutes = m.response_times(4000, hours=4)
+    assert minutes.notna().all() and (minutes > 0).all()
+
+
+def test_tool_growth_effect_leaves_the_displacement_map_as_documented():
+    for name in ("vmc-b", "spindle-rig"):
+        on = ThermalMachine.from_preset(name, effects=["tool_growth"])
+        off = ThermalMachine.from_preset(name, effects=[])
+        pd.testing.assert_frame_equal(
+            on.displacement_matrix(), off.displacement_matrix()
+        )
+        assert on.displacement_matrix()[on.spec.tool].abs().sum() > 0
+    doc = " ".join(ThermalMachine.displacement_matrix.__doc__.split())
+    assert "counts only with" not in doc
+    assert "on or off the ``tool_growth`` effect" in doc
+
+
+def test_absurd_drivers_and_stiff_parameters_are_named_not_nan():
+    m = ThermalMachine.from_preset("spindle-rig")
+    t = np.arange(5) * 60.0
+    with pytest.raises(
+        ValueError, match=r"heat input is not finite .*spindle_rpm 1e\+308"
+    ):
+        m.response(t, np.full(5, 1e308), np.full(5, 20.0))
+    with pytest.raises(ValueError, match=r"not finite: .*speed 1e\+200 rpm"):
+        m.response(t, np.full(5, 1e200), np.full(5, 20.0))
+    for where, value, named in (
+        ("capacity", 1e-300, r"smallest capacity C.spindle = 1e-300"),
+        ("conductance", 1e300, r"largest conductance G.spindle-housing = 1e\+300"),
+    ):
+        data = {
+            "name": "mini",
+            "axes": ["z"],
+            "roles": {"enclosure": "air", "tool": "spindle"},
+            "nodes": {
+                "spindle": {"capacity_J_per_K": 2000.0, "convection_W_per_K": 0.5},
+                "housing": {"capacity_J_per_K": 20000.0, "convection_W_per_K": 3.0},
+                "air": {"capacity_J_per_K": 50000.0, "convection_W_per_K": 40.0},
+            },
+            "links": [{"between": ["spindle", "housing"], "conductance_W_per_K": 5.0}],
+            "heat": {"bearing": {"node": "spindle", "W_at_1000_rpm": 4.0}},
+            "displacement": {"z": {"spindle": 2.0}},
+        }
+        if where == "capacity":
+            data["nodes"]["spindle"]["capacity_J_per_K"] = value
+        else:
+            data["links"][0]["conductance_W_per_K"] = value
+        stiff = ThermalMachine.from_spec(data, effects=[])
+        with pytest.raises(ValueError, match=named):
+            stiff.simulate(
+                DutyCycle([(3600, 6000)]), 20.0, sample_period_s=60, noise=False
+            )

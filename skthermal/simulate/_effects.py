@@ -6,10 +6,43 @@ adds them one at a time to explain where a simulation and a measurement
 disagree, so the names and meanings are part of the public API.
 """
 
+import math
+from typing import NamedTuple
+
 import numpy as np
 import pandas as pd
 
 from skthermal.simulate._solver import first_order_lag
+
+
+class ParameterRange(NamedTuple):
+    """The valid values of one parameter: ``low`` to ``high``.
+
+    ``low_open`` excludes ``low`` itself (a heat capacity is positive, not
+    zero); ``high`` is always included. ``rule`` says it in words, as the
+    error messages do.
+    """
+
+    low: float
+    high: float
+    low_open: bool
+    rule: str
+    hint: str = ""
+
+    def __contains__(self, value):
+        above = value > self.low if self.low_open else value >= self.low
+        return bool(above and value <= self.high)
+
+    def __str__(self):
+        left = "(" if self.low_open else "["
+        right = "]" if math.isfinite(self.high) else ")"
+        return f"{left}{self.low:g}, {self.high:g}{right}"
+
+
+ANY = ParameterRange(-math.inf, math.inf, False, "must be a finite number")
+NOT_NEGATIVE = ParameterRange(0.0, math.inf, False, "must not be negative")
+POSITIVE = ParameterRange(0.0, math.inf, True, "must be positive")
+FRACTION = ParameterRange(0.0, 1.0, False, "must lie in [0, 1]")
 
 
 class Effect:
@@ -32,6 +65,9 @@ class Effect:
         Default parameter values, stored in the machine as ``"<name>.<param>"``.
     units : dict
         Unit of each parameter.
+    ranges : dict
+        Valid range (:class:`ParameterRange`) of each parameter that is not
+        simply "not negative" (the default).
     diagnosis_parameter : str or None
         The parameter (full name) the gap diagnosis calibrates when it adds
         this effect; None for a switch without a free parameter.
@@ -47,6 +83,7 @@ class Effect:
     summary = ""
     params = {}
     units = {}
+    ranges = {}
     diagnosis_parameter = None
     residual = False
     default_on = True
@@ -54,18 +91,24 @@ class Effect:
     def __repr__(self):
         return f"Effect({self.name!r})"
 
-    def check(self, params):
-        """Validate this effect's parameters in the machine's ``params``.
+    def parameter_range(self, key):
+        """The valid range of this effect's parameter ``key`` (short name)."""
+        return self.ranges.get(key, NOT_NEGATIVE)
 
-        Default: every parameter must not be negative.
-        """
+    def check(self, params):
+        """Validate this effect's parameters in the machine's ``params``:
+        each in its range (:meth:`parameter_range`), then the joint rules
+        of the effect, if any (:meth:`check_joint`)."""
         for key in self.params:
-            value = params[f"{self.name}.{key}"]
-            if value < 0:
-                raise ValueError(
-                    f"Parameter {self.name + '.' + key!r} must not be negative, "
-                    f"got {value}."
-                )
+            full = f"{self.name}.{key}"
+            value = params[full]
+            valid = self.parameter_range(key)
+            if value not in valid:
+                raise ValueError(f"Parameter {full!r} {valid.rule}, got {value}.")
+        self.check_joint(params)
+
+    def check_joint(self, params):
+        """Rules that tie several of the effect's parameters (none here)."""
 
     # Hooks; ``machine`` is the ThermalMachine, ``p`` its parameters.
 
@@ -102,14 +145,8 @@ class SensorLag(Effect):
     )
     params = {"tau_s": 480.0}
     units = {"tau_s": "s"}
+    ranges = {"tau_s": POSITIVE}
     diagnosis_parameter = "sensor_lag.tau_s"
-
-    def check(self, params):
-        if params["sensor_lag.tau_s"] <= 0:
-            raise ValueError(
-                "Parameter 'sensor_lag.tau_s' must be positive, got "
-                f"{params['sensor_lag.tau_s']}."
-            )
 
     def read(self, machine, p, x, lagged, dt):
         if lagged.any():
@@ -199,21 +236,20 @@ class FeedHeating(Effect):
         "nut_share": "1",
         "motor_share": "1",
     }
+    ranges = {
+        "stroke": FRACTION,
+        "measure_at": FRACTION,
+        "nut_share": FRACTION,
+        "motor_share": FRACTION,
+    }
     # The diagnosis gives the feed-driven part its own gain per channel,
     # which sets the screw heating's amplitude; a power parameter on top
     # would only be degenerate with those gains.
     diagnosis_parameter = None
 
-    def check(self, params):
-        for key in ("stroke", "measure_at", "nut_share", "motor_share"):
-            key = f"feed_heating.{key}"
-            if not 0 <= params[key] <= 1:
-                raise ValueError(
-                    f"Parameter {key!r} must lie in [0, 1], got {params[key]}."
-                )
+    def check_joint(self, params):
         if params["feed_heating.nut_share"] + params["feed_heating.motor_share"] > 1:
             raise ValueError("feed_heating.nut_share + motor_share must not exceed 1.")
-        super().check(params)
 
     def heat(self, machine, p, rpm, feed, cols, sources):
         spec = machine.spec

@@ -31,6 +31,8 @@ from skthermal.simulate._spec import (
     check_connected,
     check_parameter_names,
     check_parameters,
+    parameter_entry,
+    parameter_range,
 )
 from skthermal.utils._runs import is_clock_dtype
 from skthermal.utils._threads import single_threaded_blas
@@ -69,6 +71,10 @@ class CalibrationResult:
     nfev: int
     success: bool
     message: str
+
+
+# A rise below this (K) is rounding noise, not heating (response_times).
+RISE_TOLERANCE_K = 1e-9
 
 
 def _weights_matrix(spec, names_index, items):
@@ -404,7 +410,8 @@ class ThermalMachine:
         Returns
         -------
         Series
-            Minutes per node.
+            Minutes per node; NaN for a node that does not heat (its rise
+            after ``hours`` is below 1e-9 K, e.g. at 0 rpm without heat).
         """
         _, states = self.with_effects(remove=["sensor_drift"]).simulate(
             DutyCycle([(hours * 3600.0, spindle_rpm)]),
@@ -416,7 +423,10 @@ class ThermalMachine:
         rise = (states - states.iloc[0]).to_numpy()
         final = rise[-1]
         reached = np.abs(rise) >= fraction * np.abs(final)
-        minutes = np.where(np.abs(final) > 0, reached.argmax(axis=0), 0).astype(float)
+        # A node that does not heat (no heat at this speed: its rise is
+        # rounding noise) has no response time: NaN.
+        heats = np.abs(final) > RISE_TOLERANCE_K
+        minutes = np.where(heats, reached.argmax(axis=0), np.nan).astype(float)
         return pd.Series(minutes, index=list(self.spec.nodes), name="minutes")
 
     def time_constants(self, spindle_rpm=0.0):
@@ -507,12 +517,15 @@ class ThermalMachine:
 
         Parameters
         ----------
-        node_T : array-like of shape (n, n_nodes)
-            Node temperatures, e.g. from :meth:`response`.
+        node_T : array-like of shape (n, n_nodes) or DataFrame
+            Node temperatures, e.g. from :meth:`response` (columns in the
+            order of ``spec.nodes``); a DataFrame (e.g. the states of
+            :meth:`simulate` with ``return_states=True``) is read by column
+            name, and must hold every node.
         ambient_C : array-like of shape (n,)
             Workshop air (sensors with a ``"room"`` weight read it; pass zeros
             for a heat part of :meth:`response`).
-        channels : sequence of str, optional
+        channels : str or sequence of str, optional
             Sensor and displacement columns; default all sensors, then all
             displacements.
         sample_period_s : float
@@ -526,12 +539,20 @@ class ThermalMachine:
         ndarray of shape (n, n_channels)
             Temperatures (°C) and displacements (µm).
         """
-        T = np.asarray(node_T, dtype=float)
         n_nodes = len(self.spec.nodes)
-        if T.ndim != 2 or T.shape[1] != n_nodes:
+        if isinstance(node_T, pd.DataFrame):
+            missing = [n for n in self.spec.nodes if n not in node_T.columns]
+            if missing:
+                raise ValueError(
+                    f"node_T (a DataFrame, read by column name) has no column "
+                    f"for node(s) {missing}; the nodes are {list(self.spec.nodes)}."
+                )
+            node_T = node_T[list(self.spec.nodes)]
+        T = np.asarray(node_T, dtype=float)
+        if T.ndim != 2 or T.shape[1] != n_nodes or T.shape[0] == 0:
             raise ValueError(
-                f"node_T must have shape (n, {n_nodes}) (one column per node), "
-                f"got {T.shape}."
+                f"node_T must have shape (n, {n_nodes}) with n >= 1 (one column "
+                f"per node), got {T.shape}."
             )
         air = np.asarray(ambient_C, dtype=float)
         if air.shape != (T.shape[0],):
@@ -539,7 +560,10 @@ class ThermalMachine:
                 f"ambient_C has shape {air.shape}, expected ({T.shape[0]},)."
             )
         _check_number(sample_period_s, "sample_period_s", positive=True)
-        channels = self.sensors + self.targets if channels is None else list(channels)
+        if channels is None:
+            channels = self.sensors + self.targets
+        else:
+            channels = [channels] if isinstance(channels, str) else list(channels)
         sensors, targets = set(self.sensors), set(self.targets)
         bad = [c for c in channels if c not in sensors and c not in targets]
         if bad:
@@ -558,6 +582,11 @@ class ThermalMachine:
             M = self._displacement_array()
             rows = [self.targets.index(channels[i]) for i in disp]
             ref = T[0] if reference is None else np.asarray(reference, dtype=float)
+            if ref.shape != (n_nodes,):
+                raise ValueError(
+                    f"reference must be {n_nodes} node temperatures (one per "
+                    f"node), got shape {ref.shape}."
+                )
             out[:, disp] = (T - ref) @ M[rows].T
         return out
 
@@ -634,8 +663,10 @@ class ThermalMachine:
         Growth of bodies in series and bending from gradients appear as
         coefficients on node temperatures. The ball screw's growth counts up to
         the measuring position (``feed_heating.measure_at``), the
-        position-dependent term. The tool's growth counts only with the
-        ``tool_growth`` effect.
+        position-dependent term. The tool's growth is the tool node's
+        coefficients (``k.<axis>.<tool>``), on or off the ``tool_growth``
+        effect: that effect changes how the tool is cooled (its convection
+        while turning), not this map.
         """
         return pd.DataFrame(
             self._displacement_array().copy(),
@@ -699,13 +730,19 @@ class ThermalMachine:
             Names from :meth:`parameter_table`, e.g. ``["q.bearing_W",
             "k.y.carrier3"]``.
         bounds : dict or sequence of (low, high), optional
-            Default: a tenth to ten times each current value.
+            Default: a tenth to ten times each current value, within the
+            parameter's valid range (a fraction in [0, 1], ``alpha`` in
+            [0.5, 3] ...; see :func:`~skthermal.simulate._spec.parameter_range`).
+            Given bounds must lie inside the valid range (an error names
+            the parameter).
         channels : sequence of str, optional
-            Columns to fit; default every displacement the machine predicts. Any
-            of the machine's temperature columns may be added.
+            Columns to fit, each once; default every displacement the machine
+            predicts that the runs hold (with a warning naming those they
+            lack). Any of the machine's temperature columns may be added.
         initial : as in :meth:`simulate_drivers`, default="ambient"
         **least_squares_kw
-            Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``).
+            Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``); a
+            keyword it does not take is a TypeError naming it.
 
         Returns
         -------
@@ -980,15 +1017,48 @@ class ThermalMachine:
 
     def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed")):
         n_steps = rpm.shape[0] - 1
-        Q, cols = self._heat(rpm[:-1], feed[:-1], sources)
+        with np.errstate(over="ignore", invalid="ignore"):
+            Q, cols = self._heat(rpm[:-1], feed[:-1], sources)
+        bad = np.flatnonzero(~np.all(np.isfinite(Q), axis=1))
+        if bad.size:
+            raise ValueError(
+                f"The heat input is not finite (it overflows) at row {bad[0]} "
+                f"(spindle_rpm {rpm[bad[0]]:g}, feed_mm_min {feed[bad[0]]:g}): "
+                "the drivers lie far outside any plausible range (a spindle "
+                "turns at up to some 10^5 rpm)."
+            )
         T = np.empty((n_steps + 1, len(self.spec.nodes)))
         T[0] = T0
         change = np.flatnonzero(np.diff(rpm[:-1]) != 0) + 1
         bounds = np.concatenate(([0], change, [n_steps]))
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            modal, to_room = self._modal(rpm[a])
-            T[a : b + 1] = modal.step(T[a], Q[a:b], to_room, air[a : b + 1], dt, cols)
+        try:
+            with np.errstate(over="raise", invalid="raise"):
+                for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+                    modal, to_room = self._modal(rpm[a])
+                    T[a : b + 1] = modal.step(
+                        T[a], Q[a:b], to_room, air[a : b + 1], dt, cols
+                    )
+        except FloatingPointError:
+            T[:] = np.nan
+        if not np.all(np.isfinite(T)):
+            raise ValueError(self._stiff_message(rpm))
         return T
+
+    def _stiff_message(self, rpm):
+        """Why the node temperatures are not finite, naming the suspects."""
+        p, spec = self._params, self.spec
+        C = {f"C.{n}": p[f"C.{n}"] for n in spec.nodes}
+        G = {f"G.{a}-{b}": p[f"G.{a}-{b}"] for a, b in spec.edges}
+        G.update({f"hA.{n}": p.get(f"hA.{n}", 0.0) for n in spec.nodes})
+        small = min(C, key=C.get)
+        large = max(G, key=G.get)
+        return (
+            "The node temperatures are not finite: the network is too stiff "
+            "or too large for floating point (smallest capacity "
+            f"{small} = {C[small]:g} J/K, largest conductance {large} = "
+            f"{G[large]:g} W/K, fastest speed {np.max(rpm):g} rpm); bring the "
+            "parameters and drivers to physical values."
+        )
 
     def _quantise(self, x, step=None):
         """Round to the quantisation step (per column when ``step`` is given)."""
@@ -1074,11 +1144,19 @@ def _run_drivers(frame, run):
 
 
 def _check_bounds(bounds, params):
-    """Low and high bounds (arrays) of ``calibrate``'s ``bounds=``, checked."""
+    """Low and high bounds (arrays) of ``calibrate``'s ``bounds=``, checked:
+    pairs of numbers, low below high, inside each parameter's valid range
+    (:func:`~skthermal.simulate._spec.parameter_range`)."""
     if isinstance(bounds, dict):
         missing = [k for k in params if k not in bounds]
         if missing:
             raise ValueError(f"bounds has no entry for {missing}.")
+        extra = [k for k in bounds if k not in params]
+        if extra:
+            raise ValueError(
+                f"bounds names {extra}, not among the parameters to calibrate "
+                f"{params}{suggest(str(extra[0]), params)}."
+            )
         pairs = [bounds[k] for k in params]
     elif not isinstance(bounds, list | tuple | np.ndarray):
         raise ValueError(
@@ -1109,12 +1187,64 @@ def _check_bounds(bounds, params):
             raise ValueError(
                 f"{where}: low must be below high, got ({lo[i]:g}, {hi[i]:g})."
             )
+        valid = parameter_range(k)
+        if lo[i] not in valid or hi[i] not in valid:
+            raise ValueError(
+                f"{where}: ({lo[i]:g}, {hi[i]:g}) reach outside its valid "
+                f"range {valid} ({parameter_entry(k)}: {k!r} {valid.rule}); "
+                "keep the bounds inside it."
+            )
     return lo, hi
+
+
+def _default_bounds(x0, params):
+    """``calibrate``'s default bounds: a tenth to ten times each current
+    value, within the parameter's valid range."""
+    zero = [k for k, v in zip(params, x0, strict=True) if v == 0]
+    if zero:
+        raise ValueError(
+            f"Parameter(s) {zero} are 0: give bounds=, the default range "
+            "(a tenth to ten times the current value) needs a non-zero value."
+        )
+    lo, hi = np.minimum(x0 / 10, x0 * 10), np.maximum(x0 / 10, x0 * 10)
+    for i, k in enumerate(params):
+        valid = parameter_range(k)
+        lo[i], hi[i] = max(lo[i], valid.low), min(hi[i], valid.high)
+    return lo, hi
+
+
+def _least_squares_keywords(least_squares_kw):
+    """Raise a TypeError naming a keyword ``least_squares`` does not take."""
+    import inspect
+
+    from scipy.optimize import least_squares
+
+    taken = set(inspect.signature(least_squares).parameters) - {
+        "fun",
+        "x0",
+        "bounds",
+        "args",
+        "kwargs",
+    }
+    for key in least_squares_kw:
+        if key not in taken:
+            raise TypeError(
+                f"calibrate() got an unexpected keyword argument {key!r}"
+                f"{suggest(key, sorted(taken))}; keywords beyond calibrate's "
+                "own go to scipy.optimize.least_squares, which takes "
+                f"{sorted(taken)}."
+            )
 
 
 def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_kw):
     from scipy.optimize import least_squares
 
+    if not isinstance(runs, pd.DataFrame):
+        raise TypeError(
+            "runs must be a run table (a pandas DataFrame with run, time_s, "
+            f"spindle_rpm, ambient_C and the channels), got {type(runs).__name__}."
+        )
+    _least_squares_keywords(least_squares_kw)
     if isinstance(params, str):
         params = [params]
     params = list(params)
@@ -1135,17 +1265,13 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     current = machine.params
     known = machine.spec.known_parameters()
     x0 = np.array([current.get(k, known[k]) for k in params], dtype=float)
-    if bounds is None:
-        if np.any(x0 == 0):
-            zero = [k for k, v in zip(params, x0, strict=True) if v == 0]
-            raise ValueError(
-                f"Parameter(s) {zero} are 0: give bounds=, the default range "
-                "(a tenth to ten times the current value) needs a non-zero value."
-            )
-        lo, hi = np.minimum(x0 / 10, x0 * 10), np.maximum(x0 / 10, x0 * 10)
-    else:
-        lo, hi = _check_bounds(bounds, params)
-        x0 = np.clip(x0, lo, hi)
+    # Bounds inside each parameter's valid range: least_squares keeps its
+    # steps (finite differences included) within them, so every simulation
+    # of the fit is of a valid machine.
+    lo, hi = (
+        _default_bounds(x0, params) if bounds is None else _check_bounds(bounds, params)
+    )
+    x0 = np.clip(x0, lo, hi)
 
     if "run" not in runs.columns:
         raise ValueError("The run table has no 'run' column.")
@@ -1158,6 +1284,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
                 f"The runs have none of the channels to fit; the machine predicts "
                 f"{machine.targets + machine.sensors}."
             )
+        absent = [c for c in machine.targets if c not in runs.columns]
+        if absent:
+            warnings.warn(
+                f"calibrate: the runs have no column {absent}, which the machine "
+                f"predicts; fitting {channels} only (name channels= to choose).",
+                UserWarning,
+                stacklevel=3,
+            )
     else:
         channels = [channels] if isinstance(channels, str) else list(channels)
         missing = [c for c in channels if c not in runs.columns]
@@ -1168,6 +1302,9 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             )
         if not channels:
             raise ValueError("channels is empty: name the channels to fit.")
+        twice = sorted({c for c in channels if channels.count(c) > 1})
+        if twice:
+            raise ValueError(f"channels names {twice} more than once.")
     for c in channels:
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")

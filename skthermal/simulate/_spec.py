@@ -18,7 +18,13 @@ from pathlib import Path
 
 from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, suggest
 from skthermal.simulate._drivers import _check_number
-from skthermal.simulate._effects import EFFECTS
+from skthermal.simulate._effects import (
+    ANY,
+    EFFECTS,
+    NOT_NEGATIVE,
+    POSITIVE,
+    ParameterRange,
+)
 
 ROOM = "room"
 SENSOR_KINDS = ("surface", "embedded", "air")
@@ -257,14 +263,68 @@ def check_connected(spec, params):
         )
 
 
+def parameter_range(key):
+    """The valid range of the parameter ``key``, by the rules of
+    :func:`check_parameters` (which checks every value against it).
+
+    Capacities ``C.*`` are positive; conductances ``G.*`` and ``hA.*``, heat
+    inputs ``q.*``, noise figures ``sensor.*`` and ``disp.*`` not negative;
+    loss exponents ``q.*alpha`` lie in [0.5, 3]; displacement coefficients
+    ``k.*`` are any finite number; effects' parameters follow their effect
+    (``sensor_lag.tau_s`` positive, the ``feed_heating`` fractions in
+    [0, 1], the rest not negative). ``calibrate`` keeps its bounds inside.
+
+    Parameters
+    ----------
+    key : str
+        Parameter name, e.g. ``"q.alpha"``.
+
+    Returns
+    -------
+    ParameterRange
+        ``low``, ``high``, ``low_open`` (``low`` itself excluded) and the
+        rule in words; ``value in parameter_range(key)`` tests a value.
+
+    Examples
+    --------
+    >>> from skthermal.simulate._spec import parameter_range
+    >>> str(parameter_range("q.alpha")), str(parameter_range("C.spindle"))
+    ('[0.5, 3]', '(0, inf)')
+    >>> 1.2 in parameter_range("feed_heating.measure_at")
+    False
+    """
+    family = str(key).partition(".")[0]
+    if family == "C":
+        return POSITIVE._replace(rule="is a heat capacity and must be positive")
+    if family in ("G", "hA"):
+        return NOT_NEGATIVE._replace(rule="is a conductance and must not be negative")
+    if family == "q" and key.endswith("alpha"):
+        return ParameterRange(
+            0.5,
+            3.0,
+            False,
+            "(loss ~ speed^alpha) must lie in [0.5, 3]",
+            "; Palmgren-type friction gives 1 to 1.7",
+        )
+    if family == "q":
+        return NOT_NEGATIVE._replace(rule="is a heat input and must not be negative")
+    if family in ("sensor", "disp"):
+        return NOT_NEGATIVE
+    if family in EFFECTS:
+        return EFFECTS[family].parameter_range(key.partition(".")[2])
+    return ANY
+
+
 def check_parameters(spec, params, *, strict=False):
     """Check the names and values of a machine's parameters.
 
     The one home of the parameter rules: names belong to the structure
-    (:func:`check_parameter_names`), capacities are positive, conductances,
-    heat inputs and noise figures not negative, loss exponents ``alpha`` in
-    [0.5, 3], and each effect checks its own (:meth:`Effect.check`). Errors
-    name the file entry of the parameter (:func:`parameter_entry`).
+    (:func:`check_parameter_names`), every value lies in its range
+    (:func:`parameter_range`: capacities positive, conductances, heat
+    inputs and noise figures not negative, loss exponents ``alpha`` in
+    [0.5, 3] ...), and each effect checks its joint rules
+    (:meth:`Effect.check`). Errors name the file entry of the parameter
+    (:func:`parameter_entry`).
 
     Parameters
     ----------
@@ -286,23 +346,11 @@ def check_parameters(spec, params, *, strict=False):
         if type(value) is not float or not math.isfinite(value):
             where = f"{parameter_entry(key)}: parameter {key!r}"
             value = _number(where, value) if strict else _check_number(value, where)
-        family = key.partition(".")[0]
-        alpha = family == "q" and key.endswith("alpha")
-        rule = None
-        if family == "C" and value <= 0:
-            rule = "is a heat capacity and must be positive"
-        elif family in ("G", "hA") and value < 0:
-            rule = "is a conductance and must not be negative"
-        elif alpha and not 0.5 <= value <= 3.0:
-            rule = "(loss ~ speed^alpha) must lie in [0.5, 3]"
-        elif family == "q" and not alpha and value < 0:
-            rule = "is a heat input and must not be negative"
-        elif family in ("sensor", "disp") and value < 0:
-            rule = "must not be negative"
-        if rule is not None:
-            hint = "; Palmgren-type friction gives 1 to 1.7" if alpha else ""
+        valid = parameter_range(key)
+        if value not in valid:
             raise ValueError(
-                f"{parameter_entry(key)}: parameter {key!r} {rule}, got {value}{hint}."
+                f"{parameter_entry(key)}: parameter {key!r} {valid.rule}, "
+                f"got {value}{valid.hint}."
             )
         out[key] = value
     full = {f"{e.name}.{k}": v for e in EFFECTS.values() for k, v in e.params.items()}
@@ -449,6 +497,10 @@ class MachineSpec:
     params: dict = field(default_factory=dict)
     effects: dict = field(default_factory=dict)
 
+    # A spec holds dicts (params, groups ...): it compares by value but
+    # has no hash (say so, rather than fail inside the generated __hash__).
+    __hash__ = None
+
     def __post_init__(self):
         self.validate()
 
@@ -492,6 +544,12 @@ class MachineSpec:
 
     def validate(self):
         """Check the description; raises ValueError naming the bad entry."""
+        for f in ("name", "description"):
+            if not isinstance(getattr(self, f), str):
+                raise ValueError(
+                    f"machine spec: {f} must be a string (text), got "
+                    f"{type(getattr(self, f)).__name__} {getattr(self, f)!r}."
+                )
         nodes = list(self.nodes)
         seen = set()
         for n in nodes:
@@ -505,25 +563,42 @@ class MachineSpec:
             seen.add(n)
         known = set(nodes)
         links = set()
+        keys = {}
         for edge in self.edges:
-            if len(edge) != 2:
+            if not isinstance(edge, list | tuple) or len(edge) != 2:
                 raise ValueError(f"link {edge!r}: a link joins two nodes.")
             a, b = edge
-            label = f"link '{a}-{b}'"
+            strings = isinstance(a, str) and isinstance(b, str)
+            label = f"link '{a}-{b}'" if strings else f"link {list(edge)!r}"
             for x in (a, b):
-                if x not in known:
-                    raise _unknown(label, x, nodes)
+                _node(label, x, nodes)
             if a == b:
                 raise ValueError(f"{label}: joins a node to itself.")
             if (a, b) in links or (b, a) in links:
                 raise ValueError(f"{label} is listed twice.")
             links.add((a, b))
+            # The conductance's name joins the nodes with '-', which node
+            # names may contain: two links must not share one name.
+            key = f"G.{a}-{b}"
+            if key in keys:
+                raise ValueError(
+                    f"links {list(keys[key])} and {[a, b]} would share the "
+                    f"conductance parameter {key!r} (a '-' in a node name makes "
+                    "the name ambiguous); rename a node (e.g. '_' for '-')."
+                )
+            keys[key] = (a, b)
         for role in ("enclosure", "tool", "bearing", "motor", "belt", "cutting"):
             _node(f"role {role!r}", getattr(self, role), nodes)
         for role in ("nut", "axis_motor"):
             value = getattr(self, role)
             if value is not None:
                 _node(f"role {role!r}", value, nodes)
+                if not self.screw_nodes:
+                    raise ValueError(
+                        f"role {role!r}: feed heating needs the ball screw "
+                        "([heat.feed] screw = [...], screw_nodes); without it "
+                        f"the {role} gets no heat."
+                    )
         for source, node in self.custom_heat.items():
             if not isinstance(source, str) or not source or "." in source:
                 raise ValueError(
@@ -565,6 +640,11 @@ class MachineSpec:
             if s.name in names:
                 raise ValueError(f"{where} is listed twice.")
             names.add(s.name)
+            if not isinstance(s.location, str):
+                raise ValueError(
+                    f"{where}: location must be a string (where it sits, in "
+                    f"words), got {type(s.location).__name__} {s.location!r}."
+                )
             if s.kind not in SENSOR_KINDS:
                 raise ValueError(
                     f"{where}: kind {s.kind!r}{suggest(s.kind, SENSOR_KINDS)} is "
@@ -836,8 +916,14 @@ class MachineSpec:
         for i, link in enumerate(links):
             _check_fields(f"link {i}", link, ("between", "conductance_W_per_K"))
             pair = link.get("between")
-            if not isinstance(pair, list | tuple) or len(pair) != 2:
-                raise ValueError(f"link {i}: 'between' must list two nodes.")
+            if (
+                not isinstance(pair, list | tuple)
+                or len(pair) != 2
+                or not all(isinstance(x, str) for x in pair)
+            ):
+                raise ValueError(
+                    f"link {i}: 'between' must list two node names, got {pair!r}."
+                )
             a, b = pair
             label = f"link '{a}-{b}'"
             if "conductance_W_per_K" not in link:
@@ -857,6 +943,9 @@ class MachineSpec:
                     f'"<node>") unless a node is named {role!r}; nodes: '
                     f"{list(map(str, nodes))}."
                 )
+        for role in REQUIRED_ROLES:
+            if role in roles:
+                _node(f"role {role!r}", roles[role], nodes)
         kw = {
             "enclosure": roles.get("enclosure", "enclosure"),
             "tool": roles.get("tool", "tool"),
@@ -883,6 +972,12 @@ class MachineSpec:
             _check_fields(
                 "heat source 'feed'", feed, ("screw", "nut", "axis_motor", "axis")
             )
+            if not feed.get("screw"):
+                raise ValueError(
+                    "heat source 'feed': [heat.feed] needs screw = [...] (the "
+                    "ball-screw nodes, from the fixed bearing on); a machine "
+                    "without a ball screw leaves [heat.feed] out."
+                )
             kw["screw_nodes"] = _check_names(
                 "heat source 'feed': screw", feed.get("screw", ())
             )
@@ -994,6 +1089,20 @@ class MachineSpec:
                     p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
         extra = data.get("params", {})
         _check_fields("params", extra, list(extra or ()))
+        for key, value in extra.items():
+            if isinstance(value, dict):
+                # TOML reads an unquoted dotted key (q.bearing_W = 6.0) as
+                # nested tables {"q": {"bearing_W": 6.0}}.
+                path, inner = [key], value
+                while isinstance(inner, dict) and len(inner) == 1:
+                    (k, inner), *_ = inner.items()
+                    path.append(k)
+                name = ".".join(map(str, path))
+                raise ValueError(
+                    f"params: {key!r} is a table, not a number; a parameter "
+                    "name holds dots, which TOML reads as nested tables unless "
+                    f'the name is quoted: write "{name}" = ... (with the quotes).'
+                )
         p.update(extra)
         group_table = data.get("groups", {})
         _check_fields("groups", group_table, list(group_table or ()))
@@ -1001,8 +1110,8 @@ class MachineSpec:
             g: list(_check_names(f"group {g!r}", m)) for g, m in group_table.items()
         }
         return cls(
-            name=str(data["name"]),
-            description=str(data.get("description", "")),
+            name=data["name"],
+            description=data.get("description", ""),
             nodes=tuple(nodes),
             edges=tuple(edges),
             sensors=tuple(sensors),
@@ -1053,16 +1162,34 @@ class MachineSpec:
 # --- a small TOML writer (the standard library only reads TOML) ------------
 
 
+BARE_KEY_CHARACTERS = frozenset(
+    "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-"
+)
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n"}
+_ESCAPES.update({"\f": "\\f", "\r": "\\r"})
+
+
 def _key(k):
+    # TOML's bare keys are ASCII letters, digits, '_' and '-' only; any
+    # other key (non-ASCII, dotted, spaced) is written quoted.
     k = str(k)
-    if k and all(c.isalnum() or c in "_-" for c in k):
+    if k and all(c in BARE_KEY_CHARACTERS for c in k):
         return k
     return _string(k)
 
 
 def _string(s):
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
-    return f'"{out}"'
+    # A basic string: escape the quote, the backslash, every control
+    # character (< 0x20) and DEL (0x7F), which TOML forbids raw.
+    out = []
+    for c in s:
+        if c in _ESCAPES:
+            out.append(_ESCAPES[c])
+        elif ord(c) < 0x20 or ord(c) == 0x7F:
+            out.append(f"\\u{ord(c):04X}")
+        else:
+            out.append(c)
+    return '"' + "".join(out) + '"'
 
 
 def _value(v):
