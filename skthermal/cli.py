@@ -442,9 +442,19 @@ def _add_gap(sub):
         "  skthermal gap --runs real.csv --preset vmc-b\n"
         "  skthermal gap --runs real.csv --preset vmc-a --report gap/ \\\n"
         "      --candidates tool_growth,ambient_transient\n"
-        "  skthermal gap --simulated sim.csv --runs real.csv --report gap/\n",
+        "  skthermal gap --simulated sim.csv --runs real.csv --report gap/\n"
+        "  skthermal gap --runs record.csv --preset spindle-rig --block-hours 8\n"
+        "  skthermal gap --simulated sim.csv --runs real.csv \\\n"
+        "      --mapping T1_C=sensor1,T2_C=sensor2\n"
+        "  skthermal gap --list-effects\n",
     )
-    p.add_argument("--runs", metavar="FILE", required=True, help="real run table")
+    p.add_argument(
+        "--runs",
+        metavar="FILE",
+        help="real run table (required): run, time_s, spindle_rpm, ambient_C "
+        "(feed_mm_min) and the measured channels -- temperatures T*_C and/or "
+        "displacements disp_*_um",
+    )
     p.add_argument(
         "--simulated",
         metavar="FILE",
@@ -473,12 +483,48 @@ def _add_gap(sub):
     p.add_argument(
         "--candidates",
         metavar="LIST",
-        help="candidate effects to test (comma list; default every other effect)",
+        help="candidate effects to test (comma list; default every other "
+        "effect); see --list-effects",
+    )
+    p.add_argument(
+        "--channels",
+        metavar="LIST",
+        help="measured columns to compare (comma list; default every measured "
+        "T*_C / disp_*_um column the simulation also has, or that --mapping "
+        "names)",
+    )
+    p.add_argument(
+        "--mapping",
+        metavar="MEASURED=SIMULATED,...",
+        help="compare measured columns with simulated ones of other names, "
+        "e.g. T1_C=sensor1,disp_x_um=dx (with --preset/--machine: the "
+        "machine's channel names)",
+    )
+    p.add_argument(
+        "--block-hours",
+        type=float,
+        metavar="H",
+        help="cut every run longer than 1.5 x H hours into blocks of about H "
+        "hours that count as runs for the held-out scoring: diagnoses one long "
+        "record (with --simulated only where skthermal.gap.diagnose_runs "
+        "accepts block_hours)",
+    )
+    p.add_argument(
+        "--max-samples",
+        type=int,
+        metavar="N",
+        help="compare at most N samples per run (or block), thinned evenly "
+        "(default 600; fewer is faster)",
     )
     p.add_argument(
         "--report",
         metavar="DIR",
         help="write report.md, report.html, report.json, tables and figures",
+    )
+    p.add_argument(
+        "--list-effects",
+        action="store_true",
+        help="print the candidate effects and exit",
     )
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func="_gap:cmd_gap")
@@ -502,7 +548,12 @@ def _add_gap(sub):
         "--preset", choices=["vmc-b", "vmc-a"], default="vmc-b", help="default vmc-b"
     )
     p.add_argument(
-        "--effects", metavar="LIST", help="effects to plant (default every effect)"
+        "--effects",
+        metavar="LIST",
+        help="effects to plant (default every effect); see --list-effects",
+    )
+    p.add_argument(
+        "--list-effects", action="store_true", help="print the effects and exit"
     )
     p.add_argument(
         "--report",

@@ -1,7 +1,11 @@
 """``skthermal gap`` and ``skthermal gap-check``: the sim-to-real gap diagnosis."""
 
+import contextlib
+import inspect
 import logging
+import re
 import sys
+import warnings
 from pathlib import Path
 
 import pandas as pd
@@ -13,6 +17,7 @@ from skthermal._cli._common import (
     machine_label,
     parse_effects,
     read_table,
+    split_list,
 )
 
 
@@ -36,14 +41,209 @@ def log_progress(quiet=False, stream=None):
     return handler
 
 
-def _show(report, columns, folder):
+# The Python keyword arguments that library messages advise, and the options
+# of 'skthermal gap' that do the same.
+_PYTHON_WORDS = (
+    ("mapping={'measured': 'simulated'}", "--mapping MEASURED=SIMULATED"),
+    ("block_hours=", "--block-hours "),
+    ("max_samples=", "--max-samples "),
+)
+_PYTHON_BARE = re.compile(r"(?<![\w-])(block_hours|max_samples)\b")
+_PYTHON_NAMES = re.compile(r"(?<![\w-])(channels|mapping)=(?=[\s.,;)]|$)")
+
+
+def cli_words(message):
+    """``message`` with the Python arguments it advises (``mapping={...}``,
+    ``channels=``, ``block_hours=``) named as the command's options."""
+    text = str(message)
+    for python, option in _PYTHON_WORDS:
+        text = text.replace(python, option)
+    text = _PYTHON_NAMES.sub(lambda m: f"--{m.group(1)}", text)
+    return _PYTHON_BARE.sub(lambda m: "--" + m.group(1).replace("_", "-"), text)
+
+
+@contextlib.contextmanager
+def _option_words():
+    """Warnings raised inside are shown with :func:`cli_words` applied."""
+    with warnings.catch_warnings():
+        show = warnings.showwarning
+
+        def rewrite(message, category, *args, **kwargs):
+            return show(cli_words(message), category, *args, **kwargs)
+
+        warnings.showwarning = rewrite
+        yield
+
+
+def _list_effects():
+    from skthermal._cli._data import effects_text
+    from skthermal.simulate import describe_effects
+
+    print(effects_text(describe_effects()))
+    return 0
+
+
+# Columns the diagnosis simulates (or aligns) each run from.
+_GAP_DRIVERS = ("run", "time_s", "spindle_rpm", "ambient_C")
+
+
+def read_gap_table(path, what, *, numeric=()):
+    """Read a run table for the gap diagnosis.
+
+    The diagnosis compares whatever channels the two sides share --
+    displacements only, temperatures only, or columns with another tool's
+    names given by ``--mapping`` -- so the run-table rule "at least one
+    ``T<name>_C`` sensor" does not apply. The table is read without that
+    validation; its drivers must be there and, like the columns named in
+    ``numeric``, be numbers. Value checks (times, missing values) are the
+    diagnosis's own, each a one-line error naming the run.
+    """
+    df = read_table(path, what=what, validate=False)
+    missing = [c for c in _GAP_DRIVERS if c not in df.columns]
+    if missing:
+        raise UserError(
+            f"{what} {path}: no {', '.join(missing)} column(s); the diagnosis "
+            "needs run, time_s, spindle_rpm and ambient_C (and feed_mm_min if "
+            f"the axis moved); the table has {list(map(str, df.columns))[:8]}."
+        )
+    if df.shape[0] == 0:
+        raise UserError(f"{what} {path}: the run table has no rows.")
+    for col in [*_GAP_DRIVERS[1:], "feed_mm_min", *numeric]:
+        if col in df.columns and not pd.api.types.is_numeric_dtype(df[col]):
+            values = pd.to_numeric(df[col], errors="coerce")
+            bad = values.isna() & df[col].notna()
+            if bad.any():
+                row = int(bad.to_numpy().argmax())
+                raise UserError(
+                    f"{what} {path}: column {col!r} holds text "
+                    f"({df[col].iloc[row]!r} in run {df['run'].iloc[row]!r}, "
+                    f"row {row}); it must hold numbers."
+                )
+    return df
+
+
+def _channel_columns(df):
+    from skthermal.gap._problem import is_channel
+
+    return [c for c in df.columns if is_channel(c)]
+
+
+def parse_mapping(value):
+    """``"T1_C=sensor1,disp_x_um=dx"`` -> ``{"T1_C": "sensor1", ...}``."""
+    if value is None:
+        return None
+    mapping = {}
+    for item in split_list(value):
+        measured, sep, simulated = item.partition("=")
+        if not sep or not measured or not simulated or "=" in simulated:
+            raise UserError(
+                f"--mapping: {item!r} is not MEASURED=SIMULATED (e.g. "
+                "--mapping T1_C=sensor1,disp_x_um=dx)."
+            )
+        if measured in mapping:
+            raise UserError(f"--mapping: {measured!r} is mapped twice.")
+        mapping[measured] = simulated
+    if not mapping:
+        raise UserError("--mapping: give at least one MEASURED=SIMULATED pair.")
+    return mapping
+
+
+def parse_channels(value):
+    if value is None:
+        return None
+    names = split_list(value)
+    if not names:
+        raise UserError("--channels: give at least one column name.")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise UserError(f"--channels: {twice} named more than once.")
+    return names
+
+
+def _options(args):
+    """The keyword arguments of the diagnosis from the command's options."""
+    if args.max_samples is not None and args.max_samples < 3:
+        raise UserError(f"--max-samples must be at least 3, got {args.max_samples}.")
+    if args.block_hours is not None and not (
+        pd.notna(args.block_hours) and 0 < args.block_hours < float("inf")
+    ):
+        raise UserError(f"--block-hours must be positive, got {args.block_hours}.")
+    given = {
+        "channels": parse_channels(args.channels),
+        "mapping": parse_mapping(args.mapping),
+        "max_samples": args.max_samples,
+        "block_hours": args.block_hours,
+    }
+    # Only the options given: the library's defaults stay its own.
+    return {k: v for k, v in given.items() if v is not None}
+
+
+def _used_columns(kwargs):
+    """Columns of the measured and of the simulated table the options name."""
+    mapping = kwargs.get("mapping") or {}
+    measured = [*(kwargs.get("channels") or []), *mapping]
+    return measured, [*mapping.values()]
+
+
+def _library_error(exc, *, blocks_hint, prefix=""):
+    """A UserError of the diagnosis's ValueError, in the options' words;
+    ``blocks_hint``: point a too-few-runs error to ``--block-hours``."""
+    message = cli_words(exc)
+    if "at least 2 runs" in message and blocks_hint:
+        message = message.rstrip(".") + (
+            "; to diagnose one long record, cut it into blocks that count as "
+            "runs with --block-hours H (e.g. --block-hours 8)."
+        )
+    return UserError(prefix + message)
+
+
+def _show(report, columns, folder, *, rename=None):
     """Print the verdict's ranking table and save the report to ``folder``."""
     with pd.option_context("display.width", 140, "display.precision", 3):
-        print(report.ranking[columns].to_string(index=False))
+        print(
+            report.ranking[columns].rename(columns=rename or {}).to_string(index=False)
+        )
     if folder:
         report.save(folder)
         print(f"Report: {folder}")
     return 0
+
+
+def _how_far_overall(report):
+    """The overall row of the table 'How far' (fine calibration) as text, or
+    None when the fine step did not run."""
+    evidence = getattr(report, "how_far_evidence", None) or {}
+    how_far = getattr(report, "how_far", None)
+    if evidence.get("calibration") != "fine" or how_far is None or how_far.empty:
+        return None
+    rows = how_far[how_far["regime"] == "overall"]
+    if rows.empty:
+        return None
+    row = rows.iloc[0]
+    table = pd.DataFrame(
+        [
+            {
+                "effect": row["effect"],
+                "gap_before": row["gap_before"],
+                "gap_after": row["gap_after"],
+                "shrink": row["shrink"],
+                "runs_better": (
+                    f"{evidence.get('runs_improved')}/{evidence.get('n_runs')}"
+                ),
+                "p_value": evidence.get("p_value"),
+                "explains": report.best_effect == row["effect"],
+            }
+        ]
+    )
+    with pd.option_context("display.width", 140, "display.precision", 3):
+        return table.to_string(index=False)
+
+
+def _accepts(function, name):
+    try:
+        return name in inspect.signature(function).parameters
+    except (TypeError, ValueError):  # pragma: no cover - builtins only
+        return False
 
 
 def cmd_gap_external(args):
@@ -58,9 +258,17 @@ def cmd_gap_external(args):
                 f"--{option} is not used with --simulated: the simulation is the "
                 "run table given there."
             )
+    kwargs = _options(args)
+    blocks = _accepts(diagnose_runs, "block_hours")
+    if "block_hours" in kwargs and not blocks:
+        raise UserError(
+            "--block-hours is not available with --simulated: cut the long "
+            "record into runs (a new run label per block) in both tables."
+        )
     check_out_path(args.report, "--report", folder=True)
-    simulated = read_table(args.simulated, what="--simulated")
-    measured = read_table(args.runs)
+    measured_cols, simulated_cols = _used_columns(kwargs)
+    simulated = read_gap_table(args.simulated, "--simulated", numeric=simulated_cols)
+    measured = read_gap_table(args.runs, "--runs", numeric=measured_cols)
     candidates = parse_effects(args.candidates, "--candidates")
     if candidates == []:
         raise UserError("--candidates: give at least one effect.")
@@ -70,9 +278,14 @@ def cmd_gap_external(args):
         flush=True,
     )
     try:
-        report = diagnose_runs(simulated, measured, candidates=candidates)
+        with _option_words():
+            report = diagnose_runs(simulated, measured, candidates=candidates, **kwargs)
     except ValueError as exc:
-        raise UserError(f"--simulated/--runs: {exc}") from exc
+        raise _library_error(
+            exc,
+            blocks_hint=blocks and args.block_hours is None,
+            prefix="--simulated/--runs: ",
+        ) from exc
     print(report.verdict())
     shown = [
         "effect",
@@ -84,17 +297,20 @@ def cmd_gap_external(args):
         "lr_p_value",
         "explains",
     ]
-    return _show(report, shown, args.report)
+    return _show(report, [c for c in shown if c in report.ranking.columns], args.report)
 
 
 def cmd_gap(args):
     from skthermal.gap import diagnose
 
+    if args.list_effects:
+        return _list_effects()
     if getattr(args, "simulated", None):
         return cmd_gap_external(args)
     log_progress(args.quiet)
+    kwargs = _options(args)
     check_out_path(args.report, "--report", folder=True)
-    df = read_table(args.runs)
+    df = read_gap_table(args.runs, "--runs", numeric=_used_columns(kwargs)[0])
     effects = parse_effects(args.effects)
     machine = machine_from_args(args, effects=[] if effects is None else effects)
     if effects is None and getattr(args, "machine", None) is not None:
@@ -110,19 +326,32 @@ def cmd_gap(args):
         f"(effects on: {', '.join(machine.effects) or 'none'}) ...",
         flush=True,
     )
-    report = diagnose(machine, df, candidates=candidates)
+    try:
+        with _option_words():
+            report = diagnose(machine, df, candidates=candidates, **kwargs)
+    except ValueError as exc:
+        raise _library_error(exc, blocks_hint=args.block_hours is None) from exc
     print(report.verdict())
+    overall = _how_far_overall(report)
+    if overall is not None:
+        print("How far (fine calibration of the spindle head), overall:")
+        print(overall)
+    print("Which effect (screening calibration):")
     shown = [
         c
         for c in ("effect", "gap_before", "gap_after", "shrink", "p_value", "explains")
         if c in report.ranking.columns
     ]
-    return _show(report, shown, args.report)
+    return _show(
+        report, shown, args.report, rename={"explains": "explains (screening)"}
+    )
 
 
 def cmd_gap_check(args):
     from skthermal.gap import validate
 
+    if args.list_effects:
+        return _list_effects()
     log_progress(args.quiet)
     if args.seeds < 1:
         raise UserError(f"--seeds must be at least 1, got {args.seeds}.")
