@@ -570,12 +570,18 @@ FAST = {"fine": False, "greedy": False, "max_samples": 100}
 
 def test_a_short_run_and_datetime_times(rig_runs):
     rig, runs = rig_runs
-    short = pd.concat(
-        [runs[runs["run"] != "r2"], runs[runs["run"] == "r2"].iloc[:6]],
-        ignore_index=True,
-    )
-    report = diagnose(rig, short, candidates=["sensor_lag"], **FAST)
+
+    def shortened(n):
+        return pd.concat(
+            [runs[runs["run"] != "r2"], runs[runs["run"] == "r2"].iloc[:n]],
+            ignore_index=True,
+        )
+
+    report = diagnose(rig, shortened(8), candidates=["sensor_lag"], **FAST)
     assert report.ranking["effect"].tolist() == ["sensor_lag"]
+    # The same minimum as the run-table mode, named before the diagnosis.
+    with pytest.raises(ValueError, match="Run 'r2' has 7 samples; at least 8"):
+        diagnose(rig, shortened(7), candidates=["sensor_lag"], **FAST)
     clock = runs.assign(time_s=pd.to_datetime(runs["time_s"], unit="s"))
     with pytest.raises(ValueError, match="time_s in run 'r0' holds datetime64"):
         diagnose(rig, clock, **FAST)
@@ -721,3 +727,112 @@ def test_report_files_and_plots_with_awkward_run_labels(rig_runs, tmp_path):
     assert len(names) == 3
     assert not (tmp_path / "out" / "x.png").exists()
     assert not list((tmp_path / "out").glob("timeline_*"))
+
+
+# --- audit 2 fixes ------------------------------------------------------------
+
+
+def _strict_json(text):
+    """``json.loads`` refusing NaN and Infinity (invalid JSON)."""
+
+    def refuse(token):
+        raise ValueError(f"invalid JSON token {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_report_json_strict_full_precision_and_lr_df(rig_runs):
+    rig, runs = rig_runs
+    channels = ["T1_C", "T2_C", "disp_ch1_um"]
+    report = diagnose(
+        rig,
+        runs,
+        channels=channels,
+        candidates=["sensor_lag", "ambient_transient", "sensor_drift"],
+        **FAST,
+    )
+    ranking = report.ranking.set_index("effect")
+    # The degrees of freedom actually used, one number per candidate.
+    assert (ranking["extra_params"] == ranking["lr_df"]).all()
+    assert ranking.loc["sensor_lag", "lr_df"] == 1
+    # sensor_drift: a slope per temperature channel and training run (2 of 3).
+    assert ranking.loc["sensor_drift", "lr_df"] == 2 * 2
+    # No free parameter: no likelihood-ratio test, no criteria.
+    row = ranking.loc["ambient_transient"]
+    assert row["lr_df"] == 0
+    assert np.isnan(row[["lr_p_value", "delta_aic", "delta_bic"]].astype(float)).all()
+    assert set(report.ranking.columns) <= set(report.how_far_evidence) | {
+        "share_of_explainable"
+    }
+    # Strict JSON (NaN -> null), numbers at full precision.
+    data = _strict_json(report.to_json())
+    rows = {r["effect"]: r for r in data["ranking"]}
+    assert rows["ambient_transient"]["lr_p_value"] is None
+    for effect, r in rows.items():
+        assert r["gap_after"] == ranking.loc[effect, "gap_after"]
+        assert r["lr_statistic"] == ranking.loc[effect, "lr_statistic"]
+    assert "NaN" not in report.to_json()
+    # The residual is prediction minus measurement.
+    ax = report.plot_timeline()
+    assert ax.get_title().endswith("simulated - measured")
+
+
+def test_report_dict_has_no_nan():
+    from skthermal.gap._report import plain
+
+    out = plain({"a": np.nan, 1: [np.float64(3.427e-15), np.inf], "b": np.int64(2)})
+    assert out == {"a": None, "1": [3.427e-15, None], "b": 2}
+    assert isinstance(out["b"], int)
+
+
+def test_block_labels_are_unique_at_any_length():
+    from skthermal.gap._problem import block_spans
+
+    t = np.arange(0, 3 * 3600 + 1, 60.0)
+    for hours, first in ((0.5, "r1[0-0.5 h]"), (1, "r1[0-1 h]"), (0.1, "r1[0-0.1 h]")):
+        labels = [label for _, _, label in block_spans(t, "r1", hours)]
+        assert labels[0] == first
+        assert len(set(labels)) == len(labels) == round(3 / hours)
+    assert block_spans(t, "r1", None) == [(0, t.size, "r1")]
+
+
+def test_one_run_error_hints_at_block_hours(rig_runs):
+    rig, runs = rig_runs
+    with pytest.raises(ValueError, match=r"\(got 1\); to hold one long record"):
+        diagnose(rig, runs[runs["run"] == "r0"], **FAST)
+
+
+def test_input_errors_name_column_run_and_row(rig_runs):
+    rig, runs = rig_runs
+    text = runs.assign(T1_C=runs["T1_C"].astype(object))
+    text.loc[text.index[100], "T1_C"] = "n/a"
+    with pytest.raises(ValueError, match=r"T1_C holds 'n/a', not a number, in run"):
+        diagnose(rig, text, channels=["T1_C"], **FAST)
+    with pytest.raises(ValueError, match=r"\['T1_C'\] are given more than once"):
+        diagnose(rig, runs, channels=["T1_C", "T2_C", "T1_C"], **FAST)
+
+
+def test_a_constant_measured_channel_is_named(rig_runs):
+    rig, runs = rig_runs
+    dead = runs.assign(T2_C=0.0)
+    with pytest.raises(ValueError, match=r"\['T2_C'\] are constant on every run"):
+        diagnose(rig, dead, channels=["T1_C", "T2_C"], **FAST)
+    with pytest.raises(ValueError, match="no channel is left"):
+        diagnose(
+            rig, dead[["run", "time_s", "spindle_rpm", "ambient_C", "T2_C"]], **FAST
+        )
+    with pytest.warns(UserWarning, match=r"\['T2_C'\] are constant .* left out"):
+        report = diagnose(
+            rig,
+            dead[["run", "time_s", "spindle_rpm", "ambient_C", "T1_C", "T2_C"]],
+            candidates=["sensor_lag"],
+            **FAST,
+        )
+    assert report.settings["channels"] == ["T1_C"]
+
+
+def test_whiteness_of_a_too_short_residual_is_nan():
+    from skthermal.gap._evidence import whiteness_columns
+
+    row = whiteness_columns([np.zeros((3, 2))], [np.ones((3, 2))])
+    assert np.isnan(row["whiteness_before"]) and row["white_after"] is None

@@ -390,3 +390,81 @@ def test_share_of_the_explainable_gap_is_not_clipped(pair):
     text = report.verdict()
     assert "makes the held-out gap worse (excess above noise 25% larger)" in text
     assert "drivers removes" not in text
+
+
+# --- audit 2 fixes ------------------------------------------------------------
+
+
+def test_a_simulation_covering_more_than_the_measurement(pair):
+    sim, meas = pair
+    # Another tool's export: starts 30 s before the measurement with the
+    # spindle in another state, ends later; only the measured span counts.
+    before = sim.groupby("run", sort=False).head(1).copy()
+    before["time_s"] -= 30.0
+    before["spindle_rpm"] += 1000.0
+    after = sim.groupby("run", sort=False).tail(1).copy()
+    after["time_s"] += 30.0
+    after["spindle_rpm"] += 1000.0
+    longer = pd.concat([before, sim, after]).sort_values(
+        ["run", "time_s"], kind="stable"
+    )
+    report = diagnose_runs(longer, meas, candidates=["sensor_lag"], max_samples=150)
+    assert report.ranking["effect"].tolist() == ["sensor_lag"]
+
+
+def test_irregular_sampling_is_filtered_with_each_step():
+    sim, meas = _tables(np.random.default_rng(1), "sensor_lag", n_runs=3, hours=5)
+    # A logging gap of an hour in every run (rows removed).
+    keep = ~((meas["time_s"] > 2 * 3600) & (meas["time_s"] < 3 * 3600))
+    report = diagnose_runs(
+        sim[keep], meas[keep], candidates=["sensor_lag"], max_samples=150
+    )
+    row = report.ranking.iloc[0]
+    # Filtered with one (median) step the gap skewed tau and the shrink.
+    assert 700 < row["fitted"]["tau_s"] < 1150
+    assert row["shrink"] > 0.8
+
+
+def test_one_long_record_in_blocks():
+    sim, meas = _tables(np.random.default_rng(2), "sensor_lag", n_runs=1, hours=6)
+    with pytest.raises(ValueError, match=r"\(got 1\); to hold one long record"):
+        diagnose_runs(sim, meas, candidates=["sensor_lag"], max_samples=150)
+    report = diagnose_runs(
+        sim, meas, candidates=["sensor_lag"], max_samples=150, block_hours=2
+    )
+    assert list(report.timelines) == ["r0[0-2 h]", "r0[2-4 h]", "r0[4-6 h]"]
+    assert report.ranking.iloc[0]["n_runs"] == 3
+    assert report.settings["block_hours"] == 2
+
+
+def test_input_checks_name_what_is_wrong(pair):
+    sim, meas = pair
+    text = sim.assign(T1_C=sim["T1_C"].astype(object))
+    text.loc[text.index[50], "T1_C"] = "n/a"
+    with pytest.raises(ValueError, match=r"T1_C holds 'n/a', not a number, in run "):
+        diagnose_runs(text, meas)
+    with pytest.raises(ValueError, match=r"\['T1_C'\] are given more than once"):
+        diagnose_runs(sim, meas, channels=["T1_C", "T1_C"])
+    renamed = sim.rename(columns={"T1_C": "node_17"})
+    with pytest.raises(
+        ValueError, match=r"simulated channels: \['node_17', 'T2_C', 'disp_z_um'\]"
+    ):
+        diagnose_runs(renamed, meas, mapping={"T1_C": "node_1"})
+    short = meas.groupby("run", sort=False).head(7)
+    with pytest.raises(ValueError, match="has 7 samples; at least 8"):
+        diagnose_runs(sim, short)
+
+
+def test_dead_probe_and_extra_simulated_run(pair):
+    sim, meas = pair
+    dead = meas.assign(disp_z_um=0.0)
+    with pytest.raises(ValueError, match=r"\['disp_z_um'\] are constant on every"):
+        diagnose_runs(sim, dead, channels=["T1_C", "disp_z_um"])
+    extra = pd.concat([sim, sim[sim["run"] == "r0"].assign(run="r9")])
+    with pytest.warns(UserWarning) as record:
+        report = diagnose_runs(extra, dead, candidates=["sensor_lag"], max_samples=150)
+    messages = " ".join(str(w.message) for w in record)
+    assert "['disp_z_um'] are constant on every run" in messages
+    assert "['r9'] of the simulated table are not in the measured" in messages
+    assert report.settings["channels"] == ["T1_C", "T2_C"]
+    assert (report.ranking["extra_params"] == report.ranking["lr_df"]).all()

@@ -3,7 +3,7 @@ explains it, and how far the gap shrinks once that effect is added."""
 
 import logging
 from dataclasses import dataclass
-from numbers import Integral, Real
+from numbers import Integral
 
 import numpy as np
 import pandas as pd
@@ -29,6 +29,7 @@ from skthermal.gap._problem import (
     predict_run,
     refine,
     residuals,
+    too_few_runs,
 )
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
@@ -298,7 +299,7 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         "p_value": p,
         "runs_improved": int(np.sum(d > 0)),
         "n_runs": int(d.size),
-        "extra_params": effect_parameters([candidate]),
+        "extra_params": _free_parameters(ctx, candidate),
         "xcorr_before": _xcorr(ctx.problem, b),
         "xcorr_after": _xcorr(ctx.problem, a),
     }
@@ -317,25 +318,52 @@ def _lr_evidence(ctx, before_in, after_in, candidate):
     residual's autocorrelation, :func:`likelihood_ratio`) is chi-squared
     under the model without the candidate; their mean has the same mean and
     less spread, so its p-value from the same distribution is conservative.
-    The degrees of freedom are the candidate's parameter (one slope per
-    temperature channel and training run for ``sensor_drift``, whose trends
-    are fitted per run)."""
-    n_temp = int((~ctx.problem.is_disp).sum())
-    tests = []
-    for (train, _), rb, ra in zip(ctx.folds, before_in, after_in, strict=True):
-        if candidate in RESIDUAL_EFFECTS:
-            df = n_temp * len(train)
-        else:
-            df = effect_parameters([candidate])
-        tests.append(residual_lr_test(rb, ra, df))
-    df = max(int(round(np.mean([t.df for t in tests]))), 1)
+    The degrees of freedom (``lr_df``, also ``extra_params``) are the
+    candidate's free parameters, averaged over the folds
+    (:func:`_free_parameters`); a candidate without any gets no test (NaN
+    p-value and criteria)."""
+    tests = [
+        residual_lr_test(rb, ra, max(_fold_parameters(ctx, candidate, train), 1))
+        for (train, _), rb, ra in zip(ctx.folds, before_in, after_in, strict=True)
+    ]
+    df = _free_parameters(ctx, candidate)
     statistic = float(np.mean([t.statistic for t in tests]))
+    if df == 0:
+        # A structural switch without a free parameter: not a nested model
+        # with more parameters, so no likelihood-ratio test nor criteria.
+        return {
+            "lr_df": 0,
+            "lr_statistic": statistic,
+            "lr_p_value": np.nan,
+            "delta_aic": np.nan,
+            "delta_bic": np.nan,
+        }
     return {
+        "lr_df": df,
         "lr_statistic": statistic,
         "lr_p_value": float(stats.chi2.sf(statistic, df)),
         "delta_aic": float(np.mean([t.delta_aic for t in tests])),
         "delta_bic": float(np.mean([t.delta_bic for t in tests])),
     }
+
+
+def _fold_parameters(ctx, candidate, train):
+    """Free parameters ``candidate`` adds to a calibration on the runs
+    ``train``: its effect parameter, or one slope per temperature channel
+    and run for ``sensor_drift`` (whose trends are fitted per run); 0 for a
+    structural switch without a parameter."""
+    if candidate in RESIDUAL_EFFECTS:
+        return int((~ctx.problem.is_disp).sum()) * len(train)
+    return effect_parameters([candidate])
+
+
+def _free_parameters(ctx, candidate):
+    """The ranking's ``extra_params`` and ``lr_df``: :func:`_fold_parameters`
+    averaged over the folds (the likelihood-ratio test is on each fold's
+    training runs)."""
+    return int(
+        round(np.mean([_fold_parameters(ctx, candidate, tr) for tr, _ in ctx.folds]))
+    )
 
 
 def _run_signals(problem, fold_preds):
@@ -395,7 +423,6 @@ def _explainable(ctx, screen, floor2):
         "runs": [pd.DataFrame],
         **DIAGNOSIS_PARAMS,
         "max_nfev": [Interval(Integral, 1, None, closed="left")],
-        "block_hours": [None, Interval(Real, 0, None, closed="neither")],
         "fine": ["boolean"],
     },
     prefer_skip_nested_validation=True,
@@ -519,10 +546,8 @@ def diagnose(
         block_hours=block_hours,
     )
     if len(problem.runs) < 2:
-        raise ValueError(
-            "The diagnosis scores effects on held-out runs: give at least 2 runs "
-            f"(got {len(problem.runs)})" + _blocks_hint(runs, block_hours) + "."
-        )
+        longest = runs.groupby("run", sort=False)["time_s"].agg(np.ptp).max()
+        raise too_few_runs(len(problem.runs), float(longest), block_hours)
     folds = heldout_folds(len(problem.runs), cv)
     # The simulation as given: what the candidates are checked against, and
     # the first residuals of the "where" step.
@@ -600,19 +625,6 @@ def diagnose(
     report.not_applicable = not_applicable
     report.explainable = explainable
     return report
-
-
-def _blocks_hint(runs, block_hours):
-    """Why ``block_hours`` did not cut the runs into blocks (empty without
-    it)."""
-    if block_hours is None:
-        return ""
-    hours = runs.groupby("run", sort=False)["time_s"].agg(np.ptp).max() / 3600.0
-    return (
-        f": block_hours={block_hours:g} cuts only runs longer than 1.5 x "
-        f"{block_hours:g} h into blocks, and the longest run lasts {hours:.3g} h; "
-        f"give block_hours below {hours / 1.5:.3g} h for at least 2 blocks"
-    )
 
 
 def _not_applicable(problem, machine, candidates, simulated):
@@ -762,6 +774,9 @@ def _how_far(ctx, screen, rules, fine, n_jobs):
     else:
         before_R, after_R = screen.base_R, screen.evaluations[focus].residuals
     row, regimes = _score(ctx, before_R, after_R, focus, *rules)
+    # The ranking's columns: the held-out ones of this comparison, the
+    # in-sample evidence and the fitted parameter of the screening.
+    row = {**screen.evaluations[focus].row, **row}
     row["calibration"] = "fine" if fine else "screening"
     _log_row("How far", row)
     return HowFar(row, regimes, before_R, after_R)

@@ -464,7 +464,7 @@ def explainable_summary(base_R, flexible_R, floor2):
     gap_base = gap_of(base_R)[0]
     gap_flex = gap_of(flexible_R)[0]
     share = explainable_gap(gap_base, gap_flex, floor2)
-    white = whiteness(flexible_R)
+    white = _whiteness_or_none(flexible_R)
     logger.info(
         "Base held-out gap %.3g; a flexible model of the drivers reaches %.3g "
         "(%.0f%% of the excess above noise).",
@@ -511,12 +511,22 @@ def residual_lr_test(before, after, extra_params):
     )
 
 
+def _whiteness_or_none(residual):
+    """:func:`whiteness` of ``residual``, or NaN figures (``white`` None)
+    when it has no periodogram (every run shorter than 4 compared samples,
+    or constant)."""
+    try:
+        return whiteness(residual)
+    except ValueError:
+        return {"max_deviation": np.nan, "band": np.nan, "white": None}
+
+
 def whiteness_columns(before, after):
     """The whiteness columns of a ranking row: the largest deviation of the
     cumulated periodogram of the held-out residuals ``before`` and ``after``
     a candidate, the 95% band and whether ``after`` is white
-    (:func:`whiteness`)."""
-    white_b, white_a = whiteness(before), whiteness(after)
+    (:func:`whiteness`; NaN and None when a residual has no periodogram)."""
+    white_b, white_a = _whiteness_or_none(before), _whiteness_or_none(after)
     return {
         "whiteness_before": white_b["max_deviation"],
         "whiteness_after": white_a["max_deviation"],

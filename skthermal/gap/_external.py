@@ -30,14 +30,20 @@ from skthermal.gap._problem import (
     START_SAMPLES,
     MeasuredRun,
     Problem,
-    check_finite_channels,
+    block_spans,
+    channel_values,
+    check_channel_names,
+    check_length,
     check_mapping,
     check_times,
     driver_values,
+    flat_columns,
     floor_squared,
     group_scales,
     is_channel,
+    measured_varying,
     pooled_noise,
+    too_few_runs,
     warn_uncompared,
 )
 from skthermal.gap._regimes import label_regimes
@@ -80,7 +86,7 @@ def _check_table(df, label):
         )
 
 
-def _align(simulated, measured, channels, mapping, max_samples):
+def _align(simulated, measured, channels, mapping, max_samples, block_hours=None):
     """Runs of both tables, checked against each other, as RunSignals."""
     _check_table(simulated, "simulated")
     _check_table(measured, "measured")
@@ -101,6 +107,7 @@ def _align(simulated, measured, channels, mapping, max_samples):
             and mapping.get(c, c) in simulated.columns
         ]
     channels = list(channels)
+    check_channel_names(channels)
     bad = [c for c in channels if c not in measured.columns]
     if bad:
         raise ValueError(f"Channel(s) {bad} are not columns of the measured table.")
@@ -134,14 +141,18 @@ def _align(simulated, measured, channels, mapping, max_samples):
             f"Run(s) {missing} of the measured table are missing from the "
             f"simulated table (it has {list(sim_runs)})."
         )
+    extra = [name for name in sim_runs if name not in dict(meas_runs)]
+    if extra:
+        warnings.warn(
+            f"Run(s) {extra} of the simulated table are not in the measured "
+            "table and are not compared.",
+            UserWarning,
+            stacklevel=4,
+        )
     out = []
     for name, meas in meas_runs:
         sim = sim_runs[name]
-        if len(meas) < START_SAMPLES + 3:
-            raise ValueError(
-                f"Run {name!r} has {len(meas)} samples; at least "
-                f"{START_SAMPLES + 3} are needed."
-            )
+        check_length(len(meas), name, "measured")
         t = driver_values(meas, "time_s", name, "measured")
         ts = driver_values(sim, "time_s", name, "simulated")
         check_times(t, name, "measured")
@@ -166,6 +177,7 @@ def _align(simulated, measured, channels, mapping, max_samples):
             if same
             else np.clip(np.searchsorted(t, ts, side="right") - 1, 0, t.size - 1)
         )
+        inside = (ts >= t[0] - tol) & (ts <= t[-1] + tol)
         drivers = {}
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
@@ -180,7 +192,10 @@ def _align(simulated, measured, channels, mapping, max_samples):
                 tol_d = max(tol_d, 0.05)  # the air as logged, quantised
                 if not same:  # between samples the logged air moves on
                     tol_d = max(tol_d, float(np.max(np.abs(np.diff(m)), initial=0)))
-            off = np.flatnonzero(np.abs(m[at] - sim_d) > tol_d)
+            # Only where both tables have the run: simulated rows before the
+            # first or after the last measured sample (a simulation covering
+            # more than the measurement) are not compared.
+            off = np.flatnonzero((np.abs(m[at] - sim_d) > tol_d) & inside)
             if off.size:
                 k = int(off[0])
                 where = "" if in_m and in_s else " (absent from one table: 0)"
@@ -191,56 +206,53 @@ def _align(simulated, measured, channels, mapping, max_samples):
                     f"simulated{where}; simulate the measured drivers."
                 )
             drivers[col] = m
-        y_meas = meas[channels].to_numpy(float)
-        y_sim = sim[sim_cols].to_numpy(float)
-        check_finite_channels(y_meas, channels, t, name, "measured")
-        check_finite_channels(y_sim, sim_cols, ts, name, "simulated")
+        y_meas = channel_values(meas, channels, t, name, "measured")
+        y_sim = channel_values(sim, sim_cols, ts, name, "simulated")
         if not same:
             y_sim = np.column_stack(
                 [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
             )
         out.append((name, t, drivers, y_meas, y_sim))
-    if len(out) < 2:
-        raise ValueError(
-            "The diagnosis scores effects on held-out runs: give at least 2 runs "
-            f"(got {len(out)})."
-        )
+    blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
+    if sum(len(b) for b in blocks) < 2:
+        longest = max(float(t[-1] - t[0]) for _, t, *_ in out)
+        raise too_few_runs(len(out), longest, block_hours)
     keep = _varying_channels(out, channels, sim_cols, explicit)
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_cols = [c for c, k in zip(sim_cols, keep, strict=True) if k]
     runs = []
-    for name, t, drivers, y_meas, y_sim in out:
-        step = max(1, int(np.ceil(t.size / max_samples)))
-        rows = np.arange(0, t.size, step)
-        y = y_meas[rows][:, keep]
-        runs.append(
-            RunSignals(
-                name,
-                t - t[0],
-                drivers["spindle_rpm"],
-                drivers["ambient_C"],
-                drivers["feed_mm_min"],
-                y_sim[:, keep],
-                rows,
-                y - y[:START_SAMPLES].mean(axis=0),
+    for (_, t, drivers, y_meas, y_sim), spans in zip(out, blocks, strict=True):
+        # A block (block_hours) keeps its run's signals from the start (the
+        # terms' filters start there), compared over its own span only.
+        for a, b, label in spans:
+            check_length(b - a, label)
+            step = max(1, int(np.ceil((b - a) / max_samples)))
+            rows = np.arange(a, b, step)
+            y = y_meas[rows][:, keep]
+            runs.append(
+                RunSignals(
+                    label,
+                    t[:b] - t[0],
+                    drivers["spindle_rpm"][:b],
+                    drivers["ambient_C"][:b],
+                    drivers["feed_mm_min"][:b],
+                    y_sim[:b][:, keep],
+                    rows,
+                    y - y[:START_SAMPLES].mean(axis=0),
+                )
             )
-        )
     noise = pooled_noise([frame for _, frame in meas_runs], channels)
     return runs, channels, sim_cols, noise
-
-
-def _flat(Y):
-    """Columns of ``Y`` that do not change (to rounding)."""
-    return np.ptp(Y, axis=0) <= 1e-12 * np.maximum(1.0, np.max(np.abs(Y), axis=0))
 
 
 def _varying_channels(aligned, channels, sim_cols, explicit):
     """Mask of the channels kept. A channel constant in both tables on every
     run has nothing to diagnose: an error when chosen explicitly, else left
-    out with a warning. A channel constant only in the simulation is kept
-    (the base gain is then 0) with a warning."""
-    flat_m = np.all([_flat(y_meas) for _, _, _, y_meas, _ in aligned], axis=0)
-    flat_s = np.all([_flat(y_sim) for _, _, _, _, y_sim in aligned], axis=0)
+    out with a warning. So is a channel whose measurement alone is constant
+    on every run (:func:`measured_varying`). A channel constant only in the
+    simulation is kept (the base gain is then 0) with a warning."""
+    flat_m = np.all([flat_columns(y) for _, _, _, y, _ in aligned], axis=0)
+    flat_s = np.all([flat_columns(y) for _, _, _, _, y in aligned], axis=0)
     both = [c for c, f in zip(channels, flat_m & flat_s, strict=True) if f]
     if both and (explicit or len(both) == len(channels)):
         raise ValueError(
@@ -259,6 +271,16 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
             UserWarning,
             stacklevel=5,
         )
+    # A measured channel constant on every run (a dead probe) whatever the
+    # simulation does: the same rule as above, on the channels left.
+    left = ~(flat_m & flat_s)
+    keep = left.copy()
+    keep[left] = measured_varying(
+        [y[:, left] for _, _, _, y, _ in aligned],
+        [c for c, k in zip(channels, left, strict=True) if k],
+        explicit,
+        stacklevel=6,
+    )
     only_sim = [c for c, f in zip(sim_cols, flat_s & ~flat_m, strict=True) if f]
     if only_sim:
         warnings.warn(
@@ -268,7 +290,7 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
             UserWarning,
             stacklevel=5,
         )
-    return ~(flat_m & flat_s)
+    return keep
 
 
 def _kinds(channels, sim_cols):
@@ -356,6 +378,7 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         "runs_improved": int(np.sum(ms_b - ms_a > 0)),
         "n_runs": int(ms_b.size),
         "extra_params": full.n_params(signals),
+        "lr_df": lr.df,
         "lr_statistic": lr.statistic,
         "lr_p_value": lr.p_value,
         "delta_aic": lr.delta_aic,
@@ -483,6 +506,7 @@ def diagnose_runs(
     alpha=0.05,
     greedy=True,
     max_samples=600,
+    block_hours=None,
     n_jobs=None,
 ):
     """Diagnose the gap between a simulation's run table and measured runs.
@@ -557,6 +581,13 @@ def diagnose_runs(
         After the best effect, add further effects while they explain more.
     max_samples : int, default=600
         Samples per run compared (the terms are computed at the full rate).
+    block_hours : float, optional
+        Cut runs longer than 1.5 ``block_hours`` into consecutive blocks of
+        about that length, held out one by one (for one long record, e.g. a
+        multi-day test), as :func:`skthermal.gap.diagnose` does. The terms
+        of a block are computed from the start of its run (so their filters
+        are warm), and compared over the block's own span, re-zeroed at its
+        start; blocks are labelled with their span, e.g. ``r1[0-2 h]``.
     n_jobs : int, optional
         Candidates evaluated in parallel (joblib).
 
@@ -591,7 +622,7 @@ def diagnose_runs(
     """
     candidates = candidate_list(candidates, TERMS)
     runs, channels, sim_cols, noise = _align(
-        simulated, measured, channels, mapping, max_samples
+        simulated, measured, channels, mapping, max_samples, block_hours
     )
     problem = _problem(runs, channels, sim_cols, noise)
     problem.meta["source"] = "run table"
@@ -735,6 +766,7 @@ def diagnose_runs(
             "alpha": alpha,
             "folds": len(folds),
             "mode": "external",
+            "block_hours": block_hours,
         },
     )
     report.explainable = explainable

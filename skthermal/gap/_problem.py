@@ -38,6 +38,9 @@ BASE_GROUPS = {
 # first few compared samples, on both sides: relative to one sample, that
 # sample's noise would offset the whole run.
 START_SAMPLES = 5
+# The fewest samples a run (or block) needs in both modes: the start
+# reference and a few changes after it.
+MIN_SAMPLES = START_SAMPLES + 3
 
 # The parameter each candidate effect brings to the calibration (None: the
 # effect is a structural switch without a free parameter), and the effects
@@ -118,6 +121,7 @@ class Problem:
 
 # The drivers of a run table, and the measured columns that are channels.
 DRIVER_COLUMNS = ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min")
+NOT_CHANNELS = ("run", *DRIVER_COLUMNS)
 
 
 def is_channel(column):
@@ -176,6 +180,89 @@ def check_times(t, run, table=""):
         )
 
 
+def check_length(n, run, table=""):
+    """Raise a ValueError naming the run when it has fewer than
+    ``MIN_SAMPLES`` samples."""
+    if n < MIN_SAMPLES:
+        raise ValueError(
+            f"{_where(run, table).capitalize()} has {n} samples; at least "
+            f"{MIN_SAMPLES} are needed (its change since the start is taken "
+            f"against the mean of the first {START_SAMPLES})."
+        )
+
+
+def channel_values(frame, columns, t, run, table=""):
+    """The channels ``columns`` of one run as floats, ``(n, len(columns))``.
+
+    Raises a ValueError naming the column, the run, the row and its time
+    where a value is text (not a number), or missing or not finite
+    (:func:`check_finite_channels`).
+    """
+    out = np.empty((len(frame), len(columns)))
+    for c, col in enumerate(columns):
+        raw = frame[col]
+        values = pd.to_numeric(raw, errors="coerce")
+        text = values.isna().to_numpy() & raw.notna().to_numpy()
+        if text.any():
+            r = int(np.flatnonzero(text)[0])
+            raise ValueError(
+                f"{col} holds {raw.iloc[r]!r}, not a number, in "
+                f"{_where(run, table)} at row {r} (time_s {t[r]:g}): the "
+                "channels must hold numbers."
+            )
+        out[:, c] = values.to_numpy(float)
+    check_finite_channels(out, columns, t, run, table)
+    return out
+
+
+def check_channel_names(channels):
+    """Raise a ValueError naming the channels given more than once."""
+    seen, twice = set(), []
+    for c in channels:
+        if c in seen and c not in twice:
+            twice.append(c)
+        seen.add(c)
+    if twice:
+        raise ValueError(
+            f"Channel(s) {twice} are given more than once in channels=; give "
+            "each compared channel once."
+        )
+
+
+def flat_columns(Y):
+    """Columns of ``Y`` that do not change (to rounding)."""
+    return np.ptp(Y, axis=0) <= 1e-12 * np.maximum(1.0, np.max(np.abs(Y), axis=0))
+
+
+def measured_varying(Ys, channels, explicit, stacklevel=5):
+    """Mask of the channels whose measurement changes on some run (``Ys``:
+    every run's measured channels). A channel whose measurement is constant
+    on every run (a dead or unplugged probe) has nothing to diagnose: an
+    error when chosen explicitly or when no channel is left, else left out
+    with a warning naming it."""
+    flat = np.all([flat_columns(Y) for Y in Ys], axis=0)
+    dead = [c for c, f in zip(channels, flat, strict=True) if f]
+    if dead and (explicit or len(dead) == len(channels)):
+        raise ValueError(
+            f"The measured channel(s) {dead} are constant on every run (a dead "
+            "or unplugged probe?): there is nothing to diagnose on them; "
+            + (
+                "leave them out of channels=."
+                if explicit
+                else "no channel is left to compare."
+            )
+        )
+    if dead:
+        warnings.warn(
+            f"The measured channel(s) {dead} are constant on every run (a dead "
+            "or unplugged probe?) and are left out: there is nothing to "
+            "diagnose on them.",
+            UserWarning,
+            stacklevel=stacklevel,
+        )
+    return ~flat
+
+
 def check_finite_channels(Y, columns, t, run, table=""):
     """Raise a ValueError naming the column, the run, the first row and its
     time where the channels ``Y`` (``(n, len(columns))``) are missing or not
@@ -215,7 +302,8 @@ def check_mapping(mapping, measured_columns, simulated_columns, what):
         raise ValueError(
             f"mapping value(s) {values} {what}"
             f"{suggest(values[0], simulated_columns)}; the values are simulated "
-            f"channels: {_listing([c for c in simulated_columns if is_channel(c)])}."
+            "channels: "
+            f"{_listing([c for c in simulated_columns if c not in NOT_CHANNELS])}."
         )
 
 
@@ -274,6 +362,7 @@ def build_problem(
     if channels is None:
         channels = [c for c in runs.columns if mapping.get(c, c) in predicted]
     channels = list(channels)
+    check_channel_names(channels)
     bad = [c for c in channels if c not in runs.columns]
     if bad:
         raise ValueError(f"Channel(s) {bad} are not columns of the measured runs.")
@@ -291,16 +380,19 @@ def build_problem(
         )
     if not explicit:
         warn_uncompared(runs.columns, channels, "the simulation does not predict")
+    read = []
+    for name, frame in frames:
+        t = frame["time_s"].to_numpy(float)
+        check_length(t.size, name)
+        check_times(t, name)
+        read.append((name, frame, t, channel_values(frame, channels, t, name)))
+    keep = measured_varying([y for *_, y in read], channels, explicit)
+    channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_channels = [mapping.get(c, c) for c in channels]
     is_disp = np.array([c in machine.targets for c in sim_channels])
     prepared = []
-    for name, frame in frames:
-        t = frame["time_s"].to_numpy(float)
-        if t.size < 3:
-            raise ValueError(f"Run {name!r} has fewer than 3 samples.")
-        check_times(t, name)
-        y_all = frame[channels].to_numpy(float, copy=True)
-        check_finite_channels(y_all, channels, t, name)
+    for name, frame, t, y_all in read:
+        y_all = y_all[:, keep]
         feed = (
             frame["feed_mm_min"].to_numpy(float)
             if "feed_mm_min" in frame
@@ -308,21 +400,8 @@ def build_problem(
         )
         rpm = frame["spindle_rpm"].to_numpy(float)
         air = frame["ambient_C"].to_numpy(float)
-        if block_hours is not None and t[-1] - t[0] > 1.5 * block_hours * 3600.0:
-            n_blocks = int(round((t[-1] - t[0]) / (block_hours * 3600.0)))
-            edges = np.linspace(0, t.size, n_blocks + 1).astype(int)
-            spans = [
-                (
-                    a,
-                    b,
-                    f"{name}[{(t[a] - t[0]) / 3600:.0f}-"
-                    f"{(t[b - 1] - t[0]) / 3600:.0f} h]",
-                )
-                for a, b in zip(edges[:-1], edges[1:], strict=True)
-            ]
-        else:
-            spans = [(0, t.size, name)]
-        for a, b, label in spans:
+        for a, b, label in block_spans(t, name, block_hours):
+            check_length(b - a, label)
             step = max(1, int(np.ceil((b - a) / max_samples)))
             rows = np.arange(a, b, step)
             y = y_all[rows]
@@ -342,6 +421,65 @@ def build_problem(
     noise = pooled_noise([frame for _, frame in frames], channels)
     scale, weight = group_scales(Y, is_disp)
     return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
+
+
+def block_spans(t, name, block_hours):
+    """Consecutive blocks of a run (times ``t``) of about ``block_hours``
+    each, as ``(first row, end row, label)``; one block, labelled ``name``,
+    when ``block_hours`` is None or the run is shorter than 1.5 blocks.
+
+    Labels give each block's span since the run's start in hours, with as
+    many decimals as the blocks need to be told apart (``r1[0-0.5 h]``,
+    ``r1[0.5-1 h]``), else in seconds.
+    """
+    if block_hours is None or t[-1] - t[0] <= 1.5 * block_hours * 3600.0:
+        return [(0, t.size, name)]
+    n_blocks = int(round((t[-1] - t[0]) / (block_hours * 3600.0)))
+    edges = np.linspace(0, t.size, n_blocks + 1).astype(int)
+    pairs = list(zip(edges[:-1], edges[1:], strict=True))
+    for decimals in range(4):
+        labels = [
+            f"{name}[{_hours(t[a] - t[0], decimals)}-"
+            f"{_hours(t[b - 1] - t[0], decimals)} h]"
+            for a, b in pairs
+        ]
+        if len(set(labels)) == len(labels):
+            break
+    else:
+        labels = [f"{name}[{t[a] - t[0]:g}-{t[b - 1] - t[0]:g} s]" for a, b in pairs]
+    if len(set(labels)) != len(labels):
+        raise AssertionError(f"Duplicate block labels: {labels}")
+    return [(a, b, label) for (a, b), label in zip(pairs, labels, strict=True)]
+
+
+def too_few_runs(n, longest_s, block_hours):
+    """The ValueError for fewer than 2 runs (or blocks) to hold out, with a
+    hint at ``block_hours`` (``longest_s``: the longest run's span)."""
+    hours = longest_s / 3600.0
+    if block_hours is None:
+        hint = (
+            "; to hold one long record out in blocks, pass block_hours= (e.g. "
+            f"block_hours={max(hours / 3, 1e-3):.2g} for 3 blocks of its "
+            f"{hours:.3g} h)"
+        )
+    else:
+        hint = (
+            f": block_hours={block_hours:g} cuts only runs longer than 1.5 x "
+            f"{block_hours:g} h into blocks, and the longest run lasts "
+            f"{hours:.3g} h; give block_hours below {hours / 1.5:.3g} h for at "
+            "least 2 blocks"
+        )
+    return ValueError(
+        "The diagnosis scores effects on held-out runs: give at least 2 runs "
+        f"(got {n}){hint}."
+    )
+
+
+def _hours(seconds, decimals):
+    """``seconds`` in hours with ``decimals`` decimals, trailing zeros
+    dropped (``0.5``, ``2``)."""
+    text = f"{seconds / 3600.0:.{decimals}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text
 
 
 def pooled_noise(frames, channels):

@@ -346,31 +346,33 @@ class GapReport:
         return f"GapReport(best_effect={self.best_effect!r}): {self.verdict()}"
 
     def to_dict(self):
-        """Plain-Python content (tables as lists of records)."""
+        """Plain-Python content (tables as lists of records): numbers as
+        Python floats at full precision, a missing or infinite value as
+        None, so that :meth:`to_json` writes strict JSON."""
 
         def records(df):
-            return json.loads(df.to_json(orient="records", double_precision=15))
+            return plain(df.to_dict(orient="records"))
 
         return {
             "verdict": self.verdict(),
             "best_effect": self.best_effect,
-            "noise_floor": self.noise_floor,
-            "how_far_evidence": self.how_far_evidence,
-            "settings": self.settings,
-            "not_applicable": self.not_applicable,
-            "explainable": self.explainable,
+            "noise_floor": plain(self.noise_floor),
+            "how_far_evidence": plain(self.how_far_evidence),
+            "settings": plain(self.settings),
+            "not_applicable": plain(self.not_applicable),
+            "explainable": plain(self.explainable),
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
-            "regime_shrink": json.loads(
-                self.regime_shrink.to_json(orient="index", double_precision=15)
-            ),
+            "regime_shrink": plain(self.regime_shrink.to_dict(orient="index")),
             "where": {k: records(v) for k, v in self.where.items()},
         }
 
     def to_json(self, path=None, **kwargs):
-        """The report as JSON (written to ``path`` when given)."""
-        text = json.dumps(self.to_dict(), indent=2, default=float, **kwargs)
+        """The report as strict JSON (written to ``path`` when given): a
+        missing value is ``null``, never ``NaN``."""
+        kwargs.setdefault("indent", 2)
+        text = json.dumps(self.to_dict(), allow_nan=False, **kwargs)
         if path is not None:
             Path(path).write_text(text)
         return text
@@ -519,7 +521,7 @@ class GapReport:
             )
             ax.legend(fontsize="small", ncol=3)
         ax.set_ylabel(f"residual {channel}")
-        ax.set_title(f"Run {run}: measured - simulated")
+        ax.set_title(f"Run {run}: simulated - measured")
         return ax
 
     def plot_overlay(self, run=None, channel=None, ax=None):
@@ -583,6 +585,27 @@ class GapReport:
             fig.savefig(folder / f"timeline_{name}.png", dpi=90)
             plt.close(fig)
         return folder
+
+
+def plain(value):
+    """``value`` as plain Python for JSON: dicts (keys as strings), lists,
+    Python numbers at full precision, and None for a missing or infinite
+    number."""
+    if isinstance(value, dict):
+        return {k if isinstance(k, str) else str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | np.ndarray | pd.Series):
+        return [plain(v) for v in value]
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        return float(value) if np.isfinite(value) else None
+    if value is None or isinstance(value, str):
+        return value
+    if value is pd.NA or value is pd.NaT:
+        return None
+    return str(value)
 
 
 def _file_names(labels):

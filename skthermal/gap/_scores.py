@@ -39,6 +39,7 @@ DIAGNOSIS_PARAMS = {
     "greedy": ["boolean"],
     "max_samples": [Interval(Integral, 10, None, closed="left")],
     "n_jobs": [None, Integral],
+    "block_hours": [None, Interval(Real, 0, None, closed="neither")],
 }
 
 

@@ -77,11 +77,15 @@ class Signals:
         return self.is_temp.size
 
 
-def lowpass(x, tau, dt):
-    """First-order low-pass of ``x`` (time along axis 0), started in steady
-    state. ``tau`` 0 returns ``x``."""
+def lowpass(x, tau, run):
+    """First-order low-pass of ``x`` (time along axis 0, at ``run``'s
+    samples), started in steady state. Each step is filtered with its own
+    length (``run.time_s``), so uneven sampling and logging gaps (rows left
+    out) are filtered exactly. ``tau`` 0 returns ``x``."""
     x = np.asarray(x, dtype=float)
-    return x if tau <= 0 else exponential_filter(x, float(tau), dt)
+    if tau <= 0:
+        return x
+    return exponential_filter(x, float(tau), run.dt, times=run.time_s)
 
 
 def _solve_gains(design, targets, idx, sign=None):
@@ -334,7 +338,7 @@ class SensorLag(DiscrepancyTerm):
     temperature_sign = 1  # a sensor can lag, not lead
 
     def features(self, signals, run, theta):
-        lagged = lowpass(run.sim, theta["tau_s"], run.dt)
+        lagged = lowpass(run.sim, theta["tau_s"], run)
         out = run.compared(lagged - run.sim)
         return (out * self._mask(signals)[None, :])[:, :, None]
 
@@ -363,7 +367,7 @@ class SpeedConvection(DiscrepancyTerm):
     def features(self, signals, run, theta):
         speed = (run.spindle_rpm / 1000.0) ** theta["exponent"]
         rise = run.sim - run.sim[:1]
-        x = lowpass(speed[:, None] * rise, theta["tau_s"], run.dt)
+        x = lowpass(speed[:, None] * rise, theta["tau_s"], run)
         return (run.compared(x) * self._mask(signals)[None, :])[:, :, None]
 
 
@@ -385,7 +389,7 @@ class ToolGrowth(DiscrepancyTerm):
     def features(self, signals, run, theta):
         speed = (np.clip(run.spindle_rpm, 0.0, None) / 1000.0) ** theta["exponent"]
         rise = run.sim - run.sim[:1]
-        x = lowpass(speed[:, None] * rise, theta["tau_s"], run.dt)
+        x = lowpass(speed[:, None] * rise, theta["tau_s"], run)
         return (run.compared(x) * self._mask(signals)[None, :])[:, :, None]
 
 
@@ -406,9 +410,7 @@ class AmbientTransient(DiscrepancyTerm):
 
     def _signal(self, run, theta):
         a = run.ambient_C
-        x = lowpass(a, theta["tau_fast_s"], run.dt) - lowpass(
-            a, theta["tau_slow_s"], run.dt
-        )
+        x = lowpass(a, theta["tau_fast_s"], run) - lowpass(a, theta["tau_slow_s"], run)
         return x[:, None]
 
 
@@ -423,9 +425,7 @@ class FeedHeating(DiscrepancyTerm):
     temperature_sign = 1  # friction heat only warms
 
     def _signal(self, run, theta):
-        return lowpass(np.abs(run.feed_mm_min) / 1000.0, theta["tau_s"], run.dt)[
-            :, None
-        ]
+        return lowpass(np.abs(run.feed_mm_min) / 1000.0, theta["tau_s"], run)[:, None]
 
 
 class SensorDrift(DiscrepancyTerm):
@@ -467,7 +467,6 @@ class FlexibleFeatures:
         """``(n_rows, c, k)``: the simulated channel, and low-passes of the
         speed, the spindle state, |feed|, the air change, the speed times
         the simulated rise and of the simulated channel, and the time."""
-        dt = run.dt
         speed = run.spindle_rpm / 1000.0
         shared = np.column_stack(
             [
@@ -481,14 +480,14 @@ class FlexibleFeatures:
         parts = [run.compared(run.sim)[:, :, None]]
         c = signals.n_channels
         for tau in self.time_constants_s:
-            z = run.compared(lowpass(shared, tau, dt))
+            z = run.compared(lowpass(shared, tau, run))
             parts.append(np.broadcast_to(z[:, None, :], (z.shape[0], c, z.shape[1])))
             # The channel's own lag (as a difference, so that a small lag is
             # a small coefficient) and its speed-weighted rise.
-            lag = lowpass(run.sim, tau, dt) - run.sim
+            lag = lowpass(run.sim, tau, run) - run.sim
             parts.append(run.compared(lag)[:, :, None])
             parts.append(
-                run.compared(lowpass(speed[:, None] * rise, tau, dt))[..., None]
+                run.compared(lowpass(speed[:, None] * rise, tau, run))[..., None]
             )
         clock = run.compared(run.time_s / 3600.0)
         parts.append(np.broadcast_to(clock[:, None, None], (clock.size, c, 1)))

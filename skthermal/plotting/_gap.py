@@ -65,7 +65,8 @@ class GapTimelineDisplay:
         Sample times, increasing, in seconds (or any unit with
         ``time_unit=None`` in :meth:`plot`; datetimes work with it too).
     residual : array-like of shape (n_samples,)
-        The gap, e.g. measured minus simulated displacement.
+        The gap, e.g. simulated minus measured displacement (the sign of the
+        gap reports' residuals).
     regimes : array-like of str of shape (n_samples,)
         Regime label of every sample, e.g. ``"heating"``, ``"after stop"``,
         ``"dwell"``, ``"ambient event"``.
