@@ -604,9 +604,17 @@ def test_campaign_arguments_are_checked():
         ({"hours": 1}, "hours must be at least 2"),
         ({"n_runs": 0}, "n_runs must be an integer >= 2"),
         ({"perturbation": (1.5, 2.0)}, "perturbation must be"),
+        ({"strength": 0.0}, "strength must be a finite number > 0"),
+        ({"strength": np.nan}, "strength must be a finite number > 0"),
     ):
         with pytest.raises(ValueError, match=message):
             make_gap_campaign("tool_growth", **kwargs)
+    # A withheld effect the machine cannot have would be a null case in
+    # disguise: the rig has no feed axis.
+    with pytest.raises(ValueError, match="'feed_heating' changes nothing.*no feed"):
+        make_gap_campaign(
+            "feed_heating", preset="spindle-rig", n_runs=2, hours=2, random_state=0
+        )
 
 
 def test_no_candidate_left_is_one_clear_error(rig_runs):

@@ -7,12 +7,14 @@ the true one is not among its candidates.
 """
 
 from dataclasses import dataclass, field
+from numbers import Real
 
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.utils import check_random_state
 
+from skthermal.gap._problem import is_channel
 from skthermal.simulate import (
     EFFECTS,
     AmbientProfile,
@@ -91,14 +93,16 @@ def make_gap_campaign(
     effect : str or None
         The effect the "real" machine has and the simulation lacks (None for
         the null case).
-    preset : {"vmc-b", "vmc-a"}, default="vmc-b"
+    preset : {"vmc-b", "vmc-a", "spindle-rig"}, default="vmc-b"
+        The machine; an effect it cannot have (``feed_heating`` on a machine
+        without a feed axis) is an error.
     n_runs : int >= 2, default=4
     hours : float >= 2, default=6.0
         Length of every run: random spindle speeds with stops, feed motion in
         some segments, day/night air and (in at least one run) a door event.
-    strength : float, default=1.0
+    strength : float > 0, default=1.0
         Multiplier of the effect's parameter (for ``ambient_transient``, of
-        the door-event drop).
+        the door-event drop). The null case is ``effect=None``.
     perturbation : (float, float) with 0 <= low <= high < 1, default=(0.1, 0.2)
         Every capacity, conductance, convection, heat input and
         displacement coefficient of the truth differs from the simulation by
@@ -134,6 +138,13 @@ def make_gap_campaign(
             f"hours must be at least 2 (a run has a door event between 0.5 h "
             f"and 1.5 h before its end), got {hours!r}."
         )
+    if effect is not None and not (
+        isinstance(strength, Real) and np.isfinite(strength) and strength > 0
+    ):
+        raise ValueError(
+            f"strength must be a finite number > 0 for an effect case, got "
+            f"{strength!r}; the case without the effect is effect=None."
+        )
     low, high = (float(v) for v in perturbation)
     if not (0.0 <= low <= high < 1.0):
         raise ValueError(
@@ -151,6 +162,7 @@ def make_gap_campaign(
     with_feed = True
     frames = []
     door_run = rng.randint(n_runs)
+    first = None  # the first run's drivers, to check that the effect acts
     for r in range(n_runs):
         events = []
         if r == door_run or rng.rand() < 0.4:
@@ -168,19 +180,53 @@ def make_gap_campaign(
             door_events=events,
             noise_C=0.05,
         )
+        duty = _random_duty(rng, hours, with_feed)
+        first = first or (duty, air)
         frames.append(
             truth.simulate(
-                _random_duty(rng, hours, with_feed),
+                duty,
                 air,
                 sample_period_s=sample_period_s,
                 run=f"r{r + 1}",
                 random_state=rng,
             )
         )
+    if effect is not None:
+        _check_acts(truth, effect, preset, *first, sample_period_s)
     for f in frames:
         f.attrs.clear()
     runs = pd.concat(frames, ignore_index=True)
     return GapCase(simulation, truth, runs, effect, float(strength))
+
+
+def _check_acts(truth, effect, preset, duty, air, sample_period_s):
+    """Raise a ValueError when ``effect`` changes nothing the truth measures
+    (noise-free, on the first run's drivers): a campaign whose "withheld"
+    effect is absent is a null case in disguise."""
+    if EFFECTS[effect].residual:  # a random process on the sensors' readings
+        if not truth.spec.sensors:
+            raise ValueError(
+                f"The {preset!r} preset has no temperature sensor: {effect!r} "
+                "cannot act on it."
+            )
+        return
+    # The same draws of the air for both (its noise is part of the drivers).
+    kwargs = {"sample_period_s": sample_period_s, "noise": False, "random_state": 0}
+    with_effect = truth.simulate(duty, air, **kwargs)
+    without = truth.with_effects([]).simulate(duty, air, **kwargs)
+    cols = [c for c in with_effect.columns if is_channel(c)]
+    diff = np.max(np.abs(with_effect[cols].to_numpy() - without[cols].to_numpy()))
+    if not diff > 1e-9:
+        raise ValueError(
+            f"The effect {effect!r} changes nothing on the {preset!r} preset "
+            f"(largest change of a channel {diff:.2g}): "
+            + (
+                "it has no feed axis. "
+                if effect == "feed_heating" and not truth.spec.screw_nodes
+                else ""
+            )
+            + "Choose another preset or effect."
+        )
 
 
 @dataclass
