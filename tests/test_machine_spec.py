@@ -733,3 +733,19 @@ def test_an_unquoted_dotted_parameter_name_gets_a_hint(tmp_path):
         spec.to_toml() + '\n[params]\n"q.bearing_W" = 6.0\n', encoding="utf-8"
     )
     assert MachineSpec.from_toml(path).params["q.bearing_W"] == 6.0
+
+
+@pytest.mark.parametrize("value", ["5", True, np.True_, b"3"])
+def test_parameters_are_numbers_in_python_as_in_files(value):
+    # A machine file refuses text and bools for numbers; the Python API took
+    # them ("5" as 5.0, True as a heat input of 1 W).
+    machine = ThermalMachine.from_preset("vmc-b")
+    for call in (
+        lambda: machine.with_params({"q.bearing_W": value}),
+        lambda: ThermalMachine.from_preset("vmc-b", params={"q.bearing_W": value}),
+    ):
+        with pytest.raises(ValueError, match="'q.bearing_W' must be a number"):
+            call()
+    assert machine.with_params({"q.bearing_W": np.array(5.0)}).params[
+        "q.bearing_W"
+    ] == pytest.approx(5.0)

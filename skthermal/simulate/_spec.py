@@ -16,6 +16,8 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, suggest
 from skthermal.simulate._drivers import _check_number
 from skthermal.simulate._effects import (
@@ -333,7 +335,8 @@ def check_parameters(spec, params, *, strict=False):
         Name -> value.
     strict : bool, default=False
         Values must be real numbers (not strings that parse as numbers), as
-        in a machine file.
+        in a machine file. Without it, numeric 0-d arrays are taken too, but
+        never text or a bool (``True`` is no heat input).
 
     Returns
     -------
@@ -345,7 +348,10 @@ def check_parameters(spec, params, *, strict=False):
     for key, value in params.items():
         if type(value) is not float or not math.isfinite(value):
             where = f"{parameter_entry(key)}: parameter {key!r}"
-            value = _number(where, value) if strict else _check_number(value, where)
+            if strict or isinstance(value, str | bytes | bool | np.bool_):
+                value = _number(where, value)
+            else:
+                value = _check_number(value, where)
         valid = parameter_range(key)
         if value not in valid:
             raise ValueError(
