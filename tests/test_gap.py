@@ -793,6 +793,13 @@ def test_report_dict_has_no_nan():
     assert isinstance(out["b"], int)
 
 
+def test_report_tables_write_no_negative_zero():
+    from skthermal.gap._report import gap_table
+
+    text = gap_table(pd.DataFrame({"lr_statistic": [-0.0, 1.5], "x": [np.nan, 2]}))
+    assert "-0" not in text and "| 0 |" in text
+
+
 def test_block_labels_are_unique_at_any_length():
     from skthermal.gap._problem import block_spans
 

@@ -443,7 +443,9 @@ class GapReport:
             body.append(f"<h2>{html.escape(title)}</h2>")
             body.append(
                 _with_units(df).to_html(
-                    index=False, float_format=lambda x: f"{x:.3g}", na_rep=_NO_VALUE
+                    index=False,
+                    float_format=lambda x: f"{x + 0.0:.3g}",
+                    na_rep=_NO_VALUE,
                 )
             )
         return (
@@ -650,7 +652,8 @@ _NO_VALUE = "—"
 
 def _gap_cell(v):
     if isinstance(v, float | np.floating):
-        return _NO_VALUE if np.isnan(v) else f"{v:.3g}"
+        # + 0.0: a negative zero is written "0", not "-0".
+        return _NO_VALUE if np.isnan(v) else f"{v + 0.0:.3g}"
     if isinstance(v, dict) and not v:
         return _NO_VALUE
     return str(v).replace("|", "/")
