@@ -177,23 +177,16 @@ def _add_simulate(sub):
         metavar="LIST",
         help="simulate Machine B's tests instead, e.g. I,IV,V (of I..VI)",
     )
-    g = p.add_argument_group("ambient air")
-    g.add_argument("--ambient-mean", type=float, default=20.0, help="°C (default 20)")
+    # Defaults None: skthermal._cli._data.AMBIENT_DEFAULTS fills them in, so
+    # that an option given with --tests can be named.
+    g = p.add_argument_group("ambient air (not with --tests)")
+    g.add_argument("--ambient-mean", type=float, help="°C (default 20)")
+    g.add_argument("--ambient-trend", type=float, help="°C per hour (default 0)")
     g.add_argument(
-        "--ambient-trend", type=float, default=0.0, help="°C per hour (default 0)"
+        "--day-amplitude", type=float, help="daily swing amplitude, °C (default 0)"
     )
-    g.add_argument(
-        "--day-amplitude",
-        type=float,
-        default=0.0,
-        help="daily swing amplitude, °C (default 0)",
-    )
-    g.add_argument(
-        "--start-hour", type=float, default=8.0, help="hour of day at start (8)"
-    )
-    g.add_argument(
-        "--ambient-noise", type=float, default=0.05, help="°C (default 0.05)"
-    )
+    g.add_argument("--start-hour", type=float, help="hour of day at start (8)")
+    g.add_argument("--ambient-noise", type=float, help="°C (default 0.05)")
     p.add_argument(
         "--effects",
         metavar="LIST",

@@ -682,6 +682,18 @@ def test_top_level_help_lists_the_subcommands(capsys):
         ),
         (["simulate", "--effects", "magic", "--out", "{tmp}/r.csv"], "magic"),
         (["simulate", "--tests", "VII", "--out", "{tmp}/r.csv"], "VII"),
+        (
+            [
+                "simulate",
+                "--tests",
+                "I",
+                "--ambient-mean",
+                "25",
+                "--out",
+                "{tmp}/r.csv",
+            ],
+            "own air; --ambient-mean would be ignored",
+        ),
         (["reproduce", "--sample-period", "-5", "--out", "{tmp}/r"], "positive"),
         (["reproduce", "--models", "nope", "--out", "{tmp}/r"], "nope"),
         (

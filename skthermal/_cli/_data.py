@@ -152,6 +152,17 @@ def _same_label_kind(old, new):
     return _relabel(old, str), _relabel(new, str)
 
 
+# The ambient-air options of ``simulate`` and their defaults (the parser's
+# are None, so that an option given with --tests can be named).
+AMBIENT_DEFAULTS = {
+    "ambient_mean": 20.0,
+    "ambient_trend": 0.0,
+    "day_amplitude": 0.0,
+    "start_hour": 8.0,
+    "ambient_noise": 0.05,
+}
+
+
 def cmd_simulate(args):
     from skthermal.datasets import concat_runs, make_machine_b_tests, read_runs
     from skthermal.simulate import (
@@ -166,11 +177,26 @@ def cmd_simulate(args):
     check_positive(args.sample_period, "--sample-period")
     check_out_table(args.out)
     check_out_path(args.out, "--out")
-    if args.ambient_noise < 0:
-        raise UserError(f"--ambient-noise must be >= 0, got {args.ambient_noise}.")
     machine = machine_from_args(args, effects=parse_effects(args.effects))
     check_machine_sensors(machine, args)
     noise = not args.no_noise
+    given = [
+        "--" + name.replace("_", "-")
+        for name in AMBIENT_DEFAULTS
+        if getattr(args, name) is not None
+    ]
+    if args.tests and given:
+        them = "it" if len(given) == 1 else "them"
+        raise UserError(
+            "--tests simulates Machine B's tests with their own air; "
+            f"{', '.join(given)} would be ignored: leave {them} out."
+        )
+    air = {
+        k: AMBIENT_DEFAULTS[k] if getattr(args, k) is None else getattr(args, k)
+        for k in AMBIENT_DEFAULTS
+    }
+    if air["ambient_noise"] < 0:
+        raise UserError(f"--ambient-noise must be >= 0, got {air['ambient_noise']}.")
     if args.tests:
         if args.segment:
             raise UserError("Give either --tests or --segment, not both.")
@@ -191,11 +217,11 @@ def cmd_simulate(args):
                 f"of --sample-period {args.sample_period:g} s."
             )
         ambient = AmbientProfile(
-            mean_C=args.ambient_mean,
-            trend_C_per_h=args.ambient_trend,
-            day_amplitude_C=args.day_amplitude,
-            start_hour=args.start_hour,
-            noise_C=args.ambient_noise,
+            mean_C=air["ambient_mean"],
+            trend_C_per_h=air["ambient_trend"],
+            day_amplitude_C=air["day_amplitude"],
+            start_hour=air["start_hour"],
+            noise_C=air["ambient_noise"],
         )
         check_air(ambient, duty.duration_s)
         runs = machine.simulate(
