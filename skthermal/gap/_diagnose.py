@@ -395,8 +395,7 @@ def _explainable(ctx, screen, floor2):
     above the noise floor it removes (what any added term could close)."""
     folds = ctx.folds
     fold_signals = []
-    for fit in screen.base_fits:
-        parts = ctx.predictions(fit)
+    for fit, parts in zip(screen.base_fits, screen.base_preds, strict=True):
         fold_signals.append(
             _run_signals(
                 ctx.problem, {i: apply_gains(p, fit.gain) for i, p in parts.items()}
@@ -698,6 +697,7 @@ class Screen:
 
     base_R: list  # held-out residuals of the base
     base_fits: list
+    base_preds: list  # per fold, ctx.predictions of its base calibration
     ranking: pd.DataFrame  # best first
     regime_shrink: pd.DataFrame  # candidates x regimes
     evaluations: dict  # effect name -> Evaluation
@@ -721,6 +721,7 @@ def _screen(ctx, candidates, rules, n_jobs):
     return Screen(
         base_R,
         base_fits,
+        base_preds,
         ranking,
         pd.concat([ev.regime_shrink for ev in evaluations], axis=1),
         {ev.effect: ev for ev in evaluations},
