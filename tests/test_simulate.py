@@ -267,6 +267,25 @@ def test_sensor_drift_moves_readings_slowly(vmc_b):
     assert spread_a > 5 * spread_b
 
 
+def test_sensor_drift_rate_belongs_to_the_sensor(vmc_b):
+    # Ageing is a property of the sensor: the same rate in every run (every
+    # random_state); only the random walk is new in every run.
+    machine = vmc_b.with_effects(add="sensor_drift").with_params(
+        {"sensor_drift.rate_C_per_h": 0.05, "sensor_drift.walk_C_per_sqrt_h": 0.0}
+    )
+    t = np.arange(0.0, 36001.0, 600.0)
+    x = np.zeros((t.size, len(machine.spec.sensors)))
+    effect = EFFECTS["sensor_drift"]
+    runs = [
+        effect.noise(machine, machine.params, x, t, 600.0, np.random.default_rng(s))
+        for s in (0, 1)
+    ]
+    np.testing.assert_allclose(runs[0], runs[1])
+    rate = runs[0][-1] / 10.0
+    np.testing.assert_allclose(runs[0], np.outer(t / 3600.0, rate), atol=1e-12)
+    assert 0.02 < rate.std() < 0.08  # spread over the sensors: the rate's std
+
+
 # --- campaigns and realism ------------------------------------------------------
 
 

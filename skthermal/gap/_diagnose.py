@@ -49,23 +49,6 @@ from skthermal.simulate import EFFECTS, ThermalMachine
 logger = logging.getLogger("skthermal.gap")
 
 
-def _detrend_first_half(R, is_temp):
-    """Residual minus a per-channel linear trend fitted on the run's first half
-    and extrapolated (the sensor-drift model); temperature channels only."""
-    n = R.shape[0]
-    half = max(2, n // 2)
-    t = np.arange(n, dtype=float)
-    A = np.column_stack([np.ones(half), t[:half]])
-    coef, *_ = np.linalg.lstsq(A, R[:half][:, is_temp], rcond=None)
-    out = R.copy()
-    out[:, is_temp] -= np.column_stack([np.ones(n), t]) @ coef
-    return out
-
-
-def _second_half(R):
-    return R[R.shape[0] // 2 :]
-
-
 def _xcorr(problem, Rs, max_lag=10):
     """Largest |correlation| between the combined residual and a driver.
 
@@ -144,7 +127,7 @@ class _Context:
             i: predict_run(fit.machine, problem, problem.runs[i], parts=True)
             for i in test
         }
-        return residuals(problem, preds, fit.gain, test), fit
+        return residuals(problem, preds, fit.gain, test, rates=fit.drift_rates), fit
 
     def predictions(self, fit):
         """Parts of the prediction of every run with ``fit``
@@ -170,9 +153,6 @@ class _Context:
         for (_, test), (Rs, _) in zip(self.folds, results, strict=True):
             for i, R in zip(test, Rs, strict=True):
                 out[i] = R
-        if any(e in RESIDUAL_EFFECTS for e in effects):
-            is_temp = ~self.problem.is_disp
-            out = [_detrend_first_half(R, is_temp) for R in out]
         return out, [fit for _, fit in results]
 
     def heldout(self, effects, starts=None):
@@ -275,14 +255,7 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
     """Evidence that adding ``candidate`` turned ``before_R`` into ``after_R``
     (held-out residuals): the ranking row, and the gap per regime before and
     after."""
-    if candidate in RESIDUAL_EFFECTS:
-        # The drift model is judged on the second half of every run, where its
-        # trend, fitted on the first half, is a genuine prediction.
-        b = [_second_half(R) for R in before_R]
-        a = [_second_half(R) for R in after_R]
-        regimes = [r.iloc[r.shape[0] // 2 :].reset_index(drop=True) for r in regimes]
-    else:
-        b, a = before_R, after_R
+    b, a = before_R, after_R
     gap_b, ms_b = gap_of(b)
     gap_a, ms_a = gap_of(a)
     shrink = excess_shrink(gap_b, gap_a, floor2)
@@ -319,14 +292,13 @@ def _lr_evidence(ctx, before_in, after_in, candidate):
     under the model without the candidate; their mean has the same mean and
     less spread, so its p-value from the same distribution is conservative.
     The degrees of freedom (``lr_df``, also ``extra_params``) are the
-    candidate's free parameters, averaged over the folds
-    (:func:`_free_parameters`); a candidate without any gets no test (NaN
-    p-value and criteria)."""
-    tests = [
-        residual_lr_test(rb, ra, max(_fold_parameters(ctx, candidate, train), 1))
-        for (train, _), rb, ra in zip(ctx.folds, before_in, after_in, strict=True)
-    ]
+    candidate's free parameters (:func:`_free_parameters`); a candidate
+    without any gets no test (NaN p-value and criteria)."""
     df = _free_parameters(ctx, candidate)
+    tests = [
+        residual_lr_test(rb, ra, max(df, 1))
+        for rb, ra in zip(before_in, after_in, strict=True)
+    ]
     statistic = float(np.mean([t.statistic for t in tests]))
     if df == 0:
         # A structural switch without a free parameter: not a nested model
@@ -347,23 +319,14 @@ def _lr_evidence(ctx, before_in, after_in, candidate):
     }
 
 
-def _fold_parameters(ctx, candidate, train):
-    """Free parameters ``candidate`` adds to a calibration on the runs
-    ``train``: its effect parameter, or one slope per temperature channel
-    and run for ``sensor_drift`` (whose trends are fitted per run); 0 for a
-    structural switch without a parameter."""
-    if candidate in RESIDUAL_EFFECTS:
-        return int((~ctx.problem.is_disp).sum()) * len(train)
-    return effect_parameters([candidate])
-
-
 def _free_parameters(ctx, candidate):
-    """The ranking's ``extra_params`` and ``lr_df``: :func:`_fold_parameters`
-    averaged over the folds (the likelihood-ratio test is on each fold's
-    training runs)."""
-    return int(
-        round(np.mean([_fold_parameters(ctx, candidate, tr) for tr, _ in ctx.folds]))
-    )
+    """Free parameters ``candidate`` adds to a calibration (the ranking's
+    ``extra_params`` and ``lr_df``): its effect parameter, or one drift rate
+    per temperature channel for ``sensor_drift``; 0 for a structural switch
+    without a parameter."""
+    if candidate in RESIDUAL_EFFECTS:
+        return int((~ctx.problem.is_disp).sum())
+    return effect_parameters([candidate])
 
 
 def _run_signals(problem, fold_preds):
@@ -409,10 +372,6 @@ def _explainable(ctx, screen, floor2):
         for k in range(len(folds))
     ]
     flex_R = flexible_heldout(fold_signals, folds, extra)
-    if any(e in RESIDUAL_EFFECTS for e in screen.evaluations):
-        # The drift candidate fits a trend per run, which the flexible
-        # model's shared coefficients do not: it gets the same.
-        flex_R = [_detrend_first_half(R, ~ctx.problem.is_disp) for R in flex_R]
     return explainable_summary(screen.base_R, flex_R, floor2)
 
 

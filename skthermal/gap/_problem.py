@@ -575,16 +575,26 @@ def _run_clock(run):
     return t - t[:START_SAMPLES].mean()
 
 
-def _without_trend(x, run, mask):
-    """``x`` (``(..., n, n_channels)``) with the least-squares line through
-    the start reference (slope only: changes since start are zero there)
-    removed from the channels in ``mask``: the part of a residual that a
-    drifting sensor could produce."""
-    t = _run_clock(run)
-    out = np.array(x, dtype=float, copy=True)
-    slope = np.einsum("n,...nc->...c", t, out[..., mask]) / float(t @ t)
-    out[..., mask] -= t[:, None] * slope[..., None, :]
-    return out
+def drift_rates(xs, runs, mask):
+    """Drift rate of every channel in ``mask`` shared by ``runs``: the
+    least-squares slope (per hour since the start reference, through it:
+    changes since start are zero there) of the stacked ``xs``
+    (``(..., n, n_channels)`` per run); 0 outside ``mask``.
+
+    A drifting sensor drifts at its own rate in every run (ageing,
+    connector thermo-EMF are properties of the sensor), so the rate is fitted
+    on training runs and carried to held-out runs like any other parameter.
+    """
+    clocks = [_run_clock(run) for run in runs]
+    num = sum(np.einsum("n,...nc->...c", t, x) for t, x in zip(clocks, xs, strict=True))
+    den = max(sum(float(t @ t) for t in clocks), 1e-300)
+    return np.where(mask, num / den, 0.0)
+
+
+def without_drift(x, run, rate):
+    """``x`` (``(..., n, n_channels)``) minus the drift ``rate`` (per channel,
+    per hour; :func:`drift_rates`) since the run's start reference."""
+    return np.asarray(x, dtype=float) - _run_clock(run)[:, None] * rate[..., None, :]
 
 
 # Hyper-prior of the groups' mean gains: loose, a heat input may be off by
@@ -608,17 +618,20 @@ def fit_gains(problem, predictions, runs_idx, spread=0.3, drift=None):
     ``predictions[i]`` has shape (n_parts, n, n_channels); returns gains of
     shape (n_parts, n_channels).
 
-    With ``drift`` (a channel mask), every run of those channels may carry
-    its own linear drift: it is partialled out of both sides, so a drifting
-    sensor does not bend the gains.
+    With ``drift`` (a channel mask), those channels may carry a linear drift
+    at a rate of their own, the same in every run (:func:`drift_rates`): it
+    is partialled out of both sides, so a drifting sensor does not bend the
+    gains.
     """
-    data = []
-    for i in runs_idx:
-        P, y = predictions[i], problem.runs[i].y
-        if drift is not None:
-            P = _without_trend(P, problem.runs[i], drift)
-            y = _without_trend(y, problem.runs[i], drift)
-        data.append((P, y))
+    data = [(predictions[i], problem.runs[i].y) for i in runs_idx]
+    if drift is not None:
+        runs = [problem.runs[i] for i in runs_idx]
+        rate_P = drift_rates([P for P, _ in data], runs, drift)
+        rate_y = drift_rates([y for _, y in data], runs, drift)
+        data = [
+            (without_drift(P, run, rate_P), without_drift(y, run, rate_y))
+            for (P, y), run in zip(data, runs, strict=True)
+        ]
     G = sum(np.einsum("anc,bnc->cab", P, P) for P, _ in data)
     b = sum(np.einsum("anc,nc->ca", P, y) for P, y in data)
     noise = np.maximum(problem.noise, 1e-3 * problem.scale)
@@ -670,21 +683,26 @@ def apply_gains(prediction, gain):
     return np.einsum("anc,ac->nc", prediction, gain)
 
 
-def residuals(problem, predictions, gain, runs_idx, drift=None):
+def residuals(problem, predictions, gain, runs_idx, drift=None, rates=None):
     """Normalised, weighted residuals of the given runs (list of arrays).
 
     ``predictions[i]`` is either a plain prediction (gain None) or the
     heat/air parts combined with ``gain``. With ``drift`` (a channel mask),
-    each run's linear drift of those channels is removed (for calibration).
+    the drift rates those channels share over the runs (:func:`drift_rates`)
+    are fitted and removed (for calibration); with ``rates`` (a
+    :attr:`Fit.drift_rates`, per channel), those rates are removed (for
+    held-out runs).
     """
     w = np.sqrt(problem.weight) / problem.scale
+    runs = [problem.runs[i] for i in runs_idx]
     out = []
-    for i in runs_idx:
+    for i, run in zip(runs_idx, runs, strict=True):
         p = predictions[i] if gain is None else apply_gains(predictions[i], gain)
-        r = p - problem.runs[i].y
-        if drift is not None:
-            r = _without_trend(r, problem.runs[i], drift)
-        out.append(r * w)
+        out.append((p - run.y) * w)
+    if drift is not None:
+        rates = drift_rates(out, runs, drift)
+    if rates is not None:
+        out = [without_drift(r, run, rates) for r, run in zip(out, runs, strict=True)]
     return out
 
 
@@ -706,6 +724,18 @@ class Fit:
     cost: float
     nfev: int
     fine: dict = field(default_factory=dict)
+    # Normalised drift rate of every channel, per hour, fitted on the
+    # training runs when ``sensor_drift`` is among the effects (else None);
+    # held-out runs are read with it removed.
+    drift_rates: np.ndarray = None
+
+
+def training_drift(problem, predictions, gain, train_idx, drift):
+    """:attr:`Fit.drift_rates` of a calibration (None without ``drift``)."""
+    if drift is None:
+        return None
+    raw = residuals(problem, predictions, gain, train_idx)
+    return drift_rates(raw, [problem.runs[i] for i in train_idx], drift)
 
 
 def calibrate(
@@ -753,6 +783,7 @@ def calibrate(
         m,
         float(res.cost),
         int(res.nfev),
+        drift_rates=training_drift(problem, preds, gain, train_idx, drift),
     )
 
 
@@ -843,7 +874,7 @@ def refine(
             i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx
         }
         gain = fit_gains(problem, preds, train_idx, drift=drift)
-        return residuals(problem, preds, gain, train_idx, drift), gain, m
+        return residuals(problem, preds, gain, train_idx, drift), gain, m, preds
 
     R0 = data(np.zeros(len(keys)))[0]
     scale = np.sqrt(sum(float(np.sum(r * r)) for r in R0) / _effective_samples(R0))
@@ -861,7 +892,7 @@ def refine(
     res = least_squares(
         jac.fun, np.zeros(len(keys)), jac=jac, bounds=(lo, hi), max_nfev=max_nfev
     )
-    _, gain, m = data(res.x)
+    _, gain, m, preds = data(res.x)
     return Fit(
         fit.effects,
         dict(fit.values),
@@ -870,6 +901,7 @@ def refine(
         float(res.cost),
         fit.nfev + int(res.nfev),
         dict(zip(keys, np.exp(res.x), strict=True)),
+        training_drift(problem, preds, gain, train_idx, drift),
     )
 
 

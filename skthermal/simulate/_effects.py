@@ -7,6 +7,7 @@ disagree, so the names and meanings are part of the public API.
 """
 
 import math
+import zlib
 from typing import NamedTuple
 
 import numpy as np
@@ -270,6 +271,20 @@ class FeedHeating(Effect):
             cols[spec.axis_motor] = cols.get(spec.axis_motor, 0.0) + power * motor_share
 
 
+def sensor_draws(machine, what):
+    """One standard normal number per sensor of ``machine``, fixed by the
+    machine's and the sensor's names and ``what`` (a property of the sensor
+    such as its calibration offset: the same in every run)."""
+    return np.array(
+        [
+            np.random.RandomState(
+                zlib.crc32(f"{machine.name}/{s.name}{what}".encode())
+            ).standard_normal()
+            for s in machine.spec.sensors
+        ]
+    )
+
+
 class SensorDrift(Effect):
     name = "sensor_drift"
     summary = (
@@ -284,7 +299,10 @@ class SensorDrift(Effect):
 
     def noise(self, machine, p, x, t, dt, rng):
         hours = (t - t[0]) / 3600.0
-        rate = rng.normal(0.0, p["sensor_drift.rate_C_per_h"], x.shape[1])
+        # The rate belongs to the sensor (its ageing), not to the run: the
+        # same sensor drifts at the same rate in every run of the machine.
+        # The random walk is new in every run.
+        rate = p["sensor_drift.rate_C_per_h"] * sensor_draws(machine, "drift_rate")
         steps = rng.normal(
             0.0,
             p["sensor_drift.walk_C_per_sqrt_h"] * np.sqrt(dt / 3600.0),

@@ -11,7 +11,6 @@ measurements with :meth:`ThermalMachine.calibrate`.
 
 import dataclasses
 import warnings
-import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,7 +20,12 @@ from sklearn.utils import check_random_state
 
 from skthermal._naming import suggest
 from skthermal.simulate._drivers import AmbientProfile, DutyCycle, _check_number
-from skthermal.simulate._effects import EFFECTS, check_effects, default_effects
+from skthermal.simulate._effects import (
+    EFFECTS,
+    check_effects,
+    default_effects,
+    sensor_draws,
+)
 from skthermal.simulate._presets import PRESETS
 from skthermal.simulate._solver import ModalSystem
 from skthermal.simulate._spec import (
@@ -1098,23 +1102,13 @@ class ThermalMachine:
         return x
 
     def _read_sensors(self, T, air, t, dt, noise, rng):
-        spec, p = self.spec, self._params
+        p = self._params
         x = self._sensor_values(T, air, dt, self.sensors)
         if not noise:
             return x
         # Calibration offsets belong to the sensor, not the run: the same
         # sensor reads the same offset in every run of the machine.
-        offsets = np.array(
-            [
-                np.random.RandomState(
-                    zlib.crc32(f"{self.name}/{s.name}".encode())
-                ).normal(0.0, sd)
-                for s, sd in zip(
-                    spec.sensors, self._sensor_numbers("offset_C"), strict=True
-                )
-            ]
-        )
-        x = x + offsets
+        x = x + sensor_draws(self, "") * self._sensor_numbers("offset_C")
         for effect in self._active():
             x = effect.noise(self, p, x, t, dt, rng)
         x = x + rng.normal(0.0, 1.0, x.shape) * self._sensor_numbers("noise_C")
