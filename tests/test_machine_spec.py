@@ -18,6 +18,7 @@ from skthermal.simulate import (
     SensorSpec,
     ThermalMachine,
 )
+from skthermal.simulate._spec import dumps_toml
 
 DUTY = DutyCycle([(1800, 4000, 2000), (900, 0, 0), (900, 6000, 500)])
 
@@ -732,7 +733,9 @@ def test_an_unquoted_dotted_parameter_name_gets_a_hint(tmp_path):
     path.write_text(
         spec.to_toml() + '\n[params]\n"q.bearing_W" = 6.0\n', encoding="utf-8"
     )
-    assert MachineSpec.from_toml(path).params["q.bearing_W"] == 6.0
+    # The quoted name sets the parameter (and says it overrides the entry).
+    with pytest.warns(UserWarning, match="overrides heat source 'bearing'"):
+        assert MachineSpec.from_toml(path).params["q.bearing_W"] == 6.0
 
 
 @pytest.mark.parametrize("value", ["5", True, np.True_, b"3"])
@@ -749,3 +752,244 @@ def test_parameters_are_numbers_in_python_as_in_files(value):
     assert machine.with_params({"q.bearing_W": np.array(5.0)}).params[
         "q.bearing_W"
     ] == pytest.approx(5.0)
+
+
+# --- input-validation fixes: shares, steady state, huge numbers, [params] --------
+
+
+def _feed_runs(W_per_m_min):
+    """Noise-free runs of vmc-a whose nut and axis motor heat as if half of
+    ``W_per_m_min`` went to each (the model below has 4 W per m/min)."""
+    truth = ThermalMachine.from_preset(
+        "vmc-a",
+        effects=["feed_heating"],
+        params={
+            "feed_heating.nut_share": 0.5,
+            "feed_heating.motor_share": 0.5,
+            "feed_heating.W_per_m_min": W_per_m_min,
+        },
+    )
+    duty = DutyCycle([(3600, 0, 8000), (1800, 0, 0)])
+    return truth.simulate(duty, 20.0, noise=False, sample_period_s=60)
+
+
+def test_a_joint_fit_of_the_feed_shares_gives_a_valid_machine():
+    # The nut and the axis motor take fractions of one heat flow: their sum
+    # may not exceed 1. Runs that ask for more (four times the model's feed
+    # heat into the nut and the motor) drove the fit across that limit, where
+    # the machine of the next step was refused mid-fit.
+    runs = _feed_runs(16.0)
+    model = ThermalMachine.from_preset(
+        "vmc-a",
+        effects=["feed_heating"],
+        params={"feed_heating.nut_share": 0.3, "feed_heating.motor_share": 0.3},
+    )
+    shares = ["feed_heating.nut_share", "feed_heating.motor_share"]
+    for bounds in (None, [(0.0, 1.0), (0.0, 1.0)]):
+        fitted, result = model.calibrate(
+            runs, shares, bounds, channels=["T21_C", "T24_C"]
+        )
+        total = sum(fitted.params[k] for k in shares)
+        assert total <= 1.0
+        assert total == pytest.approx(1.0, abs=1e-6)  # on the limit, as asked
+        assert all(result.params[k] > 0.3 for k in shares)
+        assert np.all(np.isfinite(result.std_error))
+        assert (result.rmse_after < result.rmse_before).all()
+        ThermalMachine.from_spec(fitted.to_spec().to_dict())  # written back
+    # One share freed: the fixed one leaves it the rest.
+    fitted, _ = model.calibrate(
+        runs, ["feed_heating.nut_share"], [(0.0, 1.0)], channels=["T21_C"]
+    )
+    assert fitted.params["feed_heating.nut_share"] <= 0.7
+    # Bounds that leave no valid machine are refused up front, naming them.
+    with pytest.raises(
+        ValueError,
+        match=r"bounds of \['feed_heating.nut_share', 'feed_heating.motor_share'\]"
+        r".*low bounds sum to 1.1",
+    ):
+        model.calibrate(runs, shares, [(0.5, 1.0), (0.6, 1.0)], channels=["T21_C"])
+    with pytest.raises(ValueError, match=r"= 1.1 must not exceed 1"):
+        model.with_params(
+            {"feed_heating.nut_share": 0.6, "feed_heating.motor_share": 0.5}
+        )
+
+
+def test_a_joint_fit_of_the_feed_shares_reaches_an_inner_optimum():
+    # Where the runs ask for less than the limit, the reparameterised fit
+    # finds the same shares as any fit would (the truth, noise-free).
+    truth = ThermalMachine.from_preset(
+        "vmc-a",
+        effects=["feed_heating"],
+        params={"feed_heating.nut_share": 0.4, "feed_heating.motor_share": 0.2},
+    )
+    runs = truth.simulate(DutyCycle([(3600, 0, 8000), (1800, 0, 0)]), 20.0, noise=False)
+    model = truth.with_params(
+        {"feed_heating.nut_share": 0.25, "feed_heating.motor_share": 0.25}
+    )
+    shares = ["feed_heating.nut_share", "feed_heating.motor_share"]
+    _, result = model.calibrate(runs, shares, channels=["T21_C", "T24_C"])
+    assert result.params.to_numpy() == pytest.approx([0.4, 0.2], abs=1e-6)
+
+
+@pytest.mark.parametrize("rpm", [1e50, 1e100])
+def test_a_steady_start_at_an_absurd_speed_names_the_speed(rpm):
+    # The steady state solved K T = h T_air + Q at the first speed: at an
+    # absurd one the speed-driven convection made K numerically singular,
+    # and the error was numpy's "Singular matrix" (or "no path to the air",
+    # or "the network is too stiff", naming capacities and conductances).
+    m = ThermalMachine.from_preset("spindle-rig")
+    t = np.arange(5) * 60.0
+    for initial in ("steady", "ambient"):
+        with pytest.raises(ValueError) as info:
+            m.response(t, np.full(5, rpm), np.full(5, 20.0), initial=initial, run="r7")
+        message = str(info.value)
+        assert f"spindle speed {rpm:g} rpm (spindle_rpm, run 'r7', row 0)" in message
+        assert "plausible range (a spindle turns at up to some 1e+05 rpm)" in message
+        assert "no path to the air" not in message
+        assert "smallest capacity" not in message
+    with pytest.raises(ValueError, match=r"initial='steady': .*spindle_rpm 1e\+50"):
+        m.simulate(DutyCycle([(600, 1e50)]), initial="steady", noise=False)
+    with pytest.raises(ValueError, match=r"heat input is not finite .*run 'r7', row 0"):
+        m.response(t, np.full(5, 1e308), np.full(5, 20.0), initial="steady", run="r7")
+    # Speeds a spindle reaches still start steady.
+    run = m.simulate(DutyCycle([(3600, 30000)]), initial="steady", noise=False)
+    assert np.all(np.isfinite(run.iloc[:, 2:].to_numpy(float)))
+    assert np.ptp(run["disp_ch1_um"]) < 1e-6  # it stays put
+
+
+@pytest.mark.parametrize(
+    "edit, entry",
+    [
+        (
+            lambda d: d["nodes"]["spindle"].update(capacity_J_per_K=10**400),
+            "node 'spindle': capacity_J_per_K",
+        ),
+        (
+            lambda d: d["nodes"]["housing"].update(convection_W_per_K=10**400),
+            "node 'housing': convection_W_per_K",
+        ),
+        (
+            lambda d: d["links"][0].update(conductance_W_per_K=10**400),
+            "link 'spindle-housing': conductance_W_per_K",
+        ),
+        (
+            lambda d: d.update(sensor_noise={"noise_C": 10**400}),
+            "sensor_noise: noise_C",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(offset_C=10**400),
+            "sensor 'T1_C': offset_C",
+        ),
+        (
+            lambda d: d["sensors"]["T1_C"].update(weights={"housing": 10**400}),
+            "sensor 'T1_C': weight of 'housing'",
+        ),
+        (
+            lambda d: d["displacement"]["z"].update(spindle=-(10**400)),
+            "displacement 'z': spindle",
+        ),
+        (
+            lambda d: d["heat"]["bearing"].update(W_at_1000_rpm=10**400),
+            "heat source 'bearing': W_at_1000_rpm",
+        ),
+        (
+            lambda d: d.update(effects={"sensor_lag": {"tau_s": 10**400}}),
+            "effect 'sensor_lag': tau_s",
+        ),
+        (
+            lambda d: d.update(params={"q.cutting_W": 10**400}),
+            "heat source 'cutting', field 'W': parameter 'q.cutting_W'",
+        ),
+    ],
+)
+def test_an_integer_beyond_a_float_names_the_entry(edit, entry, tmp_path):
+    # TOML reads integers exactly: 10**400 reached float() deep inside and
+    # raised a bare OverflowError ("int too large to convert to float").
+    data = _small()
+    edit(data)
+    path = tmp_path / "m.toml"
+    path.write_text(dumps_toml(data), encoding="utf-8")
+    message = re.escape(entry) + r" must be a finite number .*an integer of 401 digits"
+    with pytest.raises(ValueError, match=message):
+        MachineSpec.from_dict(data)
+    with pytest.raises(ValueError, match=re.escape(str(path)) + ": " + message):
+        ThermalMachine.from_spec(path)
+
+
+def test_huge_integers_in_the_python_api_name_the_argument():
+    machine = ThermalMachine.from_spec(_small(), effects=[])
+    with pytest.raises(ValueError, match=r"'C.spindle' must be a finite number"):
+        machine.with_params({"C.spindle": 10**400})
+    with pytest.raises(ValueError, match=r"bounds of 'C.spindle': high must be a fin"):
+        machine.calibrate(pd.DataFrame({"run": [1]}), ["C.spindle"], [(1, 10**400)])
+    with pytest.raises(ValueError, match=r"segment 0: every value must be a finite"):
+        DutyCycle([(60, 10**400)])
+    t = [0, 60, 120]
+    with pytest.raises(ValueError, match=r"spindle_rpm holds an integer too large"):
+        machine.simulate_drivers(t, [0, 10**400, 0], [20, 20, 20])
+    with pytest.raises(ValueError, match=r"initial holds an integer too large"):
+        machine.response(t, [0, 0, 0], [20, 20, 20], initial=[10**400, 20, 20])
+
+
+@pytest.mark.parametrize(
+    "node, value, named",
+    [
+        ("spindle", 1e-300, r"smallest capacity C.spindle = 1e-300 J/K"),
+        ("spindle", 1e300, r"largest capacity C.spindle = 1e\+300 J/K"),
+        ("air", 1e-20, r"smallest capacity C.air = 1e-20 J/K"),
+    ],
+)
+def test_absurd_capacities_are_named_not_simulated_silently(node, value, named):
+    # A spec holds any positive capacity (a plausibility limit is the
+    # command line's, for drivers); the simulation names the one floating
+    # point cannot carry. A capacity of 1e300 J/K simulated silently to
+    # temperatures below the air with heat flowing in, and 1e-20 J/K on
+    # the air node claimed "no path to the air".
+    data = _small()
+    data["nodes"][node]["capacity_J_per_K"] = value
+    machine = ThermalMachine.from_spec(data, effects=[])
+    assert machine.params[f"C.{node}"] == value
+    for initial in ("ambient", "steady"):
+        with pytest.raises(ValueError, match=named):
+            machine.simulate(DUTY, 20.0, noise=False, initial=initial)
+    data["links"][0]["conductance_W_per_K"] = 1e50
+    data["nodes"][node]["capacity_J_per_K"] = 2000.0
+    with pytest.raises(ValueError, match=r"largest conductance G.spindle-housing"):
+        ThermalMachine.from_spec(data, effects=[]).simulate(DUTY, noise=False)
+
+
+def test_params_that_repeat_an_entry_warn_naming_both_places(tmp_path):
+    # A [params] number that an entry gives too silently won over the entry.
+    data = _small()
+    data["effects"] = {"sensor_lag": {"tau_s": 100.0}}
+    data["params"] = {
+        "C.spindle": 3000.0,
+        "k.z.housing": 1.0,  # the same value: no override, no warning
+        "sensor_lag.tau_s": 10.0,
+        "q.cutting_W": 2.0,  # no entry gives it: no warning
+    }
+    with pytest.warns(UserWarning) as record:
+        spec = MachineSpec.from_dict(data)
+    messages = [str(w.message) for w in record]
+    assert messages == [
+        "params: 'C.spindle' = 3000.0 overrides node 'spindle', field "
+        "'capacity_J_per_K' = 2000.0 (one parameter, given twice); the [params] "
+        "value is used. Give each number in one place.",
+        "params: 'sensor_lag.tau_s' = 10.0 overrides effect 'sensor_lag', field "
+        "'tau_s' = 100.0 (one parameter, given twice); the [params] value is "
+        "used. Give each number in one place.",
+    ]
+    assert spec.params["C.spindle"] == 3000.0
+    assert spec.params["sensor_lag.tau_s"] == 10.0
+    path = tmp_path / "m.toml"
+    path.write_text(dumps_toml(data), encoding="utf-8")
+    with pytest.warns(UserWarning) as record:
+        ThermalMachine.from_spec(path)
+    assert [str(w.message) for w in record] == [f"{path}: {m}" for m in messages]
+    # A written spec gives every number once: it reads back silently.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        spec.to_toml(path)
+        assert MachineSpec.from_toml(path) == spec

@@ -12,11 +12,28 @@ import numpy as np
 from sklearn.utils import check_random_state
 
 
+def _shown(value):
+    """``repr(value)``, shortened for a huge integer (``10**400`` has 401
+    digits): its first digits and its size."""
+    text = repr(value)
+    if isinstance(value, int) and len(text) > 40:
+        digits = len(str(abs(value)))
+        return f"{text[:12]}... (an integer of {digits} digits, about 1e{digits - 1})"
+    return text
+
+
 def _check_number(value, name, *, positive=False, nonnegative=False):
     try:
         value = float(value)
+    except OverflowError:
+        # An integer beyond the largest float (about 1.8e308), e.g. 10**400
+        # in a TOML file, which reads integers exactly.
+        raise ValueError(
+            f"{name} must be a finite number (a float reaches about 1.8e308), "
+            f"got {_shown(value)}."
+        ) from None
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}.") from None
+        raise ValueError(f"{name} must be a number, got {_shown(value)}.") from None
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}.")
     if positive and value <= 0:
@@ -24,6 +41,18 @@ def _check_number(value, name, *, positive=False, nonnegative=False):
     if nonnegative and value < 0:
         raise ValueError(f"{name} must not be negative, got {value}.")
     return value
+
+
+def _float_array(value, name):
+    """``value`` as a float array; a ValueError naming ``name`` for an
+    integer beyond the largest float (``np.asarray`` raises OverflowError)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except OverflowError:
+        raise ValueError(
+            f"{name} holds an integer too large for a float (a float reaches "
+            "about 1.8e308); give finite values."
+        ) from None
 
 
 @dataclass(frozen=True)
@@ -76,6 +105,12 @@ class DutyCycle:
             if not isinstance(seg, Segment):
                 try:
                     seg = Segment(*[float(v) for v in seg])
+                except OverflowError:
+                    raise ValueError(
+                        f"Duty-cycle segment {i}: every value must be a finite "
+                        "number (a float reaches about 1.8e308), got "
+                        f"({', '.join(map(_shown, seg))})."
+                    ) from None
                 except ValueError as exc:
                     raise ValueError(f"Duty-cycle segment {i}: {exc}") from None
                 except TypeError:

@@ -78,6 +78,10 @@ class Effect:
     default_on : bool
         Whether a machine has the effect on when neither its description nor
         the caller says otherwise (see :func:`default_effects`).
+    shares : tuple of str
+        Parameters (short names) that are fractions of one whole: their sum
+        must not exceed 1 (:meth:`check_joint`); ``calibrate`` keeps a joint
+        fit of them inside that limit.
     """
 
     name = ""
@@ -88,6 +92,7 @@ class Effect:
     diagnosis_parameter = None
     residual = False
     default_on = True
+    shares = ()
 
     def __repr__(self):
         return f"Effect({self.name!r})"
@@ -109,7 +114,18 @@ class Effect:
         self.check_joint(params)
 
     def check_joint(self, params):
-        """Rules that tie several of the effect's parameters (none here)."""
+        """Rules that tie several of the effect's parameters: the
+        :attr:`shares` sum to at most 1."""
+        if not self.shares:
+            return
+        names = [f"{self.name}.{k}" for k in self.shares]
+        total = sum(params[k] for k in names)
+        if total > 1:
+            terms = " + ".join(f"{k} ({params[k]:g})" for k in names)
+            raise ValueError(
+                f"{terms} = {total:g} must not exceed 1 (they are fractions "
+                "of one heat flow)."
+            )
 
     # Hooks; ``machine`` is the ThermalMachine, ``p`` its parameters.
 
@@ -247,10 +263,9 @@ class FeedHeating(Effect):
     # which sets the screw heating's amplitude; a power parameter on top
     # would only be degenerate with those gains.
     diagnosis_parameter = None
-
-    def check_joint(self, params):
-        if params["feed_heating.nut_share"] + params["feed_heating.motor_share"] > 1:
-            raise ValueError("feed_heating.nut_share + motor_share must not exceed 1.")
+    # The nut and the axis motor take these fractions of the feed heat, the
+    # screw the rest.
+    shares = ("nut_share", "motor_share")
 
     def heat(self, machine, p, rpm, feed, cols, sources):
         spec = machine.spec

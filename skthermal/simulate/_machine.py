@@ -19,7 +19,13 @@ import pandas as pd
 from sklearn.utils import check_random_state
 
 from skthermal._naming import suggest
-from skthermal.simulate._drivers import AmbientProfile, DutyCycle, _check_number
+from skthermal.simulate._drivers import (
+    AmbientProfile,
+    DutyCycle,
+    _check_number,
+    _float_array,
+    _shown,
+)
 from skthermal.simulate._effects import (
     EFFECTS,
     check_effects,
@@ -79,6 +85,19 @@ class CalibrationResult:
 
 # A rise below this (K) is rounding noise, not heating (response_times).
 RISE_TOLERANCE_K = 1e-9
+# The largest ratio of the fastest to the slowest decay rate of the network
+# that floating point resolves: an eigenvalue carries a rounding error of
+# about 1e-16 times the fastest rate, so beyond this the slow modes (hours
+# of a machine's warm-up) are off by more than ~1e-4 of themselves. Machine
+# tools span some 1e3 to 1e5 (seconds to a day).
+STIFFNESS_LIMIT = 1e12
+# Spindle speeds above this (rpm) are beyond any machine tool's spindle; an
+# error that the speed may cause names it.
+PLAUSIBLE_RPM = 1e5
+
+
+class _StiffNetwork(ValueError):
+    """The network at one speed is too stiff for floating point."""
 
 
 def _weights_matrix(spec, names_index, items):
@@ -351,8 +370,34 @@ class ThermalMachine:
         if key not in self._cache:
             K, to_room = self._network(key)
             C = np.array([self._params[f"C.{n}"] for n in self.spec.nodes])
-            self._cache[key] = (ModalSystem.from_network(C, K), to_room)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    modal = ModalSystem.from_network(C, K)
+            except (ValueError, np.linalg.LinAlgError):
+                # check_connected gives every node a path to the air, so a
+                # zero decay rate (or an overflow) is rounding: too stiff.
+                modal = None
+            if modal is None or not modal.rates[-1] <= (
+                STIFFNESS_LIMIT * modal.rates[0]
+            ):
+                raise _StiffNetwork(self._stiff_message(np.array([key])))
+            self._cache[key] = (modal, to_room)
         return self._cache[key]
+
+    def _stiffness(self, rpm):
+        """Fastest over slowest decay rate of the network at ``rpm`` (inf
+        when floating point cannot resolve it)."""
+        K, _ = self._network(float(rpm))
+        d = np.sqrt([self._params[f"C.{n}"] for n in self.spec.nodes])
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            S = K / d[:, None] / d[None, :]
+            if not np.all(np.isfinite(S)):
+                return np.inf
+            try:
+                rates = np.linalg.eigvalsh(S)
+            except np.linalg.LinAlgError:  # pragma: no cover - eigvalsh rarely fails
+                return np.inf
+            return rates[-1] / rates[0] if rates[0] > 0 else np.inf
 
     def network(self, spindle_rpm=0.0):
         """The linear network at one spindle speed.
@@ -497,11 +542,11 @@ class ThermalMachine:
         t, rpm, air, feed = self._drivers(time_s, spindle_rpm, ambient_C, feed_mm_min)
         self._check_drivers(t, rpm, air, feed, run)
         dt = float(t[1] - t[0])
-        T0 = self._initial_state(initial, rpm[0], feed[0], air[0])
+        T0 = self._initial_state(initial, rpm[0], feed[0], air[0], run)
         with single_threaded_blas():
             if not by_source:
-                return self._integrate(rpm, feed, air, dt, T0)
-            out = {"air": self._integrate(rpm, feed, air, dt, T0, ())}
+                return self._integrate(rpm, feed, air, dt, T0, run=run)
+            out = {"air": self._integrate(rpm, feed, air, dt, T0, (), run)}
             zero_air = np.zeros_like(air)
             zero_T = np.zeros_like(T0)
             for source in self.SOURCES[1:]:
@@ -510,7 +555,7 @@ class ThermalMachine:
                 ):
                     continue
                 out[source] = self._integrate(
-                    rpm, feed, zero_air, dt, zero_T, (source,)
+                    rpm, feed, zero_air, dt, zero_T, (source,), run
                 )
         return out
 
@@ -596,14 +641,16 @@ class ThermalMachine:
 
     @staticmethod
     def _drivers(time_s, spindle_rpm, ambient_C, feed_mm_min):
-        t = np.asarray(time_s, dtype=float)
+        t = _float_array(time_s, "time_s")
         feed = (
-            np.zeros_like(t) if feed_mm_min is None else np.asarray(feed_mm_min, float)
+            np.zeros_like(t)
+            if feed_mm_min is None
+            else _float_array(feed_mm_min, "feed_mm_min")
         )
         return (
             t,
-            np.asarray(spindle_rpm, dtype=float),
-            np.asarray(ambient_C, dtype=float),
+            _float_array(spindle_rpm, "spindle_rpm"),
+            _float_array(ambient_C, "ambient_C"),
             feed,
         )
 
@@ -773,16 +820,12 @@ class ThermalMachine:
 
     # --- simulation ---------------------------------------------------------
 
-    def _initial_state(self, initial, rpm0, feed0, air0):
+    def _initial_state(self, initial, rpm0, feed0, air0, run=None):
         n = len(self.spec.nodes)
         if initial is None or (isinstance(initial, str) and initial == "ambient"):
             return np.full(n, air0)
         if isinstance(initial, str) and initial == "steady":
-            K, to_room = self._network(float(rpm0))
-            Q, cols = self._heat(np.array([rpm0]), np.array([feed0]))
-            rhs = to_room * air0
-            np.add.at(rhs, cols, Q[0])
-            return np.linalg.solve(K, rhs)
+            return self._steady_state(rpm0, feed0, air0, run)
         if isinstance(initial, dict):
             T0 = np.full(n, air0)
             for node, value in initial.items():
@@ -795,7 +838,7 @@ class ThermalMachine:
             return T0
         if np.ndim(initial) == 0:
             return np.full(n, _check_number(initial, "initial"))
-        T0 = np.asarray(initial, dtype=float)
+        T0 = _float_array(initial, "initial")
         if T0.shape != (n,) or not np.all(np.isfinite(T0)):
             raise ValueError(f"initial must be {n} finite node temperatures.")
         return T0
@@ -853,12 +896,7 @@ class ThermalMachine:
         states : DataFrame
             Only with ``return_states=True``.
         """
-        t = np.asarray(time_s, dtype=float)
-        rpm = np.asarray(spindle_rpm, dtype=float)
-        air = np.asarray(ambient_C, dtype=float)
-        feed = (
-            np.zeros_like(t) if feed_mm_min is None else np.asarray(feed_mm_min, float)
-        )
+        t, rpm, air, feed = self._drivers(time_s, spindle_rpm, ambient_C, feed_mm_min)
         self._check_drivers(t, rpm, air, feed, run)
         rng = check_random_state(random_state)
         dt = float(t[1] - t[0])
@@ -868,7 +906,8 @@ class ThermalMachine:
                 feed,
                 air,
                 dt,
-                self._initial_state(initial, rpm[0], feed[0], air[0]),
+                self._initial_state(initial, rpm[0], feed[0], air[0], run),
+                run=run,
             )
             readings = self._read_sensors(T, air, t, dt, noise, rng)
             disp = (T - T[0]) @ self._displacement_array().T
@@ -1019,18 +1058,9 @@ class ThermalMachine:
                 f"{steps.max():g} s); resample it to a constant period first."
             )
 
-    def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed")):
+    def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed"), run=None):
         n_steps = rpm.shape[0] - 1
-        with np.errstate(over="ignore", invalid="ignore"):
-            Q, cols = self._heat(rpm[:-1], feed[:-1], sources)
-        bad = np.flatnonzero(~np.all(np.isfinite(Q), axis=1))
-        if bad.size:
-            raise ValueError(
-                f"The heat input is not finite (it overflows) at row {bad[0]} "
-                f"(spindle_rpm {rpm[bad[0]]:g}, feed_mm_min {feed[bad[0]]:g}): "
-                "the drivers lie far outside any plausible range (a spindle "
-                "turns at up to some 10^5 rpm)."
-            )
+        Q, cols = self._checked_heat(rpm[:-1], feed[:-1], sources, run)
         T = np.empty((n_steps + 1, len(self.spec.nodes)))
         T[0] = T0
         change = np.flatnonzero(np.diff(rpm[:-1]) != 0) + 1
@@ -1042,26 +1072,89 @@ class ThermalMachine:
                     T[a : b + 1] = modal.step(
                         T[a], Q[a:b], to_room, air[a : b + 1], dt, cols
                     )
-        except FloatingPointError:
+        except (FloatingPointError, _StiffNetwork):
             T[:] = np.nan
         if not np.all(np.isfinite(T)):
-            raise ValueError(self._stiff_message(rpm))
+            raise ValueError(self._stiff_message(rpm[:-1], run))
         return T
 
-    def _stiff_message(self, rpm):
-        """Why the node temperatures are not finite, naming the suspects."""
+    def _checked_heat(self, rpm, feed, sources=("spindle", "feed"), run=None):
+        """:meth:`_heat`, with an error naming the drivers where it overflows."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            Q, cols = self._heat(rpm, feed, sources)
+        bad = np.flatnonzero(~np.all(np.isfinite(Q), axis=1))
+        if bad.size:
+            where = f"row {bad[0]}" if run is None else f"run {run!r}, row {bad[0]}"
+            raise ValueError(
+                f"The heat input is not finite (it overflows) at {where} "
+                f"(spindle_rpm {rpm[bad[0]]:g}, feed_mm_min {feed[bad[0]]:g}): "
+                "the drivers lie far outside any plausible range (a spindle "
+                "turns at up to some 10^5 rpm)."
+            )
+        return Q, cols
+
+    def _steady_state(self, rpm0, feed0, air0, run=None):
+        """Node temperatures in equilibrium with constant drivers
+        (``initial="steady"``): ``K T = h_room T_air + Q``."""
+        Q, cols = self._checked_heat(np.array([rpm0]), np.array([feed0]), run=run)
+        T0 = None
+        if self._stiffness(rpm0) <= STIFFNESS_LIMIT:
+            K, to_room = self._network(float(rpm0))
+            rhs = to_room * air0
+            np.add.at(rhs, cols, Q[0])
+            try:
+                with np.errstate(over="raise", invalid="raise", divide="raise"):
+                    T0 = np.linalg.solve(K, rhs)
+            except (np.linalg.LinAlgError, FloatingPointError):
+                T0 = None
+        if T0 is None or not np.all(np.isfinite(T0)):
+            message = self._stiff_message(np.array([rpm0]), run)
+            raise ValueError(
+                "initial='steady': the steady state of the first sample's "
+                f"drivers (spindle_rpm {rpm0:g}, feed_mm_min {feed0:g}) cannot "
+                f"be computed. {message}"
+            )
+        return T0
+
+    def _stiff_message(self, rpm, run=None):
+        """Why the node temperatures are not finite, naming the suspects:
+        the spindle speed when the network is sound at rest and the speed
+        beyond any spindle's, else the parameters."""
         p, spec = self._params, self.spec
+        row = int(np.argmax(rpm))
+        fastest = float(rpm[row])
+        if fastest > PLAUSIBLE_RPM and self._stiffness(0.0) <= STIFFNESS_LIMIT:
+            where = f"run {run!r}, row {row}" if run is not None else f"row {row}"
+            grow = [e for e in ("speed_convection", "tool_growth") if self._on(e)]
+            why = (
+                f"the convection that grows with speed ({', '.join(grow)}) and "
+                "the speed-driven heat make the network too stiff or too hot "
+                "for floating point"
+                if grow
+                else "the speed-driven heat is too large for floating point"
+            )
+            return (
+                f"The node temperatures are not finite: the spindle speed "
+                f"{fastest:g} rpm (spindle_rpm, {where}) lies far outside any "
+                f"plausible range (a spindle turns at up to some "
+                f"{PLAUSIBLE_RPM:.0e} rpm); {why}, while the machine at rest "
+                "computes. Check the speed's value and unit (rpm)."
+            )
         C = {f"C.{n}": p[f"C.{n}"] for n in spec.nodes}
         G = {f"G.{a}-{b}": p[f"G.{a}-{b}"] for a, b in spec.edges}
         G.update({f"hA.{n}": p.get(f"hA.{n}", 0.0) for n in spec.nodes})
         small = min(C, key=C.get)
+        big = max(C, key=C.get)
         large = max(G, key=G.get)
         return (
-            "The node temperatures are not finite: the network is too stiff "
-            "or too large for floating point (smallest capacity "
+            "The node temperatures are not finite, or rounding would dominate "
+            "them: the network is too stiff or too large for floating point "
+            "(smallest capacity "
             f"{small} = {C[small]:g} J/K, largest conductance {large} = "
-            f"{G[large]:g} W/K, fastest speed {np.max(rpm):g} rpm); bring the "
-            "parameters and drivers to physical values."
+            f"{G[large]:g} W/K, largest capacity {big} = {C[big]:g} J/K, "
+            f"fastest speed {fastest:g} rpm; the network's time constants "
+            f"span more than {STIFFNESS_LIMIT:.0e} to 1); bring the parameters "
+            "and drivers to physical values."
         )
 
     def _quantise(self, x, step=None):
@@ -1172,6 +1265,11 @@ def _check_bounds(bounds, params):
         for j, (side, value) in enumerate((("low", pair[0]), ("high", pair[1]))):
             try:
                 value = float(value)
+            except OverflowError:
+                raise ValueError(
+                    f"{where}: {side} must be a finite number (a float reaches "
+                    f"about 1.8e308), got {_shown(pair[j])}."
+                ) from None
             except (TypeError, ValueError):
                 value = np.nan
             if np.isnan(value):
@@ -1205,6 +1303,87 @@ def _default_bounds(x0, params):
         valid = parameter_range(k)
         lo[i], hi[i] = max(lo[i], valid.low), min(hi[i], valid.high)
     return lo, hi
+
+
+class _Shares:
+    """The variables ``least_squares`` moves in ``calibrate``, keeping the
+    shares of every effect (:attr:`Effect.shares`, e.g. ``feed_heating``'s
+    ``nut_share`` and ``motor_share``) summing to at most 1.
+
+    Bounds are a box and a sum limit is not. A single freed share gets its
+    high bound cut to the room the fixed shares leave it. Of two freed
+    shares, the first is fitted as it is and the second as its place ``t``
+    in [0, 1] between its low bound and the room the first leaves it,
+    ``min(high, room - first)``: every point of that box is a valid machine
+    inside the bounds, and every valid machine inside the bounds is a point
+    of the box. Without shares the variables are the parameters.
+    """
+
+    def __init__(self, machine, params, lo, hi):
+        self.lo, self.hi = lo.copy(), hi.copy()
+        self.groups = []
+        current = machine.params
+        for effect in EFFECTS.values():
+            names = [f"{effect.name}.{k}" for k in effect.shares]
+            free = [k for k in names if k in params]
+            if not free:
+                continue
+            if len(free) > 2:  # pragma: no cover - no effect has three shares
+                raise NotImplementedError("calibrate fits at most two shares.")
+            fixed = {k: current[k] for k in names if k not in params}
+            room = 1.0 - sum(fixed.values())
+            idx = [params.index(k) for k in free]
+            low = float(sum(lo[idx]))
+            if low >= room:
+                held = " + ".join(f"{k} ({v:g})" for k, v in fixed.items())
+                held = f" (1 minus the fixed {held})" if fixed else ""
+                raise ValueError(
+                    f"bounds of {free}: effect {effect.name!r} needs "
+                    f"{' + '.join(names)} <= 1, so the fitted ones may sum to "
+                    f"at most {room:g}{held}, but their low bounds sum to "
+                    f"{low:g}; lower them."
+                )
+            i = idx[0]
+            j = idx[1] if len(idx) == 2 else None
+            self.hi[i] = min(self.hi[i], room - (lo[j] if j is not None else 0.0))
+            pair = None if j is None else (i, j, room, lo[j], hi[j])
+            if j is not None:
+                self.lo[j], self.hi[j] = 0.0, 1.0
+            self.groups.append((names, dict(zip(free, idx)), fixed, pair))
+
+    def to_params(self, v):
+        """Parameter values of the variables ``v``."""
+        x = np.array(v, dtype=float)
+        for names, free, fixed, pair in self.groups:
+            if pair is not None:
+                i, j, room, lo_j, hi_j = pair
+                x[j] = lo_j + v[j] * (min(hi_j, room - x[i]) - lo_j)
+            # The effect's own check sums the shares in this order: keep the
+            # last one a rounding below the limit where it lands on it.
+            last = list(free.values())[-1]
+            while sum(x[free[k]] if k in free else fixed[k] for k in names) > 1:
+                x[last] = np.nextafter(x[last], -np.inf)
+        return x
+
+    def to_variables(self, x):
+        """The variables of the parameter values ``x`` (inside the bounds)."""
+        v = np.clip(np.array(x, dtype=float), self.lo, self.hi)
+        for *_, pair in self.groups:
+            if pair is not None:
+                i, j, room, lo_j, hi_j = pair
+                span = min(hi_j, room - v[i]) - lo_j
+                v[j] = np.clip((x[j] - lo_j) / span, 0.0, 1.0) if span > 0 else 0.0
+        return v
+
+    def jacobian(self, v):
+        """The derivatives of the parameters by the variables at ``v``."""
+        A = np.eye(len(v))
+        for *_, pair in self.groups:
+            if pair is not None:
+                i, j, room, lo_j, hi_j = pair
+                A[j, j] = min(hi_j, room - v[i]) - lo_j
+                A[j, i] = -v[j] if room - v[i] < hi_j else 0.0
+        return A
 
 
 def _least_squares_keywords(least_squares_kw):
@@ -1265,7 +1444,11 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     lo, hi = (
         _default_bounds(x0, params) if bounds is None else _check_bounds(bounds, params)
     )
-    x0 = np.clip(x0, lo, hi)
+    # Shares of one whole (feed_heating's nut_share and motor_share) stay
+    # within their sum's limit too: the fit moves variables that keep them.
+    shares = _Shares(machine, params, lo, hi)
+    v0 = shares.to_variables(np.clip(x0, lo, hi))
+    x0 = shares.to_params(v0)
 
     if "run" not in runs.columns:
         raise ValueError("The run table has no 'run' column.")
@@ -1329,8 +1512,8 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             out.append(values - values[0])
         return out
 
-    def residuals(values):
-        sims = simulate_all(values)
+    def residuals(variables):
+        sims = simulate_all(shares.to_params(variables))
         return np.concatenate(
             [((s - y) / scale).ravel() for s, y in zip(sims, measured, strict=True)]
         )
@@ -1343,7 +1526,8 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     before = rmse(x0)
     kw = {"x_scale": "jac", "max_nfev": 50 * len(params)}
     kw.update(least_squares_kw)
-    res = least_squares(residuals, x0, bounds=(lo, hi), **kw)
+    res = least_squares(residuals, v0, bounds=(shares.lo, shares.hi), **kw)
+    x = shares.to_params(res.x)
     J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
     # A parameter that does not move the fitted channels (a zero Jacobian
     # column: the simulations do not change) is not determined by them; its
@@ -1357,7 +1541,11 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             cov = np.linalg.pinv(Jl.T @ Jl) * (
                 2 * res.cost / max(J.shape[0] - J.shape[1], 1)
             )
-            std[live] = np.sqrt(np.clip(np.diag(cov), 0, None))
+            # From the variables of the fit to the parameters (the identity
+            # unless shares were fitted).
+            A = shares.jacobian(res.x)[:, live]
+            cov = A @ cov @ A.T
+            std[live] = np.sqrt(np.clip(np.diag(cov)[live], 0, None))
         except np.linalg.LinAlgError:  # pragma: no cover - pinv rarely fails
             std[live] = np.nan
     if dead.any():
@@ -1370,14 +1558,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             stacklevel=3,
         )
     result = CalibrationResult(
-        params=pd.Series(res.x, index=params),
+        params=pd.Series(x, index=params),
         initial=pd.Series(x0, index=params),
         std_error=pd.Series(std, index=params),
         rmse_before=before,
-        rmse_after=rmse(res.x),
+        rmse_after=rmse(x),
         cost=float(res.cost),
         nfev=int(res.nfev),
         success=bool(res.success),
         message=str(res.message),
     )
-    return machine.with_params(dict(zip(params, res.x, strict=True))), result
+    return machine.with_params(dict(zip(params, x, strict=True))), result

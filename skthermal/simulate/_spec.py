@@ -13,13 +13,14 @@ plain dict and a TOML file (:meth:`MachineSpec.from_toml`,
 import math
 import numbers
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, suggest
-from skthermal.simulate._drivers import _check_number
+from skthermal.simulate._drivers import _check_number, _shown
 from skthermal.simulate._effects import (
     ANY,
     EFFECTS,
@@ -124,6 +125,14 @@ def _number(where, value, *, positive=False, nonnegative=False):
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ValueError(f"{where} must be a number, got {value!r}.")
     return _check_number(value, where, positive=positive, nonnegative=nonnegative)
+
+
+def _same_number(a, b):
+    """Whether ``a`` and ``b`` are the same number (False for a non-number)."""
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):
+        return False
 
 
 def _node(where, value, nodes):
@@ -861,13 +870,20 @@ class MachineSpec:
             [groups]
             spindle = ["T1_C"]
 
+            [params]                         # any parameter by its name,
+            "q.cutting_W" = 5.0              # quoted (the name holds dots)
+
         Missing numbers take the defaults of an empty machine (no heat, no
         displacement); a misspelt field or name is an error naming the entry.
         An effect without ``on`` takes its default (every effect but
         ``sensor_drift`` is on), as in files written before the switches were
         recorded. Sensors are run-table columns ``T<name>_C``; their weights
         are not negative and sum to 1. The roles ``enclosure`` and ``tool``
-        are required unless a node carries that name.
+        are required unless a node carries that name. ``[params]`` sets any
+        parameter by name (:meth:`known_parameters`); where it sets a number
+        an entry gives too (``"C.spindle"`` and ``[nodes.spindle]
+        capacity_J_per_K``) with another value, the ``[params]`` value is
+        used and a warning names both places.
         """
         if not isinstance(data, dict):
             raise ValueError(f"A machine spec is a dict, got {type(data).__name__}.")
@@ -1016,6 +1032,9 @@ class MachineSpec:
                 kw[HEAT_ROLES[source]] = (
                     kw["tool"] if kw["tool"] in nodes else next(iter(nodes), "")
                 )
+        # The numbers the entries give (not the defaults): [params] may
+        # override them, but not silently.
+        given = set(p)
         for key, value in NUMBER_DEFAULTS.items():
             p.setdefault(key, value)
         noise = data.get("sensor_noise", {})
@@ -1023,6 +1042,7 @@ class MachineSpec:
         for f, key in SENSOR_FIELDS.items():
             if f in noise:
                 p[key] = _number(f"sensor_noise: {f}", noise[f], nonnegative=True)
+                given.add(key)
         sensors = []
         sensor_table = data.get("sensors", {})
         _check_fields("sensors", sensor_table, list(sensor_table or ()))
@@ -1077,12 +1097,14 @@ class MachineSpec:
             p["disp.noise_um"] = _number(
                 "displacement: noise_um", disp["noise_um"], nonnegative=True
             )
+            given.add("disp.noise_um")
         for axis in axes:
             p.update({f"k.{axis}.{n}": 0.0 for n in nodes})
             coefficients = disp.get(axis, {})
             _check_fields(f"displacement {axis!r}", coefficients, [*nodes, "screw"])
             for node, value in coefficients.items():
                 p[f"k.{axis}.{node}"] = _number(f"displacement {axis!r}: {node}", value)
+                given.add(f"k.{axis}.{node}")
         effects = data.get("effects", {})
         _check_fields("effects", effects, EFFECTS)
         switches = {}
@@ -1093,6 +1115,7 @@ class MachineSpec:
                     switches[e] = v  # checked by validate
                 else:
                     p[f"{e}.{k}"] = _number(f"effect {e!r}: {k}", v)
+                    given.add(f"{e}.{k}")
         extra = data.get("params", {})
         _check_fields("params", extra, list(extra or ()))
         for key, value in extra.items():
@@ -1109,13 +1132,20 @@ class MachineSpec:
                     "name holds dots, which TOML reads as nested tables unless "
                     f'the name is quoted: write "{name}" = ... (with the quotes).'
                 )
+        # [params] comes last and wins; a number its own entry gives too is
+        # an override, said out loud (once the spec is valid).
+        overridden = [
+            (key, p[key], value)
+            for key, value in extra.items()
+            if key in given and not _same_number(p[key], value)
+        ]
         p.update(extra)
         group_table = data.get("groups", {})
         _check_fields("groups", group_table, list(group_table or ()))
         groups = {
             g: list(_check_names(f"group {g!r}", m)) for g, m in group_table.items()
         }
-        return cls(
+        spec = cls(
             name=data["name"],
             description=data.get("description", ""),
             nodes=tuple(nodes),
@@ -1127,6 +1157,16 @@ class MachineSpec:
             effects=switches,
             **kw,
         )
+        for key, entry_value, value in overridden:
+            warnings.warn(
+                f"params: {key!r} = {_shown(value)} overrides "
+                f"{parameter_entry(key)} = {_shown(entry_value)} (one "
+                "parameter, given twice); the [params] value is used. Give "
+                "each number in one place.",
+                UserWarning,
+                stacklevel=2,
+            )
+        return spec
 
     @classmethod
     def from_toml(cls, path):
@@ -1153,9 +1193,15 @@ class MachineSpec:
                 f"{path}: cannot read the machine file ({exc.strerror or exc})."
             ) from None
         try:
-            return cls.from_dict(data)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                spec = cls.from_dict(data)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from None
+        for w in caught:
+            # The file's warnings name the file, as its errors do.
+            warnings.warn(f"{path}: {w.message}", w.category, stacklevel=2)
+        return spec
 
     def to_toml(self, path=None):
         """The spec as TOML text; written to ``path`` if given."""
