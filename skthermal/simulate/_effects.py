@@ -304,8 +304,8 @@ class SensorDrift(Effect):
     name = "sensor_drift"
     summary = (
         "Temperature sensors drift slowly (ageing, connector thermo-EMF): "
-        "each reading gains an offset that grows linearly at a random rate "
-        "plus a slow random walk."
+        "each reading gains an offset that grows linearly at the sensor's "
+        "own random rate (the same in every run) plus a slow random walk."
     )
     params = {"rate_C_per_h": 0.01, "walk_C_per_sqrt_h": 0.01}
     units = {"rate_C_per_h": "°C/h (std over sensors)", "walk_C_per_sqrt_h": "°C/√h"}
