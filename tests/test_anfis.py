@@ -753,17 +753,25 @@ def test_grey_model_warns_when_predict_gets_no_run_labels(rng):
 @pytest.mark.parametrize("mf", ["gaussian", "gbell"])
 @pytest.mark.parametrize("init", ["fcm", "grid"])
 def test_far_inputs_give_finite_convex_outputs(regression_data, mf, init):
-    """One sensor at 1e6, 1e150 or 1e300: the firing strengths stay a convex
-    combination (no 0/0), and the output that of the rules' linear models at
-    that input (ANFIS extrapolates linearly; it does not clip)."""
+    """One sensor at 1e6, 1e100, 1e150 or 1e300: the firing strengths stay a
+    convex combination (no 0/0), and the output (up to the largest magnitude
+    a reading may have, 1e100; beyond it predict refuses the reading) that
+    of the rules' linear models at that input (ANFIS extrapolates linearly;
+    it does not clip)."""
     X, y = regression_data
     model = ANFISRegressor(init=init, mf=mf, epochs=5, random_state=0).fit(X, y)
-    for value in (1e6, -1e6, 1e150, 1e300):
+    for value in (1e6, -1e6, 1e100, -1e100, 1e150, 1e300):
         far = X[:4].copy()
         far[:, 1] = value
-        pred = model.predict(far)
+        if abs(value) > 1e100:
+            with pytest.raises(ValueError, match="Column 1 of X is 1e"):
+                model.predict(far)
+            predicted = False
+        else:
+            pred = model.predict(far)
+            predicted = True
         rule_out = far @ model.consequents_[:, :3].T + model.consequents_[:, 3]
-        if np.all(np.isfinite(rule_out)):
+        if predicted and np.all(np.isfinite(rule_out)):
             assert np.all(np.isfinite(pred))
             tol = 1e-9 * np.abs(rule_out).max(axis=1)
             assert np.all(pred >= rule_out.min(axis=1) - tol)

@@ -996,17 +996,18 @@ def test_predict_refuses_to_write_non_finite_predictions(
     out = tmp_path / "pred.csv"
     argv = ["predict", "--model", model, "--runs", absurd_reading, "--out", out]
     status, text, err = _run(capsys, *argv)
+    # The reading is refused before the model runs: no reading is that large.
     assert status == 2 and err.count("\n") == 1 and not text
-    assert err.startswith("skthermal predict: error: The model predicts ")
-    assert "inf for pred_disp_y_um at run 'I', time_s 960.0 (1 of " in err
-    assert "nothing was written to" in err and not out.exists()
-    assert "physical range" in err and "'T18_C' = 1e+308 at that row" in err
+    assert err.startswith("skthermal predict: error: Column 'T18_C' is 1e+308, ")
+    assert "largest magnitude a reading may have (1e+100)" in err
+    assert "run 'I', time_s=960" in err and not out.exists()
     assert "overflow" not in err and "RuntimeWarning" not in err
-    # evaluate with the model refuses to score them
+    # evaluate with the model refuses the reading too
     argv = ["evaluate", "--runs", absurd_reading, "--model", model]
     status, text, err = _run(capsys, *argv)
     assert status == 2 and err.count("\n") == 1 and not text
-    assert "run 'I', time_s 960.0" in err and "nothing was scored" in err
+    assert err.startswith("skthermal evaluate: error: Column 'T18_C' is 1e+308, ")
+    assert "run 'I', time_s=960" in err
 
 
 def test_predict_names_the_reading_a_model_step_overflowed_on(
@@ -1017,12 +1018,12 @@ def test_predict_names_the_reading_a_model_step_overflowed_on(
     argv = ["predict", "--model", ridge_y, "--runs", absurd_reading, "--out", out]
     status, text, err = _run(capsys, *argv)
     assert status == 2 and err.count("\n") == 1 and not text
-    assert "could not predict pred_disp_y_um (Input X contains infinity" in err
-    assert "'T02_C' = 1e+308 at run 'I', time_s 960.0" in err
-    assert "physical range" in err and not out.exists()
+    # Refused before scaling could overflow it.
+    assert err.startswith("skthermal predict: error: Column 'T02_C' is 1e+308, ")
+    assert "run 'I', time_s=960" in err and not out.exists()
 
 
-def test_a_finite_prediction_after_an_overflow_names_the_largest_reading(
+def test_an_mlp_model_refuses_the_absurd_reading_before_overflowing(
     capsys, workdir, tmp_path, absurd_reading
 ):
     model = tmp_path / "mlp.joblib"
@@ -1032,10 +1033,10 @@ def test_a_finite_prediction_after_an_overflow_names_the_largest_reading(
     out = tmp_path / "pred.csv"
     argv = ["predict", "--model", model, "--runs", absurd_reading, "--out", out]
     status, _, err = _run(capsys, *argv)
-    assert status == 0 and np.isfinite(pd.read_csv(out)["pred_disp_y_um"]).all()
+    assert status == 2 and not out.exists()
     (line,) = err.splitlines()
-    assert line.startswith("skthermal predict: warning: overflow encountered in ")
-    assert "'T18_C' = 1e+308 at run 'I', time_s 960.0" in line
+    assert line.startswith("skthermal predict: error: Column 'T18_C' is 1e+308, ")
+    assert "run 'I', time_s=960" in line and "overflow" not in line
 
 
 @pytest.mark.parametrize(

@@ -30,14 +30,17 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal._naming import plain
 from skthermal.utils._runs import (
+    MAX_MAGNITUDE,
     RUN_COLUMN,
     TIME_COLUMN,
     RunMemory,
+    describe_unreadable,
     extract_runs,
     has_time_index,
     run_first_rows,
     run_slices,
     target_names,
+    unreadable,
 )
 
 
@@ -682,16 +685,26 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     def _input_flags(self, A, first, where):
         """Boolean (n, p) matrices per fault kind, warned about as found."""
         finite = np.isfinite(A)
-        if not finite.all() and self.mode != "hold":
-            row, col = np.argwhere(~finite)[0]
+        # A reading beyond MAX_MAGNITUDE is as wrong as NaN or inf: the wrapped
+        # model's arithmetic would overflow on it. mode="hold" holds it as a
+        # reading out of range.
+        bad = unreadable(A)
+        if bad.any() and self.mode != "hold":
+            row, col = np.argwhere(bad)[0]
+            value = A[row, col]
+            what = (
+                f"{value} (NaN or inf)"
+                if not np.isfinite(value)
+                else describe_unreadable(value)
+            )
             raise ValueError(
-                f"Input {where.sensors[col]!r} reads {A[row, col]} (NaN or inf) "
-                f"{where.at(row)}; inputs must be finite. A sensor can drop out "
-                "on the machine: mode='hold' holds the last good compensation "
-                "instead of failing."
+                f"Input {where.sensors[col]!r} reads {what} {where.at(row)}; "
+                f"inputs must be finite and within {MAX_MAGNITUDE:g} in magnitude. "
+                "A sensor can drop out on the machine: mode='hold' holds the "
+                "last good compensation instead of failing."
             )
         lo, hi = _limits(self.input_min_, self.input_max_, self.span)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):
             flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
             if self.jump is not None:
                 step = np.abs(_steps(A, first))

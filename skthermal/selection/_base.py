@@ -20,10 +20,12 @@ from skthermal.utils._runs import (
     check_finite_target,
     check_run_lengths,
     check_time_order,
+    describe_unreadable,
     extract_runs,
     row_times,
     run_slices,
     run_table_index,
+    unreadable,
 )
 
 
@@ -105,14 +107,20 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         return self
 
     def _check_finite(self, name, A, slices, labels, hint, support=None):
-        """Raise a ValueError naming the first non-finite value of ``A``
-        (``name`` "X" or "y"): the sensor or target, the row and its run, and
-        with ``support`` whether the sensor is selected."""
-        bad = ~np.isfinite(A)
+        """Raise a ValueError naming the first non-finite or absurdly large
+        (:func:`~skthermal.utils._runs.unreadable`) value of ``A`` (``name``
+        "X" or "y"): the sensor or target, the row and its run, and with
+        ``support`` whether the sensor is selected."""
+        bad = unreadable(A)
         if not bad.any():
             return
         row, col = (int(i) for i in np.argwhere(bad)[0])
-        kind = "NaN" if np.isnan(A[row, col]) else "inf"
+        value = A[row, col]
+        kind = (
+            ("NaN" if np.isnan(value) else "inf")
+            if not np.isfinite(value)
+            else describe_unreadable(value)
+        )
         what = _feature_label(self, col) if name == "X" else f"target {col}"
         role = ""
         if support is not None:
@@ -171,7 +179,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         check_is_fitted(self)
         A = validate_data(self, X, reset=False, ensure_all_finite=False)
         support = self._get_support_mask()
-        if not np.all(np.isfinite(A)):
+        if unreadable(A).any():
             slices, labels = run_slices(groups, A.shape[0])
             hint = "Impute or drop those samples first."
             self._check_finite("X", A, slices, labels, hint, support)

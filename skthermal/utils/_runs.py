@@ -9,6 +9,7 @@ level of a DataFrame's index.
 """
 
 import datetime
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -22,6 +23,13 @@ TIME_COLUMN = "time_s"
 # their magnitude (not readings: a model takes them as they are, not as
 # changes since the run start).
 POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
+# The largest magnitude a feature or target value may have. No sensor reads
+# 1e100 in any unit: such a value is a broken sensor or a corrupt file. The
+# models square readings, multiply them and sum them over runs (least
+# squares, the grey models' accumulation, variances, distances); from
+# magnitudes of about 1e150 on, those overflow float64 (1.8e308) into inf
+# and NaN. Up to this bound they stay finite with room to spare.
+MAX_MAGNITUDE = 1e100
 
 
 def run_slices(groups, n_samples=None):
@@ -206,11 +214,14 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     X : array-like or DataFrame
     groups : array-like of shape (n_samples,), optional
     finite : bool, default=True
-        Whether a DataFrame's feature values must be finite (NaN, a missing
-        value or inf is then an error naming the column, the row, its run
-        and its time). Estimators that handle missing readings themselves
-        pass False. Plain arrays are left to
-        :func:`sklearn.utils.validation.validate_data`.
+        Whether the feature values must be readings (:func:`unreadable`): a
+        NaN, a missing value, inf, or a value of a magnitude beyond
+        :data:`MAX_MAGNITUDE` (1e100) is then an error naming the column,
+        the row, its run and its time (:func:`check_finite_columns`; NaN and
+        inf in a plain array are left to
+        :func:`sklearn.utils.validation.validate_data`). Estimators that
+        handle missing readings themselves pass False and test their values
+        with :func:`unreadable`.
     y : array-like of shape (n_samples,) or (n_samples, n_targets), optional
         The target of a fit. A ``y`` with row labels (a Series or DataFrame)
         must label its rows as ``X`` does (:func:`check_target_rows`); with
@@ -230,7 +241,8 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         column or an index level) holds something other than numbers (naming
         the column and an offending value), or a DataFrame has no feature
         column left, or ``y``'s row labels are not ``X``'s, or (``finite``)
-        a feature or target value is not finite.
+        a feature or target value is not finite or is beyond
+        :data:`MAX_MAGNITUDE` in magnitude.
 
     Notes
     -----
@@ -487,7 +499,8 @@ def check_target_rows(y, X, groups, *, given_index=None):
 
 
 def check_finite_target(y, X, groups, *, given_index=None):
-    """Raise a ValueError naming the first missing or infinite target value
+    """Raise a ValueError naming the first missing, infinite or absurdly large
+    (:func:`unreadable`) target value
     (row, its run and time from ``X`` and ``groups`` as returned by
     :func:`extract_runs`, and ``y``'s own row label when it has other ones
     than ``X``); first, a ``y`` whose row labels are not ``X``'s is an error
@@ -504,17 +517,17 @@ def check_finite_target(y, X, groups, *, given_index=None):
         or values.shape[0] != getattr(X, "shape", (None,))[0]
     ):
         return  # no rows, or a length mismatch: reported by validate_data
-    bad = ~np.isfinite(values.reshape(values.shape[0], -1))
+    flat = values.reshape(values.shape[0], -1)
+    bad = unreadable(flat)
     if not bad.any():
         return
     row, col = (int(i) for i in np.argwhere(bad)[0])
-    value = values.reshape(values.shape[0], -1)[row, col]
-    kind = "missing (NaN)" if np.isnan(value) else f"{value}"
+    kind = describe_unreadable(flat[row, col])
     name = getattr(y, "name", None)
     if name is None and values.ndim == 2 and hasattr(y, "columns"):
         name = y.columns[col]
     target = "The target" if name is None else f"The target {name!r}"
-    note = f"{int(bad.sum())} non-finite value(s) in y"
+    note = _bad_values_note(bad, flat, "y")
     y_index = getattr(y, "index", None)
     if y_index is not None and not _same_index(y_index, X, given_index):
         # y's rows have labels of their own: name that too.
@@ -525,26 +538,95 @@ def check_finite_target(y, X, groups, *, given_index=None):
     )
 
 
+def unreadable(values):
+    """Boolean mask of the values that are no reading: missing (NaN),
+    infinite, or of a magnitude beyond :data:`MAX_MAGNITUDE` (which the
+    models' arithmetic would turn into inf or NaN)."""
+    with np.errstate(invalid="ignore"):
+        return ~(np.abs(np.asarray(values, dtype=float)) <= MAX_MAGNITUDE)
+
+
+def describe_unreadable(value):
+    """What an :func:`unreadable` value is, for messages: ``"missing
+    (NaN)"``, ``"inf"``, or the value and the bound it exceeds."""
+    value = float(value)
+    if np.isnan(value):
+        return "missing (NaN)"
+    if np.isinf(value):
+        return f"{value}"
+    return (
+        f"{value:g}, beyond the largest magnitude a reading may have "
+        f"({MAX_MAGNITUDE:g})"
+    )
+
+
+def _bad_values_note(bad, values, name):
+    """``"2 non-finite value(s) in X"``, ``"1 value(s) in X beyond 1e+100 in
+    magnitude"``, or both: how many values of ``values`` (``name``) the mask
+    ``bad`` marks, and what they are."""
+    finite = np.isfinite(values[bad])
+    n_large, n_other = int(finite.sum()), int((~finite).sum())
+    large = f"beyond {MAX_MAGNITUDE:g} in magnitude"
+    if not n_large:
+        return f"{n_other} non-finite value(s) in {name}"
+    if not n_other:
+        return f"{n_large} value(s) in {name} {large}"
+    return f"{n_other} non-finite value(s) in {name} and {n_large} {large}"
+
+
 def check_finite_columns(X, groups=None):
-    """Raise a ValueError naming the first missing or infinite value of a
-    DataFrame's feature columns: the column, the row, and the run and time
-    of that row when known. Plain arrays are left to scikit-learn."""
+    """Raise a ValueError naming the first missing, infinite or absurdly large
+    (:func:`unreadable`) value of the feature columns: the column, the row,
+    and the run and time of that row when known.
+
+    Missing and infinite values of a plain array are left to scikit-learn
+    (its usual message); a finite value beyond :data:`MAX_MAGNITUDE` is an
+    error here for a plain array too (column ``j`` by position). Sparse and
+    non-numeric input is left to scikit-learn.
+    """
     columns = getattr(X, "columns", None)
-    if columns is None or X.shape[1] == 0:
-        return
-    # The columns are numeric (check_numeric_columns runs first).
-    values = X.to_numpy(dtype=float, na_value=np.nan)
-    bad = ~np.isfinite(values)
+    if columns is not None:
+        if X.shape[1] == 0:
+            return
+        # The columns are numeric (check_numeric_columns runs first).
+        values = X.to_numpy(dtype=float, na_value=np.nan)
+        bad = unreadable(values)
+    else:
+        values = _plain_values(X)
+        if values is None:
+            return
+        bad = np.isfinite(values) & unreadable(values)
     if not bad.any():
         return
     row, col = (int(i) for i in np.argwhere(bad)[0])
-    kind = "missing (NaN)" if np.isnan(values[row, col]) else f"{values[row, col]}"
+    name = repr(columns[col]) if columns is not None else f"{col} of X"
     raise ValueError(
-        f"Column {columns[col]!r} is {kind} at {_where(row, X, groups)} "
-        f"({int(bad.sum())} non-finite value(s) in X). The model needs every "
-        "reading: impute or drop those rows first (skthermal.compose."
-        "GuardedRegressor(mode='hold') bridges sensor dropouts in service)."
+        f"Column {name} is {describe_unreadable(values[row, col])} at "
+        f"{_where(row, X, groups)} ({_bad_values_note(bad, values, 'X')}). The "
+        "model needs every reading: impute or drop those rows first "
+        "(skthermal.compose.GuardedRegressor(mode='hold') bridges sensor "
+        "dropouts in service)."
     )
+
+
+def _plain_values(X):
+    """A plain 2-D array-like's values as floats, or None when it is not one
+    (sparse, of another dimension, complex, not numeric): scikit-learn
+    reports those."""
+    import scipy.sparse
+
+    if scipy.sparse.issparse(X):
+        return None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            values = np.asarray(X)
+            if values.dtype.kind not in "biufO":
+                return None
+            values = values.astype(float, copy=False)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    return values if values.ndim == 2 else None
 
 
 def has_time_index(X):
