@@ -22,6 +22,11 @@ from skthermal.grey import (
 from skthermal.grey._gmc import _GMCObjective, _model_runs
 from skthermal.grey._varpro import _fold_blocks, _ridge_path
 
+# Most tests here fit plain arrays of one run on purpose: the warning that
+# such rows are taken as one run is the expected use here (tests that check
+# it catch it with pytest.warns).
+pytestmark = pytest.mark.filterwarnings("ignore:.*carry no run labels:UserWarning")
+
 # ---------------------------------------------------------------- data helpers
 
 

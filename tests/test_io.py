@@ -5,6 +5,7 @@ import pickle
 import re
 import warnings
 import zipfile
+from pathlib import Path
 
 import joblib
 import numpy as np
@@ -392,9 +393,9 @@ def test_damaged_files_are_named_as_damaged(reader, small_model, tmp_path):
     with pytest.raises(ValueError, match="format 99, which this skthermal"):
         reader(path)
     path = save(small_model, tmp_path / "flip.skops")
-    data = bytearray(open(path, "rb").read())
+    data = bytearray(Path(path).read_bytes())
     data[len(data) // 3 : len(data) // 3 + 50] = bytes(50)
-    open(path, "wb").write(bytes(data))
+    Path(path).write_bytes(bytes(data))
     with pytest.raises(
         ValueError, match=r"flip.skops.*damaged.*Write or copy it again"
     ):

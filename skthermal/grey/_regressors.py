@@ -348,20 +348,18 @@ class GreyPSORegressor(_GreyRunRegressor):
     >>> t = np.arange(300.0)
     >>> X = np.c_[20 + 6 * (1 - np.exp(-t / 60)), 21 + 3 * (1 - np.exp(-t / 150))]
     >>> y = 4.0 * (X[:, 0] - 20) + 2.5 * (X[:, 1] - 21)
-    >>> model = GreyPSORegressor().fit(X[:100], y[:100])
+    >>> run = np.full(300, "test-1")  # the rows are one test run
+    >>> model = GreyPSORegressor().fit(X[:100], y[:100], groups=run[:100])
     >>> model.coef_.shape
     (4,)
-    >>> pred = model.predict(X)  # change since the run's first sample
+    >>> pred = model.predict(X, groups=run)  # change since the run's start
     >>> bool(np.sqrt(np.mean((pred - y) ** 2)) < 0.05 * np.ptp(y))
     True
 
-    With run labels, ``predict`` continues a run seen in ``fit``:
+    A run label seen in ``fit`` continues that run in ``predict``:
 
-    >>> run = np.full(300, "test-1")
-    >>> model.fit(X[:100], y[:100], groups=run[:100])  # doctest: +ELLIPSIS
-    GreyPSORegressor(...)
     >>> tail = model.predict(X[100:], groups=run[100:])
-    >>> bool(np.allclose(tail, model.predict(X, groups=run)[100:]))
+    >>> bool(np.allclose(tail, pred[100:]))
     True
     """
 
@@ -645,10 +643,11 @@ class GNNMCIRegressor(_GreyRunRegressor):
     >>> t = np.arange(300.0)
     >>> X = np.c_[20 + 6 * (1 - np.exp(-t / 60)), 21 + 3 * (1 - np.exp(-t / 150))]
     >>> y = 4.0 * (X[:, 0] - 20) + 2.5 * (X[:, 1] - 21)
+    >>> run = np.full(300, "test-1")  # the rows are one test run
     >>> model = GNNMCIRegressor(n_particles=30, epochs=60, random_state=0)
-    >>> model.fit(X[:100], y[:100]).weights_.shape
+    >>> model.fit(X[:100], y[:100], groups=run[:100]).weights_.shape
     (4,)
-    >>> pred = model.predict(X)
+    >>> pred = model.predict(X, groups=run)
     >>> bool(np.sqrt(np.mean((pred - y) ** 2)) < 0.05 * np.ptp(y))
     True
     """

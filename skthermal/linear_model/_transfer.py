@@ -278,7 +278,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
     >>> error = 0.004 * (1 - np.exp(-np.minimum(t, 200) / 60.0))
     >>> error = 3000 * np.where(t < 200, error, error[199] * np.exp(-(t - 199) / 60))
     >>> X = np.c_[temp, speed]
-    >>> model = TransferFunctionRegressor(speed_column=1).fit(X, error)
+    >>> model = TransferFunctionRegressor(speed_column=1, dt=1.0).fit(X, error)
     >>> round(float(model.time_constants_[1, 0]))
     60
     >>> bool(np.sqrt(np.mean((model.predict(X) - error) ** 2)) < 0.1)

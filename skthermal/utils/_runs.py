@@ -508,7 +508,10 @@ def check_finite_target(y, X, groups, *, given_index=None):
     differs from ``X`` are left to scikit-learn."""
     check_target_rows(y, X, groups, given_index=given_index)
     try:
-        values = np.asarray(y, dtype=float)
+        values = np.asarray(y)
+        if values.dtype.kind == "c":
+            return  # scikit-learn names complex data
+        values = values.astype(float, copy=False)
     except (TypeError, ValueError):
         return
     if (
