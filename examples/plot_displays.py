@@ -85,7 +85,7 @@ plt.tight_layout()
 # machine was doing (:func:`skthermal.gap.label_regimes`: spindle running, the
 # first hour after it stops, then standing) and shade the residual timeline.
 test = runs[runs["run"] == "IV"]
-residual = test["disp_y_um"].to_numpy() - model.predict(test[picker.feature_names_in_])
+residual = test["disp_y_um"].to_numpy() - model.predict(X[groups == "IV"])
 time_s = test["time_s"].to_numpy()
 regimes = label_regimes(time_s, test["spindle_rpm"])["regime"].to_numpy()
 GapTimelineDisplay.from_arrays(time_s, residual, regimes, residual_name="residual (µm)")
