@@ -714,13 +714,13 @@ def test_report_files_and_plots_with_awkward_run_labels(rig_runs, tmp_path):
     report = diagnose(
         rig,
         runs.assign(run=runs["run"].map(labels)),
-        candidates=["sensor_lag", "sensor_drift"],
+        candidates=["sensor_lag", "ambient_transient"],
         **FAST,
     )
     # A candidate without a parameter shows no value, not "nan".
     md = report.to_markdown()
-    drift = next(line for line in md.splitlines() if "| sensor_drift |" in line)
-    assert "nan" not in drift and "—" in drift
+    line = next(line for line in md.splitlines() if "| ambient_transient |" in line)
+    assert "nan" not in line and "—" in line
     assert "NaN" not in report.to_html()
     with pytest.raises(ValueError, match=r"Unknown run 'nope'.*'2024/0'"):
         report.plot_overlay("nope")
@@ -851,3 +851,79 @@ def test_whiteness_of_a_too_short_residual_is_nan():
 
     row = whiteness_columns([np.zeros((3, 2))], [np.ones((3, 2))])
     assert np.isnan(row["whiteness_before"]) and row["white_after"] is None
+
+
+def test_a_machine_with_sensor_drift_on_fits_and_carries_the_drift_rates():
+    # A simulation that has sensor_drift on (a spec file with
+    # [effects.sensor_drift] on = true): its base fits one drift rate per
+    # temperature channel on the training runs and removes it held out, as
+    # the candidate would; before, the drift was ignored.
+    case = make_gap_campaign(
+        "sensor_drift",
+        preset="spindle-rig",
+        n_runs=3,
+        hours=3.0,
+        strength=5,
+        random_state=0,
+    )
+    kw = {"candidates": ["sensor_lag"], **FAST}
+    plain = diagnose(case.simulation, case.runs, **kw)
+    drifting = diagnose(
+        case.simulation.with_effects(add="sensor_drift"), case.runs, **kw
+    )
+    before = plain.ranking["gap_before"].iloc[0]
+    after = drifting.ranking["gap_before"].iloc[0]
+    assert after < 0.8 * before
+    # The where step's calibrated base removes the fitted drift too.
+    where = drifting.where["runs"].query("model == 'base calibrated'")["gap"]
+    assert (
+        where.mean()
+        < plain.where["runs"].query("model == 'base calibrated'")["gap"].mean()
+    )
+
+
+def test_each_campaign_truth_is_another_machine_with_its_own_sensors():
+    # The simulator draws offsets and drift rates from the machine's and the
+    # sensor's names: each campaign's truth gets a name of its own, so its
+    # sensors drift at other rates than another campaign's.
+    a, b = (
+        make_gap_campaign(
+            "sensor_drift", preset="spindle-rig", n_runs=2, hours=2, random_state=seed
+        )
+        for seed in (0, 1)
+    )
+    assert a.truth.name != b.truth.name and a.truth.name.startswith("spindle-rig")
+    again = make_gap_campaign(
+        "sensor_drift", preset="spindle-rig", n_runs=2, hours=2, random_state=0
+    )
+    assert again.truth.name == a.truth.name
+    pd.testing.assert_frame_equal(again.runs, a.runs)
+
+
+def test_the_report_gives_each_sensors_fitted_drift_rate():
+    from skthermal.simulate._effects import sensor_draws
+
+    case = make_gap_campaign(
+        "sensor_drift",
+        preset="spindle-rig",
+        n_runs=3,
+        hours=3.0,
+        strength=5,
+        random_state=0,
+    )
+    report = diagnose(
+        case.simulation, case.runs, candidates=["sensor_drift", "sensor_lag"], **FAST
+    )
+    truth = case.truth
+    true = truth.params["sensor_drift.rate_C_per_h"] * sensor_draws(truth, "drift_rate")
+    true = dict(zip(truth.sensors, true, strict=True))
+    fitted = report.drift_rates
+    assert set(fitted) == set(true)
+    a = np.array([fitted[c] for c in truth.sensors])
+    b = np.array([true[c] for c in truth.sensors])
+    # °C/h of the readings, sign included: the drifting sensors are found.
+    assert np.corrcoef(a, b)[0, 1] > 0.8
+    row = report.ranking.set_index("effect").loc["sensor_drift"]
+    assert row["fitted"] == pytest.approx(np.sqrt(np.mean(a**2)), rel=0.3)
+    assert "## Fitted sensor drift" in report.to_markdown()
+    assert report.to_dict()["drift_rates"] == pytest.approx(fitted)

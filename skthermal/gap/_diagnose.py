@@ -141,7 +141,7 @@ class _Context:
     def in_sample(self, effects, fits, preds):
         """Residuals of every fold's training runs with its own fit
         (``preds``: :meth:`predictions` of each fit), one list per fold."""
-        drift = drift_mask(self.problem, effects)
+        drift = drift_mask(self.problem, effects, self.machine)
         return [
             residuals(self.problem, p, f.gain, train, drift)
             for (train, _), f, p in zip(self.folds, fits, preds, strict=True)
@@ -221,6 +221,11 @@ def _evaluate(
         row["fitted"] = float(
             np.median([f.values[param] for f in fits]) * ctx.reference[param]
         )
+    elif candidate in RESIDUAL_EFFECTS:
+        # The drift rates' spread over the temperature channels in °C/h, as
+        # the simulator's rate_C_per_h (median over the folds).
+        rates = drift_rates_C_per_h(ctx.problem, fits)
+        row["fitted"] = float(np.median(np.sqrt(np.mean(rates**2, axis=1))))
     else:
         row["fitted"] = np.nan
     signature = None
@@ -236,6 +241,32 @@ def _evaluate(
             for p, f, b, bf in zip(preds, fits, before_preds, before_fits, strict=True)
         ]
     return Evaluation(row, regime_shrink, after_R, fits, preds, signature)
+
+
+def drift_rates_C_per_h(problem, fits):
+    """The drift rates of the temperature channels fitted on every fold, in
+    °C per hour of the measured readings, ``(n_folds, n_temperatures)``
+    (:attr:`Fit.drift_rates` are those of the normalised residual,
+    simulated minus measured)."""
+    w = np.sqrt(problem.weight) / problem.scale
+    temp = ~problem.is_disp
+    return np.array([-(f.drift_rates / w)[temp] for f in fits])
+
+
+def _drift_table(problem, screen):
+    """:attr:`GapReport.drift_rates`: the drift rate of every compared
+    temperature channel (°C/h, median over the folds) of the calibrations
+    that model drift: the machine's own base when it has ``sensor_drift``
+    on, else the ``sensor_drift`` candidate's; empty when none does."""
+    if screen.base_fits and screen.base_fits[0].drift_rates is not None:
+        fits = screen.base_fits
+    elif "sensor_drift" in screen.evaluations:
+        fits = screen.evaluations["sensor_drift"].fits
+    else:
+        return {}
+    rates = np.median(drift_rates_C_per_h(problem, fits), axis=0)
+    names = [c for c, d in zip(problem.channels, problem.is_disp, strict=True) if not d]
+    return {c: float(r) for c, r in zip(names, rates, strict=True)}
 
 
 def _log_row(step, row):
@@ -582,6 +613,7 @@ def diagnose(
     report.machines = machines
     report.not_applicable = not_applicable
     report.explainable = explainable
+    report.drift_rates = _drift_table(problem, screen)
     return report
 
 
@@ -646,6 +678,7 @@ def _where(ctx, simulated):
         },
         base.gain,
         all_idx,
+        rates=base.drift_rates,
     )
     return Where(as_given, calibrated, base)
 

@@ -706,9 +706,11 @@ def residuals(problem, predictions, gain, runs_idx, drift=None, rates=None):
     return out
 
 
-def drift_mask(problem, effects):
-    """Channels whose readings may drift under ``effects`` (None if none)."""
-    if "sensor_drift" in effects and (~problem.is_disp).any():
+def drift_mask(problem, effects, machine=None):
+    """Channels whose readings may drift under ``effects`` or the effects
+    ``machine`` has on (None if none)."""
+    on = set(effects) | set(machine.effects if machine is not None else ())
+    if "sensor_drift" in on and (~problem.is_disp).any():
         return ~problem.is_disp
     return None
 
@@ -754,7 +756,7 @@ def calibrate(
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     sim_effects = [e for e in effects if e not in RESIDUAL_EFFECTS]
     base = machine.with_effects(add=sim_effects)
-    drift = drift_mask(problem, effects)
+    drift = drift_mask(problem, effects, machine)
 
     def model(x):
         return with_scales(base, reference, dict(zip(names, np.exp(x), strict=True)))
@@ -861,7 +863,7 @@ def refine(
     if not keys:
         return fit
     ref = base.params
-    drift = drift_mask(problem, fit.effects)
+    drift = drift_mask(problem, fit.effects, fit.machine)
 
     def model(x):
         return base.with_params(

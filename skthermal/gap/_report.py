@@ -164,6 +164,15 @@ class GapReport:
         and its whiteness. ``share_of_explainable`` in the ranking is each
         shrink divided by that share (above 1 when a term removes more; NaN
         when the share is not positive). Empty when no candidate was scored.
+    drift_rates : dict
+        ``{temperature channel: rate}``: the drift rate fitted for every
+        compared temperature channel, in °C per hour of its readings (median
+        over the folds), by the machine's own base when it has
+        ``sensor_drift`` on, else by the ``sensor_drift`` candidate; a
+        sensor whose rate stands out is the one that drifts. The ranking's
+        ``fitted`` for ``sensor_drift`` is their root mean square (as the
+        simulator's ``sensor_drift.rate_C_per_h``, a spread over sensors).
+        Empty when no calibration modelled drift (and in the run-table mode).
 
     The ranking also holds, per candidate, the evidence grey-box
     identification selects structure by: the likelihood-ratio test of the
@@ -188,6 +197,7 @@ class GapReport:
     machines: dict = field(default_factory=dict, repr=False)
     not_applicable: dict = field(default_factory=dict)
     explainable: dict = field(default_factory=dict)
+    drift_rates: dict = field(default_factory=dict)
 
     @classmethod
     def _build(
@@ -361,6 +371,7 @@ class GapReport:
             "settings": plain(self.settings),
             "not_applicable": plain(self.not_applicable),
             "explainable": plain(self.explainable),
+            "drift_rates": plain(self.drift_rates),
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
@@ -424,6 +435,18 @@ class GapReport:
                 "",
                 "## How much any added term could close",
                 table(pd.DataFrame([self.explainable])),
+            ]
+        if self.drift_rates:
+            rates = pd.Series(self.drift_rates, name="rate_C_per_h")
+            parts += [
+                "",
+                "## Fitted sensor drift (°C per hour, largest first)",
+                table(
+                    rates.reindex(rates.abs().sort_values(ascending=False).index)
+                    .rename_axis("channel")
+                    .reset_index()
+                    .head(20)
+                ),
             ]
         return "\n".join(parts) + "\n"
 

@@ -6,6 +6,8 @@ it, say "none" when nothing was added, and refuse to blame a wrong effect when
 the true one is not among its candidates.
 """
 
+import dataclasses
+import zlib
 from dataclasses import dataclass, field
 from numbers import Real
 
@@ -154,6 +156,15 @@ def make_gap_campaign(
     n_runs = int(n_runs)
     simulation = ThermalMachine.from_preset(preset, effects=[])
     truth = _perturbed(simulation, rng, *perturbation)
+    # Each campaign's truth is another machine of the preset: its own name
+    # gives its sensors their own calibration offsets and drift rates (the
+    # simulator draws them from the machine's and the sensor's names).
+    serial = zlib.crc32(repr(sorted(truth.params.items())).encode())
+    truth = ThermalMachine.from_spec(
+        dataclasses.replace(truth.spec, name=f"{preset} truth {serial:08x}"),
+        effects=[],
+        params=truth.params,
+    )
     if effect is not None:
         truth = truth.with_effects([effect]).with_params(
             {k: v * strength for k, v in _STRENGTH[effect].items()}
