@@ -30,3 +30,14 @@ def plain(value):
     """A numpy scalar as the Python value, for messages: ``'r2'`` and ``3``,
     not ``np.str_('r2')`` and ``np.int64(3)``."""
     return value.item() if isinstance(value, np.generic) else value
+
+
+def shown(value):
+    """``repr`` of :func:`plain` ``value`` for messages, shortened for a huge
+    integer (``10**400`` has 401 digits): its first digits and its size."""
+    value = plain(value)
+    text = repr(value)
+    if isinstance(value, int) and not isinstance(value, bool) and len(text) > 40:
+        digits = len(str(abs(value)))
+        return f"{text[:12]}... (an integer of {digits} digits, about 1e{digits - 1})"
+    return text

@@ -134,3 +134,90 @@ def test_hold_mode_holds_an_extreme_reading(data):
         held = model.predict(_with_reading(X, 1e307, as_array=False))
     assert np.all(np.isfinite(held))
     assert held[ROW] == good[ROW - 1]
+
+
+def _run_table():
+    import pandas as pd
+
+    rng = np.random.RandomState(0)
+    X = pd.DataFrame(rng.normal(20, 1, (40, 3)), columns=["T1", "T2", "T3"])
+    X["run"] = np.repeat(["a", "b"], 20)
+    X["time_s"] = np.tile(np.arange(20) * 60.0, 2)
+    y = pd.Series(X["T1"] * 2 + rng.normal(0, 0.1, 40), name="disp_z_um")
+    return X, y
+
+
+def test_integer_column_and_target_names_are_shown_plainly():
+    # Integer column names printed as np.int64(20) and np.int64(5).
+    import pandas as pd
+
+    from skthermal import UpdateRegressor
+
+    X, y = _run_table()
+    A = pd.DataFrame(X[["T1", "T2", "T3"]].to_numpy(), columns=pd.Index([10, 20, 30]))
+    A.loc[3, 20] = 1e101
+    with pytest.raises(ValueError) as info:
+        UpdateRegressor().fit(A, y.to_numpy())
+    assert str(info.value).startswith("Column 20 is 1e+101")
+    Y = pd.DataFrame({5: y.to_numpy()})
+    Y.iloc[3, 0] = 1e101
+    with pytest.raises(ValueError) as info:
+        UpdateRegressor().fit(X, Y)
+    assert str(info.value).startswith("The target 5 is 1e+101")
+    B = X.astype({"T2": object})
+    B.columns = [10, 20, 30, "run", "time_s"]
+    B[20] = B[20].astype(str)
+    B.loc[3, 20] = "hot"
+    with pytest.raises(ValueError) as info:
+        UpdateRegressor().fit(B.astype({10: np.int64}), y)
+    assert "Column 20 is not numeric" in str(info.value)
+    assert "np." not in str(info.value)
+
+
+def test_an_integer_beyond_a_float_names_x_or_y_and_the_row():
+    # 10**400 in an object array or a list raised numpy's bare
+    # "OverflowError: int too large to convert to float".
+    from skthermal import GRASelector, UpdateRegressor
+
+    X, y = _run_table()
+    A = X[["T1", "T2", "T3"]].to_numpy().astype(object)
+    A[3, 1] = 10**400
+    too_large = "too large for a float"
+    for fit in (UpdateRegressor().fit, GRASelector().fit):
+        with pytest.raises(
+            ValueError, match=rf"^Column 1 of X holds .* at row 3: {too_large}"
+        ):
+            fit(A, y.to_numpy())
+        with pytest.raises(
+            ValueError, match=rf"^Column 1 of X holds .* at row 3: {too_large}"
+        ):
+            fit(A.tolist(), y.to_numpy())
+    B = X.astype({"T2": object})
+    B.loc[3, "T2"] = 10**400
+    with pytest.raises(
+        ValueError,
+        match=rf"^Column 'T2' of X holds .* at row 3, run 'a', time_s=180: {too_large}",
+    ):
+        UpdateRegressor().fit(B, y)
+    Y = y.to_numpy().astype(object)
+    Y[3] = 10**400
+    for target in (Y, list(Y)):
+        with pytest.raises(
+            ValueError, match=rf"^y holds .*401 digits.* at row 3: {too_large}"
+        ):
+            UpdateRegressor().fit(X[["T1", "T2", "T3"]].to_numpy(), target)
+    with pytest.raises(
+        ValueError, match=rf"^y holds .* at row 3, run 'a', time_s=180: {too_large}"
+    ):
+        UpdateRegressor().fit(X, Y)
+
+
+def test_a_value_just_beyond_the_bound_is_not_shown_as_the_bound():
+    # describe_unreadable printed 1e100's next float as "1e+100, beyond the
+    # largest magnitude a reading may have (1e+100)".
+    from skthermal.utils._runs import describe_unreadable
+
+    value = np.nextafter(1e100, np.inf)
+    assert describe_unreadable(value).startswith("1.0000000000000002e+100, beyond")
+    assert describe_unreadable(1e307).startswith("1e+307, beyond")
+    assert describe_unreadable(np.nan) == "missing (NaN)"

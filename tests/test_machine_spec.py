@@ -993,3 +993,91 @@ def test_params_that_repeat_an_entry_warn_naming_both_places(tmp_path):
         warnings.simplefilter("error")
         spec.to_toml(path)
         assert MachineSpec.from_toml(path) == spec
+
+
+def test_share_low_bounds_that_use_all_the_room_leave_nothing_to_fit():
+    # Low bounds summing to exactly the room said "may sum to at most 1,
+    # but their low bounds sum to 1; lower them": self-contradictory. The
+    # only valid point is then the low bounds themselves.
+    machine = ThermalMachine.from_preset("vmc-b")
+    runs = machine.simulate(
+        DutyCycle.heat_cool(3000, heat_h=0.1, cool_h=0.1, feed_mm_min=2000),
+        noise=False,
+    )
+    shares = ["feed_heating.nut_share", "feed_heating.motor_share"]
+    bounds = {shares[0]: (0.5, 0.9), shares[1]: (0.5, 0.8)}
+    with pytest.raises(ValueError) as info:
+        machine.calibrate(runs, shares, bounds=bounds, max_nfev=2)
+    message = str(info.value)
+    assert "their low bounds (sum 1) already use all of it" in message
+    assert "the only valid point is the low bounds themselves" in message
+    assert "nothing to fit. Lower a low bound." in message
+    assert "but their low bounds sum to" not in message
+    # Beyond the room it stays "lower them".
+    bounds[shares[0]] = (0.6, 0.9)
+    with pytest.raises(ValueError, match=r"but their low bounds sum to 1.1; lower"):
+        machine.calibrate(runs, shares, bounds=bounds, max_nfev=2)
+
+
+def test_a_numpy_number_in_params_is_shown_as_a_plain_number():
+    # The [params] override warning printed "np.float64(3000.0)".
+    data = _small()
+    data["params"] = {"C.spindle": np.float64(3000.0)}
+    with pytest.warns(UserWarning) as record:
+        MachineSpec.from_dict(data)
+    (message,) = [str(w.message) for w in record]
+    assert message.startswith("params: 'C.spindle' = 3000.0 overrides")
+    assert "np.float64" not in message
+
+
+@pytest.mark.parametrize(
+    "build, named",
+    [
+        (lambda: DutyCycle.heat_cool(3000, heat_h=10**400, cool_h=1), "heat_h"),
+        (lambda: DutyCycle.heat_cool(3000, heat_h=1, cool_h=10**400), "cool_h"),
+        (lambda: DutyCycle.heat_cool(3000, heat_h=1e306, cool_h=1), "heat_h"),
+        (lambda: DutyCycle.from_hours([(1, 0), (10**400, 3000)]), "step 1: hours"),
+        (lambda: DutyCycle.speed_spectrum([1000], step_h=10**400), "step_h"),
+        (
+            lambda: DutyCycle.speed_spectrum([1000], step_h=1, rest_h=10**400),
+            "rest_h",
+        ),
+    ],
+)
+def test_duty_cycle_hours_beyond_a_float_name_the_argument(build, named):
+    # heat_h=10**400 raised a bare OverflowError from heat_h * 3600.0.
+    with pytest.raises(ValueError, match=rf"{named} must be a finite number"):
+        build()
+
+
+def test_a_stiff_network_names_its_fastest_and_slowest_nodes():
+    # A 1 mJ/K bead on 1 W/K beside a 1e8 J/K base with 0.1 W/K convection:
+    # the message named the largest conductance, the enclosure's 40 W/K,
+    # which has nothing to do with it.
+    data = {
+        "name": "bead",
+        "axes": ["z"],
+        "roles": {"enclosure": "air", "tool": "base"},
+        "nodes": {
+            "bead": {"capacity_J_per_K": 1e-3, "convection_W_per_K": 0.0},
+            "base": {"capacity_J_per_K": 1e8, "convection_W_per_K": 0.1},
+            "air": {"capacity_J_per_K": 5e4, "convection_W_per_K": 40.0},
+        },
+        "links": [{"between": ["bead", "base"], "conductance_W_per_K": 1.0}],
+        "heat": {"bearing": {"node": "base", "W_at_1000_rpm": 50.0, "alpha": 1.5}},
+        "sensors": {"T1_C": {"node": "bead"}},
+        "displacement": {"z": {"base": 1.0}},
+    }
+    machine = ThermalMachine.from_spec(data, effects=[])
+    with pytest.raises(ValueError, match="too stiff") as info:
+        machine.simulate(DutyCycle.heat_cool(3000, heat_h=1, cool_h=1), noise=False)
+    message = str(info.value)
+    assert (
+        "fastest node 'bead': time constant 0.001 s = smallest capacity "
+        "C.bead = 0.001 J/K over G.bead-base = 1 W/K;" in message
+    )
+    assert (
+        "slowest node 'base': time constant 9.09e+07 s = largest capacity "
+        "C.base = 1e+08 J/K over G.bead-base = 1 W/K + hA.base = 0.1 W/K)" in message
+    )
+    assert "hA.air" not in message

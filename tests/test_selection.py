@@ -382,3 +382,18 @@ def test_more_sensors_asked_than_given_warns_and_keeps_all():
     with pytest.warns(UserWarning, match="only 4 sensor"):
         selector.fit(X, y, groups=groups)
     assert selector.get_support().all()
+
+
+@pytest.mark.parametrize("value", [np.nan, 1e101])
+def test_unreadable_values_name_the_time_as_the_estimators_do(value):
+    # The selectors named the row and run, not the time_s X carries.
+    X, y, groups = _small()
+    X = X.assign(run=groups, time_s=np.tile(np.arange(20) * 60.0, 2))
+    bad = X.copy()
+    bad.loc[25, "Tc_C"] = value
+    where = r"sensor 'Tc_C' at row 25, run 'r2', time_s=300"
+    with pytest.raises(ValueError, match=where):
+        GRASelector().fit(bad, y)
+    fitted = GRASelector().fit(X, y)
+    with pytest.raises(ValueError, match=where):
+        fitted.transform(bad)

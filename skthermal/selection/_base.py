@@ -20,6 +20,7 @@ from skthermal.utils._runs import (
     check_finite_target,
     check_run_lengths,
     check_time_order,
+    describe_row,
     describe_unreadable,
     extract_runs,
     row_times,
@@ -32,15 +33,6 @@ from skthermal.utils._runs import (
 def _feature_label(estimator, j):
     names = getattr(estimator, "feature_names_in_", None)
     return f"sensor {names[j]!r}" if names is not None else f"feature {j}"
-
-
-def _run_label(labels, row, slices):
-    if labels[0] is None:
-        return ""
-    for sl, lab in zip(slices, labels, strict=True):
-        if sl.start <= row < sl.stop:
-            return f", run {lab!r}"
-    return ""
 
 
 def _run_index(original, X, groups):
@@ -90,6 +82,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         check_time_order(X, groups)
         if y is not None:
             check_finite_target(y, X, groups)
+        rows = X  # its run and time_s, for messages
         X, y = validate_data(
             self,
             X,
@@ -102,15 +95,17 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         )
         Y = np.asarray(y, dtype=float).reshape(X.shape[0], -1)
         slices, labels = run_slices(groups, X.shape[0])
-        self._check_runs(X, Y, slices, labels)
+        self._check_runs(X, Y, slices, labels, rows, groups)
         self._fit_runs(X, Y, groups, slices)
         return self
 
-    def _check_finite(self, name, A, slices, labels, hint, support=None):
+    def _check_finite(self, name, A, rows, groups, hint, support=None):
         """Raise a ValueError naming the first non-finite or absurdly large
         (:func:`~skthermal.utils._runs.unreadable`) value of ``A`` (``name``
-        "X" or "y"): the sensor or target, the row and its run, and with
-        ``support`` whether the sensor is selected."""
+        "X" or "y"): the sensor or target, the row, its run and time
+        (:func:`~skthermal.utils._runs.describe_row` of ``rows`` and
+        ``groups``, as ``extract_runs`` returns them), and with ``support``
+        whether the sensor is selected."""
         bad = unreadable(A)
         if not bad.any():
             return
@@ -126,14 +121,14 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         if support is not None:
             role = " (a selected sensor)" if support[col] else " (not a selected one)"
         raise ValueError(
-            f"Input {name} contains {kind}: {what} at row {row}"
-            f"{_run_label(labels, row, slices)}{role}. {hint}"
+            f"Input {name} contains {kind}: {what} at "
+            f"{describe_row(row, rows, groups)}{role}. {hint}"
         )
 
-    def _check_runs(self, X, Y, slices, labels):
+    def _check_runs(self, X, Y, slices, labels, rows=None, groups=None):
         for name, A in (("X", X), ("y", Y)):
             hint = "Impute or drop the samples before fitting."
-            self._check_finite(name, A, slices, labels, hint)
+            self._check_finite(name, A, rows, groups, hint)
         check_run_lengths(slices, labels, "measuring a change")
         flat = ~np.any(changes_since_start(Y, slices) != 0, axis=0)
         if flat.any():
@@ -180,9 +175,8 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         A = validate_data(self, X, reset=False, ensure_all_finite=False)
         support = self._get_support_mask()
         if unreadable(A).any():
-            slices, labels = run_slices(groups, A.shape[0])
             hint = "Impute or drop those samples first."
-            self._check_finite("X", A, slices, labels, hint, support)
+            self._check_finite("X", A, X, groups, hint, support)
         kept = A[:, support]
         index = _run_index(original, X, groups)
         if index is None:

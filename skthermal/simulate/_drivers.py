@@ -11,15 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from sklearn.utils import check_random_state
 
-
-def _shown(value):
-    """``repr(value)``, shortened for a huge integer (``10**400`` has 401
-    digits): its first digits and its size."""
-    text = repr(value)
-    if isinstance(value, int) and len(text) > 40:
-        digits = len(str(abs(value)))
-        return f"{text[:12]}... (an integer of {digits} digits, about 1e{digits - 1})"
-    return text
+from skthermal._naming import shown
 
 
 def _check_number(value, name, *, positive=False, nonnegative=False):
@@ -30,10 +22,10 @@ def _check_number(value, name, *, positive=False, nonnegative=False):
         # in a TOML file, which reads integers exactly.
         raise ValueError(
             f"{name} must be a finite number (a float reaches about 1.8e308), "
-            f"got {_shown(value)}."
+            f"got {shown(value)}."
         ) from None
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {_shown(value)}.") from None
+        raise ValueError(f"{name} must be a number, got {shown(value)}.") from None
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}.")
     if positive and value <= 0:
@@ -41,6 +33,20 @@ def _check_number(value, name, *, positive=False, nonnegative=False):
     if nonnegative and value < 0:
         raise ValueError(f"{name} must not be negative, got {value}.")
     return value
+
+
+def _hours(value, name, *, positive=True):
+    """A duration in hours as seconds; a ValueError naming ``name`` when it
+    is not a finite number (``10**400`` hours overflowed into a bare
+    OverflowError) or its seconds exceed the largest float."""
+    hours = _check_number(value, name, positive=positive, nonnegative=not positive)
+    seconds = hours * 3600.0
+    if not np.isfinite(seconds):
+        raise ValueError(
+            f"{name} must be a finite number of hours (its seconds must stay "
+            f"below about 1.8e308), got {shown(value)}."
+        )
+    return seconds
 
 
 def _float_array(value, name):
@@ -109,7 +115,7 @@ class DutyCycle:
                     raise ValueError(
                         f"Duty-cycle segment {i}: every value must be a finite "
                         "number (a float reaches about 1.8e308), got "
-                        f"({', '.join(map(_shown, seg))})."
+                        f"({', '.join(map(shown, seg))})."
                     ) from None
                 except ValueError as exc:
                     raise ValueError(f"Duty-cycle segment {i}: {exc}") from None
@@ -133,20 +139,32 @@ class DutyCycle:
         """Run the spindle for ``heat_h`` hours, then stop it for ``cool_h``."""
         return cls(
             [
-                (heat_h * 3600.0, spindle_rpm, feed_mm_min),
-                (cool_h * 3600.0, 0.0, 0.0),
+                (_hours(heat_h, "heat_cool heat_h"), spindle_rpm, feed_mm_min),
+                (_hours(cool_h, "heat_cool cool_h"), 0.0, 0.0),
             ]
         )
 
     @classmethod
     def from_hours(cls, steps):
         """Segments given as ``(hours, spindle_rpm[, feed_mm_min])``."""
-        return cls([(h * 3600.0, *rest) for h, *rest in steps])
+        segments = []
+        for i, step in enumerate(steps):
+            try:
+                h, *rest = step
+            except TypeError:
+                raise ValueError(
+                    f"from_hours step {i} must be (hours, spindle_rpm"
+                    f"[, feed_mm_min]), got {step!r}."
+                ) from None
+            segments.append((_hours(h, f"from_hours step {i}: hours"), *rest))
+        return cls(segments)
 
     @classmethod
     def speed_spectrum(cls, speeds, *, step_h, rest_h=0.0):
         """ISO 230-3-style speed spectrum: each speed for ``step_h`` hours,
         optionally separated by ``rest_h`` hours at rest."""
+        _hours(step_h, "speed_spectrum step_h")
+        _hours(rest_h, "speed_spectrum rest_h", positive=False)
         steps = []
         for n in speeds:
             steps.append((step_h, n))

@@ -10,6 +10,7 @@ measurements with :meth:`ThermalMachine.calibrate`.
 """
 
 import dataclasses
+import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,13 +19,12 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
 
-from skthermal._naming import suggest
+from skthermal._naming import shown, suggest
 from skthermal.simulate._drivers import (
     AmbientProfile,
     DutyCycle,
     _check_number,
     _float_array,
-    _shown,
 )
 from skthermal.simulate._effects import (
     EFFECTS,
@@ -1146,16 +1146,68 @@ class ThermalMachine:
         small = min(C, key=C.get)
         big = max(C, key=C.get)
         large = max(G, key=G.get)
+        # The extremes of the network need not be the cause (a 40 W/K
+        # enclosure is the largest conductance beside a 1 mJ/K bead on
+        # 1 W/K): name the nodes of the fastest and slowest local time
+        # constants, with the capacity and conductances that set them.
+        with np.errstate(all="ignore"):
+            tau = self.node_time_constants(fastest).to_numpy()
+        order = np.where(np.isnan(tau), np.inf, tau)
+        quick, slow = int(np.argmin(order)), int(np.argmax(order))
+
+        def node(i, which):
+            name = spec.nodes[i]
+            cap = f"C.{name}"
+            kind = {small: "smallest capacity", big: "largest capacity"}
+            parts = [
+                f"{'largest conductance ' if k == large else ''}{k} = {v:g} W/K"
+                for k, v in self._node_conductances(i, fastest)
+            ]
+            if len(parts) > 3:
+                parts = [*parts[:3], f"{len(parts) - 3} more"]
+            over = " + ".join(parts) if parts else "no conductance"
+            return (
+                f"{which} node {name!r}: time constant {tau[i]:.3g} s = "
+                f"{kind.get(cap, 'capacity')} {cap} = {C[cap]:g} J/K over "
+                f"{over}"
+            )
+
         return (
             "The node temperatures are not finite, or rounding would dominate "
             "them: the network is too stiff or too large for floating point "
-            "(smallest capacity "
-            f"{small} = {C[small]:g} J/K, largest conductance {large} = "
-            f"{G[large]:g} W/K, largest capacity {big} = {C[big]:g} J/K, "
-            f"fastest speed {fastest:g} rpm; the network's time constants "
-            f"span more than {STIFFNESS_LIMIT:.0e} to 1); bring the parameters "
-            "and drivers to physical values."
+            f"(at the fastest speed {fastest:g} rpm, its time constants span "
+            f"more than {STIFFNESS_LIMIT:.0e} to 1; {node(quick, 'fastest')}; "
+            f"{node(slow, 'slowest')}). Bring the parameters and drivers to "
+            "physical values: a larger capacity or smaller conductances of the "
+            "fastest node, a smaller capacity or larger conductances of the "
+            "slowest."
         )
+
+    def _node_conductances(self, i, rpm):
+        """``(parameter, W/K)`` of the conductances of node ``i`` (its
+        diagonal of :meth:`network` at ``rpm``, the sum its local time
+        constant divides by), largest first: its links, its convection and,
+        for the enclosure, the convection of the nodes inside it."""
+        p, spec, idx = self._params, self.spec, self._index
+        name = spec.nodes[i]
+        with np.errstate(all="ignore"):
+            h = self._convection(float(rpm))
+        exposed = set()
+        for effect in self._active():
+            exposed |= set(effect.exposed_nodes(self))
+        enc = idx[spec.enclosure]
+        items = [
+            (f"G.{a}-{b}", p[f"G.{a}-{b}"]) for a, b in spec.edges if name in (a, b)
+        ]
+        if h[i] > 0:
+            items.append((f"hA.{name}", float(h[i])))
+        if i == enc:
+            items += [
+                (f"hA.{n}", float(h[j]))
+                for n, j in idx.items()
+                if j != enc and n not in exposed and h[j] > 0
+            ]
+        return sorted(items, key=lambda kv: -kv[1])
 
     def _quantise(self, x, step=None):
         """Round to the quantisation step (per column when ``step`` is given)."""
@@ -1268,7 +1320,7 @@ def _check_bounds(bounds, params):
             except OverflowError:
                 raise ValueError(
                     f"{where}: {side} must be a finite number (a float reaches "
-                    f"about 1.8e308), got {_shown(pair[j])}."
+                    f"about 1.8e308), got {shown(pair[j])}."
                 ) from None
             except (TypeError, ValueError):
                 value = np.nan
@@ -1337,11 +1389,27 @@ class _Shares:
             if low >= room:
                 held = " + ".join(f"{k} ({v:g})" for k, v in fixed.items())
                 held = f" (1 minus the fixed {held})" if fixed else ""
-                raise ValueError(
+                start = (
                     f"bounds of {free}: effect {effect.name!r} needs "
                     f"{' + '.join(names)} <= 1, so the fitted ones may sum to "
-                    f"at most {room:g}{held}, but their low bounds sum to "
-                    f"{low:g}; lower them."
+                    f"at most {room:g}{held}"
+                )
+                if math.isclose(low, room, rel_tol=1e-12, abs_tol=1e-15):
+                    # least_squares needs every low bound below its high one.
+                    used = (
+                        f"its low bound ({low:g}) already uses all of it: the "
+                        "only valid point is the low bound itself"
+                        if len(free) == 1
+                        else f"their low bounds (sum {low:g}) already use all "
+                        "of it: the only valid point is the low bounds "
+                        "themselves"
+                    )
+                    raise ValueError(
+                        f"{start}, and {used}, which leaves nothing to fit. "
+                        "Lower a low bound."
+                    )
+                raise ValueError(
+                    f"{start}, but their low bounds sum to {low:g}; lower them."
                 )
             i = idx[0]
             j = idx[1] if len(idx) == 2 else None

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, suggest
-from skthermal.simulate._drivers import _check_number, _shown
+from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, shown, suggest
+from skthermal.simulate._drivers import _check_number
 from skthermal.simulate._effects import (
     ANY,
     EFFECTS,
@@ -1159,8 +1159,8 @@ class MachineSpec:
         )
         for key, entry_value, value in overridden:
             warnings.warn(
-                f"params: {key!r} = {_shown(value)} overrides "
-                f"{parameter_entry(key)} = {_shown(entry_value)} (one "
+                f"params: {key!r} = {shown(value)} overrides "
+                f"{parameter_entry(key)} = {shown(entry_value)} (one "
                 "parameter, given twice); the [params] value is used. Give "
                 "each number in one place.",
                 UserWarning,

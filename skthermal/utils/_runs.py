@@ -15,7 +15,7 @@ from numbers import Integral, Real
 import numpy as np
 from sklearn.utils._param_validation import InvalidParameterError
 
-from skthermal._naming import plain
+from skthermal._naming import plain, shown
 
 RUN_COLUMN = "run"
 TIME_COLUMN = "time_s"
@@ -283,12 +283,14 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         X = X.drop(columns=TIME_COLUMN)
         X = X.set_axis(run_table_index(groups, times), axis=0)
     _check_feature_columns(X, columns, y)
-    check_numeric_columns(X)
     if groups is not None:
         groups = np.asarray(groups)
+    check_numeric_columns(X, groups)
     _check_finite_times(X, groups)
     if finite:
         check_finite_columns(X, groups)
+    elif columns is None and getattr(getattr(X, "dtype", None), "kind", "O") == "O":
+        _plain_values(X, groups)  # a ValueError for 10**400 (object or list)
     if y is not None:
         check = check_finite_target if finite else check_target_rows
         check(y, X, groups, given_index=given_index)
@@ -367,9 +369,10 @@ def run_table_index(groups, times):
     return pd.MultiIndex.from_arrays(arrays, names=names)
 
 
-def _where(row, X, groups):
+def describe_row(row, X, groups):
     """``"row 3, run 'a', time_s=120"``: a row of a run table, with its run
-    and time when known."""
+    and time when known (``X`` and ``groups`` as :func:`extract_runs`
+    returns them), for messages."""
     where = [f"row {row}"]
     if groups is not None:
         where.append(f"run {plain(groups[row])!r}")
@@ -512,6 +515,8 @@ def check_finite_target(y, X, groups, *, given_index=None):
         if values.dtype.kind == "c":
             return  # scikit-learn names complex data
         values = values.astype(float, copy=False)
+    except OverflowError:
+        raise _too_large_error(y, "y", X, groups) from None
     except (TypeError, ValueError):
         return
     if (
@@ -529,14 +534,14 @@ def check_finite_target(y, X, groups, *, given_index=None):
     name = getattr(y, "name", None)
     if name is None and values.ndim == 2 and hasattr(y, "columns"):
         name = y.columns[col]
-    target = "The target" if name is None else f"The target {name!r}"
+    target = "The target" if name is None else f"The target {plain(name)!r}"
     note = _bad_values_note(bad, flat, "y")
     y_index = getattr(y, "index", None)
     if y_index is not None and not _same_index(y_index, X, given_index):
         # y's rows have labels of their own: name that too.
         note = f"y's row label {_label(y_index[row])!r}; {note}"
     raise ValueError(
-        f"{target} is {kind} at {_where(row, X, groups)} ({note}). Drop the "
+        f"{target} is {kind} at {describe_row(row, X, groups)} ({note}). Drop the "
         "rows without a measured target value before fitting."
     )
 
@@ -558,7 +563,7 @@ def describe_unreadable(value):
     if np.isinf(value):
         return f"{value}"
     return (
-        f"{value:g}, beyond the largest magnitude a reading may have "
+        f"{value!r}, beyond the largest magnitude a reading may have "
         f"({MAX_MAGNITUDE:g})"
     )
 
@@ -595,24 +600,24 @@ def check_finite_columns(X, groups=None):
         values = X.to_numpy(dtype=float, na_value=np.nan)
         bad = unreadable(values)
     else:
-        values = _plain_values(X)
+        values = _plain_values(X, groups)
         if values is None:
             return
         bad = np.isfinite(values) & unreadable(values)
     if not bad.any():
         return
     row, col = (int(i) for i in np.argwhere(bad)[0])
-    name = repr(columns[col]) if columns is not None else f"{col} of X"
+    name = repr(plain(columns[col])) if columns is not None else f"{col} of X"
     raise ValueError(
         f"Column {name} is {describe_unreadable(values[row, col])} at "
-        f"{_where(row, X, groups)} ({_bad_values_note(bad, values, 'X')}). The "
+        f"{describe_row(row, X, groups)} ({_bad_values_note(bad, values, 'X')}). The "
         "model needs every reading: impute or drop those rows first "
         "(skthermal.compose.GuardedRegressor(mode='hold') bridges sensor "
         "dropouts in service)."
     )
 
 
-def _plain_values(X):
+def _plain_values(X, groups=None):
     """A plain 2-D array-like's values as floats, or None when it is not one
     (sparse, of another dimension, complex, not numeric): scikit-learn
     reports those."""
@@ -627,9 +632,46 @@ def _plain_values(X):
             if values.dtype.kind not in "biufO":
                 return None
             values = values.astype(float, copy=False)
-    except (TypeError, ValueError, OverflowError):
+    except OverflowError:
+        if np.ndim(X) != 2:
+            return None
+        raise _too_large_error(X, "X", X, groups) from None
+    except (TypeError, ValueError):
         return None
     return values if values.ndim == 2 else None
+
+
+def _too_large_error(values, name, X, groups):
+    """The ValueError for ``values`` (``name``: "X" or "y") holding a number
+    too large for a float (``10**400``, which numpy refuses with a bare
+    OverflowError), naming the first one: its column and row, with the run
+    and time of the row when known."""
+    raw = np.asarray(values, dtype=object)
+    flat = raw.reshape(raw.shape[0], -1) if raw.ndim else raw.reshape(1, 1)
+    for (row, col), v in np.ndenumerate(flat):
+        try:
+            float(v)
+        except OverflowError:
+            break
+        except (TypeError, ValueError):
+            continue
+    else:  # pragma: no cover - the conversion overflowed somewhere
+        return ValueError(
+            f"{name} holds a number too large for a float (a float reaches "
+            "about 1.8e308); give readings of a physical size."
+        )
+    text = shown(v)
+    columns = getattr(values, "columns", None)
+    label = f"{col}" if columns is None else repr(plain(columns[col]))
+    if name == "X":
+        what = f"Column {label} of X"
+    else:
+        what = "y" + (f" (column {label})" if flat.shape[1] > 1 else "")
+    return ValueError(
+        f"{what} holds {text} at {describe_row(row, X, groups)}: too large "
+        "for a float (a float reaches about 1.8e308). Give readings of a "
+        "physical size: a number this large is a corrupt value."
+    )
 
 
 def has_time_index(X):
@@ -1150,7 +1192,7 @@ def is_clock_dtype(dtype):
     )
 
 
-def check_numeric_columns(X):
+def check_numeric_columns(X, groups=None):
     """Raise a ValueError naming the first non-numeric column of a DataFrame.
 
     Numeric and boolean columns pass, as do object columns whose every value
@@ -1171,19 +1213,23 @@ def check_numeric_columns(X):
         if is_clock_dtype(dtype):
             # to_numeric would turn them into nanoseconds.
             raise ValueError(
-                f"Column {name!r} holds {dtype} values, not numbers. Every feature "
-                "column must hold numbers; convert (e.g. to seconds) or drop this "
-                "column before fitting or predicting."
+                f"Column {plain(name)!r} holds {dtype} values, not numbers. Every "
+                "feature column must hold numbers; convert (e.g. to seconds) or "
+                "drop this column before fitting or predicting."
             )
         col = X[name]
-        converted = pd.to_numeric(col, errors="coerce")
+        try:
+            converted = pd.to_numeric(col, errors="coerce")
+        except OverflowError:  # 10**400: numpy's bare "int too large"
+            raise _too_large_error(X, "X", X, groups) from None
         bad = converted.isna().to_numpy() & col.notna().to_numpy()
         if not bad.any():
             continue
         i = int(np.flatnonzero(bad)[0])
         raise ValueError(
-            f"Column {name!r} is not numeric: row {i} (index {col.index[i]!r}) "
-            f"holds {col.iloc[i]!r}. Every feature column must hold numbers; "
+            f"Column {plain(name)!r} is not numeric: row {i} (index "
+            f"{_label(col.index[i])!r}) holds {plain(col.iloc[i])!r}. Every "
+            "feature column must hold numbers; "
             "convert or drop this column before fitting or predicting."
         )
 
