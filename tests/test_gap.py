@@ -853,12 +853,10 @@ def test_whiteness_of_a_too_short_residual_is_nan():
     assert np.isnan(row["whiteness_before"]) and row["white_after"] is None
 
 
-def test_a_machine_with_sensor_drift_on_fits_and_carries_the_drift_rates():
-    # A simulation that has sensor_drift on (a spec file with
-    # [effects.sensor_drift] on = true): its base fits one drift rate per
-    # temperature channel on the training runs and removes it held out, as
-    # the candidate would; before, the drift was ignored.
-    case = make_gap_campaign(
+@pytest.fixture(scope="module")
+def drift_case():
+    """Three short runs of a spindle rig whose sensors drift strongly."""
+    return make_gap_campaign(
         "sensor_drift",
         preset="spindle-rig",
         n_runs=3,
@@ -866,6 +864,14 @@ def test_a_machine_with_sensor_drift_on_fits_and_carries_the_drift_rates():
         strength=5,
         random_state=0,
     )
+
+
+def test_a_machine_with_sensor_drift_on_fits_and_carries_the_drift_rates(drift_case):
+    # A simulation that has sensor_drift on (a spec file with
+    # [effects.sensor_drift] on = true): its base fits one drift rate per
+    # temperature channel on the training runs and removes it held out, as
+    # the candidate would; before, the drift was ignored.
+    case = drift_case
     kw = {"candidates": ["sensor_lag"], **FAST}
     plain = diagnose(case.simulation, case.runs, **kw)
     drifting = diagnose(
@@ -900,17 +906,10 @@ def test_each_campaign_truth_is_another_machine_with_its_own_sensors():
     pd.testing.assert_frame_equal(again.runs, a.runs)
 
 
-def test_the_report_gives_each_sensors_fitted_drift_rate():
+def test_the_report_gives_each_sensors_fitted_drift_rate(drift_case):
     from skthermal.simulate._effects import sensor_draws
 
-    case = make_gap_campaign(
-        "sensor_drift",
-        preset="spindle-rig",
-        n_runs=3,
-        hours=3.0,
-        strength=5,
-        random_state=0,
-    )
+    case = drift_case
     report = diagnose(
         case.simulation, case.runs, candidates=["sensor_drift", "sensor_lag"], **FAST
     )
