@@ -468,3 +468,16 @@ def test_dead_probe_and_extra_simulated_run(pair):
     assert "['r9'] of the simulated table are not in the measured" in messages
     assert report.settings["channels"] == ["T1_C", "T2_C"]
     assert (report.ranking["extra_params"] == report.ranking["lr_df"]).all()
+
+
+def test_the_run_table_mode_reports_each_sensors_drift_rate(rng):
+    sim, meas = _tables(rng, "null", n_runs=3, hours=4.0)
+    hours = meas["time_s"] / 3600.0
+    meas["T1_C"] += 0.4 * hours  # T1 drifts at 0.4 °C/h, T2 does not
+    report = diagnose_runs(sim, meas, candidates=["sensor_drift", "sensor_lag"])
+    rates = report.drift_rates
+    assert set(rates) == {"T1_C", "T2_C"}
+    assert rates["T1_C"] == pytest.approx(0.4, abs=0.05)
+    assert abs(rates["T2_C"]) < 0.05
+    assert "## Fitted sensor drift" in report.to_markdown()
+    assert diagnose_runs(sim, meas, candidates=["sensor_lag"]).drift_rates == {}

@@ -392,6 +392,19 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
     return row, (rb, ra), after_R, {"folds": models, "all": full}
 
 
+def _drift_table(problem, evaluation):
+    """``GapReport.drift_rates``: the ``sensor_drift`` term's gain of every
+    compared temperature channel on its signal (hours since the run's
+    start): the drift rate in °C/h of the readings, median over the folds
+    (empty without the candidate)."""
+    if evaluation is None:
+        return {}
+    temp = ~problem.is_disp
+    rates = np.median([m.gains_[temp, -1] for m in evaluation[3]["folds"]], axis=0)
+    names = [c for c, t in zip(problem.channels, temp, strict=True) if t]
+    return {c: float(r) for c, r in zip(names, rates, strict=True)}
+
+
 def _flexible_heldout(signals, folds, fitted):
     """Held-out residuals of the flexible discrepancy model
     (:func:`flexible_heldout`) on the external simulation, with the signals
@@ -770,6 +783,7 @@ def diagnose_runs(
         },
     )
     report.explainable = explainable
+    report.drift_rates = _drift_table(problem, by_name.get("sensor_drift"))
     report.machines = {"base calibrated": base_all}
     report.not_applicable = not_applicable
     logger.info("Verdict: %s", report.verdict())

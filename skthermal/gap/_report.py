@@ -172,7 +172,8 @@ class GapReport:
         sensor whose rate stands out is the one that drifts. The ranking's
         ``fitted`` for ``sensor_drift`` is their root mean square (as the
         simulator's ``sensor_drift.rate_C_per_h``, a spread over sensors).
-        Empty when no calibration modelled drift (and in the run-table mode).
+        In the run-table mode (:func:`diagnose_runs`), the ``sensor_drift``
+        term's gain per channel. Empty when no calibration modelled drift.
 
     The ranking also holds, per candidate, the evidence grey-box
     identification selects structure by: the likelihood-ratio test of the
