@@ -986,57 +986,35 @@ def absurd_reading(workdir):
     return path
 
 
-def test_predict_refuses_to_write_non_finite_predictions(
-    capsys, workdir, tmp_path, absurd_reading
-):
-    model = tmp_path / "ridge.joblib"
-    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "ridge"]
-    argv += ["--sensors", "T18_C,T46_C", "--train-runs", "IV", "--out", model]
-    assert _run(capsys, *argv)[0] == 0
-    out = tmp_path / "pred.csv"
-    argv = ["predict", "--model", model, "--runs", absurd_reading, "--out", out]
-    status, text, err = _run(capsys, *argv)
-    # The reading is refused before the model runs: no reading is that large.
-    assert status == 2 and err.count("\n") == 1 and not text
-    assert err.startswith("skthermal predict: error: Column 'T18_C' is 1e+308, ")
-    assert "largest magnitude a reading may have (1e+100)" in err
-    assert "run 'I', time_s=960" in err and not out.exists()
+def _refused_when_read(err, command, path):
+    """The run table's absurd readings (1e308) are refused when it is read,
+    naming the file, both columns, the run and the time, before any model
+    runs (nothing overflows)."""
+    assert err.count("\n") == 1
+    assert err.startswith(f"skthermal {command}: error: --runs: {path}: ")
+    assert "column 'T02_C' has 1 absurd (beyond 1e+100 in magnitude)" in err
+    assert "column 'T18_C' has 1 absurd" in err
+    assert "run 'I', time_s 960.0" in err
     assert "overflow" not in err and "RuntimeWarning" not in err
-    # evaluate with the model refuses the reading too
-    argv = ["evaluate", "--runs", absurd_reading, "--model", model]
-    status, text, err = _run(capsys, *argv)
-    assert status == 2 and err.count("\n") == 1 and not text
-    assert err.startswith("skthermal evaluate: error: Column 'T18_C' is 1e+308, ")
-    assert "run 'I', time_s=960" in err
 
 
-def test_predict_names_the_reading_a_model_step_overflowed_on(
-    capsys, tmp_path, ridge_y, absurd_reading
-):
-    # Scaled, the reading overflows to inf, which the ridge step refuses.
-    out = tmp_path / "pred.csv"
-    argv = ["predict", "--model", ridge_y, "--runs", absurd_reading, "--out", out]
-    status, text, err = _run(capsys, *argv)
-    assert status == 2 and err.count("\n") == 1 and not text
-    # Refused before scaling could overflow it.
-    assert err.startswith("skthermal predict: error: Column 'T02_C' is 1e+308, ")
-    assert "run 'I', time_s=960" in err and not out.exists()
-
-
-def test_an_mlp_model_refuses_the_absurd_reading_before_overflowing(
-    capsys, workdir, tmp_path, absurd_reading
+def test_predict_and_evaluate_refuse_absurd_readings_when_reading_the_runs(
+    capsys, workdir, tmp_path, absurd_reading, ridge_y
 ):
     model = tmp_path / "mlp.joblib"
     argv = ["fit", "--runs", workdir / "tests.csv", "--model", "mlp", "--quick"]
     argv += ["--sensors", "T18_C,T46_C", "--train-runs", "IV", "--out", model]
     assert _run(capsys, *argv)[0] == 0
     out = tmp_path / "pred.csv"
-    argv = ["predict", "--model", model, "--runs", absurd_reading, "--out", out]
-    status, _, err = _run(capsys, *argv)
-    assert status == 2 and not out.exists()
-    (line,) = err.splitlines()
-    assert line.startswith("skthermal predict: error: Column 'T18_C' is 1e+308, ")
-    assert "run 'I', time_s=960" in line and "overflow" not in line
+    for fitted in (model, ridge_y):
+        argv = ["predict", "--model", fitted, "--runs", absurd_reading, "--out", out]
+        status, text, err = _run(capsys, *argv)
+        assert status == 2 and not text and not out.exists()
+        _refused_when_read(err, "predict", absurd_reading)
+    argv = ["evaluate", "--runs", absurd_reading, "--model", model]
+    status, text, err = _run(capsys, *argv)
+    assert status == 2 and not text
+    _refused_when_read(err, "evaluate", absurd_reading)
 
 
 @pytest.mark.parametrize(

@@ -1069,3 +1069,26 @@ def test_ambient_proxy_refuses_missing_readings_and_unsorted_time():
         ValueError, match=r"strictly increasing within a run: in run 'a', row 2"
     ):
         ambient_proxy(unsorted)
+
+
+@pytest.mark.parametrize("column", ["T1_C", "disp_y_um"])
+def test_validate_runs_names_absurd_readings(column):
+    # Finite but beyond any reading (1e100): a corrupt value that every
+    # model refuses, so the table is refused where it is read.
+    df = pd.DataFrame(
+        {
+            "run": ["a"] * 3,
+            "time_s": [0.0, 60.0, 120.0],
+            "T1_C": [20.0, 20.5, 21.0],
+            "disp_y_um": [0.0, 1.0, 2.0],
+        }
+    )
+    df.loc[1, column] = -1e200
+    with pytest.raises(
+        ValueError,
+        match=rf"column '{column}' has 1 absurd \(beyond 1e\+100 in magnitude\) "
+        r"value\(s\), the first at run 'a', time_s 60.0 \(row 1\)",
+    ):
+        validate_runs(df)
+    df.loc[1, column] = 1e100  # the bound itself is accepted
+    validate_runs(df)

@@ -831,6 +831,7 @@ def test_a_joint_fit_of_the_feed_shares_reaches_an_inner_optimum():
     assert result.params.to_numpy() == pytest.approx([0.4, 0.2], abs=1e-6)
 
 
+@pytest.mark.filterwarnings("ignore::skthermal.simulate.ImplausibleDriverWarning")
 @pytest.mark.parametrize("rpm", [1e50, 1e100])
 def test_a_steady_start_at_an_absurd_speed_names_the_speed(rpm):
     # The steady state solved K T = h T_air + Q at the first speed: at an

@@ -1,5 +1,7 @@
 """Tests of the thermal simulator (skthermal.simulate) and the campaigns."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -646,6 +648,29 @@ def test_tool_growth_effect_leaves_the_displacement_map_as_documented():
     assert "on or off the ``tool_growth`` effect" in doc
 
 
+def test_implausible_drivers_warn_naming_the_value():
+    # A spindle beyond 1e5 rpm or a feed beyond 2e5 mm/min is a typo or a
+    # unit slip: the simulation warns, naming the value, run and row.
+    from skthermal.simulate import ImplausibleDriverWarning
+
+    m = ThermalMachine.from_preset("vmc-b", effects=[])
+    t = np.arange(5) * 60.0
+    rpm = np.array([3000.0, 3000.0, 4e5, 4e5, 0.0])
+    with pytest.warns(
+        ImplausibleDriverWarning,
+        match=r"spindle_rpm is 400000 rpm in run 'r2' at row 2 \(2 such row\(s\)\)",
+    ):
+        m.simulate_drivers(t, rpm, np.full(5, 20.0), run="r2", noise=False)
+    with pytest.warns(ImplausibleDriverWarning, match=r"feed_mm_min is 3e\+06 mm/min"):
+        m.simulate_drivers(
+            t, np.zeros(5), np.full(5, 20.0), np.full(5, -3e6), noise=False
+        )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m.simulate_drivers(t, np.full(5, 30000.0), np.full(5, 20.0), noise=False)
+
+
+@pytest.mark.filterwarnings("ignore::skthermal.simulate.ImplausibleDriverWarning")
 def test_absurd_drivers_and_stiff_parameters_are_named_not_nan():
     m = ThermalMachine.from_preset("spindle-rig")
     t = np.arange(5) * 60.0

@@ -24,14 +24,15 @@ from skthermal._cli._common import (
     split_list,
     write_table,
 )
+from skthermal.simulate._machine import PLAUSIBLE_FEED_MM_MIN, PLAUSIBLE_RPM
 
 _HOURS = {"h": 1.0, "hr": 1.0, "min": 1 / 60, "m": 1 / 60, "s": 1 / 3600}
 # Longest duration accepted as a bare number (hours); longer needs a unit.
 BARE_HOURS_LIMIT = 48.0
-# Plausibility limits of the command's drivers: beyond them a value is a
-# typo or a unit slip (the simulator would write millions of degrees).
-MAX_RPM = 100_000.0
-MAX_FEED_MM_MIN = 200_000.0
+# Plausibility limits of the command's drivers: the simulator's (beyond
+# them a value is a typo or a unit slip); the command refuses them.
+MAX_RPM = PLAUSIBLE_RPM
+MAX_FEED_MM_MIN = PLAUSIBLE_FEED_MM_MIN
 AIR_RANGE_C = (-50.0, 100.0)
 
 

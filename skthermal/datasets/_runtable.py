@@ -21,7 +21,7 @@ from skthermal._naming import (
     plain,
 )
 from skthermal._run_changes import changes_since_first_row
-from skthermal.utils._runs import check_labels
+from skthermal.utils._runs import MAX_MAGNITUDE, check_labels, unreadable
 
 RUN = "run"
 TIME = "time_s"
@@ -341,7 +341,9 @@ def validate_runs(
     temperature sensor ``T<name>_C``, numeric sensors, targets and drivers,
     runs that are contiguous blocks of at least two rows
     with strictly increasing ``time_s``, no missing or infinite values in
-    drivers, targets and (unless allowed) sensors, and physical ranges: a
+    drivers, targets and (unless allowed) sensors, no value beyond 1e100 in
+    magnitude (which no sensor reads and the models refuse), and physical
+    ranges: a
     ``spindle_rpm`` of 0 or more (as the simulator requires) and
     temperatures (``ambient_C``, ``T<name>_C``) above absolute zero. Extra
     columns are kept and ignored, but a column that looks like a sensor, a
@@ -462,6 +464,13 @@ def validate_runs(
     everything = [*strict, *sensors]
     values = np.concatenate([values, _as_float(df, sensors)], axis=1)
     _report_nonfinite(df, everything, np.isinf(values), "infinite")
+    _report_nonfinite(
+        df,
+        everything,
+        np.isfinite(values) & unreadable(values),
+        f"absurd (beyond {MAX_MAGNITUDE:g} in magnitude)",
+        "; no sensor reads that: it is a corrupt value, which the models refuse",
+    )
     _check_ranges(df, everything, values)
     if not allow_missing_sensors:
         _check_missing_sensors(df, sensors, values[:, len(strict) :])

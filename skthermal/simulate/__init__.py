@@ -7,7 +7,11 @@ effects; presets for the papers' machines and their test campaigns.
 
 from skthermal.simulate._drivers import AmbientProfile, DoorEvent, DutyCycle, Segment
 from skthermal.simulate._effects import EFFECTS, Effect, describe_effects
-from skthermal.simulate._machine import CalibrationResult, ThermalMachine
+from skthermal.simulate._machine import (
+    CalibrationResult,
+    ImplausibleDriverWarning,
+    ThermalMachine,
+)
 from skthermal.simulate._solver import ModalSystem, linear_recurrence
 from skthermal.simulate._spec import MachineSpec, SensorSpec
 
@@ -18,6 +22,7 @@ __all__ = [
     "DoorEvent",
     "DutyCycle",
     "Effect",
+    "ImplausibleDriverWarning",
     "MachineSpec",
     "ModalSystem",
     "Segment",

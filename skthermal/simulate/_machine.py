@@ -91,9 +91,17 @@ RISE_TOLERANCE_K = 1e-9
 # of a machine's warm-up) are off by more than ~1e-4 of themselves. Machine
 # tools span some 1e3 to 1e5 (seconds to a day).
 STIFFNESS_LIMIT = 1e12
-# Spindle speeds above this (rpm) are beyond any machine tool's spindle; an
-# error that the speed may cause names it.
+# Driver values beyond any machine tool's: a spindle above 1e5 rpm, a feed
+# above 2e5 mm/min is a typo or a unit slip (the simulator would write
+# millions of degrees). Simulating such drivers warns, naming the value, and
+# an error that such a speed may cause names it; the command line refuses
+# them.
 PLAUSIBLE_RPM = 1e5
+PLAUSIBLE_FEED_MM_MIN = 2e5
+
+
+class ImplausibleDriverWarning(UserWarning):
+    """A driver of a simulation lies beyond any machine tool's range."""
 
 
 class _StiffNetwork(ValueError):
@@ -1045,6 +1053,20 @@ class ThermalMachine:
                 f"spindle_rpm must not be negative: {rpm[bad[0]]:g} in run {run!r} "
                 f"at row {bad[0]}."
             )
+        for name, a, limit, unit in (
+            ("spindle_rpm", rpm, PLAUSIBLE_RPM, "rpm"),
+            ("feed_mm_min", np.abs(feed), PLAUSIBLE_FEED_MM_MIN, "mm/min"),
+        ):
+            bad = np.flatnonzero(a > limit)
+            if bad.size:
+                warnings.warn(
+                    f"{name} is {a[bad[0]]:g} {unit} in run {run!r} at row "
+                    f"{bad[0]} ({bad.size} such row(s)), beyond any machine "
+                    f"tool's ({limit:g} {unit}): check the value and its unit. "
+                    "The simulation goes on.",
+                    ImplausibleDriverWarning,
+                    stacklevel=3,
+                )
         steps = np.diff(t)
         bad = np.flatnonzero(steps <= 0)
         if bad.size:
