@@ -906,7 +906,7 @@ def test_each_campaign_truth_is_another_machine_with_its_own_sensors():
     pd.testing.assert_frame_equal(again.runs, a.runs)
 
 
-def test_the_report_gives_each_sensors_fitted_drift_rate(drift_case):
+def test_the_report_gives_each_sensors_fitted_drift_rate(drift_case, tmp_path):
     from skthermal.simulate._effects import sensor_draws
 
     case = drift_case
@@ -926,3 +926,5 @@ def test_the_report_gives_each_sensors_fitted_drift_rate(drift_case):
     assert row["fitted"] == pytest.approx(np.sqrt(np.mean(a**2)), rel=0.3)
     assert "## Fitted sensor drift" in report.to_markdown()
     assert report.to_dict()["drift_rates"] == pytest.approx(fitted)
+    saved = pd.read_csv(report.save(tmp_path / "gap") / "drift_rates.csv")
+    assert dict(zip(saved["channel"], saved["rate_C_per_h"])) == pytest.approx(fitted)

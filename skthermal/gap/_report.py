@@ -587,8 +587,9 @@ class GapReport:
         return display.ax_
 
     def save(self, folder):
-        """Write report.md, report.html, report.json, the tables as CSV and,
-        with matplotlib, timeline figures into ``folder``."""
+        """Write report.md, report.html, report.json, the tables as CSV (with
+        drift_rates.csv when drift was fitted) and, with matplotlib, timeline
+        figures into ``folder``."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "report.md").write_text(self.to_markdown())
@@ -598,6 +599,10 @@ class GapReport:
         self.how_far.to_csv(folder / "how_far.csv", index=False)
         for name, df in self.where.items():
             df.to_csv(folder / f"where_{name}.csv", index=False)
+        if self.drift_rates:
+            pd.Series(self.drift_rates, name="rate_C_per_h").rename_axis(
+                "channel"
+            ).reset_index().to_csv(folder / "drift_rates.csv", index=False)
         try:
             plt = _pyplot()
         except ImportError:
