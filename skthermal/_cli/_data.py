@@ -29,10 +29,6 @@ from skthermal.simulate._machine import PLAUSIBLE_FEED_MM_MIN, PLAUSIBLE_RPM
 _HOURS = {"h": 1.0, "hr": 1.0, "min": 1 / 60, "m": 1 / 60, "s": 1 / 3600}
 # Longest duration accepted as a bare number (hours); longer needs a unit.
 BARE_HOURS_LIMIT = 48.0
-# Plausibility limits of the command's drivers: the simulator's (beyond
-# them a value is a typo or a unit slip); the command refuses them.
-MAX_RPM = PLAUSIBLE_RPM
-MAX_FEED_MM_MIN = PLAUSIBLE_FEED_MM_MIN
 AIR_RANGE_C = (-50.0, 100.0)
 
 
@@ -64,9 +60,11 @@ def parse_segments(specs):
                 f"--segment {spec!r}: speed and feed must be >= 0 and the duration "
                 "positive."
             )
+        # The simulator's plausibility limits (beyond them a value is a typo
+        # or a unit slip; it warns): the command refuses them.
         for value, name, unit_name, limit in (
-            (rpm, "spindle speed", "rpm", MAX_RPM),
-            (feed, "feed", "mm/min", MAX_FEED_MM_MIN),
+            (rpm, "spindle speed", "rpm", PLAUSIBLE_RPM),
+            (feed, "feed", "mm/min", PLAUSIBLE_FEED_MM_MIN),
         ):
             if value > limit:
                 raise UserError(

@@ -24,6 +24,7 @@ from skthermal.gap._problem import (
     build_problem,
     calibrate,
     drift_mask,
+    drift_table,
     effect_parameters,
     floor_squared,
     predict_run,
@@ -264,9 +265,7 @@ def _drift_table(problem, screen):
         fits = screen.evaluations["sensor_drift"].fits
     else:
         return {}
-    rates = np.median(drift_rates_C_per_h(problem, fits), axis=0)
-    names = [c for c, d in zip(problem.channels, problem.is_disp, strict=True) if not d]
-    return {c: float(r) for c, r in zip(names, rates, strict=True)}
+    return drift_table(problem, drift_rates_C_per_h(problem, fits))
 
 
 def _log_row(step, row):

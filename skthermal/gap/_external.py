@@ -36,6 +36,7 @@ from skthermal.gap._problem import (
     check_length,
     check_mapping,
     check_times,
+    drift_table,
     driver_values,
     flat_columns,
     floor_squared,
@@ -400,9 +401,7 @@ def _drift_table(problem, evaluation):
     if evaluation is None:
         return {}
     temp = ~problem.is_disp
-    rates = np.median([m.gains_[temp, -1] for m in evaluation[3]["folds"]], axis=0)
-    names = [c for c, t in zip(problem.channels, temp, strict=True) if t]
-    return {c: float(r) for c, r in zip(names, rates, strict=True)}
+    return drift_table(problem, [m.gains_[temp, -1] for m in evaluation[3]["folds"]])
 
 
 def _flexible_heldout(signals, folds, fitted):

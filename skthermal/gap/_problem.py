@@ -706,6 +706,15 @@ def residuals(problem, predictions, gain, runs_idx, drift=None, rates=None):
     return out
 
 
+def drift_table(problem, rates):
+    """``GapReport.drift_rates`` from per-fold drift ``rates`` of the
+    temperature channels (``(n_folds, n_temperatures)``, °C/h): ``{channel:
+    median over the folds}``."""
+    names = [c for c, d in zip(problem.channels, problem.is_disp, strict=True) if not d]
+    median = np.median(rates, axis=0)
+    return {c: float(r) for c, r in zip(names, median, strict=True)}
+
+
 def drift_mask(problem, effects, machine=None):
     """Channels whose readings may drift under ``effects`` or the effects
     ``machine`` has on (None if none)."""

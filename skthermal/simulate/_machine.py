@@ -342,34 +342,38 @@ class ThermalMachine:
             h = effect.convection(self, p, rpm, h)
         return h
 
-    def _network(self, rpm):
-        """Conductance matrix ``L + H`` and convection to the workshop air."""
-        n = len(self.spec.nodes)
-        K = np.zeros((n, n))
+    def _conductances(self, rpm):
+        """Every conductance of the network at ``rpm``, as ``(parameter, i,
+        j, W/K)``: the links, and each node's convection, to the enclosure
+        node ``j`` or (``j`` None: the enclosure's own, and that of the nodes
+        an effect exposes) straight to the workshop air."""
         p, idx = self._params, self._index
         for a, b in self.spec.edges:
-            g = p[f"G.{a}-{b}"]
-            i, j = idx[a], idx[b]
-            K[i, j] -= g
-            K[j, i] -= g
-            K[i, i] += g
-            K[j, j] += g
+            yield f"G.{a}-{b}", idx[a], idx[b], p[f"G.{a}-{b}"]
         h = self._convection(rpm)
-        to_room = np.zeros(n)
         enc = idx[self.spec.enclosure]
         exposed = set()
         for effect in self._active():
             exposed |= set(effect.exposed_nodes(self))
         for name, i in idx.items():
-            if i == enc:
-                to_room[i] = h[i]
-            elif name in exposed:
-                to_room[i] = h[i]
+            if i == enc or name in exposed:
+                yield f"hA.{name}", i, None, h[i]
             elif h[i] > 0:
-                K[i, enc] -= h[i]
-                K[enc, i] -= h[i]
-                K[enc, enc] += h[i]
-                K[i, i] += h[i]
+                yield f"hA.{name}", i, enc, h[i]
+
+    def _network(self, rpm):
+        """Conductance matrix ``L + H`` and convection to the workshop air."""
+        n = len(self.spec.nodes)
+        K = np.zeros((n, n))
+        to_room = np.zeros(n)
+        for _, i, j, g in self._conductances(rpm):
+            if j is None:
+                to_room[i] = g
+                continue
+            K[i, j] -= g
+            K[j, i] -= g
+            K[i, i] += g
+            K[j, j] += g
         K[np.diag_indices(n)] += to_room
         return K, to_room
 
@@ -392,20 +396,14 @@ class ThermalMachine:
             self._cache[key] = (modal, to_room)
         return self._cache[key]
 
-    def _stiffness(self, rpm):
-        """Fastest over slowest decay rate of the network at ``rpm`` (inf
-        when floating point cannot resolve it)."""
-        K, _ = self._network(float(rpm))
-        d = np.sqrt([self._params[f"C.{n}"] for n in self.spec.nodes])
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            S = K / d[:, None] / d[None, :]
-            if not np.all(np.isfinite(S)):
-                return np.inf
-            try:
-                rates = np.linalg.eigvalsh(S)
-            except np.linalg.LinAlgError:  # pragma: no cover - eigvalsh rarely fails
-                return np.inf
-            return rates[-1] / rates[0] if rates[0] > 0 else np.inf
+    def _resolvable(self, rpm):
+        """Whether floating point resolves the network at ``rpm`` (its
+        :meth:`_modal` system, kept for the simulation)."""
+        try:
+            self._modal(rpm)
+        except _StiffNetwork:
+            return False
+        return True
 
     def network(self, spindle_rpm=0.0):
         """The linear network at one spindle speed.
@@ -1120,7 +1118,7 @@ class ThermalMachine:
         (``initial="steady"``): ``K T = h_room T_air + Q``."""
         Q, cols = self._checked_heat(np.array([rpm0]), np.array([feed0]), run=run)
         T0 = None
-        if self._stiffness(rpm0) <= STIFFNESS_LIMIT:
+        if self._resolvable(rpm0):
             K, to_room = self._network(float(rpm0))
             rhs = to_room * air0
             np.add.at(rhs, cols, Q[0])
@@ -1145,7 +1143,7 @@ class ThermalMachine:
         p, spec = self._params, self.spec
         row = int(np.argmax(rpm))
         fastest = float(rpm[row])
-        if fastest > PLAUSIBLE_RPM and self._stiffness(0.0) <= STIFFNESS_LIMIT:
+        if fastest > PLAUSIBLE_RPM and self._resolvable(0.0):
             where = f"run {run!r}, row {row}" if run is not None else f"row {row}"
             grow = [e for e in ("speed_convection", "tool_growth") if self._on(e)]
             why = (
@@ -1210,24 +1208,11 @@ class ThermalMachine:
         diagonal of :meth:`network` at ``rpm``, the sum its local time
         constant divides by), largest first: its links, its convection and,
         for the enclosure, the convection of the nodes inside it."""
-        p, spec, idx = self._params, self.spec, self._index
-        name = spec.nodes[i]
         with np.errstate(all="ignore"):
-            h = self._convection(float(rpm))
-        exposed = set()
-        for effect in self._active():
-            exposed |= set(effect.exposed_nodes(self))
-        enc = idx[spec.enclosure]
-        items = [
-            (f"G.{a}-{b}", p[f"G.{a}-{b}"]) for a, b in spec.edges if name in (a, b)
-        ]
-        if h[i] > 0:
-            items.append((f"hA.{name}", float(h[i])))
-        if i == enc:
-            items += [
-                (f"hA.{n}", float(h[j]))
-                for n, j in idx.items()
-                if j != enc and n not in exposed and h[j] > 0
+            items = [
+                (name, float(g))
+                for name, a, b, g in self._conductances(float(rpm))
+                if i in (a, b) and g > 0
             ]
         return sorted(items, key=lambda kv: -kv[1])
 
