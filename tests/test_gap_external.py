@@ -480,4 +480,7 @@ def test_the_run_table_mode_reports_each_sensors_drift_rate(rng):
     assert rates["T1_C"] == pytest.approx(0.4, abs=0.05)
     assert abs(rates["T2_C"]) < 0.05
     assert "## Fitted sensor drift" in report.to_markdown()
+    # The ranking's fitted value: the rates' root mean square, 0.4/sqrt(2).
+    row = report.ranking.set_index("effect").loc["sensor_drift"]
+    assert row["fitted"]["rate_C_per_h"] == pytest.approx(0.4 / np.sqrt(2), abs=0.04)
     assert diagnose_runs(sim, meas, candidates=["sensor_lag"]).drift_rates == {}

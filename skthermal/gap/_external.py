@@ -387,6 +387,13 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         **whiteness_columns(before_R, after_R),
         "fitted": {k: float(np.median([t[k] for t in thetas])) for k in full.theta_},
     }
+    if not full.theta_ and name == "sensor_drift":
+        # No nonlinear parameter: the drift rates' root mean square over the
+        # temperature channels in °C/h (median over the folds), as the
+        # ThermalMachine mode and the simulator's ``rate_C_per_h``.
+        rates = np.array([m.gains_[signals.is_temp, -1] for m in models])
+        rms = np.sqrt(np.mean(rates**2, axis=1)) if rates.size else np.array([])
+        row["fitted"] = {"rate_C_per_h": float(np.median(rms))} if rms.size else {}
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
     rb = regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
     ra = regime_gaps(after_R, regimes)

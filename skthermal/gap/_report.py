@@ -117,7 +117,9 @@ class GapReport:
         removed), ``shrink_raw``, ``p_value`` (paired test over held-out
         runs), ``runs_improved``, ``extra_params``, ``xcorr_before`` /
         ``xcorr_after`` (largest residual-driver correlation), ``explains``
-        and the ``fitted`` parameter value. Best first.
+        and the ``fitted`` parameter value (in the run-table mode a dict of
+        the term's parameters; for ``sensor_drift``, which has none, the
+        rates' root mean square ``rate_C_per_h``). Best first.
     best_effect : str or None
         The effect that explains the gap, or None when no candidate explains
         it beyond noise.
