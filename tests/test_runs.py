@@ -336,6 +336,68 @@ def test_models_counting_rows_warn_about_gaps(name):
         model.predict(table.iloc[cut + 30 :])
 
 
+def test_lag_and_transfer_models_warn_about_a_pause_before_a_continued_run():
+    # Rows of a training run given after a pause are predicted across it,
+    # as a gap inside a run: named, as the models counting rows do.
+    from skthermal.linear_model import TransferFunctionRegressor
+    from skthermal.preprocessing import LagFeatures, make_lag_pipeline
+
+    table, y, cut = _split_record()
+    for model in (
+        make_lag_pipeline(time_constant_sets=[(300.0, 1800.0)]),
+        LagFeatures(time_constants=[300.0, 1800.0], drivers=["spindle_rpm"]),
+        TransferFunctionRegressor(speed_column="spindle_rpm", n_grid=4, max_iter=3),
+    ):
+        model.fit(table.iloc[:cut], y[:cut])
+        use = model.transform if hasattr(model, "transform") else model.predict
+        name = type(model[-1] if hasattr(model, "steps") else model).__name__
+        with pytest.warns(UserWarning) as record:
+            use(table.iloc[cut + 30 :])
+        messages = [str(w.message) for w in record]
+        assert any(
+            m.startswith(f"{name}: run ")
+            and "continues 1860 s after its last" in m
+            and "filters across the pause" in m
+            for m in messages
+        ), messages
+        # Each warning once, under the name of the estimator called.
+        assert sum("continues 1860 s" in m for m in messages) == 1
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            use(table.iloc[cut:])  # no pause: no warning
+
+
+@pytest.mark.parametrize("name", ["GreyPSORegressor", "Grey-ANFIS"])
+def test_models_counting_rows_warn_about_another_sampling_period(name):
+    from skthermal.fuzzy import ANFISRegressor
+    from skthermal.grey import GreyPSORegressor
+
+    model = {
+        "GreyPSORegressor": GreyPSORegressor(calibration="ls"),
+        "Grey-ANFIS": ANFISRegressor(grey=True, n_clusters=2, epochs=3, random_state=0),
+    }[name]
+    table, y, cut = _split_record()
+    model.fit(table.iloc[:cut], y[:cut])
+    sparse = table.iloc[::4].assign(run="every 4th row")
+    with pytest.warns(
+        UserWarning,
+        match=r"run 'every 4th row' is sampled every 240 s, the period of the "
+        r"training runs is 60 s\. The model counts rows.*4 times too slow",
+    ):
+        model.predict(sparse)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(table.assign(run="same period"))
+    # In fit, runs logged at other periods than the others.
+    both = pd.concat([table.iloc[:cut], sparse])
+    y_both = np.r_[y[:cut], y[::4]]
+    with pytest.warns(
+        UserWarning,
+        match=r"sampled every 240 s, the period of most of the runs' rows is 60 s",
+    ):
+        model.fit(both, y_both)
+
+
 def _object_array(values):
     out = np.empty(len(values), dtype=object)
     out[:] = values

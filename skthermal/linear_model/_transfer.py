@@ -18,6 +18,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
+    PAUSE_BRIDGE,
     changes_since_start,
     check_positive_numbers,
     continued_runs,
@@ -32,6 +33,7 @@ from skthermal.utils._runs import (
     run_slices,
     run_times,
     warn_no_time,
+    warn_pauses,
     warn_unlabelled_runs,
 )
 
@@ -684,6 +686,10 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         cont = continued_runs(
             type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
         )
+        if self.dt is None:  # a given dt overrides the times, pauses too
+            warn_pauses(
+                type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 3
+            )
         bases = continued_values(cont, memory, "x_first")
         U = self._inputs(X, slices, bases)
         states = continued_values(cont, memory, "state")

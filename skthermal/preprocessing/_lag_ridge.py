@@ -10,8 +10,10 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skthermal.preprocessing._lags import GAP_BRIDGE, LagFeatures
+from skthermal.preprocessing._lags import LagFeatures
 from skthermal.utils._runs import (
+    GAP_BRIDGE,
+    PAUSE_BRIDGE,
     check_positive_numbers,
     check_time_order,
     continued_runs,
@@ -22,6 +24,7 @@ from skthermal.utils._runs import (
     run_times,
     warn_gaps,
     warn_no_time,
+    warn_pauses,
     warn_unlabelled_runs,
 )
 
@@ -463,18 +466,22 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         check_time_order(X_raw, groups)
         # The runs that continue training runs, as lag_features_ takes them:
         # the errors and warnings then name the estimator the user called.
-        continued_runs(
+        memory = self.lag_features_.run_states_
+        cont = continued_runs(
             type(self).__name__,
             X_arr,
             slices,
             labels,
             run_times(X_raw, slices),
-            self.lag_features_.run_states_,
+            memory,
         )
+        warn_pauses(type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 3)
         with warnings.catch_warnings():
             # LagFeatures names itself; the user called LagRidgeCV, and was
-            # just warned about rows without run labels or a late start.
+            # just warned about rows without run labels, a late start or a
+            # pause.
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
+            warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")
             F = self.lag_features_.transform(X_raw, groups=groups)

@@ -15,7 +15,9 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
+    GAP_BRIDGE,
     GAP_STEPS,
+    PAUSE_BRIDGE,
     changes_since_start,
     check_positive_numbers,
     continued_runs,
@@ -33,6 +35,7 @@ from skthermal.utils._runs import (
     run_times,
     warn_gaps,
     warn_no_time,
+    warn_pauses,
     warn_unlabelled_runs,
 )
 
@@ -237,10 +240,6 @@ def exponential_filter(
     return Z.reshape(U.shape)
 
 
-# What the lag filters do across a gap in the times (for the warning).
-GAP_BRIDGE = (
-    "filters across them exactly, taking the inputs to change linearly over each gap"
-)
 # Largest decay (step / time constant) of one step, and of one block of
 # _varying_lowpass: exp(-40) is below the rounding of float64, and exp(80)
 # is far from overflow.
@@ -584,6 +583,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             method=None,
             stacklevel=4,
         )
+        warn_pauses(type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 4)
         bases = continued_values(cont, memory, "x_first")
         states = continued_values(cont, memory, "state")
         lasts = continued_values(cont, memory, "x_last")

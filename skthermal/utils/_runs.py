@@ -1016,14 +1016,26 @@ ROWS_BRIDGE = (
     "counts rows, not seconds, so it reads each gap as one sampling period; "
     "resample the runs onto a regular time grid first"
 )
+# What a model that filters in seconds (lag features, transfer functions)
+# does across a gap in the times, and across a pause before a continued run.
+GAP_BRIDGE = (
+    "filters across them exactly, taking the inputs to change linearly over each gap"
+)
+PAUSE_BRIDGE = (
+    "filters across the pause exactly, taking the inputs to change linearly "
+    "over it, so what happened in it (a spindle start, a door opened) is not "
+    "seen; give the rows of the pause too"
+)
+# Relative difference of sampling periods a model that counts rows lets
+# pass between its training runs and the runs it predicts.
+PERIOD_RTOL = 0.1
 
 
-def warn_row_gaps(name, X, slices, labels, cont=None, memory=None, stacklevel=5):
-    """Warnings of a model that counts rows: gaps inside the runs
-    (:func:`warn_gaps`), and, in ``predict``, a run that continues a
-    training run (``cont`` from :func:`continued_runs`) later than one
-    sampling period after its last training row."""
-    warn_gaps(name, X, slices, labels, ROWS_BRIDGE, stacklevel=stacklevel)
+def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
+    """Warn about a predicted run that continues a training run (``cont``
+    from :func:`continued_runs`, ``memory`` from :func:`run_memory`) more
+    than ``GAP_STEPS`` sampling periods after its last training row: a gap
+    between ``fit`` and ``predict``, which the model ``bridged``."""
     t = row_times(X)
     if cont is None or t is None:
         return
@@ -1041,11 +1053,87 @@ def warn_row_gaps(name, X, slices, labels, cont=None, memory=None, stacklevel=5)
             warnings.warn(
                 f"{name}: run {lab!r} continues {pause:g} s after its last "
                 f"training row (time_s={t1:g}), at a sampling period of "
-                f"{period:g} s. The model {ROWS_BRIDGE}, or predict the run "
+                f"{period:g} s. The model {bridged}, or predict the run "
                 "from its start.",
                 UserWarning,
                 stacklevel=stacklevel,
             )
+
+
+def _median_periods(t, slices):
+    """Median time step of every run of at least two rows (NaN otherwise)."""
+    return np.array(
+        [
+            float(np.median(np.diff(t[sl]))) if sl.stop - sl.start > 1 else np.nan
+            for sl in slices
+        ]
+    )
+
+
+def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
+    """Warn when runs are sampled at different periods, for a model that
+    counts rows (its dynamics are per sample, so a run logged every 60 s
+    is read as four times slower than one logged every 15 s).
+
+    In ``fit`` (``memory`` None) the runs are compared with the period of
+    most of their rows; in ``predict`` with the training runs' (from ``memory``, the
+    :func:`run_memory` of the training runs; nothing to compare without
+    labelled training runs). Names the run that differs most.
+    """
+    t = row_times(X)
+    if t is None:
+        return
+    periods = _median_periods(t, slices)
+    if memory is None:
+        # The median over the runs' time steps: the period most rows have.
+        steps = np.array([sl.stop - sl.start - 1 for sl in slices], dtype=float)
+        ok = np.isfinite(periods)
+        if not ok.any():
+            return
+        order = np.argsort(periods[ok])
+        cum = np.cumsum(steps[ok][order])
+        ref = periods[ok][order][np.searchsorted(cum, 0.5 * cum[-1])]
+        against = "the period of most of the runs' rows"
+    else:
+        fitted = [
+            (m["t_last"] - m["t_first"]) / (m["n"] - 1)
+            for m in memory.values()
+            if m["n"] > 1 and np.isfinite(m["t_last"]) and np.isfinite(m["t_first"])
+        ]
+        ref = float(np.median(fitted)) if fitted else np.nan
+        against = "the period of the training runs"
+    if not (np.isfinite(ref) and ref > 0):
+        return
+    off = np.abs(periods / ref - 1.0)
+    off[~np.isfinite(off)] = 0.0
+    if not (off > PERIOD_RTOL).any():
+        return
+    import warnings
+
+    r = int(np.argmax(off))
+    where = "" if labels[r] is None else f"run {labels[r]!r} "
+    warnings.warn(
+        f"{name}: {where}is sampled every {periods[r]:g} s, {against} is "
+        f"{ref:g} s. The model counts rows, not seconds, so its dynamics "
+        f"run {max(ref / periods[r], periods[r] / ref):.3g} times too "
+        f"{'slow' if periods[r] > ref else 'fast'} on that run; resample "
+        f"the runs onto one time grid ({ref:g} s) first.",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
+
+
+def warn_row_gaps(name, X, slices, labels, cont=None, memory=None, stacklevel=5):
+    """Warnings of a model that counts rows: gaps inside the runs
+    (:func:`warn_gaps`), runs sampled at another period than the others
+    (in ``fit``) or than the training runs (in ``predict``, with
+    ``memory``; :func:`warn_row_periods`), and, in ``predict``, a run that
+    continues a training run (``cont`` from :func:`continued_runs`) later
+    than one sampling period after its last training row
+    (:func:`warn_pauses`)."""
+    warn_gaps(name, X, slices, labels, ROWS_BRIDGE, stacklevel=stacklevel)
+    warn_row_periods(name, X, slices, labels, memory, stacklevel=stacklevel)
+    warn_pauses(name, X, slices, cont, memory, ROWS_BRIDGE, stacklevel=stacklevel)
 
 
 def continued_values(cont, memory, key):
