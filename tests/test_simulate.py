@@ -604,6 +604,38 @@ def test_calibration_input_gaps_are_named():
         machine.calibrate(runs.to_dict("list"), ["q.bearing_W"])
 
 
+def test_calibration_names_bad_values_by_column_run_and_row():
+    machine = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = machine.simulate(DutyCycle([(1200, 4000)]), sample_period_s=300, noise=False)
+    bad = runs.copy()
+    bad.loc[2, "disp_ch1_um"] = np.nan
+    with pytest.raises(
+        ValueError, match=r"Column 'disp_ch1_um' is missing \(NaN\) at row 2, run"
+    ):
+        machine.calibrate(bad, ["q.bearing_W"])
+    text = runs.astype({"spindle_rpm": object})
+    text.loc[3, "spindle_rpm"] = "fast"
+    with pytest.raises(
+        ValueError, match=r"Column 'spindle_rpm' is not numeric: row 3 .* 'fast'"
+    ):
+        machine.calibrate(text, ["q.bearing_W"])
+
+
+def test_a_channel_that_barely_moves_does_not_bend_the_calibration():
+    # disp_x of this test is noise around zero (0.4 µm against 19 and 4.5
+    # µm): scaled by its own spread, it weighed as much as disp_y and the fit
+    # chased its noise (k 0.33 for 1.8, disp_z's error up from 0.3 to 2 µm).
+    machine = ThermalMachine.from_preset("vmc-b")
+    duty = DutyCycle.heat_cool(8000, heat_h=1, cool_h=1)
+    air = AmbientProfile(
+        mean_C=20, day_amplitude_C=2.5, door_events=[DoorEvent(start_h=1.5)]
+    )
+    run = machine.simulate(duty, air, sample_period_s=30, run="V", random_state=2)
+    _, result = machine.calibrate(run, ["q.bearing_W", "k.y.carrier3"])
+    np.testing.assert_allclose(result.params, [10.0, 1.8], rtol=0.06)
+    assert (result.rmse_after <= 1.05 * result.rmse_before).all()
+
+
 def test_read_takes_a_dataframe_by_column_name():
     m = ThermalMachine.from_preset("spindle-rig", effects=[])
     _, states = m.simulate(

@@ -44,7 +44,11 @@ from skthermal.simulate._spec import (
     parameter_entry,
     parameter_range,
 )
-from skthermal.utils._runs import is_clock_dtype
+from skthermal.utils._runs import (
+    check_finite_columns,
+    check_numeric_columns,
+    is_clock_dtype,
+)
 from skthermal.utils._threads import single_threaded_blas
 
 
@@ -774,8 +778,11 @@ class ThermalMachine:
         Each run is simulated from its own drivers (``time_s``, ``spindle_rpm``,
         ``ambient_C`` and, if present, ``feed_mm_min``) without noise, and
         ``scipy.optimize.least_squares`` adjusts the named parameters to minimise
-        the squared differences with the measured channels (each channel scaled by
-        its standard deviation). Every channel is compared as its change since
+        the squared differences with the measured channels. Displacements are
+        scaled together by the root mean square of their standard deviations,
+        temperatures likewise, so that a channel that barely moves weighs by
+        its error in µm (or °C), not as much as one carrying the signal. Every
+        channel is compared as its change since
         the start of each run (a temperature sensor's calibration offset does
         not bend the fit).
 
@@ -1560,19 +1567,35 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     for c in channels:
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")
+    # A text, a missing or an infinite value in a fitted channel or a driver
+    # is named by its column, run, row and time.
+    read = [
+        c
+        for c in ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min", *channels)
+        if c in runs.columns
+    ]
+    check_numeric_columns(runs[read], runs["run"])
+    check_finite_columns(runs[read].astype(float), runs["run"])
     groups = [(run, frame) for run, frame in runs.groupby("run", sort=False)]
     measured = []
     for run, frame in groups:
         y = frame[channels].to_numpy(float, copy=True)
-        if not np.all(np.isfinite(y)):
-            raise ValueError(f"Run {run!r} has missing values in {channels}.")
         # Every channel is compared as its change since the start of the
         # run: displacements start at zero in the simulation, and a sensor's
         # calibration offset is not physics (compared as read, it would bend
         # the fitted parameters).
         y -= y[0]
         measured.append(y)
-    scale = np.concatenate(measured).std(axis=0)
+    # One scale per kind of channel (displacements, temperatures): the root
+    # mean square of their spreads. Scaled each by its own spread, a channel
+    # that barely moves (noise around zero) would weigh as much as one that
+    # carries the signal, and the fit would chase its noise.
+    spread = np.concatenate(measured).std(axis=0)
+    is_temp = np.array([c not in machine.targets for c in channels])
+    scale = np.empty(len(channels))
+    for kind in (is_temp, ~is_temp):
+        if kind.any():
+            scale[kind] = np.sqrt(np.mean(spread[kind] ** 2))
     scale = np.where(scale > 0, scale, 1.0)
 
     def simulate_all(values):
