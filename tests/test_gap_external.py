@@ -453,6 +453,10 @@ def test_input_checks_name_what_is_wrong(pair):
     short = meas.groupby("run", sort=False).head(7)
     with pytest.raises(ValueError, match="has 7 samples; at least 8"):
         diagnose_runs(sim, short)
+    # The run named as labelled (labels are case-sensitive).
+    upper = {"run": lambda d: d["run"].str.upper()}
+    with pytest.raises(ValueError, match="Run 'R0' of the measured table has 7"):
+        diagnose_runs(sim.assign(**upper), short.assign(**upper))
 
 
 def test_dead_probe_and_extra_simulated_run(pair):
@@ -483,4 +487,8 @@ def test_the_run_table_mode_reports_each_sensors_drift_rate(rng):
     # The ranking's fitted value: the rates' root mean square, 0.4/sqrt(2).
     row = report.ranking.set_index("effect").loc["sensor_drift"]
     assert row["fitted"]["rate_C_per_h"] == pytest.approx(0.4 / np.sqrt(2), abs=0.04)
+    reported = np.array(list(rates.values()))
+    assert row["fitted"]["rate_C_per_h"] == pytest.approx(
+        np.sqrt(np.mean(reported**2)), rel=1e-12
+    )
     assert diagnose_runs(sim, meas, candidates=["sensor_lag"]).drift_rates == {}

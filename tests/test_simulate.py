@@ -636,6 +636,16 @@ def test_a_channel_that_barely_moves_does_not_bend_the_calibration():
     assert (result.rmse_after <= 1.05 * result.rmse_before).all()
 
 
+def test_response_names_a_driver_of_the_wrong_shape():
+    machine = ThermalMachine.from_preset("spindle-rig", effects=[])
+    t = np.arange(0, 3600, 60.0)
+    rpm = np.full(t.size, 3000.0)
+    with pytest.raises(ValueError, match=r"ambient_C must be a flat .* got shape \(\)"):
+        machine.response(t, rpm, 20.0)
+    with pytest.raises(ValueError, match=r"spindle_rpm .* shape \(60,\).*\(60, 1\)"):
+        machine.response(t, rpm[:, None], np.full(t.size, 20.0))
+
+
 def test_read_takes_a_dataframe_by_column_name():
     m = ThermalMachine.from_preset("spindle-rig", effects=[])
     _, states = m.simulate(

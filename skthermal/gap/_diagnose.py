@@ -224,9 +224,10 @@ def _evaluate(
         )
     elif candidate in RESIDUAL_EFFECTS:
         # The drift rates' spread over the temperature channels in °C/h, as
-        # the simulator's rate_C_per_h (median over the folds).
-        rates = drift_rates_C_per_h(ctx.problem, fits)
-        row["fitted"] = float(np.median(np.sqrt(np.mean(rates**2, axis=1))))
+        # the simulator's rate_C_per_h: the root mean square of the rates
+        # of report.drift_rates (each the median over the folds).
+        rates = np.median(drift_rates_C_per_h(ctx.problem, fits), axis=0)
+        row["fitted"] = float(np.sqrt(np.mean(rates**2)))
     else:
         row["fitted"] = np.nan
     signature = None

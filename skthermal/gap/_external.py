@@ -388,12 +388,14 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         "fitted": {k: float(np.median([t[k] for t in thetas])) for k in full.theta_},
     }
     if not full.theta_ and name == "sensor_drift":
-        # No nonlinear parameter: the drift rates' root mean square over the
-        # temperature channels in °C/h (median over the folds), as the
-        # ThermalMachine mode and the simulator's ``rate_C_per_h``.
+        # No nonlinear parameter: the root mean square over the temperature
+        # channels of the drift rates of report.drift_rates (each the median
+        # over the folds) in °C/h, as the ThermalMachine mode and the
+        # simulator's ``rate_C_per_h``.
         rates = np.array([m.gains_[signals.is_temp, -1] for m in models])
-        rms = np.sqrt(np.mean(rates**2, axis=1)) if rates.size else np.array([])
-        row["fitted"] = {"rate_C_per_h": float(np.median(rms))} if rms.size else {}
+        if rates.size:
+            rates = np.median(rates, axis=0)
+            row["fitted"] = {"rate_C_per_h": float(np.sqrt(np.mean(rates**2)))}
     row["explains"] = bool(shrink >= min_shrink and p < alpha)
     rb = regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
     ra = regime_gaps(after_R, regimes)

@@ -185,7 +185,7 @@ def check_length(n, run, table=""):
     ``MIN_SAMPLES`` samples."""
     if n < MIN_SAMPLES:
         raise ValueError(
-            f"{_where(run, table).capitalize()} has {n} samples; at least "
+            f"R{_where(run, table)[1:]} has {n} samples; at least "
             f"{MIN_SAMPLES} are needed (its change since the start is taken "
             f"against the mean of the first {START_SAMPLES})."
         )

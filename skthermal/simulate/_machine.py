@@ -1034,8 +1034,9 @@ class ThermalMachine:
         ):
             if a.shape != (n,):
                 raise ValueError(
-                    f"{name} has {a.shape[0] if a.ndim else 0} values for {n} "
-                    f"times (run {run!r})."
+                    f"{name} must be a flat sequence of one value per time, "
+                    f"shape ({n},), for the {n} times of run {run!r}; got "
+                    f"shape {a.shape}."
                 )
         if n < 2:
             raise ValueError(
@@ -1572,7 +1573,8 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     read = [
         c
         for c in ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min", *channels)
-        if c in runs.columns
+        # Clock times are named per run by _run_drivers.
+        if c in runs.columns and not is_clock_dtype(runs[c].dtype)
     ]
     check_numeric_columns(runs[read], runs["run"])
     check_finite_columns(runs[read].astype(float), runs["run"])
