@@ -492,3 +492,22 @@ def test_the_run_table_mode_reports_each_sensors_drift_rate(rng):
         np.sqrt(np.mean(reported**2)), rel=1e-12
     )
     assert diagnose_runs(sim, meas, candidates=["sensor_lag"]).drift_rates == {}
+
+
+def test_the_default_folds_do_not_depend_on_the_order_of_the_runs(rng):
+    sim, meas = _tables(rng, "sensor_lag", n_runs=4, hours=4.0)
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag", "sensor_drift"])
+    order = ["r3", "r1", "r0", "r2"]
+
+    def reordered(table):
+        return pd.concat([table[table["run"] == r] for r in order], ignore_index=True)
+
+    again = diagnose_runs(
+        reordered(sim), reordered(meas), candidates=["sensor_lag", "sensor_drift"]
+    )
+    columns = ["effect", "gap_before", "gap_after", "shrink", "p_value"]
+    pd.testing.assert_frame_equal(
+        report.ranking[columns].reset_index(drop=True),
+        again.ranking[columns].reset_index(drop=True),
+        rtol=1e-9,
+    )

@@ -537,7 +537,7 @@ def diagnose(
     if len(problem.runs) < 2:
         longest = runs.groupby("run", sort=False)["time_s"].agg(np.ptp).max()
         raise too_few_runs(len(problem.runs), float(longest), block_hours)
-    folds = heldout_folds(len(problem.runs), cv)
+    folds = heldout_folds(len(problem.runs), cv, [r.name for r in problem.runs])
     # The simulation as given: what the candidates are checked against, and
     # the first residuals of the "where" step.
     simulated = [predict_run(machine, problem, r) for r in problem.runs]

@@ -651,7 +651,9 @@ def diagnose_runs(
     signals = Signals(runs, ~problem.is_disp, w)
     n = len(runs)
     all_idx = list(range(n))
-    folds = [(list(tr), list(te)) for tr, te in heldout_folds(n, cv)]
+    folds = [
+        (list(tr), list(te)) for tr, te in heldout_folds(n, cv, [r.name for r in runs])
+    ]
     # Terms with nothing to act on (no feed, no compared channel of their
     # kind) are not scored: a zero term would only add noise to the ranking.
     not_applicable = {

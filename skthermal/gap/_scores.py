@@ -111,13 +111,20 @@ def applicable(candidates, not_applicable):
     return left
 
 
-def heldout_folds(n_runs, cv):
+def heldout_folds(n_runs, cv, labels=None):
     """(train, test) run indices: leave-one-run-out for up to 3 runs, else
     3-fold GroupKFold; an int is a number of GroupKFold splits; a splitter
     splits the runs (each run one group); an iterable of (train, test)
     index arrays gives the folds over the runs (in their order in the
-    table, blocks of ``block_hours`` counting as runs)."""
+    table, blocks of ``block_hours`` counting as runs).
+
+    With the runs' ``labels``, the default and an int's GroupKFold group
+    the runs by their labels in sorted order, so the folds hold the same
+    runs whatever their order in the table."""
     groups = np.arange(n_runs)
+    if labels is not None and (cv is None or isinstance(cv, Integral)):
+        keys = [str(label) for label in labels]
+        groups = np.argsort(np.argsort(keys, kind="stable"), kind="stable")
     if cv is None:
         cv = LeaveOneGroupOut() if n_runs <= 3 else GroupKFold(n_splits=3)
     elif isinstance(cv, Integral) and not isinstance(cv, bool):
