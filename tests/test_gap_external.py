@@ -511,3 +511,12 @@ def test_the_default_folds_do_not_depend_on_the_order_of_the_runs(rng):
         again.ranking[columns].reset_index(drop=True),
         rtol=1e-9,
     )
+
+
+def test_time_in_hours_is_flagged(rng):
+    sim, meas = _tables(rng, "null", n_runs=3, hours=4.0)
+    hours = {"time_s": lambda d: d["time_s"] / 3600.0}
+    with pytest.warns(UserWarning, match=r"longest run \('r\d'\) lasts 3\.98\d* s"):
+        diagnose_runs(
+            sim.assign(**hours), meas.assign(**hours), candidates=["sensor_lag"]
+        )

@@ -621,6 +621,15 @@ def test_calibration_names_bad_values_by_column_run_and_row():
         machine.calibrate(text, ["q.bearing_W"])
 
 
+def test_calibration_flags_time_in_hours():
+    machine = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = machine.simulate(DutyCycle([(7200, 4000)]), sample_period_s=300, noise=False)
+    with pytest.warns(
+        UserWarning, match=r"calibrate: the longest run .* lasts 2 s of time_s"
+    ):
+        machine.calibrate(runs.assign(time_s=runs["time_s"] / 3600), ["q.bearing_W"])
+
+
 def test_a_channel_that_barely_moves_does_not_bend_the_calibration():
     # disp_x of this test is noise around zero (0.4 µm against 19 and 4.5
     # µm): scaled by its own spread, it weighed as much as disp_y and the fit

@@ -66,7 +66,7 @@ from skthermal.gap._terms import (
     Signals,
     flexible_heldout,
 )
-from skthermal.utils._runs import check_labels
+from skthermal.utils._runs import check_labels, warn_short_runs
 
 logger = logging.getLogger("skthermal.gap")
 
@@ -214,6 +214,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
                 [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
             )
         out.append((name, t, drivers, y_meas, y_sim))
+    warn_short_runs("diagnose_runs", {name: t[-1] - t[0] for name, t, *_ in out}, 5)
     blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
     if sum(len(b) for b in blocks) < 2:
         longest = max(float(t[-1] - t[0]) for _, t, *_ in out)

@@ -20,7 +20,7 @@ from scipy.optimize import least_squares
 
 from skthermal._naming import suggest
 from skthermal.simulate import EFFECTS
-from skthermal.utils._runs import check_labels, is_clock_dtype
+from skthermal.utils._runs import check_labels, is_clock_dtype, warn_short_runs
 
 # Base calibration. The network's time scales are set by two multipliers (all
 # capacities, all convection coefficients), fitted by nonlinear least squares.
@@ -386,6 +386,7 @@ def build_problem(
         check_length(t.size, name)
         check_times(t, name)
         read.append((name, frame, t, channel_values(frame, channels, t, name)))
+    warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_channels = [mapping.get(c, c) for c in channels]

@@ -48,6 +48,7 @@ from skthermal.utils._runs import (
     check_finite_columns,
     check_numeric_columns,
     is_clock_dtype,
+    warn_short_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
 
@@ -1579,6 +1580,12 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     check_numeric_columns(runs[read], runs["run"])
     check_finite_columns(runs[read].astype(float), runs["run"])
     groups = [(run, frame) for run, frame in runs.groupby("run", sort=False)]
+    if "time_s" in runs.columns and not is_clock_dtype(runs["time_s"].dtype):
+        warn_short_runs(
+            "calibrate",
+            {run: np.ptp(f["time_s"].to_numpy(float)) for run, f in groups},
+            4,
+        )
     measured = []
     for run, frame in groups:
         y = frame[channels].to_numpy(float, copy=True)

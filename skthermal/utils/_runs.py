@@ -966,6 +966,31 @@ def warn_no_time(name, X, dt, time_constants=None):
 GAP_STEPS = 1.5
 
 
+# The shortest longest run of a thermal test, in seconds: machine tools take
+# hours to warm up, so runs that all last less suggest ``time_s`` was given in
+# hours or minutes.
+THERMAL_SPAN_S = 600.0
+
+
+def warn_short_runs(who, spans, stacklevel=3):
+    """Warn when every run spans less than :data:`THERMAL_SPAN_S` seconds:
+    ``spans`` maps run labels to the span of their ``time_s``."""
+    if not spans:
+        return
+    label, longest = max(spans.items(), key=lambda item: item[1])
+    if longest >= THERMAL_SPAN_S:
+        return
+    import warnings
+
+    warnings.warn(
+        f"{who}: the longest run ({label!r}) lasts {longest:g} s of time_s. "
+        "Thermal drift builds up over hours; time_s must be in seconds (a "
+        "run logged in hours or minutes reads as a few seconds).",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
+
+
 def gap_steps(steps):
     """Which of a run's time steps are gaps (missing samples): longer than
     ``GAP_STEPS`` times the run's median step."""
