@@ -589,6 +589,9 @@ def build_parser():
     _add_search(sub)
     _add_gap(sub)
     _add_demo(sub)
+    # The command parsers, so that main can report an unknown option in the
+    # command's own words.
+    parser.commands = sub.choices
     return parser
 
 
@@ -596,7 +599,12 @@ def main(argv=None):
     """Entry point of the ``skthermal`` command; returns the exit status."""
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        # An option the command does not take: its own usage error (and the
+        # hint to its --help), not the top-level one.
+        where = parser.commands.get(args.command, parser)
+        where.error(f"unrecognized arguments: {' '.join(unknown)}")
     if args.command is None:
         parser.print_help()
         return 0

@@ -31,6 +31,17 @@ def test_user_error_is_one_line_and_exit_2(capsys):
     assert err.count("\n") == 1 and "--runs must be at least 2" in err
 
 
+def test_an_unknown_option_is_the_commands_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["demo", "--quick"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err == (
+        "skthermal demo: error: unrecognized arguments: --quick "
+        "(see 'skthermal demo --help')\n"
+    )
+
+
 def test_module_entry_point_and_help():
     res = subprocess.run(
         [sys.executable, "-m", "skthermal", "demo", "--help"],

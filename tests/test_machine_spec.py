@@ -242,6 +242,10 @@ def test_a_small_machine_from_a_dict_simulates():
             r"Unknown parameter\(s\) 'q.bearng_W' \(did you mean 'q.bearing_W'\?\)",
         ),
         (
+            lambda d: d["displacement"]["z"].update(housng=1.0),
+            r"displacement 'z': unknown node 'housng' \(did you mean 'housing'",
+        ),
+        (
             lambda d: d["displacement"]["z"].update(screw=1.0),
             r"'k.z.screw' \(the ball screw's growth counts only on the feed axis",
         ),

@@ -600,6 +600,10 @@ def test_calibration_input_gaps_are_named():
             ["q.bearing_W"],
             bounds={"q.bearing_W": (1, 50), "q.bearng_W": (0, 1)},
         )
+    with pytest.raises(
+        ValueError, match=r"\['q.bearng_W'\].*did you mean 'q.bearing_W'"
+    ):
+        machine.calibrate(runs, ["q.bearing_W"], bounds={"q.bearng_W": (1, 50)})
     with pytest.raises(TypeError, match="runs must be a run table .* got dict"):
         machine.calibrate(runs.to_dict("list"), ["q.bearing_W"])
 

@@ -1303,15 +1303,16 @@ def _check_bounds(bounds, params):
     pairs of numbers, low below high, inside each parameter's valid range
     (:func:`~skthermal.simulate._spec.parameter_range`)."""
     if isinstance(bounds, dict):
-        missing = [k for k in params if k not in bounds]
-        if missing:
-            raise ValueError(f"bounds has no entry for {missing}.")
+        # A mistyped key first: it is also why an entry is missing.
         extra = [k for k in bounds if k not in params]
         if extra:
             raise ValueError(
                 f"bounds names {extra}, not among the parameters to calibrate "
                 f"{params}{suggest(str(extra[0]), params)}."
             )
+        missing = [k for k in params if k not in bounds]
+        if missing:
+            raise ValueError(f"bounds has no entry for {missing}.")
         pairs = [bounds[k] for k in params]
     elif not isinstance(bounds, list | tuple | np.ndarray):
         raise ValueError(

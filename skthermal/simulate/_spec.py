@@ -1101,7 +1101,14 @@ class MachineSpec:
         for axis in axes:
             p.update({f"k.{axis}.{n}": 0.0 for n in nodes})
             coefficients = disp.get(axis, {})
-            _check_fields(f"displacement {axis!r}", coefficients, [*nodes, "screw"])
+            # Keys are nodes (and the ball screw, checked with the feed
+            # drive below): a misspelt one is an unknown node.
+            known = [*nodes, "screw"]
+            if not isinstance(coefficients, dict):
+                _check_fields(f"displacement {axis!r}", coefficients, known)
+            for node in coefficients:
+                if node not in known:
+                    raise _unknown(f"displacement {axis!r}", node, known)
             for node, value in coefficients.items():
                 p[f"k.{axis}.{node}"] = _number(f"displacement {axis!r}: {node}", value)
                 given.add(f"k.{axis}.{node}")
