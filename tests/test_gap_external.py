@@ -279,11 +279,21 @@ def test_empty_tables_and_missing_values(pair):
 
 def test_constant_channels(pair):
     sim, meas = pair
-    # Constant in the simulation only: the base gain is 0, with a warning.
-    with pytest.warns(UserWarning, match=r"simulated channel\(s\) \['T2_C'\] are"):
+    # Constant in the simulation only: a channel it does not model, where no
+    # missing effect can be judged (a term of the drivers alone would take
+    # up its whole change), is left out with a warning...
+    with pytest.warns(UserWarning, match=r"\['T2_C'\] are constant .* left out"):
         report = diagnose_runs(sim.assign(T2_C=21.0), meas, greedy=False)
+    assert report.settings["channels"] == ["T1_C", "disp_z_um"]
+    # ... and named in channels=, compared with a base gain of 0.
+    with pytest.warns(UserWarning, match=r"simulated channel\(s\) \['T2_C'\] are"):
+        report = diagnose_runs(
+            sim.assign(T2_C=21.0), meas, channels=["T1_C", "T2_C"], greedy=False
+        )
     assert "T2_C" in report.settings["channels"]
     assert report.machines["base calibrated"].gains_[1, 0] == 0.0
+    with pytest.raises(ValueError, match="predicts no change on any compared"):
+        diagnose_runs(sim.assign(T1_C=20.0, T2_C=21.0, disp_z_um=0.0), meas)
     # Constant in both tables: nothing to diagnose on it.
     flat_sim, flat_meas = sim.assign(T2_C=21.0), meas.assign(T2_C=21.0)
     with pytest.raises(ValueError, match=r"\['T2_C'\] are constant in both tables"):

@@ -252,7 +252,8 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
     run has nothing to diagnose: an error when chosen explicitly, else left
     out with a warning. So is a channel whose measurement alone is constant
     on every run (:func:`measured_varying`). A channel constant only in the
-    simulation is kept (the base gain is then 0) with a warning."""
+    simulation (one it does not model) is left out with a warning, or, when
+    chosen explicitly, kept (the base gain is then 0) with a warning."""
     flat_m = np.all([flat_columns(y) for _, _, _, y, _ in aligned], axis=0)
     flat_s = np.all([flat_columns(y) for _, _, _, _, y in aligned], axis=0)
     both = [c for c, f in zip(channels, flat_m & flat_s, strict=True) if f]
@@ -283,8 +284,9 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
         explicit,
         stacklevel=6,
     )
-    only_sim = [c for c, f in zip(sim_cols, flat_s & ~flat_m, strict=True) if f]
-    if only_sim:
+    unmodelled = flat_s & ~flat_m & keep
+    only_sim = [c for c, f in zip(sim_cols, unmodelled, strict=True) if f]
+    if only_sim and explicit:
         warnings.warn(
             f"The simulated channel(s) {only_sim} are constant on every run: the "
             "simulation predicts no change there, so the base gain is 0 and the "
@@ -292,6 +294,26 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
             UserWarning,
             stacklevel=5,
         )
+    elif only_sim:
+        # The simulation does not model them: any term built from the drivers
+        # alone would take up their whole measured change, and be named for
+        # it whatever the missing physics.
+        if not (keep & ~unmodelled).any():
+            raise ValueError(
+                f"The simulated channel(s) {only_sim} are constant on every run: "
+                "the simulation predicts no change on any compared channel, so "
+                "no effect can be judged against it."
+            )
+        warnings.warn(
+            f"The simulated channel(s) {only_sim} are constant on every run: the "
+            "simulation does not model them, so no missing effect can be "
+            "judged there, and they are left out (name them in channels= to "
+            "compare them anyway; their whole measured change then counts as "
+            "gap).",
+            UserWarning,
+            stacklevel=5,
+        )
+        keep = keep & ~unmodelled
     return keep
 
 
