@@ -335,7 +335,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         # With relative=True, a labelled run continues in predict from its
         # first training row.
         self.run_states_ = (
-            run_memory(X, slices, labels, run_times(X_raw, slices))
+            run_memory(X, slices, labels, run_times(X_raw, slices), X_raw)
             if self.relative
             else {}
         )

@@ -101,7 +101,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, None, groups, X.shape[0], X=frame, stacklevel=5
         )
-        return X, y, slices, run_memory(X, slices, labels, times)
+        return X, y, slices, run_memory(X, slices, labels, times, frame)
 
     def _runs_for_predict(self, X, groups):
         """Validated inputs, the runs and, per run, the state it continues."""

@@ -1070,10 +1070,10 @@ def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
     for lab, pause in zip(cont, pauses, strict=True):
         if lab is None:
             continue
-        n, t0, t1 = (memory[lab][k] for k in ("n", "t_first", "t_last"))
-        if n < 2 or not np.isfinite(t1):
+        t1 = memory[lab]["t_last"]
+        period = memory_period(memory[lab])
+        if not np.isfinite(period):
             continue
-        period = (t1 - t0) / (n - 1)
         if pause > GAP_STEPS * period:
             warnings.warn(
                 f"{name}: run {lab!r} continues {pause:g} s after its last "
@@ -1120,11 +1120,8 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
         ref = periods[ok][order][np.searchsorted(cum, 0.5 * cum[-1])]
         against = "the period of most of the runs' rows"
     else:
-        fitted = [
-            (m["t_last"] - m["t_first"]) / (m["n"] - 1)
-            for m in memory.values()
-            if m["n"] > 1 and np.isfinite(m["t_last"]) and np.isfinite(m["t_first"])
-        ]
+        fitted = [memory_period(m) for m in memory.values()]
+        fitted = [p for p in fitted if np.isfinite(p)]
         ref = float(np.median(fitted)) if fitted else np.nan
         against = "the period of the training runs"
     if not (np.isfinite(ref) and ref > 0):
@@ -1419,15 +1416,19 @@ class RunMemory(dict):
         return super().get(run_key(label), default)
 
 
-def run_memory(X, slices, labels, times):
+def run_memory(X, slices, labels, times, frame=None):
     """What a sequence model keeps of each labelled training run, to continue it.
 
     Returns a :class:`RunMemory` ``label -> {"n", "x_first", "x_last",
-    "t_first", "t_last"}`` for every labelled run (rows without labels are
-    one anonymous run, never continued): the number of rows, the first and
-    last rows of inputs and the first and last ``time_s`` (NaN without a
-    time index). A model adds its own end state.
+    "t_first", "t_last", "period"}`` for every labelled run (rows without
+    labels are one anonymous run, never continued): the number of rows, the
+    first and last rows of inputs, the first and last ``time_s`` (NaN
+    without a time index) and, from the row times of ``frame`` (the input
+    as given), the run's sampling period, its median time step (else NaN).
+    A model adds its own end state.
     """
+    t = None if frame is None else row_times(frame)
+    periods = np.full(len(slices), np.nan) if t is None else _median_periods(t, slices)
     memory = RunMemory()
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         if lab is None:
@@ -1439,8 +1440,21 @@ def run_memory(X, slices, labels, times):
             "x_last": np.array(X[sl.stop - 1], dtype=float),
             "t_first": float(t0),
             "t_last": float(t1),
+            "period": float(periods[r]),
         }
     return memory
+
+
+def memory_period(state):
+    """The sampling period of a remembered training run: its median time
+    step, else its mean one (a memory kept before periods were)."""
+    period = state.get("period", np.nan)
+    if np.isfinite(period):
+        return float(period)
+    n, t0, t1 = state["n"], state["t_first"], state["t_last"]
+    if n < 2 or not (np.isfinite(t0) and np.isfinite(t1)):
+        return np.nan
+    return (t1 - t0) / (n - 1)
 
 
 def continued_runs(
