@@ -319,15 +319,20 @@ def test_missing_target_is_named_with_its_run_and_time(name):
         _regressors()[name].fit(table, y)
 
 
-@pytest.mark.parametrize("name", ["GreyPSORegressor", "Grey-ANFIS"])
-def test_models_counting_rows_warn_about_gaps(name):
+def _row_counting_models():
+    """The models whose dynamics count rows, not seconds."""
     from skthermal.fuzzy import ANFISRegressor
     from skthermal.grey import GreyPSORegressor
 
-    model = {
+    return {
         "GreyPSORegressor": GreyPSORegressor(calibration="ls"),
         "Grey-ANFIS": ANFISRegressor(grey=True, n_clusters=2, epochs=3, random_state=0),
-    }[name]
+    }
+
+
+@pytest.mark.parametrize("name", ["GreyPSORegressor", "Grey-ANFIS"])
+def test_models_counting_rows_warn_about_gaps(name):
+    model = _row_counting_models()[name]
     table, y, cut = _split_record()
     keep = np.r_[0:20, 30:cut]  # 10 samples missing
     with pytest.warns(UserWarning, match=r"1 gap\(s\).*lasts 660 s.*counts rows"):
@@ -374,13 +379,7 @@ def test_lag_and_transfer_models_warn_about_a_pause_before_a_continued_run():
 
 @pytest.mark.parametrize("name", ["GreyPSORegressor", "Grey-ANFIS"])
 def test_models_counting_rows_warn_about_another_sampling_period(name):
-    from skthermal.fuzzy import ANFISRegressor
-    from skthermal.grey import GreyPSORegressor
-
-    model = {
-        "GreyPSORegressor": GreyPSORegressor(calibration="ls"),
-        "Grey-ANFIS": ANFISRegressor(grey=True, n_clusters=2, epochs=3, random_state=0),
-    }[name]
+    model = _row_counting_models()[name]
     table, y, cut = _split_record()
     model.fit(table.iloc[:cut], y[:cut])
     sparse = table.iloc[::4].assign(run="every 4th row")
