@@ -794,3 +794,61 @@ def test_from_parameters_and_auto_ridge_name_bad_input(rng):
     X = rng.normal(size=(3, 2))
     with pytest.raises(ValueError, match="3 samples leave only 1 there"):
         ANFISRegressor(ridge="auto").fit(X, X.sum(axis=1))
+
+
+def test_backprop_does_not_depend_on_an_offset_of_the_inputs():
+    # Readings around 20 °C or in kelvin: the consequents' steps are taken on
+    # centred inputs, so the fit is the one of the centred data (it was the
+    # initial constant model, its error rising every epoch).
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (200, 2))
+    y = np.sin(2 * X[:, 0]) + X[:, 1] ** 2
+    fits = [
+        ANFISRegressor(learning="backprop", epochs=30, random_state=0).fit(X + off, y)
+        for off in (0.0, 20.0, 300.0)
+    ]
+    base = fits[0].predict(X)
+    assert fits[0].score(X, y) > 0.95
+    for off, model in zip((20.0, 300.0), fits[1:], strict=True):
+        np.testing.assert_allclose(model.predict(X + off), base, atol=1e-6)
+
+
+def test_backprop_that_never_improves_warns():
+    from sklearn.exceptions import ConvergenceWarning
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (200, 2)) * 1e4  # a step of 0.5 in these units
+    y = np.sin(2 * X[:, 0] / 1e4)
+    with pytest.warns(ConvergenceWarning, match="never improved on its initial"):
+        ANFISRegressor(learning="backprop", epochs=10, random_state=0).fit(X, y)
+
+
+def test_a_least_squares_of_gigabytes_warns(monkeypatch):
+    # 4096 rules on 6 inputs passed max_rules and took 52 s and 5.7 GB per
+    # epoch on 10,000 rows without a word; the threshold is lowered here to
+    # keep the test small (16 rules x 3 consequents on 300 rows).
+    import skthermal.fuzzy._anfis as anfis
+
+    monkeypatch.setattr(anfis, "_LARGE_PROBLEM", 10_000)
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (300, 2))
+    with pytest.warns(UserWarning, match=r"16 rules x 3 consequents = 48 unknowns"):
+        ANFISRegressor(init="grid", n_mfs=4, epochs=1).fit(X, X.sum(axis=1))
+
+
+@pytest.mark.parametrize(
+    "rules, message",
+    [
+        ([[0], [5]], r"rules\[1, 0\] is 5: every entry must be the index"),
+        ([[0.0], [1.5]], r"rules\[1, 0\] is 1.5: every entry"),
+        ([[0], [-1]], r"rules\[1, 0\] is -1: every entry"),
+        ([[0, 1], [1, 0]], r"rules must have shape \(2, 1\).*got shape \(2, 2\)"),
+    ],
+)
+def test_from_parameters_names_a_bad_rule_entry(rules, message):
+    mfs = np.array([[[1.0, 0.0], [1.0, 1.0]]])
+    cons = np.zeros((2, 2))
+    with pytest.raises(ValueError, match=message):
+        ANFISRegressor.from_parameters(
+            mf="gaussian", mf_params=mfs, consequents=cons, rules=rules
+        )

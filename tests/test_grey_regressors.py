@@ -1,5 +1,6 @@
 """Tests of GMC(1,N) / GNNMCI(1,N): the array functions and the two regressors."""
 
+import warnings
 from pathlib import Path
 
 import joblib
@@ -646,3 +647,30 @@ def test_a_numpy_step_in_front_warns_that_the_runs_become_one(est, run_table):
         # Rows that are one run, said so: no warning.
         clone(est).fit(X.to_numpy(), y, groups=np.zeros(len(X)))
     assert not np.allclose(merged.predict(X), kept.predict(X))
+
+
+def test_a_delay_longer_than_every_run_is_an_error():
+    rng = np.random.default_rng(0)
+    X = np.cumsum(rng.normal(size=(60, 2)), axis=0)
+    y = X[:, 0] - 0.5 * X[:, 1]
+    with pytest.raises(ValueError, match=r"delay=80 samples leaves no input change"):
+        GreyPSORegressor(delay=80, calibration="ls").fit(X, y, groups=np.zeros(60))
+
+
+def test_least_squares_that_explode_on_collinear_inputs_warn():
+    # Tien's least squares fit the grey equation, not the prediction: with a
+    # target that is a combination of the inputs, b1 ~ 6e7 and an in-sample
+    # R^2 of -3e15, silently.
+    from sklearn.exceptions import ConvergenceWarning
+
+    rng = np.random.default_rng(5)
+    for d in (2, 2, 2, 3):  # the draws before the case found
+        np.cumsum(rng.normal(size=(300, d)), axis=0)
+        rng.normal(size=300)
+    X = np.cumsum(rng.normal(size=(300, 3)), axis=0)
+    y = X[:, 0] - X[:, 1] + 1e-9 * rng.normal(size=300)
+    with pytest.warns(ConvergenceWarning, match=r"calibration='ls' fits the training"):
+        GreyPSORegressor(calibration="ls").fit(X, y, groups=np.zeros(300))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        GreyPSORegressor(calibration="varpro").fit(X, y, groups=np.zeros(300))

@@ -5,9 +5,11 @@ lives in :mod:`skthermal.fuzzy._anfis_core`.
 """
 
 import numbers
+import warnings
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_array, check_is_fitted, validate_data
@@ -123,6 +125,28 @@ class _EpochHook:
         return result
 
 
+# Elements (8 bytes each) of the least-squares problem of one epoch above
+# which fit warns: the design matrix and the normal equations (or their
+# dual) of the consequents.
+_LARGE_PROBLEM = 5e7
+
+
+def _warn_large_problem(n_rules, n_features, n_samples):
+    """Warn when the consequents' least squares take gigabytes every epoch."""
+    columns = n_rules * (n_features + 1)
+    elements = n_samples * columns + min(n_samples, columns) ** 2
+    if elements <= _LARGE_PROBLEM:
+        return
+    warnings.warn(
+        f"ANFISRegressor: {n_rules} rules x {n_features + 1} consequents = "
+        f"{columns} unknowns on {n_samples} rows: every epoch's least squares "
+        f"handles about {8 * elements / 1e9:.1f} GB and takes long. Use "
+        "init='fcm' (a few rules), fewer inputs or membership functions.",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
 class ANFISRegressor(RegressorMixin, BaseEstimator):
     """Adaptive neuro-fuzzy inference system (first-order Takagi-Sugeno).
 
@@ -159,7 +183,11 @@ default="fcm"
         ``"hybrid"``: every epoch a least-squares solve of all consequents and
         a gradient step on the premise parameters (Jang). ``"backprop"``:
         gradient descent on all parameters, consequents starting as constant
-        rules equal to the target mean.
+        rules equal to the target mean; their steps are taken with the
+        inputs centred on their training mean (``f = p (x - m) + q'``,
+        stored as ``p x + q``), so an offset of the inputs (readings around
+        20 °C, kelvin) changes nothing. A backprop fit that never improves on
+        its initial model warns (``ConvergenceWarning``).
     step_size : float, default=0.5
         Initial step size: the length of the gradient step in parameter space
         (the gradient is rescaled to this length, Jang 1993). It is in the
@@ -234,7 +262,9 @@ default="fcm"
         within a run is an error.
     max_rules : int, default=4096
         Largest rule base a grid partition may create; a larger one raises a
-        ValueError before anything is allocated.
+        ValueError before anything is allocated. A rule base whose
+        consequents' least squares take more than about 0.4 GB per epoch
+        (rules x (inputs + 1) unknowns on the training rows) warns.
     random_state : int, RandomState instance or None, default=None
         Seeds the fuzzy c-means initialisation.
     verbose : int, default=0
@@ -486,6 +516,7 @@ default="fcm"
 
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
+        _warn_large_problem(rules.shape[0], X_train.shape[1], X_train.shape[0])
 
         ridge, result = self.ridge, None
         self.ridge_scores_ = {}
@@ -524,6 +555,20 @@ default="fcm"
         self.history_ = result["history"]
         self.best_epoch_ = int(result["best_epoch"])
         self.n_iter_ = len(self.history_["epoch"])
+        if self.learning == "backprop" and self.best_epoch_ == 1 and self.n_iter_ > 1:
+            # The first epoch is the initial model (constant rules at the
+            # target mean): gradient descent never improved on it.
+            warnings.warn(
+                f"ANFISRegressor: backprop learning never improved on its "
+                f"initial model in {self.n_iter_} epochs (training RMSE "
+                f"{self.history_['train_rmse'][0]:.4g} at epoch 1, "
+                f"{self.history_['train_rmse'][-1]:.4g} at the last): the model "
+                "kept is the initial one. The step is in the units of the "
+                f"inputs (step_size={self.step_size:g}): standardise the "
+                "inputs (StandardScaler) or lower step_size.",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
         self._input_range = np.c_[X_train.min(axis=0), X_train.max(axis=0)]
         # Grey-ANFIS is a sequence model: what continuing a labelled run in
         # predict needs (its first row and times, the accumulated inputs and
@@ -896,12 +941,28 @@ default="fcm"
                     f"{n_rules} rules match neither a grid of {n_mfs}**{d} rules "
                     f"nor one rule per membership function; pass rules."
                 )
-        rules = np.array(rules, dtype=np.intp)
-        if rules.shape != (n_rules, d) or rules.min() < 0 or rules.max() >= n_mfs:
+        given = np.asarray(rules)
+        if given.shape != (n_rules, d):
             raise ValueError(
-                f"rules must have shape ({n_rules}, {d}) with entries in "
-                f"[0, {n_mfs}), got shape {rules.shape}."
+                f"rules must have shape ({n_rules}, {d}), one row of membership "
+                f"function indices per rule; got shape {given.shape}."
             )
+        try:
+            numeric = given.astype(float)
+        except (TypeError, ValueError):
+            numeric = np.full(given.shape, np.nan)
+        bad = ~np.isfinite(numeric) | (numeric != np.round(numeric))
+        bad |= (numeric < 0) | (numeric >= n_mfs)
+        if bad.any():
+            r, j = (int(k) for k in np.argwhere(bad)[0])
+            value = given[r, j]
+            value = value.item() if isinstance(value, np.generic) else value
+            raise ValueError(
+                f"rules[{r}, {j}] is {value!r}: every entry must be the "
+                f"index of one of the {n_mfs} membership functions of its "
+                f"input, an integer in [0, {n_mfs})."
+            )
+        rules = numeric.astype(np.intp)
         est.n_features_in_ = d
         if feature_names is not None:
             names = np.asarray(list(feature_names), dtype=object)

@@ -604,7 +604,15 @@ penalize_intercepts, tol, n_iter_no_change, verbose
     # from zero (kelvin, large offsets) are not biased by it. With shrunk
     # constant terms the prior is "no error where the inputs are zero" (the
     # papers' changes since the run start): the inputs are taken as given.
-    centre = X.mean(axis=0) if n and not penalize_intercepts else np.zeros(d)
+    # Backprop takes every step on the consequents too, so it always sees the
+    # inputs centred: a normalised step then weighs slopes and constant terms
+    # alike whatever the inputs' offset (on readings around 20 °C the slopes'
+    # gradient is 20 times the constant terms', and every step overshoots).
+    centre = (
+        X.mean(axis=0)
+        if n and (not penalize_intercepts or learning == "backprop")
+        else np.zeros(d)
+    )
     centred = bool(centre.any())
     X1cT = np.vstack([XT - centre[:, None], X1T[-1:]]) if centred else X1T
     YT = np.ascontiguousarray(Y.T)
@@ -621,9 +629,20 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         normal = NormalEquations.plan(X1cT, YT, rules, n_mfs, grid, ridge)
     AT3 = None  # the transposed design matrix, only when it is needed
     width_floor = _WIDTH_FLOOR * _input_scale(X)
-    if learning == "backprop" and consequents is None:
-        consequents = np.zeros((n_rules, d + 1, n_out))
-        consequents[:, -1, :] = Y.mean(axis=0)
+    if learning == "backprop":
+        if consequents is None:
+            consequents = np.zeros((n_rules, d + 1, n_out))
+            consequents[:, -1, :] = Y.mean(axis=0)
+        # Internally f = p (x - m) + q' (q' = q + p m), converted back to
+        # f = p x + q (_uncentred) for every parameter set returned.
+        consequents_c = np.array(consequents, dtype=float)
+        consequents_c[:, -1] += np.einsum("a,rao->ro", centre, consequents_c[:, :d])
+
+    def _uncentred(cc):
+        out = cc.copy()
+        out[:, -1] -= np.einsum("a,rao->ro", centre, cc[:, :d])
+        return out
+
     rule = StepSizeRule(step_size, step_increase, step_decrease)
 
     history = {"epoch": [], "train_rmse": [], "step_size": []}
@@ -649,9 +668,11 @@ penalize_intercepts, tol, n_iter_no_change, verbose
                 theta[d] -= np.einsum("a,aro->ro", centre, theta[:d])
             consequents = theta.transpose(1, 0, 2)
             C = theta.reshape(d + 1, -1)
+            F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
         else:
-            C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)
-        F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
+            consequents = _uncentred(consequents_c)
+            C = consequents_c.transpose(1, 0, 2).reshape(d + 1, -1)
+            F = (C.T @ X1cT).reshape(n_rules, n_out, n)
         WF = wT[:, None, :] * F  # the rules' shares of the output
         yhat = WF.sum(axis=0)
         err = yhat - YT
@@ -699,13 +720,13 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
         else:
-            # dE / d consequent (a, r) = sum_n x~_a wbar_r err
-            XE = (X1T[:, None, :] * err[None]).reshape(-1, n)
+            # dE / d consequent (a, r) = sum_n x~_a wbar_r err (x~ centred)
+            XE = (X1cT[:, None, :] * err[None]).reshape(-1, n)
             grad_c = (XE @ wT.T).reshape(d + 1, n_out, n_rules).transpose(2, 0, 1)
             norm = np.sqrt(np.vdot(grad, grad) + np.vdot(grad_c, grad_c))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
-                consequents = consequents - (step / norm) * grad_c
+                consequents_c = consequents_c - (step / norm) * grad_c
         _apply_floors(mf_params, mf, width_floor)
 
     if best[1] is None:  # not a single finite epoch: keep the last parameters

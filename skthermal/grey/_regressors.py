@@ -7,10 +7,12 @@ rows are time-ordered samples of runs, so everything that uses time restarts at
 every run boundary.
 """
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
@@ -401,6 +403,14 @@ class GreyPSORegressor(_GreyRunRegressor):
         self.random_state = random_state
 
     def _fit(self, X, y, slices):
+        longest = max(sl.stop - sl.start for sl in slices)
+        if self.delay >= longest - 1:
+            raise ValueError(
+                f"delay={self.delay} samples leaves no input change inside any "
+                f"run: the longest run has {longest} samples, so every target "
+                "would be driven by the inputs held at the run's start. Give a "
+                f"delay below {longest - 1} (samples, not seconds)."
+            )
         runs = _model_runs(y, X, slices, delay=self.delay)
         n_coef = X.shape[1] + 2
         n_eq = X.shape[0] - len(slices)
@@ -445,6 +455,23 @@ class GreyPSORegressor(_GreyRunRegressor):
                 self.history_ = res.history
         self.coef_ = np.asarray(theta, dtype=float)
         self.loss_ = float(_GMCObjective(runs)(self.coef_[None, :])[0])
+        if self.calibration == "ls":
+            # Tien's least squares fit the grey equation, not the restored
+            # series: on (nearly) collinear inputs the series can explode.
+            n_rows = sum(r[1].shape[0] for r in runs)
+            rmse = np.sqrt(self.loss_ / max(n_rows, 1))
+            spread = _run_stats(runs)[1]
+            if not rmse <= 10.0 * max(spread, np.finfo(float).tiny):
+                warnings.warn(
+                    f"GreyPSORegressor: calibration='ls' fits the training "
+                    f"rows with an RMSE of {rmse:.3g}, {rmse / spread:.3g} "
+                    f"times their change ({spread:.3g}; b1={self.coef_[0]:.3g}): "
+                    "least squares fit the grey equation, not the prediction, "
+                    "and failed here (collinear inputs). Use "
+                    "calibration='varpro'.",
+                    ConvergenceWarning,
+                    stacklevel=3,
+                )
         return self
 
     @staticmethod
