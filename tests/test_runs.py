@@ -707,3 +707,27 @@ def test_fit_without_run_labels_or_times_warns_once():
     [message] = caught("Model", 2, None, 5)  # predict
     assert re.match(UNLABELLED_WARNING, message) and "set_output" in message
     assert not caught("Model", None, None, 5)
+
+
+def test_selectors_warn_when_the_runs_are_lost_in_front_of_them():
+    # A scaler with numpy output drops the (run, time_s) index: the
+    # selector then accumulates across run boundaries, so it says so.
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    from skthermal.selection import FCMClusterPicker, GreyInfluenceSelector
+
+    table, y, cut = _split_record()
+    X = table.set_index(["run", "time_s"])[["T1_C", "T2_C", "spindle_rpm"]]
+    for selector in (
+        GreyInfluenceSelector(n_features_to_select=2),
+        FCMClusterPicker(n_clusters=2, random_state=0),
+    ):
+        name = type(selector).__name__
+        with pytest.warns(UserWarning, match=rf"{name}.fit got 90 rows that carry no"):
+            make_pipeline(StandardScaler(), selector).fit(X, y)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            make_pipeline(StandardScaler(), selector).set_output(
+                transform="pandas"
+            ).fit(X, y)

@@ -21,6 +21,10 @@ SELECTORS = [
     FCMClusterPicker(n_clusters=3, random_state=0),
 ]
 
+# Most tests here fit one run given as a plain array, which the selectors
+# (rightly) warn is taken as one run.
+pytestmark = pytest.mark.filterwarnings("ignore:.*carry no run labels:UserWarning")
+
 
 def _indexed(runs, truth):
     """Sensors and target indexed by (run, time_s), as split_runs returns them."""

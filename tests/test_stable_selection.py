@@ -13,6 +13,10 @@ from skthermal.selection._stable import (
     uncertainty_correlation,
 )
 
+# Most tests here fit one run given as a plain array, which the selectors
+# (rightly) warn is taken as one run.
+pytestmark = pytest.mark.filterwarnings("ignore:.*carry no run labels:UserWarning")
+
 
 @pytest.fixture
 def heating(rng):

@@ -262,7 +262,7 @@ def test_adaptive_campaign_keeps_residual_bounded(campaign):
     first = changes_since_start(campaign[campaign["run"] == "B1"])
     sensors = [c for c in campaign if c.startswith("T")]
     sel = StableTSPSelector(n_features_to_select=2).fit(
-        first[sensors], first["disp_y_um"]
+        first[sensors], first["disp_y_um"], groups=first["run"]
     )
     tsp = list(sel.get_feature_names_out())
     model = UpdateRegressor().fit(first[tsp], first["disp_y_um"])

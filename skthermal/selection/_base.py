@@ -13,7 +13,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, _fit_context
 from sklearn.feature_selection import SelectorMixin
 from sklearn.utils._param_validation import Interval, RealNotInt, StrOptions
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
     changes_since_start,
@@ -27,6 +27,7 @@ from skthermal.utils._runs import (
     run_slices,
     run_table_index,
     unreadable,
+    warn_unlabelled_runs,
 )
 
 
@@ -80,6 +81,12 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         """
         X, groups = extract_runs(X, groups, finite=False)
         check_time_order(X, groups)
+        # Rows without run labels are one run: a scaler in front that outputs
+        # numpy drops the run index, and every run's changes and
+        # accumulations would run on across the boundaries, silently.
+        warn_unlabelled_runs(
+            type(self).__name__, None, groups, _num_samples(X), X=X, stacklevel=4
+        )
         if y is not None:
             check_finite_target(y, X, groups)
         rows = X  # its run and time_s, for messages

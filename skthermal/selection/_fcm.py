@@ -172,7 +172,10 @@ class FCMClusterPicker(RunAwareSelector):
         if groups is not None and "groups" in inspect.signature(est.fit).parameters:
             est.fit(X, y, groups=groups)
         else:
-            est.fit(X, y)
+            with warnings.catch_warnings():
+                # This picker has just said that the rows are one run.
+                warnings.filterwarnings("ignore", message=r".*carry no run labels")
+                est.fit(X, y)
         scores = _fitted_scores(est)
         if scores.shape != (X.shape[1],):
             raise ValueError(
