@@ -41,6 +41,30 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
+def _integer(text):
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+
+
+def _seed(text):
+    """A random seed as numpy takes it: an integer from 0 to 2**32 - 1."""
+    value = _integer(text)
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(
+            f"must be an integer from 0 to {2**32 - 1}, got {value}"
+        )
+    return value
+
+
+def _nonnegative(text):
+    value = _integer(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more, got {value}")
+    return value
+
+
 _FORMATTER = argparse.RawDescriptionHelpFormatter
 
 
@@ -75,8 +99,10 @@ def _add_demo(sub):
         "--groups", type=int, default=3, help="heat-driven sensor groups (default 3)"
     )
     demo.add_argument("--sensors-per-group", type=int, default=10, help="default 10")
-    demo.add_argument("--noise-sensors", type=int, default=10, help="default 10")
-    demo.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    demo.add_argument(
+        "--noise-sensors", type=_nonnegative, default=10, help="default 10"
+    )
+    demo.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     demo.add_argument(
         "--out", metavar="DIR", help="also write the runs and scores here"
     )
@@ -109,7 +135,7 @@ def _add_reproduce(sub):
         default="skthermal-report",
         help="report folder (default skthermal-report/; files in it are replaced)",
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.add_argument(
         "--quick",
         action="store_true",
@@ -207,7 +233,7 @@ def _add_simulate(sub):
     p.add_argument(
         "--no-noise", action="store_true", help="noiseless sensors and displacements"
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.add_argument(
         "--append",
         action="store_true",
@@ -249,7 +275,7 @@ def _add_select(sub):
         "--target", help="displacement column (default: the only one, or disp_y_um)"
     )
     p.add_argument("--train-runs", metavar="LIST", help="runs to fit on (default all)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.add_argument(
         "--out",
         metavar="FILE",
@@ -316,7 +342,7 @@ def _add_fit(sub):
         help="a model parameter, e.g. epochs=50 (repeatable; JSON values)",
     )
     p.add_argument("--quick", action="store_true", help="a small training budget")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.add_argument(
         "--out",
         metavar="FILE",
@@ -414,7 +440,7 @@ def _add_search(sub):
         help="input sensors: comma list or a file from 'skthermal select' "
         "(default all)",
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.add_argument("--out", metavar="FILE", help="write the best parameters (JSON)")
     p.add_argument(
         "--save-model",
@@ -555,7 +581,7 @@ def _add_gap(sub):
     )
     p.add_argument("--n-jobs", type=int, help="parallel cases (joblib; default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.set_defaults(func="_gap:cmd_gap_check")
 
 

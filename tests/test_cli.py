@@ -42,6 +42,27 @@ def test_an_unknown_option_is_the_commands_usage_error(capsys):
     )
 
 
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["demo", "--seed", "-1"], "argument --seed: must be an integer from 0 to"),
+        (["reproduce", "--seed", "x"], "argument --seed: must be an integer, got 'x'"),
+        (["demo", "--noise-sensors", "-1"], "--noise-sensors: must be 0 or more"),
+    ],
+)
+def test_options_are_checked_in_their_own_words(capsys, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+
+
+def test_reproduce_refuses_an_empty_model_list(capsys, tmp_path):
+    assert main(["reproduce", "--models", " , ", "--out", str(tmp_path / "r")]) == 2
+    assert "--models names no model" in capsys.readouterr().err
+
+
 def test_module_entry_point_and_help():
     res = subprocess.run(
         [sys.executable, "-m", "skthermal", "demo", "--help"],

@@ -19,6 +19,11 @@ def cmd_reproduce(args):
 
     check_positive(args.sample_period, "--sample-period", upper=720.0)
     models = split_list(args.models)
+    if models == []:
+        raise UserError(
+            f"--models names no model; choose from {', '.join(MODELS)} (or leave "
+            "it out for the default models)."
+        )
     if models:
         unknown = [m for m in models if m not in MODELS]
         if unknown:
