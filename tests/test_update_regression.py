@@ -366,3 +366,14 @@ def test_groups_are_taken_like_every_run_aware_regressor():
     model.partial_fit(X[:4], y[:4], groups=groups[:4])  # the same call in service
     with pytest.raises(ValueError, match="3 run labels"):
         model.partial_fit(X[:4], y[:4], groups=groups[:3])
+
+
+def test_old_coefficients_of_the_wrong_length_are_named():
+    from skthermal.linear_model import update_coef, update_path
+
+    X = np.arange(18.0).reshape(6, 3)
+    y = X @ [1.0, 2.0, 0.5]
+    for function in (update_coef, update_path):
+        with pytest.raises(ValueError, match=r"coef_old must have shape \(4,\): the"):
+            function(X, y, np.zeros(3))  # the intercept left out
+    assert update_coef(X, y, np.zeros((4, 1))).shape == (4, 1)

@@ -88,6 +88,21 @@ def ridge_coef(X, y, *, alpha=25.0, penalize_intercept=True):
     return coef[:, 0] if np.ndim(y) == 1 else coef
 
 
+def _old_coefficients(coef_old, X, E):
+    """``coef_old`` as a ``(n_features + 1, n_targets)`` array, checked."""
+    old = np.asarray(coef_old, dtype=float)
+    p, n_targets = X.shape[1] + 1, E.shape[1]
+    want = (p,) if n_targets == 1 else (p, n_targets)
+    if old.shape not in {want, (p, n_targets)}:
+        raise ValueError(
+            f"coef_old must have shape {want}: the intercept first, then one "
+            f"weight per input ({X.shape[1]} inputs)"
+            + ("" if n_targets == 1 else f", one column per target ({n_targets})")
+            + f"; got shape {old.shape}."
+        )
+    return old.reshape(p, n_targets)
+
+
 def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """Update-regression coefficients from an old model and new samples.
 
@@ -122,7 +137,7 @@ def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """
     X = np.asarray(X, dtype=float)
     E = _as_2d_target(y)
-    old = np.asarray(coef_old, dtype=float).reshape(X.shape[1] + 1, -1)
+    old = _old_coefficients(coef_old, X, E)
     A = _design(X)
     d = _penalty(A.shape[1], 1.0 - eta, penalize_intercept)
     coef = _solve(eta * (A.T @ A) + np.diag(d), eta * (A.T @ E) + d[:, None] * old)
@@ -158,7 +173,7 @@ def update_path(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """
     X = np.asarray(X, dtype=float)
     E = _as_2d_target(y)
-    old = np.asarray(coef_old, dtype=float).reshape(X.shape[1] + 1, -1)
+    old = _old_coefficients(coef_old, X, E)
     A = _design(X)
     G = np.cumsum(A[:, :, None] * A[:, None, :], axis=0)
     B = np.cumsum(A[:, :, None] * E[:, None, :], axis=0)
