@@ -593,3 +593,26 @@ def test_plotting_and_estimator_packages_use_each_others_public_api(package):
     # The estimator packages import plotting only inside their plot methods.
     eager = [w for w, *_, top in edges.get((package, "plotting"), []) if top]
     assert not eager, f"{package} imports skthermal.plotting at module level: {eager}"
+
+
+@pytest.mark.parametrize(
+    "names",
+    [
+        [f"Ts{k}a_C" for k in range(16)],
+        ["Tcarrier3_C", "Tspindleboss_C", "Tcolumn_top_C", "Tambient_C"],
+    ],
+)
+def test_sensor_names_are_whole_and_apart_in_the_figure(names):
+    # Rotated names ran off the bottom of the figure (a savefig showed
+    # '0a_C' for 'Ts0a_C'); four long upright names overlapped.
+    n = len(names)
+    disp = SensorScoreDisplay(
+        scores=np.linspace(1, 0.1, n), support=np.arange(n) < 2, feature_names=names
+    ).plot()
+    fig = disp.figure_
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in disp.ax_.get_xticklabels()]
+    assert all(b.y0 >= 0 and b.x0 >= 0 and b.x1 <= fig.bbox.x1 for b in boxes)
+    assert all(a.x1 <= b.x0 for a, b in zip(boxes[:-1], boxes[1:]))
+    plt.close(fig)

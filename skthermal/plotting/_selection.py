@@ -146,7 +146,11 @@ class SensorScoreDisplay:
         n = scores.size
         order = np.argsort(-scores, kind="stable") if sort else np.arange(n)
         if ax is None:
-            fig, ax = plt.subplots(figsize=(max(4.0, min(0.35 * n + 2, 16)), 3.5))
+            # Constrained layout keeps the (rotated) sensor names inside the
+            # figure, so a plain savefig shows them whole.
+            fig, ax = plt.subplots(
+                figsize=(max(4.0, min(0.35 * n + 2, 16)), 3.5), layout="constrained"
+            )
         else:
             fig = ax.figure
 
@@ -174,8 +178,11 @@ class SensorScoreDisplay:
             | (bar_kwargs or {}),
         )
         ax.set_xticks(np.arange(n))
+        # Upright while the names fit side by side (about 6 characters per
+        # bar at this width), else rotated.
+        upright = n <= 8 and max(len(name) for name in names) <= 6
         ax.set_xticklabels(
-            [names[j] for j in order], rotation=90 if n > 8 else 0, fontsize="small"
+            [names[j] for j in order], rotation=0 if upright else 90, fontsize="small"
         )
         ax.set_ylabel(self.score_name)
         ax.set_xlabel("sensor")
