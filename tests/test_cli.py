@@ -776,7 +776,7 @@ def test_bad_option_value_is_one_line(capsys):
         main(["select", "--runs", "x.csv", "--seed", "abc"])
     assert exc.value.code == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "invalid int value: 'abc'" in err
+    assert err.count("\n") == 1 and "--seed: must be an integer, got 'abc'" in err
 
 
 def test_missing_sensor_values_get_advice_a_command_line_user_can_follow(
