@@ -353,6 +353,17 @@ def test_partial_fit_updates_the_model_and_widens_the_ranges(train):
     bad.iloc[2, 0] = np.nan
     with pytest.raises(ValueError, match=r"'T1_C' is missing \(NaN\) at row 2"):
         guard.partial_fit(bad, y_hot)
+    # A spike in the update rows is refused: learnt, it bent the model and
+    # widened the checks so that the same spike later passed as ok.
+    spike = hot.copy()
+    spike.iloc[3, 0] = 1e6
+    before = guard.estimator_.coef_.copy()
+    with pytest.raises(
+        ValueError, match=r"partial_fit: the new samples hold a sensor spike"
+    ):
+        guard.partial_fit(spike, y_hot)
+    np.testing.assert_array_equal(guard.estimator_.coef_, before)
+    assert guard.input_max_[0] < 1e3
 
 
 def test_plain_arrays_are_named_by_row_and_x_index(train):

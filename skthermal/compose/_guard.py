@@ -503,6 +503,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             self.checked_inputs_ = self._resolve_inputs()
             self.estimator_ = clone(self.estimator)
             self._output_names = target_names(y)
+        else:
+            self._refuse_faulty_update(A, features, runs)
         kwargs = {}
         if groups is not None and _accepts_groups(self.estimator_.partial_fit):
             kwargs["groups"] = groups
@@ -515,6 +517,46 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         self._fit_ranges(A, Y, runs, update=not first)
         return self
+
+    def _refuse_faulty_update(self, A, features, runs):
+        """Raise when new samples hold a spike: a step over ``jump`` times
+        both the largest step in training and the new samples' own typical
+        (median) step. An update must not learn from a faulty sensor, nor
+        widen the guard's ranges to it; readings beyond the training range
+        and larger steps throughout are what an update is for (a changed
+        machine, another batch)."""
+        if self.jump is None:
+            return
+        n = A.shape[0]
+        first = run_first_rows(runs, n) == np.arange(n)
+        with np.errstate(invalid="ignore"):
+            step = np.abs(_steps(A, first))
+            typical = (
+                np.nanmedian(step, axis=0)
+                if np.isfinite(step).any()
+                else np.zeros(A.shape[1])
+            )
+        typical = np.where(np.isfinite(typical), typical, 0.0)
+        limit = self.jump * np.maximum(self.input_max_step_, typical)
+        spikes = np.isfinite(step) & (step > limit) & (limit > 0)
+        spikes &= self.checked_inputs_
+        if not spikes.any():
+            return
+        where = _Where(features, runs, self._sensor_names())
+        msg = where.describe(
+            spikes,
+            A,
+            lambda j: (
+                f"a step over jump={self.jump:g} times the largest in "
+                f"training ({self.input_max_step_[j]:.4g}) and the new samples' "
+                f"median ({typical[j]:.4g})"
+            ),
+        )
+        raise ValueError(
+            f"partial_fit: the new samples hold a sensor spike ({msg}). An "
+            "update must not learn from a faulty sensor, nor widen the checked "
+            "ranges to it: drop or correct those rows."
+        )
 
     # --- predict ------------------------------------------------------------
 
