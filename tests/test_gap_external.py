@@ -530,3 +530,22 @@ def test_time_in_hours_is_flagged(rng):
         diagnose_runs(
             sim.assign(**hours), meas.assign(**hours), candidates=["sensor_lag"]
         )
+
+
+def test_a_trend_too_fast_for_a_sensor_is_not_called_sensor_drift(rng):
+    # 0.4 °C/h on one sensor (10 °C a day): a heat load the simulation
+    # lacks, not a thermocouple's drift, so sensor_drift is ruled out.
+    sim, meas = _tables(rng, "null", n_runs=3, hours=4.0)
+    meas["T1_C"] += 0.4 * meas["time_s"] / 3600.0
+    report = diagnose_runs(sim, meas, candidates=["sensor_drift", "sensor_lag"])
+    row = report.ranking.set_index("effect").loc["sensor_drift"]
+    assert row["shrink"] > 0.5 and row["p_value"] < 0.05  # it fits the trend
+    assert "beyond a sensor's drift" in row["ruled_out"] and not row["explains"]
+    assert report.best_effect is None
+    assert "'sensor_drift' is ruled out: drift rates of 0.2" in report.verdict()
+    assert "- `sensor_drift` is ruled out" in report.to_markdown()
+    # A plausible drift (0.05 °C/h) is named.
+    sim, meas = _tables(rng, "null", n_runs=3, hours=4.0, noise=0.002)
+    meas["T1_C"] += 0.05 * meas["time_s"] / 3600.0
+    report = diagnose_runs(sim, meas, candidates=["sensor_drift", "sensor_lag"])
+    assert report.best_effect == "sensor_drift"

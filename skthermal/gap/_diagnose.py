@@ -43,6 +43,7 @@ from skthermal.gap._scores import (
     gap_of,
     heldout_folds,
     regime_gaps,
+    ruled_out,
 )
 from skthermal.gap._terms import RunSignals, Signals, flexible_heldout
 from skthermal.simulate import EFFECTS, ThermalMachine
@@ -230,6 +231,8 @@ def _evaluate(
         row["fitted"] = float(np.sqrt(np.mean(rates**2)))
     else:
         row["fitted"] = np.nan
+    row["ruled_out"] = ruled_out(candidate, row["fitted"])
+    row["explains"] = row["explains"] and not row["ruled_out"]
     signature = None
     if candidate not in RESIDUAL_EFFECTS:
         # What the candidate adds to the prediction of every run, per fold:
@@ -770,6 +773,7 @@ def _how_far(ctx, screen, rules, fine, n_jobs):
     # The ranking's columns: the held-out ones of this comparison, the
     # in-sample evidence and the fitted parameter of the screening.
     row = {**screen.evaluations[focus].row, **row}
+    row["explains"] = row["explains"] and not row["ruled_out"]
     row["calibration"] = "fine" if fine else "screening"
     _log_row("How far", row)
     return HowFar(row, regimes, before_R, after_R)

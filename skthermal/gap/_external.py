@@ -58,6 +58,7 @@ from skthermal.gap._scores import (
     gap_of,
     heldout_folds,
     regime_gaps,
+    ruled_out,
 )
 from skthermal.gap._terms import (
     TERMS,
@@ -419,7 +420,8 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         if rates.size:
             rates = np.median(rates, axis=0)
             row["fitted"] = {"rate_C_per_h": float(np.sqrt(np.mean(rates**2)))}
-    row["explains"] = bool(shrink >= min_shrink and p < alpha)
+    row["ruled_out"] = ruled_out(name, row["fitted"])
+    row["explains"] = bool(shrink >= min_shrink and p < alpha) and not row["ruled_out"]
     rb = regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
     ra = regime_gaps(after_R, regimes)
     return row, (rb, ra), after_R, {"folds": models, "all": full}
@@ -516,7 +518,7 @@ class ExternalGapReport(GapReport):
                 "No candidate effect explains the gap beyond noise (best "
                 f"candidate {row['effect']!r} removes {row['shrink']:.0%} of the "
                 f"excess held-out gap: {evidence})."
-            )
+            ) + self._ruled_out_text(row)
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
             f"{row['shrink']:.0%} of the held-out gap above the noise floor "

@@ -333,11 +333,12 @@ class GapReport:
             f"p = {fine['p_value']:.2g}"
         )
         if self.best_effect is None:
-            return (
+            text = (
                 "No candidate effect explains the gap beyond noise (best "
                 f"candidate {fine['effect']!r} removes {fine['shrink']:.0%} of "
                 f"the excess held-out gap {how}: {evidence})."
             )
+            return text + self._ruled_out_text(fine)
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
             f"{fine['shrink']:.0%} of the held-out gap above the noise floor "
@@ -354,6 +355,14 @@ class GapReport:
         if len(self.steps) > 1:
             text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
         return text
+
+    @staticmethod
+    def _ruled_out_text(row):
+        """The verdict's sentence on why the best candidate is ruled out by
+        its fitted value (``""`` when it is not)."""
+        if not row.get("ruled_out"):
+            return ""
+        return f" {row['effect']!r} is ruled out: {row['ruled_out']}."
 
     def __repr__(self):
         return f"GapReport(best_effect={self.best_effect!r}): {self.verdict()}"
@@ -397,6 +406,19 @@ class GapReport:
         table = gap_table
 
         where = self.where
+        ranking = self.ranking
+        ruled_out = (
+            [
+                f"- `{effect}` is ruled out: {why}."
+                for effect, why in zip(
+                    ranking["effect"], ranking["ruled_out"], strict=True
+                )
+                if why
+            ]
+            if "ruled_out" in ranking
+            else []
+        )
+        ruled_out += [""] if ruled_out else []
         parts = [
             "# Sim-to-real gap report",
             "",
@@ -410,8 +432,9 @@ class GapReport:
             "errors per channel are in the channel's unit.",
             "",
             "## Which effect",
-            table(self.ranking),
+            table(self.ranking.drop(columns="ruled_out", errors="ignore")),
             "",
+            *ruled_out,
             *([self._not_applicable_text("`{}`"), ""] if self.not_applicable else []),
             "## How far",
             table(self.how_far),

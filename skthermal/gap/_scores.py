@@ -27,6 +27,32 @@ BANDS_H = [
 GAP_UNIT = "normalised (1 = spread of the measured signal)"
 
 
+# A sensor's drift beyond this many °C per hour (the root mean square of
+# the fitted rates over the temperature channels; 2.4 °C a day) is not a
+# sensor's drift: thermocouples and resistance thermometers drift by
+# fractions of a degree over months. A trend that fast is a heat load the
+# simulation lacks (or its own slow error), so `sensor_drift` is not named
+# for it.
+MAX_DRIFT_C_PER_H = 0.1
+
+
+def ruled_out(effect, fitted):
+    """Why the fitted value rules ``effect`` out as the explanation (``""``
+    when it does not): a ``sensor_drift`` faster than
+    :data:`MAX_DRIFT_C_PER_H`. ``fitted`` is the ranking's value (a float,
+    or the run-table mode's dict of parameters)."""
+    if effect != "sensor_drift":
+        return ""
+    rate = fitted.get("rate_C_per_h") if isinstance(fitted, dict) else fitted
+    if rate is None or not np.isfinite(rate) or rate <= MAX_DRIFT_C_PER_H:
+        return ""
+    return (
+        f"drift rates of {rate:.2g} °C/h (root mean square over the temperature "
+        f"sensors) are beyond a sensor's drift (at most {MAX_DRIFT_C_PER_H:g} "
+        "°C/h): a heat load the simulation lacks is likelier"
+    )
+
+
 # Parameter constraints both diagnoses share (candidates, held-out scheme,
 # channels, decision rule, sampling, parallelism), for validate_params.
 DIAGNOSIS_PARAMS = {
