@@ -41,3 +41,12 @@ def shown(value):
         digits = len(str(abs(value)))
         return f"{text[:12]}... (an integer of {digits} digits, about 1e{digits - 1})"
     return text
+
+
+def percent(share):
+    """A share as a whole percentage for reports: ``-0.004`` reads ``0%``
+    (not ``-0%``), ``0.516`` reads ``52%``; a missing share ``n/a``."""
+    share = float(share)
+    if not np.isfinite(share):
+        return "n/a"
+    return f"{round(share * 100)}%"

@@ -931,3 +931,15 @@ def test_the_report_gives_each_sensors_fitted_drift_rate(drift_case, tmp_path):
     assert report.to_dict()["drift_rates"] == pytest.approx(fitted)
     saved = pd.read_csv(report.save(tmp_path / "gap") / "drift_rates.csv")
     assert dict(zip(saved["channel"], saved["rate_C_per_h"])) == pytest.approx(fitted)
+
+
+def test_shares_in_the_verdict_read_as_whole_percentages():
+    from skthermal._naming import percent
+
+    # A shrink of -0.4% read "-0%" in the verdict.
+    assert [percent(x) for x in (-0.004, 0.516, -0.05, np.nan)] == [
+        "0%",
+        "52%",
+        "-5%",
+        "n/a",
+    ]

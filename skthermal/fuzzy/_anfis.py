@@ -14,6 +14,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_array, check_is_fitted, validate_data
 
+from skthermal._naming import shown
 from skthermal.fuzzy._anfis_core import (
     _HALF,
     _CheckingSet,
@@ -955,10 +956,8 @@ default="fcm"
         bad |= (numeric < 0) | (numeric >= n_mfs)
         if bad.any():
             r, j = (int(k) for k in np.argwhere(bad)[0])
-            value = given[r, j]
-            value = value.item() if isinstance(value, np.generic) else value
             raise ValueError(
-                f"rules[{r}, {j}] is {value!r}: every entry must be the "
+                f"rules[{r}, {j}] is {shown(given[r, j])}: every entry must be the "
                 f"index of one of the {n_mfs} membership functions of its "
                 f"input, an integer in [0, {n_mfs})."
             )

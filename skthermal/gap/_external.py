@@ -20,6 +20,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
+from skthermal._naming import percent
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -503,10 +504,10 @@ class ExternalGapReport(GapReport):
         if share < 0:
             flexible = (
                 "a flexible model of the drivers makes the held-out gap worse "
-                f"(excess above noise {-share:.0%} larger)"
+                f"(excess above noise {percent(-share)} larger)"
             )
         else:
-            flexible = f"a flexible model of the drivers removes {share:.0%}"
+            flexible = f"a flexible model of the drivers removes {percent(share)}"
         evidence = (
             f"held-out gap {row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
             f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
@@ -516,12 +517,12 @@ class ExternalGapReport(GapReport):
         if self.best_effect is None:
             return (
                 "No candidate effect explains the gap beyond noise (best "
-                f"candidate {row['effect']!r} removes {row['shrink']:.0%} of the "
+                f"candidate {row['effect']!r} removes {percent(row['shrink'])} of the "
                 f"excess held-out gap: {evidence})."
             ) + self._ruled_out_text(row)
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
-            f"{row['shrink']:.0%} of the held-out gap above the noise floor "
+            f"{percent(row['shrink'])} of the held-out gap above the noise floor "
             f"({evidence})."
         )
         if len(self.steps) > 1:

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from skthermal._markdown import markdown_table
+from skthermal._naming import percent
 from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
 
 
@@ -335,13 +336,13 @@ class GapReport:
         if self.best_effect is None:
             text = (
                 "No candidate effect explains the gap beyond noise (best "
-                f"candidate {fine['effect']!r} removes {fine['shrink']:.0%} of "
+                f"candidate {fine['effect']!r} removes {percent(fine['shrink'])} of "
                 f"the excess held-out gap {how}: {evidence})."
             )
             return text + self._ruled_out_text(fine)
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
-            f"{fine['shrink']:.0%} of the held-out gap above the noise floor "
+            f"{percent(fine['shrink'])} of the held-out gap above the noise floor "
             f"{how} ({evidence})"
         )
         if fine.get("calibration") == "fine":
@@ -349,7 +350,7 @@ class GapReport:
             text += (
                 f"; with the screening calibration (table 'Which effect') "
                 f"{row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
-                f"{row['shrink']:.0%}"
+                f"{percent(row['shrink'])}"
             )
         text += "."
         if len(self.steps) > 1:
