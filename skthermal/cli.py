@@ -359,7 +359,9 @@ def _add_predict(sub):
         "predict with a saved model",
         "Predict a run table with a model from 'skthermal fit' and write the "
         "table with a pred_<target> column: the predicted change of the "
-        "displacement since the start of each run (zero on its first row).",
+        "displacement since the start of each run (zero on its first row; rows "
+        "that continue a run given to 'skthermal fit' go on from where it "
+        "left off).",
         "  skthermal predict --model model.joblib --runs new.csv --out pred.csv\n",
     )
     p.add_argument("--model", metavar="FILE", required=True, help="model file")
