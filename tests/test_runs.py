@@ -731,3 +731,15 @@ def test_selectors_warn_when_the_runs_are_lost_in_front_of_them():
             make_pipeline(StandardScaler(), selector).set_output(
                 transform="pandas"
             ).fit(X, y)
+
+
+def test_a_late_start_is_named_once_by_the_model_called():
+    from skthermal.models import make_model
+
+    table, y, cut = _split_record()
+    model = make_model("lag-ridge").fit(table.iloc[:cut], y[:cut])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.predict(table.iloc[cut:].assign(run="new"))
+    late = [str(w.message) for w in caught if "not 0" in str(w.message)]
+    assert len(late) == 1 and "RunStartRegressor.predict" in late[0], late
