@@ -1101,9 +1101,10 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
     is read as four times slower than one logged every 15 s).
 
     In ``fit`` (``memory`` None) the runs are compared with the period of
-    most of their rows; in ``predict`` with the training runs' (from ``memory``, the
-    :func:`run_memory` of the training runs; nothing to compare without
-    labelled training runs). Names the run that differs most.
+    most of their rows; in ``predict`` with the training runs' periods (from
+    ``memory``, the :func:`run_memory` of the training runs; nothing to
+    compare without labelled training runs). Names the run that differs
+    most.
     """
     t = row_times(X)
     if t is None:
@@ -1133,9 +1134,9 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
     import warnings
 
     r = int(np.argmax(off))
-    where = "" if labels[r] is None else f"run {labels[r]!r} "
+    where = "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
     warnings.warn(
-        f"{name}: {where}is sampled every {periods[r]:g} s, {against} is "
+        f"{name}: {where} is sampled every {periods[r]:g} s, {against} is "
         f"{ref:g} s. The model counts rows, not seconds, so its dynamics "
         f"run {max(ref / periods[r], periods[r] / ref):.3g} times too "
         f"{'slow' if periods[r] > ref else 'fast'} on that run; resample "
