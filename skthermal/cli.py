@@ -309,7 +309,9 @@ def _add_fit(sub):
         "      --selector fcm --n-sensors 5 --out gnnmci.joblib\n"
         "  skthermal fit --runs runs.csv --model anfis-grid --sensors T05_C,T40_C \\\n"
         "      --set epochs=30 --set n_mfs=2\n"
-        "  skthermal fit --runs spindle.csv --model lag-ridge --out lag.joblib\n",
+        "  skthermal fit --runs spindle.csv --model lag-ridge --out lag.joblib\n"
+        "  skthermal fit --runs spindle.csv --model lag-ridge --guard hold \\\n"
+        "      --out lag.skops\n",
     )
     p.add_argument("--runs", metavar="FILE", required=True, help="run table")
     p.add_argument(
@@ -342,6 +344,14 @@ def _add_fit(sub):
         help="a model parameter, e.g. epochs=50 (repeatable; JSON values)",
     )
     p.add_argument("--quick", action="store_true", help="a small training budget")
+    p.add_argument(
+        "--guard",
+        choices=["warn", "clip", "hold"],
+        help="wrap the model in a GuardedRegressor of this mode: 'skthermal "
+        "predict' then checks every reading against the training data (range, "
+        "jumps, flat-lines), bounds the prediction (clip, hold) and writes "
+        "guard_ok, guard_action and guard_reason columns",
+    )
     p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     p.add_argument(
         "--out",

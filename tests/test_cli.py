@@ -446,6 +446,40 @@ def test_fit_the_baselines_and_predict(capsys, workdir):
     assert status != 0 and "nothing to search" in err
 
 
+def test_a_guarded_model_holds_a_spike_and_says_so(capsys, workdir):
+    # Without a guard a 1e6 reading went through the lag filters into a
+    # correction of -50 mm, silently.
+    model = workdir / "guarded.joblib"
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "lag-ridge"]
+    argv += ["--guard", "hold", "--out", model]
+    status, _, err = _run(capsys, *argv)
+    assert status == 0, err
+    table = pd.read_csv(workdir / "tests.csv")
+    clean_runs = workdir / "clean.csv"
+    table.to_csv(clean_runs, index=False)
+    row = int(np.flatnonzero(table["run"] == "V")[30])
+    table.loc[row, "T05_C"] = 1e6
+    spiked = workdir / "spiked.csv"
+    table.to_csv(spiked, index=False)
+    outs = {}
+    for name, runs in (("clean", clean_runs), ("spiked", spiked)):
+        outs[name] = workdir / f"guarded_{name}.csv"
+        argv = ["predict", "--model", model, "--runs", runs, "--out", outs[name]]
+        status, _, err = _run(capsys, *argv)
+        assert status == 0, err
+    assert "Sensor jump" in err and "T05_C" in err
+    clean, guarded = pd.read_csv(outs["clean"]), pd.read_csv(outs["spiked"])
+    assert (
+        not guarded.loc[row, "guard_ok"] and guarded.loc[row, "guard_action"] == "held"
+    )
+    assert "T05_C" in guarded.loc[row, "guard_reason"]
+    # Held there, and the runs' other rows as without the spike.
+    pred = guarded["pred_disp_y_um"]
+    assert pred[row] == pred[row - 1]
+    others = guarded["guard_ok"].to_numpy() & clean["guard_ok"].to_numpy()
+    np.testing.assert_allclose(pred[others], clean["pred_disp_y_um"][others])
+
+
 def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):
     pytest.importorskip("skops")
     model = workdir / "safe.skops"

@@ -196,6 +196,10 @@ def cmd_fit(args):
     params = _resolve_params(model, _parse_params(args.set))
     if params:
         model.set_params(**params)
+    if args.guard:
+        from skthermal.compose import GuardedRegressor
+
+        model = GuardedRegressor(model, mode=args.guard)
     with warnings.catch_warnings():
         warnings.simplefilter("always", ConvergenceWarning)
         model.fit(X[mask], y[mask])
@@ -270,7 +274,9 @@ def _is_float_error(caught):
 
 
 def _predict(bundle, df, then):
-    """The model's predictions for the rows of ``df``, every one finite.
+    """The model's predictions for the rows of ``df``, every one finite, and
+    for a model fitted with ``--guard`` its checks (``predict_checked``:
+    ``ok``, ``action``, ``reason`` per row; else None).
 
     A non-finite prediction is a :class:`UserError` naming the column, the
     run and the time of the first one, ``then`` (what was not done) and
@@ -285,9 +291,15 @@ def _predict(bundle, df, then):
     col = f"pred_{bundle['target']}"
     cause = "Likely cause: an input reading far outside any physical range; "
     fix = "Check or drop that reading and predict again."
+    estimator = bundle["estimator"]
+    checked = None
     with warnings.catch_warnings(record=True) as caught:
         try:
-            pred = np.asarray(bundle["estimator"].predict(X), dtype=float)
+            if hasattr(estimator, "predict_checked"):  # --guard
+                checked = estimator.predict_checked(X)
+                pred = checked["prediction"].to_numpy(dtype=float)
+            else:
+                pred = np.asarray(estimator.predict(X), dtype=float)
         except ValueError as exc:
             # The readings are finite (read_table checked them): a step of
             # the model met a value its arithmetic overflowed to.
@@ -319,7 +331,7 @@ def _predict(bundle, df, then):
             RuntimeWarning,
             stacklevel=2,
         )
-    return pred
+    return pred, checked
 
 
 def cmd_predict(args):
@@ -329,9 +341,12 @@ def cmd_predict(args):
     check_out_path(args.out, "--out")
     bundle = load_model(args.model)
     df = read_table(args.runs)
-    pred = _predict(bundle, df, f"nothing was written to {args.out}")
+    pred, checked = _predict(bundle, df, f"nothing was written to {args.out}")
     out = df.copy()
     out[f"pred_{bundle['target']}"] = pred
+    if checked is not None:  # a model fitted with --guard
+        for column in ("ok", "action", "reason"):
+            out[f"guard_{column}"] = checked[column].to_numpy()
     try:
         _, meta = read_runs(args.runs, metadata=True, validate=False)
     except ValueError:
@@ -460,7 +475,7 @@ def cmd_evaluate(args):
             )
         if target not in df.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
-        pred = _predict(bundle, df, "nothing was scored")
+        pred, _ = _predict(bundle, df, "nothing was scored")
         data = df
     else:
         if args.predictions:
