@@ -107,7 +107,15 @@ external = diagnose_runs(
 print(external.verdict())
 print(
     external.ranking[
-        ["effect", "gap_before", "gap_after", "share_of_explainable", "lr_p_value"]
+        [
+            "effect",
+            "gap_before",
+            "gap_after",
+            "share_of_explainable",
+            "lr_p_value",
+            "whiteness_before",
+            "white_band",
+        ]
     ]
     .round(3)
     .to_string(index=False)

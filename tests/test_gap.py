@@ -943,3 +943,18 @@ def test_shares_in_the_verdict_read_as_whole_percentages():
         "-5%",
         "n/a",
     ]
+
+
+def test_default_folds_follow_the_labels_in_natural_order():
+    # Blocks of a record and numbered runs keep their order (r[8-16 h]
+    # before r[16-24 h], run 2 before run 10), whatever the table's order.
+    labels = [f"r[{8 * k}-{8 * k + 8} h]" for k in range(6)]
+    in_order = heldout_folds(6, None)
+    assert [te.tolist() for _, te in heldout_folds(6, None, labels)] == [
+        te.tolist() for _, te in in_order
+    ]
+    shuffled = [labels[i] for i in (3, 0, 5, 1, 4, 2)]
+    held = [
+        sorted(shuffled[i] for i in te) for _, te in heldout_folds(6, None, shuffled)
+    ]
+    assert held == [sorted(labels[i] for i in te) for _, te in in_order]

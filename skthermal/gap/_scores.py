@@ -3,6 +3,7 @@ report): frequency bands, held-out folds over runs, the gap of a set of
 runs, its shrink above the noise floor, the paired block test, the gap per
 regime."""
 
+import re
 from numbers import Integral, Real
 
 import numpy as np
@@ -137,6 +138,14 @@ def applicable(candidates, not_applicable):
     return left
 
 
+def _natural_key(label):
+    """Sort key of a run label with its numbers compared as numbers: run 2
+    before run 10, and the blocks of a record (``r1[8-16 h]``,
+    ``r1[16-24 h]``) in time order."""
+    parts = re.split(r"(\d+(?:\.\d+)?)", str(label))
+    return [(0, float(p), "") if k % 2 else (1, 0.0, p) for k, p in enumerate(parts)]
+
+
 def heldout_folds(n_runs, cv, labels=None):
     """(train, test) run indices: leave-one-run-out for up to 3 runs, else
     3-fold GroupKFold; an int is a number of GroupKFold splits; a splitter
@@ -149,8 +158,9 @@ def heldout_folds(n_runs, cv, labels=None):
     runs whatever their order in the table."""
     groups = np.arange(n_runs)
     if labels is not None and (cv is None or isinstance(cv, Integral)):
-        keys = [str(label) for label in labels]
-        groups = np.argsort(np.argsort(keys, kind="stable"), kind="stable")
+        order = sorted(range(n_runs), key=lambda i: _natural_key(labels[i]))
+        groups = np.empty(n_runs, dtype=int)
+        groups[order] = np.arange(n_runs)
     if cv is None:
         cv = LeaveOneGroupOut() if n_runs <= 3 else GroupKFold(n_splits=3)
     elif isinstance(cv, Integral) and not isinstance(cv, bool):

@@ -779,13 +779,13 @@ class ThermalMachine:
         Each run is simulated from its own drivers (``time_s``, ``spindle_rpm``,
         ``ambient_C`` and, if present, ``feed_mm_min``) without noise, and
         ``scipy.optimize.least_squares`` adjusts the named parameters to minimise
-        the squared differences with the measured channels. Displacements are
-        scaled together by the root mean square of their standard deviations,
-        temperatures likewise, so that a channel that barely moves weighs by
-        its error in µm (or °C), not as much as one carrying the signal. Every
-        channel is compared as its change since
-        the start of each run (a temperature sensor's calibration offset does
-        not bend the fit).
+        the squared differences with the measured channels, each scaled by
+        its standard deviation, but by no less than a quarter of the root
+        mean square standard deviation of its kind (displacements,
+        temperatures): a channel that barely moves weighs by its error in µm
+        (or °C), not as much as one carrying the signal. Every channel is
+        compared as its change since the start of each run (a temperature
+        sensor's calibration offset does not bend the fit).
 
         Parameters
         ----------
@@ -1276,6 +1276,11 @@ class ThermalMachine:
         return self._quantise(x, self._sensor_numbers("quantization_C"))
 
 
+# calibrate scales a channel by no less than this share of the root mean
+# square spread of the channels of its kind.
+CHANNEL_SCALE_FLOOR = 0.25
+
+
 def _run_drivers(frame, run):
     """Driver arrays of one run of a run table, with clear errors."""
     for col in ("time_s", "spindle_rpm", "ambient_C"):
@@ -1596,16 +1601,18 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         # the fitted parameters).
         y -= y[0]
         measured.append(y)
-    # One scale per kind of channel (displacements, temperatures): the root
-    # mean square of their spreads. Scaled each by its own spread, a channel
-    # that barely moves (noise around zero) would weigh as much as one that
-    # carries the signal, and the fit would chase its noise.
+    # Each channel scaled by its own spread, so that every channel carrying
+    # a signal has its say, but by no less than a quarter of the root mean
+    # square spread of its kind (displacements, temperatures): scaled by its
+    # own spread, a channel that barely moves (noise around zero) would weigh
+    # as much as one carrying the signal, and the fit would chase its noise.
     spread = np.concatenate(measured).std(axis=0)
     is_temp = np.array([c not in machine.targets for c in channels])
-    scale = np.empty(len(channels))
+    scale = spread.copy()
     for kind in (is_temp, ~is_temp):
         if kind.any():
-            scale[kind] = np.sqrt(np.mean(spread[kind] ** 2))
+            floor = CHANNEL_SCALE_FLOOR * np.sqrt(np.mean(spread[kind] ** 2))
+            scale[kind] = np.maximum(spread[kind], floor)
     scale = np.where(scale > 0, scale, 1.0)
 
     def simulate_all(values):
