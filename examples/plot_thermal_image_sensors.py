@@ -68,7 +68,8 @@ print(f"{len(spots)} virtual sensors, {len(a)} samples per run")
 # fuzzy groups of spots that behave alike, and
 # the most influential spot of each group (001 §4.4, Table 4-3).
 picker = FCMClusterPicker(n_clusters=4, scorer="gm0n", random_state=0)
-picked = list(picker.fit(a[spots], a[target]).get_feature_names_out())
+picker.fit(a[spots], a[target], groups=a["run"])  # one run
+picked = list(picker.get_feature_names_out())
 print("picked:", extractor.spots_.loc[picked, ["row", "col", "kind"]], sep="\n")
 
 # %%

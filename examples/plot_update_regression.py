@@ -48,8 +48,11 @@ X, y, batches = changes[sensors], changes[target], changes["run"]
 # the chosen pair change? (004 Table 2: the stable selection varies less.)
 stable, clustered = Counter(), Counter()
 for _, rows in changes.groupby("run", sort=False):
-    s = StableTSPSelector(n_features_to_select=2).fit(rows[sensors], rows[target])
-    f = FuzzyEquivalenceSelector(n_groups=2).fit(rows[sensors], rows[target])
+    one_run = {"groups": rows["run"]}  # the batch is one run
+    s = StableTSPSelector(n_features_to_select=2).fit(
+        rows[sensors], rows[target], **one_run
+    )
+    f = FuzzyEquivalenceSelector(n_groups=2).fit(rows[sensors], rows[target], **one_run)
     stable[tuple(s.get_feature_names_out())] += 1
     clustered[tuple(f.get_feature_names_out())] += 1
 print("distinct pairs, stable selection:", len(stable), stable.most_common(3))
@@ -73,7 +76,9 @@ print(levels.per_method.round(2))
 # residual exceeds 7 µm, six new samples are measured and the model updated.
 first = changes[changes["run"] == "B1"]
 tsp = list(
-    StableTSPSelector().fit(first[sensors], first[target]).get_feature_names_out()
+    StableTSPSelector()
+    .fit(first[sensors], first[target], groups=first["run"])
+    .get_feature_names_out()
 )
 model = UpdateRegressor(alpha=25.0, eta=0.1).fit(first[tsp], first[target])
 rest = runs[runs["run"] != "B1"]
