@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 from sklearn.base import clone
+from sklearn.metrics import make_scorer, mean_squared_error
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import make_pipeline
 from sklearn.utils._param_validation import InvalidParameterError
@@ -663,8 +664,10 @@ def test_a_study_on_other_inputs_rows_or_folds_is_refused(runs_data, tmp_path):
         },
         r"; data '150 rows, 3 runs, run labels and folds \w+' there, '100 rows, "
         r"2 runs, run labels and folds \w+' here\)": {"rows": slice(0, 100)},
+        # (a scoring callable: with a scorer name, minimize is refused anyway)
         r"made to maximize, this search gives direction='minimize'": {
-            "direction": "minimize"
+            "direction": "minimize",
+            "scoring": make_scorer(mean_squared_error),
         },
     }
     for message, change in refused.items():
@@ -897,3 +900,18 @@ def test_run_search_validates_its_parameters(runs_data):
         run_search(est, X, y, groups=groups, n_trials=-1)
     with pytest.raises(TypeError, match="positional"):
         run_search(est, X, y, groups, n_trials=1)
+
+
+def test_minimizing_a_greater_is_better_scorer_name_is_refused(runs_data):
+    # run_search(direction="minimize") with the default "neg_rmse" returned
+    # the worst trial as the best, silently.
+    X, y, groups = runs_data
+    with pytest.raises(ValueError, match=r"scoring='neg_rmse' is greater-is-better"):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups=groups,
+            n_trials=1,
+            direction="minimize",
+        )

@@ -904,8 +904,10 @@ def run_search(
     study_name : str, optional
         Required with a storage: the name every worker uses.
     direction : {"maximize", "minimize"}, default="maximize"
-        "maximize" suits every scorer name (errors are negated). Joining a
-        stored study, it must be the study's direction.
+        "maximize" suits every scorer name (errors are negated), and with a
+        scorer name "minimize" is an error (it would pick the worst trial);
+        "minimize" is for a scoring callable whose smaller values are
+        better. Joining a stored study, it must be the study's direction.
     sampler : optuna sampler, optional
         Default ``TPESampler(seed=random_state)``; joining a stored study that
         already holds trials, the seed also counts them, so a resumed search
@@ -1008,6 +1010,15 @@ def run_search(
             "run_search(n_trials=None) would never stop: pass total_trials (the "
             "trials of the study over all workers), timeout (seconds), or an "
             "int n_trials."
+        )
+    if isinstance(scoring, str) and direction == "minimize":
+        # A named scorer is greater-is-better (errors come negated): its
+        # minimum is the worst trial.
+        raise ValueError(
+            f"scoring={scoring!r} is greater-is-better (scikit-learn negates "
+            "errors, as in 'neg_rmse'), so direction='minimize' would pick the "
+            "worst trial; use direction='maximize' (the default), or a scoring "
+            "callable whose smaller values are better."
         )
     space = _resolve_space(space, estimator)
     groups = _run_groups(X, groups)
