@@ -549,3 +549,21 @@ def test_a_trend_too_fast_for_a_sensor_is_not_called_sensor_drift(rng):
     meas["T1_C"] += 0.05 * meas["time_s"] / 3600.0
     report = diagnose_runs(sim, meas, candidates=["sensor_drift", "sensor_lag"])
     assert report.best_effect == "sensor_drift"
+
+
+def test_a_lag_of_hours_is_not_called_sensor_lag(rng):
+    # The measured temperatures follow the simulated ones through a 3 h lag:
+    # the structure's slower response, not a sensor's own lag.
+    sim, meas = _tables(rng, "null", n_runs=3, hours=6.0)
+    for run, rows in meas.groupby("run").groups.items():
+        for c in ("T1_C", "T2_C"):
+            meas.loc[rows, c] = _lowpass(meas.loc[rows, c].to_numpy(), 3 * 3600.0)
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag", "sensor_drift"])
+    row = report.ranking.set_index("effect").loc["sensor_lag"]
+    assert row["fitted"]["tau_s"] > 3600
+    assert "beyond a sensor's own" in row["ruled_out"] and not row["explains"]
+    assert report.best_effect != "sensor_lag"
+    # The 15 min lag of the sensor_lag case is one.
+    sim, meas = _tables(rng, "sensor_lag", n_runs=3, hours=6.0)
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag", "sensor_drift"])
+    assert report.best_effect == "sensor_lag"

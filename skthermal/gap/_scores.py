@@ -37,19 +37,35 @@ GAP_UNIT = "normalised (1 = spread of the measured signal)"
 MAX_DRIFT_C_PER_H = 0.1
 
 
+# A sensor's own lag (its bead, cement or contact resistance) beyond this
+# many seconds is not a sensor's lag: a time constant of hours is the
+# structure's, which a lag term fitted that slow stands in for.
+MAX_SENSOR_LAG_S = 3600.0
+
+
 def ruled_out(effect, fitted):
     """Why the fitted value rules ``effect`` out as the explanation (``""``
     when it does not): a ``sensor_drift`` faster than
-    :data:`MAX_DRIFT_C_PER_H`. ``fitted`` is the ranking's value (a float,
+    :data:`MAX_DRIFT_C_PER_H`, a ``sensor_lag`` slower than
+    :data:`MAX_SENSOR_LAG_S`. ``fitted`` is the ranking's value (a float,
     or the run-table mode's dict of parameters)."""
-    if effect != "sensor_drift":
+    key, limit = {
+        "sensor_drift": ("rate_C_per_h", MAX_DRIFT_C_PER_H),
+        "sensor_lag": ("tau_s", MAX_SENSOR_LAG_S),
+    }.get(effect, (None, None))
+    if key is None:
         return ""
-    rate = fitted.get("rate_C_per_h") if isinstance(fitted, dict) else fitted
-    if rate is None or not np.isfinite(rate) or rate <= MAX_DRIFT_C_PER_H:
+    value = fitted.get(key) if isinstance(fitted, dict) else fitted
+    if value is None or not np.isfinite(value) or value <= limit:
         return ""
+    if effect == "sensor_lag":
+        return (
+            f"a lag of {value:.0f} s is beyond a sensor's own (at most "
+            f"{limit:.0f} s): the structure's slower response is likelier"
+        )
     return (
-        f"drift rates of {rate:.2g} °C/h (root mean square over the temperature "
-        f"sensors) are beyond a sensor's drift (at most {MAX_DRIFT_C_PER_H:g} "
+        f"drift rates of {value:.2g} °C/h (root mean square over the temperature "
+        f"sensors) are beyond a sensor's drift (at most {limit:g} "
         "°C/h): a heat load the simulation lacks is likelier"
     )
 
