@@ -896,22 +896,10 @@ def test_run_search_validates_its_parameters(runs_data):
     est = ANFISRegressor(epochs=2, random_state=0)
     with pytest.raises(InvalidParameterError, match="direction"):
         run_search(est, X, y, groups=groups, direction="up", n_trials=1)
+    # Minimizing the default "neg_rmse" returned the worst trial, silently.
+    with pytest.raises(ValueError, match=r"scoring='neg_rmse' is greater-is-better"):
+        run_search(est, X, y, groups=groups, direction="minimize", n_trials=1)
     with pytest.raises(InvalidParameterError, match="n_trials"):
         run_search(est, X, y, groups=groups, n_trials=-1)
     with pytest.raises(TypeError, match="positional"):
         run_search(est, X, y, groups, n_trials=1)
-
-
-def test_minimizing_a_greater_is_better_scorer_name_is_refused(runs_data):
-    # run_search(direction="minimize") with the default "neg_rmse" returned
-    # the worst trial as the best, silently.
-    X, y, groups = runs_data
-    with pytest.raises(ValueError, match=r"scoring='neg_rmse' is greater-is-better"):
-        run_search(
-            GreyPSORegressor(calibration="ls"),
-            X,
-            y,
-            groups=groups,
-            n_trials=1,
-            direction="minimize",
-        )

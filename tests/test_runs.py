@@ -94,7 +94,7 @@ def test_time_going_backwards_is_an_error():
 def memory_and_plan(fit_df, pred_df):
     Xf, gf = extract_runs(fit_df)
     sl, lab = run_slices(gf, len(Xf))
-    memory = run_memory(Xf.to_numpy(), sl, lab, run_times(Xf, sl))
+    memory = run_memory(Xf.to_numpy(), sl, lab, Xf)
     Xp, gp = extract_runs(pred_df)
     sl, lab = run_slices(gp, len(Xp))
     return continued_runs("Model", Xp.to_numpy(), sl, lab, run_times(Xp, sl), memory)
@@ -525,7 +525,7 @@ def test_continued_run_messages_name_the_method_called():
     fit = table([0.0, 15.0, 30.0], ["a"] * 3)
     Xf, gf = extract_runs(fit)
     sl, lab = run_slices(gf, 3)
-    memory = run_memory(Xf.to_numpy(), sl, lab, run_times(Xf, sl))
+    memory = run_memory(Xf.to_numpy(), sl, lab, Xf)
     late = table([45.0, 60.0], ["b"] * 2)
     Xp, gp = extract_runs(late)
     sl, lab = run_slices(gp, 2)

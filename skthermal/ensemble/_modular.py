@@ -334,11 +334,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         self._fit_runs = len(slices) if self.relative and groups is not None else None
         # With relative=True, a labelled run continues in predict from its
         # first training row.
-        self.run_states_ = (
-            run_memory(X, slices, labels, run_times(X_raw, slices), X_raw)
-            if self.relative
-            else {}
-        )
+        self.run_states_ = run_memory(X, slices, labels, X_raw) if self.relative else {}
         index = self._frame_index(X_raw, groups, X.shape[0])
         X = self._relative(X, groups)
         y = self._relative(np.asarray(y, dtype=float), groups)

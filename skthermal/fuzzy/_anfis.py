@@ -577,7 +577,7 @@ default="fcm"
         self.run_states_ = {}
         if self.grey:
             slices, labels = run_slices(groups, n)
-            memory = run_memory(X, slices, labels, run_times(frame, slices), frame)
+            memory = run_memory(X, slices, labels, frame)
             for sl, lab in zip(slices, labels, strict=True):
                 if lab in memory:
                     last = X_model[sl.stop - 1 : sl.stop]

@@ -535,6 +535,15 @@ class _CheckingSet:
         return _rmse(pred[self.mask] - self.y[self.mask])
 
 
+def _shift_constants(consequents, centre, sign):
+    """The same rules for inputs centred on ``centre`` (``sign`` +1) or back
+    (-1): ``f = p x + q`` is ``f = p (x - m) + q'`` with ``q' = q + p m``.
+    ``consequents`` (n_rules, n_features + 1, n_outputs); a new array."""
+    out = np.array(consequents, dtype=float)
+    out[:, -1] += sign * np.einsum("a,rao->ro", centre, out[:, :-1])
+    return out
+
+
 def anfis_train(
     X,
     Y,
@@ -633,16 +642,9 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         if consequents is None:
             consequents = np.zeros((n_rules, d + 1, n_out))
             consequents[:, -1, :] = Y.mean(axis=0)
-        # Internally f = p (x - m) + q' (q' = q + p m), converted back to
-        # f = p x + q (_uncentred) for every parameter set returned.
-        consequents_c = np.array(consequents, dtype=float)
-        consequents_c[:, -1] += np.einsum("a,rao->ro", centre, consequents_c[:, :d])
-
-    def _uncentred(cc):
-        out = cc.copy()
-        out[:, -1] -= np.einsum("a,rao->ro", centre, cc[:, :d])
-        return out
-
+        # Internally f = p (x - m) + q', converted back to f = p x + q for
+        # every parameter set returned.
+        consequents_c = _shift_constants(consequents, centre, 1.0)
     rule = StepSizeRule(step_size, step_increase, step_decrease)
 
     history = {"epoch": [], "train_rmse": [], "step_size": []}
@@ -663,14 +665,13 @@ penalize_intercepts, tol, n_iter_no_change, verbose
                 np.multiply(wT[None], X1cT[:, None, :], out=AT3)
                 theta = _solve_transposed(AT3.reshape(-1, n), YT, ridge, free)
             # theta: rows (input, rule), columns outputs; back to f = p x + q.
-            theta = theta.reshape(d + 1, n_rules, n_out)
+            consequents = theta.reshape(d + 1, n_rules, n_out).transpose(1, 0, 2)
             if centred:
-                theta[d] -= np.einsum("a,aro->ro", centre, theta[:d])
-            consequents = theta.transpose(1, 0, 2)
-            C = theta.reshape(d + 1, -1)
+                consequents = _shift_constants(consequents, centre, -1.0)
+            C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
         else:
-            consequents = _uncentred(consequents_c)
+            consequents = _shift_constants(consequents_c, centre, -1.0)
             C = consequents_c.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1cT).reshape(n_rules, n_out, n)
         WF = wT[:, None, :] * F  # the rules' shares of the output

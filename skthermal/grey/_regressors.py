@@ -94,7 +94,6 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
         slices, labels = run_slices(groups, _num_samples(X))
-        times = run_times(X, slices)
         warn_row_gaps(type(self).__name__, X, slices, labels, stacklevel=6)
         frame = X
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
@@ -103,7 +102,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, None, groups, X.shape[0], X=frame, stacklevel=5
         )
-        return X, y, slices, run_memory(X, slices, labels, times, frame)
+        return X, y, slices, run_memory(X, slices, labels, frame)
 
     def _runs_for_predict(self, X, groups):
         """Validated inputs, the runs and, per run, the state it continues."""

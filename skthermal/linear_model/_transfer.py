@@ -643,7 +643,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self.intercept_ = intercepts
         # What continuing a labelled run in predict needs: its first row and
         # times, and every lag's last output.
-        memory = run_memory(X, slices, labels, run_times(X_raw, slices), X_raw)
+        memory = run_memory(X, slices, labels, X_raw)
         if memory:
             F = self._lag_states(U, dts, slices)
             for sl, lab in zip(slices, labels, strict=True):

@@ -159,7 +159,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         # What continuing a labelled run in predict needs: its first row and
         # times, and the inner model's prediction there (the zero of the
         # run's predicted change).
-        memory = run_memory(A, slices, labels, run_times(X, slices), X)
+        memory = run_memory(A, slices, labels, X)
         if memory:
             first = np.asarray(self.estimator_.predict(changes), dtype=float)
             for sl, lab in zip(slices, labels, strict=True):

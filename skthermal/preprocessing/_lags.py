@@ -468,7 +468,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # What continuing each labelled run in transform needs: its first
         # row (the base of the changes) and times, and the filters' last
         # outputs.
-        memory = run_memory(X_arr, slices, labels, run_times(X_raw, slices), X_raw)
+        memory = run_memory(X_arr, slices, labels, X_raw)
         if memory:
             F = self._compute(X_arr, slices, dts, times=row_times(X_raw))
             skip = n_temp if self.include_changes else 0

@@ -775,27 +775,24 @@ def run_sample_periods(
     -------
     ndarray of shape (n_runs,)
     """
-    out = np.full(len(slices), float(default))
     t = row_times(X)
     if t is None:
-        return out
+        return np.full(len(slices), float(default))
     check_time_order(X, groups)
-    labels = [None] * len(slices) if labels is None else labels
-    for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
-        steps = np.diff(t[sl])
-        if steps.size == 0:
-            continue
-        step = float(np.median(steps))
-        if regular is not None and np.max(np.abs(steps - step)) > rtol * step:
-            where = "the run" if lab is None else f"run {lab!r}"
-            raise ValueError(
-                f"{regular} needs a constant sampling interval within each "
-                f"run, but the time_s steps of {where} range from "
-                f"{steps.min():g} to {steps.max():g}; resample the run or pass "
-                "dt=..."
-            )
-        out[r] = step
-    return out
+    periods = _median_periods(t, slices)
+    if regular is not None:
+        labels = [None] * len(slices) if labels is None else labels
+        for sl, lab, step in zip(slices, labels, periods, strict=True):
+            steps = np.diff(t[sl])
+            if steps.size and np.max(np.abs(steps - step)) > rtol * step:
+                where = "the run" if lab is None else f"run {lab!r}"
+                raise ValueError(
+                    f"{regular} needs a constant sampling interval within each "
+                    f"run, but the time_s steps of {where} range from "
+                    f"{steps.min():g} to {steps.max():g}; resample the run or "
+                    "pass dt=..."
+                )
+    return np.where(np.isfinite(periods), periods, float(default))
 
 
 def fitted_sample_periods(X, groups, slices, dt, name, **kwargs):
@@ -922,8 +919,6 @@ def warn_unlabelled_runs(
             f"{n_samples} rows given now carry no run labels"
         )
         one = ""
-    import warnings
-
     warnings.warn(
         f"{head}, so they are taken as ONE run that starts at the first row. "
         "Pass the run labels: groups=..., a 'run' column, or the (run, time_s) "
@@ -944,8 +939,6 @@ def warn_no_time(name, X, dt, time_constants=None):
         return
     if time_constants is not None and len(time_constants) == 0:
         return
-    import warnings
-
     counted = (
         "its time constants are counted in rows"
         if time_constants is None
@@ -980,8 +973,6 @@ def warn_short_runs(who, spans, stacklevel=3):
     label, longest = max(spans.items(), key=lambda item: item[1])
     if longest >= THERMAL_SPAN_S:
         return
-    import warnings
-
     warnings.warn(
         f"{who}: the longest run ({label!r}) lasts {longest:g} s of time_s. "
         "Thermal drift builds up over hours; time_s must be in seconds (a "
@@ -1020,8 +1011,6 @@ def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
                 worst = (float(steps[k]), lab, t[sl][k], t[sl][k + 1], period)
     if worst is None:
         return
-    import warnings
-
     size, lab, t0, t1, period = worst
     where = "" if lab is None else f" (run {lab!r})"
     warnings.warn(
@@ -1064,8 +1053,6 @@ def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
     t = row_times(X)
     if cont is None or t is None:
         return
-    import warnings
-
     pauses = continued_steps(np.zeros(len(slices)), slices, t, cont, memory)
     for lab, pause in zip(cont, pauses, strict=True):
         if lab is None:
@@ -1131,8 +1118,6 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
     off[~np.isfinite(off)] = 0.0
     if not (off > PERIOD_RTOL).any():
         return
-    import warnings
-
     r = int(np.argmax(off))
     where = "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
     warnings.warn(
@@ -1417,18 +1402,19 @@ class RunMemory(dict):
         return super().get(run_key(label), default)
 
 
-def run_memory(X, slices, labels, times, frame=None):
+def run_memory(X, slices, labels, frame):
     """What a sequence model keeps of each labelled training run, to continue it.
 
     Returns a :class:`RunMemory` ``label -> {"n", "x_first", "x_last",
     "t_first", "t_last", "period"}`` for every labelled run (rows without
     labels are one anonymous run, never continued): the number of rows, the
-    first and last rows of inputs, the first and last ``time_s`` (NaN
-    without a time index) and, from the row times of ``frame`` (the input
-    as given), the run's sampling period, its median time step (else NaN).
-    A model adds its own end state.
+    first and last rows of inputs (``X``, the validated array), and from the
+    times of ``frame`` (the input as :func:`extract_runs` returns it) the
+    first and last ``time_s`` and the sampling period, the median time step
+    (NaN without a time index). A model adds its own end state.
     """
-    t = None if frame is None else row_times(frame)
+    times = run_times(frame, slices)
+    t = row_times(frame)
     periods = np.full(len(slices), np.nan) if t is None else _median_periods(t, slices)
     memory = RunMemory()
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
@@ -1500,8 +1486,6 @@ def continued_runs(
     -------
     list of the label to continue (or None) per predicted run.
     """
-    import warnings
-
     who = name if method is None else f"{name}.{method}"
     out = []
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
