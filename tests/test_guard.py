@@ -304,6 +304,38 @@ def test_dropout_at_a_run_start_does_not_offset_the_run(train, new_run):
     assert shift < 0.05 * far
 
 
+def test_a_glitch_in_the_first_reading_is_flagged_and_held(train, new_run):
+    # The first reading is the reference of changes since the run start: a
+    # glitch there, inside the range, shifts every later compensation while
+    # those rows look good. It is the jump, not the step back to normal.
+    from skthermal.ensemble import ModularRegressor
+
+    X, y = train
+    guard = GuardedRegressor(ModularRegressor(relative=True), mode="hold")
+    guard.fit(X, y)
+    good = guard.predict(new_run[0])
+    X_bad = new_run[0].copy()
+    X_bad.iloc[0, 0] += 1.5  # five largest training steps, within the range
+    checked, caught = _caught(guard.predict_checked, X_bad)
+    assert checked["reason"].tolist()[:3] == ["jump: T1_C", "", ""]
+    assert "at time_s=0" in _messages(caught, SensorFaultWarning)[0]
+    unguarded = guard.estimator_.predict(X_bad)
+    assert np.abs(unguarded[1:] - good[1:]).min() > 4.0
+    # Held at the second reading: one sample's change away.
+    assert np.abs(checked["prediction"].to_numpy()[1:] - good[1:]).max() < 1.0
+
+
+def test_a_jump_after_the_first_reading_is_the_second_reading(train, new_run):
+    # The step from the first reading is a jump and so is the next: the
+    # second reading is the odd one out (a spike and its step back).
+    X, y = train
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    X_bad = new_run[0].copy()
+    X_bad.iloc[1, 0] += 1.5
+    checked, _ = _caught(guard.predict_checked, X_bad)
+    assert checked["reason"].tolist()[:4] == ["", "jump: T1_C", "jump: T1_C", ""]
+
+
 class _NaNModel(RegressorMixin, BaseEstimator):
     def fit(self, X, y):
         self.n_features_in_ = np.asarray(X).shape[1]

@@ -83,6 +83,22 @@ def _steps(A, first):
     return d
 
 
+def _odd_first_readings(jump, step, first):
+    """Runs' first readings (n, p) that are the odd one out: the step to the
+    run's second reading is a jump, the step from the second to the third is
+    not. The first reading is the run's reference for changes since the
+    start, so a glitch there would offset every later compensation while the
+    rows after it looked good; only the step back would be flagged."""
+    odd = np.zeros_like(jump)
+    n = jump.shape[0]
+    starts = np.flatnonzero(first)
+    starts = starts[starts + 2 < n]
+    starts = starts[~first[starts + 1] & ~first[starts + 2]]
+    calm = np.isfinite(step[starts + 2]) & ~jump[starts + 2]
+    odd[starts] = jump[starts + 1] & calm
+    return odd
+
+
 def _unchanged(A, first):
     """How many earlier readings of the same run equal each reading, in a row."""
     same = np.zeros(A.shape, dtype=bool)
@@ -301,7 +317,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     ``fit`` or ``partial_fit`` (same run label), which it continues; other
     rows that start after ``time_s`` 0 are flagged (late run start). After a
     one-sample spike both the spike and the next sample (the step back) are
-    flagged as jumps. Run boundaries come from ``groups``, a ``run`` column
+    flagged as jumps. A run's first reading is flagged instead of the step
+    to the second when that step is a jump and the next one is not: the
+    first reading is the reference of changes since the run start, and
+    ``"hold"`` replaces it by the run's second reading. Run boundaries come from ``groups``, a ``run`` column
     or a ``run`` index level; steps and stretches never cross them. Times
     in the messages come from a ``time_s`` index level (as produced by
     :func:`skthermal.datasets.split_runs`), else rows are numbered from 0.
@@ -756,6 +775,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                     np.inf,
                 )
                 flags["jump"] = np.isfinite(step) & (step > limit)
+                # An odd first reading is the fault, not the step from it.
+                odd = _odd_first_readings(flags["jump"], step, first)
+                flags["jump"][1:] &= ~odd[:-1]
+                flags["jump"] |= odd
             if self.flat is not None:
                 if self.flat == "auto":
                     window = np.maximum(3 * self.input_max_unchanged_, _MIN_FLAT)
