@@ -36,6 +36,7 @@ from skthermal.utils._runs import (
     warn_pauses,
     warn_unlabelled_runs,
 )
+from skthermal.utils._threads import single_threaded_blas
 
 # Relative spread of the sampling interval tolerated within one run: the exact
 # discretisation below assumes a constant step.
@@ -627,11 +628,14 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         U = self._inputs(X, slices)
         Y = y.reshape(X.shape[0], -1)
         grid = np.exp(np.linspace(*np.log(bounds), self.n_grid))
-        starts = self._grid_search(U, Y, dts, slices, grid)
-        fits = [
-            self._fit_one(U, Y[:, k], dts, slices, bounds, np.log(start))
-            for k, start in enumerate(starts)
-        ]
+        # One BLAS thread: the search is a loop of small ridge solves and
+        # trust-region SVDs, which threads only slow down on shared cores.
+        with single_threaded_blas():
+            starts = self._grid_search(U, Y, dts, slices, grid)
+            fits = [
+                self._fit_one(U, Y[:, k], dts, slices, bounds, np.log(start))
+                for k, start in enumerate(starts)
+            ]
         taus, coefs, intercepts, n_iter = (
             np.array(part) for part in zip(*fits, strict=True)
         )
