@@ -50,3 +50,11 @@ def percent(share):
     if not np.isfinite(share):
         return "n/a"
     return f"{round(share * 100)}%"
+
+
+def qualified_name(obj):
+    """``module.qualname`` of a function or of an object's class: the same in
+    every process (a default repr holds a memory address)."""
+    name = getattr(obj, "__qualname__", None) or type(obj).__qualname__
+    module = getattr(obj, "__module__", None) or type(obj).__module__
+    return f"{module}.{name}"

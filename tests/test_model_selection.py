@@ -632,12 +632,14 @@ def _grey_search(X, y, groups, storage, **kwargs):
         X,
         y,
         groups=groups,
-        space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
-        n_trials=1,
-        storage=storage,
-        study_name="s",
-        refit=False,
-        **kwargs,
+        **{
+            "space": lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            "n_trials": 1,
+            "storage": storage,
+            "study_name": "s",
+            "refit": False,
+            **kwargs,
+        },
     )
 
 
@@ -684,6 +686,69 @@ def test_a_study_on_other_inputs_rows_or_folds_is_refused(runs_data, tmp_path):
     assert result.study.user_attrs["skthermal_features"] == [first, second, third]
 
 
+def test_a_study_of_another_space_is_refused_before_any_trial(runs_data, tmp_path):
+    # Resuming with a value fixed that the study searched would replay its
+    # best trial through the new space (the fixed value winning), so the best
+    # parameters and refitted model would not be the ones scored; another
+    # built-in space of the same estimator would add its trials to the study.
+    X, y, groups = runs_data
+    storage = tmp_path / "space.db"
+
+    def search(space):
+        return run_search(
+            ANFISRegressor(random_state=0),
+            X.iloc[:, :2],
+            y,
+            groups=groups,
+            space=space,
+            n_trials=1,
+            storage=storage,
+            study_name="s",
+            refit=False,
+            random_state=0,
+        )
+
+    search(search_space("anfis", init="fcm", n_clusters=2, epochs=(3, 5)))
+    for other in (
+        search_space("anfis", init="fcm", n_clusters=2, epochs=9),
+        search_space("anfis", init="grid", n_mfs=2, epochs=(3, 5)),
+    ):
+        with pytest.raises(ValueError, match=r"\(space \"search_space\('anfis', "):
+            search(other)
+    study = optuna.load_study(study_name="s", storage=make_storage(storage))
+    assert len(study.trials) == 1
+    same = search(search_space("anfis", init="fcm", n_clusters=2, epochs=(3, 5)))
+    assert len(same.study.trials) == 2
+
+
+def test_a_changed_space_callable_is_refused_before_any_trial(runs_data, tmp_path):
+    # Same module and name, other draws: only replaying the best trial shows
+    # it, and that happens before this search adds its trials.
+    X, y, groups = runs_data
+    storage = tmp_path / "callable.db"
+
+    def make(name):
+        def space(trial):
+            return {"delay": trial.suggest_int(name, 0, 1)}
+
+        return space
+
+    _grey_search(X, y, groups, storage, space=make("delay"))
+    with pytest.raises(ValueError, match="this search space cannot replay"):
+        _grey_search(X, y, groups, storage, space=make("lag"))
+    study = optuna.load_study(study_name="s", storage=make_storage(storage))
+    assert len(study.trials) == 1
+
+
+def test_a_space_shows_its_overrides():
+    assert repr(search_space("anfis", init="fcm", epochs=(5, 8))) == (
+        "search_space('anfis', init='fcm', epochs=(5, 8))"
+    )
+    assert (
+        repr(search_space("gnnmci", prefix="g")) == "search_space('gnnmci', prefix='g')"
+    )
+
+
 def test_a_study_of_an_older_skthermal_is_joined_with_a_warning(runs_data, tmp_path):
     # Made before the features, cv and data were recorded: no way to check
     # them; the search warns, records its own, and later searches are checked.
@@ -700,7 +765,9 @@ def test_a_study_of_an_older_skthermal_is_joined_with_a_warning(runs_data, tmp_p
         study.set_user_attr(key, value)
     study.enqueue_trial({"delay": 0})
     study.optimize(lambda trial: -float(trial.suggest_int("delay", 0, 1)), n_trials=1)
-    with pytest.warns(UserWarning, match="does not record their features, cv, data"):
+    with pytest.warns(
+        UserWarning, match="does not record their space, features, cv, data"
+    ):
         result = _grey_search(X, y, groups, storage)
     assert len(result.study.trials) == 2
     assert result.study.user_attrs["skthermal_features"] == list(X.columns)

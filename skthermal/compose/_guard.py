@@ -320,8 +320,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     flagged as jumps. A run's first reading is flagged instead of the step
     to the second when that step is a jump and the next one is not: the
     first reading is the reference of changes since the run start, and
-    ``"hold"`` replaces it by the run's second reading. Run boundaries come from ``groups``, a ``run`` column
-    or a ``run`` index level; steps and stretches never cross them. Times
+    ``"hold"`` replaces it by the run's second reading. Run boundaries come
+    from ``groups``, a ``run`` column or a ``run`` index level; steps and
+    stretches never cross them. Times
     in the messages come from a ``time_s`` index level (as produced by
     :func:`skthermal.datasets.split_runs`), else rows are numbered from 0.
 

@@ -29,11 +29,14 @@ from sklearn.utils._param_validation import (
     validate_params,
 )
 
+from skthermal._naming import qualified_name
 from skthermal._optional import import_optional
 from skthermal.metrics import get_scorer
 from skthermal.model_selection._spaces import (
+    PrefixedSpace,
     _default_space_name,
     combine_spaces,
+    describe_space,
     search_space,
 )
 from skthermal.utils._runs import row_times, run_table_index
@@ -315,22 +318,10 @@ def _infer_space(estimator):
         for name, step in estimator.steps:
             inner = _infer_space(step)
             if inner is not None:
-                spaces.append(_PrefixedSpace(name, inner))
+                spaces.append(PrefixedSpace(name, inner))
         return combine_spaces(*spaces) if spaces else None
     name = _default_space_name(estimator)
     return None if name is None else search_space(name)
-
-
-class _PrefixedSpace:
-    def __init__(self, prefix, space):
-        self.prefix = prefix
-        self.space = space
-
-    def __call__(self, trial):
-        return {f"{self.prefix}__{k}": v for k, v in self.space(trial).items()}
-
-    def __repr__(self):
-        return f"{self.space!r} for step {self.prefix!r}"
 
 
 def _resolve_space(space, estimator):
@@ -353,7 +344,7 @@ def _resolve_space(space, estimator):
             inner = search_space(inner) if isinstance(inner, str) else inner
             if not callable(inner):
                 raise TypeError(f"space[{prefix!r}] must be a name or a callable.")
-            parts.append(_PrefixedSpace(prefix, inner))
+            parts.append(PrefixedSpace(prefix, inner))
         return combine_spaces(*parts)
     raise TypeError(
         "space must be None, a built-in name, a callable space(trial) -> dict or a "
@@ -563,6 +554,7 @@ class _TrialFailed(Exception):
 # the same model, scoring, target, inputs, folds and rows.
 _SETUP_KEYS = (
     "skthermal_estimator",
+    "skthermal_space",
     "skthermal_scoring",
     "skthermal_target",
     "skthermal_features",
@@ -591,9 +583,7 @@ def _scoring_name(scoring):
         return str(scoring)
     if hasattr(scoring, "_score_func"):  # make_scorer: its repr has no address
         return repr(scoring)
-    name = getattr(scoring, "__qualname__", None) or type(scoring).__qualname__
-    module = getattr(scoring, "__module__", None) or type(scoring).__module__
-    return f"{module}.{name}"
+    return qualified_name(scoring)
 
 
 def _target_name(y):
@@ -635,11 +625,12 @@ def _data_fingerprint(X, groups, splits):
     return f"{len(X)} rows{runs}, run labels and folds {digest.hexdigest()[:16]}"
 
 
-def _search_setup(estimator, scoring, X, y, groups, cv, splits):
+def _search_setup(estimator, space, scoring, X, y, groups, cv, splits):
     """What :func:`run_search` records in a study (``_SETUP_KEYS``); ``X``
     as the caller gave it (its column names)."""
     values = (
         _estimator_kind(estimator),
+        describe_space(space),
         _scoring_name(scoring),
         _target_name(y),
         _feature_names(X),
@@ -707,6 +698,18 @@ def _check_study_setup(study, setup, direction):
         )
     for key in missing:
         study.set_user_attr(key, setup[key])
+
+
+def _replay(space, trial):
+    """The estimator parameters of a stored trial, drawn again by ``space``."""
+    optuna = _import_optuna()
+    try:
+        return space(optuna.trial.FixedTrial(trial.params))
+    except Exception as exc:  # e.g. a shared study searched another space
+        raise ValueError(
+            f"The best trial (number {trial.number}) has parameters "
+            f"{trial.params} that this search space cannot replay: {exc}"
+        ) from exc
 
 
 class SearchResult:
@@ -980,11 +983,14 @@ def run_search(
     ``epoch_callback`` of the estimator is kept: it is called before the
     pruning callback in the first fold, and either can stop training.
 
-    A stored study records the estimator's classes, the scoring, the target,
-    the feature names (or their number), the kind and number of folds, and
-    the rows (their number, the runs, and a hash of the run labels and of
-    the folds' rows); joining it with a search that differs in any of them,
-    or in ``direction``, raises a ValueError naming what differs.
+    A stored study records the estimator's classes, the search space (a
+    built-in space with its overrides, or a callable's module and name), the
+    scoring, the target, the feature names (or their number), the kind and
+    number of folds, and the rows (their number, the runs, and a hash of the
+    run labels and of the folds' rows); joining it with a search that
+    differs in any of them, or in ``direction``, raises a ValueError naming
+    what differs: the best trial of another space cannot be replayed or
+    compared.
 
     Examples
     --------
@@ -1029,7 +1035,7 @@ def run_search(
         cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
     )
     scorer = get_scorer(scoring)
-    setup = _search_setup(estimator, scoring, given_X, y, groups, cv, splits)
+    setup = _search_setup(estimator, space, scoring, given_X, y, groups, cv, splits)
 
     store = make_storage(
         storage,
@@ -1065,6 +1071,11 @@ def run_search(
             seed = int(state[0])
         study.sampler = optuna.samplers.TPESampler(seed=seed)
 
+    complete = (optuna.trial.TrialState.COMPLETE,)
+    if study.get_trials(deepcopy=False, states=complete):
+        # A space that cannot replay the study's best trial (a callable
+        # changed between sessions) fails now, before adding trials.
+        _replay(space, study.best_trial)
     mode = _resolve_pruning(pruning, study, estimator)
     sign = -1.0 if direction == "maximize" else 1.0
     guard = _FailureGuard(max_failed_trials)
@@ -1094,13 +1105,7 @@ def run_search(
     except ValueError:
         warnings.warn(_no_best_trial(study), UserWarning, stacklevel=3)
     if best_trial is not None:
-        try:
-            best_params = space(optuna.trial.FixedTrial(best_trial.params))
-        except Exception as exc:  # e.g. a shared study searched another space
-            raise ValueError(
-                f"The best trial (number {best_trial.number}) has parameters "
-                f"{best_trial.params} that this search space cannot replay: {exc}"
-            ) from exc
+        best_params = _replay(space, best_trial)
         if refit:
             best_estimator = clone(estimator).set_params(**best_params).fit(X, y)
     return SearchResult(study, best_params, best_trial, best_estimator, scoring)

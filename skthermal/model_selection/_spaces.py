@@ -10,6 +10,8 @@ joins spaces of several pipeline steps.
 
 import numbers
 
+from skthermal._naming import qualified_name
+
 _PREFIX_SEP = "__"
 
 
@@ -199,7 +201,11 @@ class SearchSpace:
 
     def __repr__(self):
         prefix = f", prefix={self.prefix!r}" if self.prefix else ""
-        return f"search_space({self.name!r}{prefix})"
+        defaults = _REGISTRY[self.name][1]
+        overrides = "".join(
+            f", {k}={v!r}" for k, v in self.ranges.items() if v != defaults[k]
+        )
+        return f"search_space({self.name!r}{prefix}{overrides})"
 
 
 def search_space(name, *, prefix=None, **ranges):
@@ -322,4 +328,33 @@ class _CombinedSpace:
         return params
 
     def __repr__(self):
-        return f"combine_spaces({', '.join(map(repr, self.spaces))})"
+        return f"combine_spaces({', '.join(map(describe_space, self.spaces))})"
+
+
+class PrefixedSpace:
+    """A space whose parameters belong to the pipeline step ``prefix``."""
+
+    def __init__(self, prefix, space):
+        self.prefix = prefix
+        self.space = space
+
+    def __call__(self, trial):
+        return {f"{self.prefix}__{k}": v for k, v in self.space(trial).items()}
+
+    def __repr__(self):
+        return f"{describe_space(self.space)} for step {self.prefix!r}"
+
+
+def describe_space(space):
+    """What a search space is, the same in every process: a built-in space
+    with its overrides, or a callable's module and qualified name.
+
+    Examples
+    --------
+    >>> from skthermal.model_selection._spaces import describe_space
+    >>> describe_space(search_space("anfis", init="fcm", epochs=(5, 8)))
+    "search_space('anfis', init='fcm', epochs=(5, 8))"
+    """
+    if isinstance(space, SearchSpace | _CombinedSpace | PrefixedSpace):
+        return repr(space)
+    return qualified_name(space)
