@@ -78,8 +78,12 @@ def test_runs_restart_and_names_and_pandas_output():
         "d_T1_C_lp60",
         "spindle_rpm_pow1_lp60",
         "spindle_rpm_pow1.5_lp60",
+        "spindle_rpm_pow1",
+        "spindle_rpm_pow1.5",
     ]
     assert isinstance(F, pd.DataFrame)
+    # the driver terms unfiltered: the speed at once, in thousands
+    np.testing.assert_allclose(F["spindle_rpm_pow1"], X["spindle_rpm"] / 1000)
     # changes restart at the start of run b
     assert F["d_T1_C"].iloc[0] == 0 and F["d_T1_C"].iloc[6] == 0
     # driver filters start in steady state: constant within each run
@@ -195,6 +199,29 @@ def test_feed_is_a_driver_and_direction_does_not_matter():
     assert "d_feed_mm_min" not in F.columns  # a driver, not a temperature
     # Travelling back heats as travelling forward.
     np.testing.assert_allclose(F["feed_mm_min_pow1_lp60"].iloc[5:], 2.0)
+
+
+def test_without_drivers_the_driver_columns_are_left_out():
+    # A candidate "without the drivers" must not take the spindle speed as a
+    # temperature (its change since the run start and its filters): it is
+    # the model of the temperatures alone.
+    X = _frame().assign(spindle_rpm=np.r_[np.zeros(5), np.full(5, 3000.0)])
+    y = X["spindle_rpm"].to_numpy() / 1000.0 + X["T1_C"].to_numpy()
+    n_temps = X.shape[1] - 1
+    for taus in [(), (60.0,)]:
+        model = LagRidgeCV(time_constant_sets=[taus], alphas=[0.01], relative=True)
+        model.fit(X, y)
+        assert model.cv_results_["use_drivers"] == [True, False]
+        alone = clone(model).set_params(drivers=None)
+        alone.fit(X.drop(columns="spindle_rpm"), y)
+        np.testing.assert_allclose(
+            model.cv_results_["sse"][1], alone.cv_results_["sse"][0]
+        )
+        # With the drivers: their filters and the terms unfiltered, two
+        # powers each.
+        assert model.use_drivers_
+        assert model.n_lag_features_ == (1 + len(taus)) * (n_temps + 2)
+        assert np.isfinite(model.predict(X)).all()
 
 
 def test_filter_with_uneven_times_and_gaps_matches_recursion():
@@ -518,7 +545,8 @@ def test_one_row_runs_do_not_pull_the_fitted_sampling_period():
     F = lf.transform(data)
     # A one-row run: its first row filtered from rest over one 30 s period.
     a = np.exp(-30.0 / 60.0)
-    assert F[-1, -2] == pytest.approx((1 - a) * X["spindle_rpm"].iloc[1] / 1e3)
+    pow1_lp60 = list(lf.get_feature_names_out()).index("spindle_rpm_pow1_lp60")
+    assert F[-1, pow1_lp60] == pytest.approx((1 - a) * X["spindle_rpm"].iloc[1] / 1e3)
     model = LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0])
     model.fit(data, np.arange(len(data), dtype=float))
     assert model.lag_features_.sample_period_s_ == 30.0

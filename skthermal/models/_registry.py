@@ -239,7 +239,7 @@ def model_search_space(name):
     --------
     >>> from skthermal.models import model_search_space
     >>> model_search_space("anfis-fcm")
-    search_space('anfis', prefix='estimator')
+    search_space('anfis', prefix='estimator', init='fcm')
     """
     from skthermal.model_selection import search_space
 

@@ -135,7 +135,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     drivers : "auto", None or sequence of str or int, default="auto"
         Driver columns, see :class:`LagFeatures`.
     try_without_drivers : bool, default=True
-        Also try every candidate without the drivers.
+        Also try every candidate without the drivers (their columns left
+        out).
     relative : bool or "auto", default="auto"
         Temperatures as changes since each run's start (True) or as read
         (False). ``"auto"``: with several runs, chosen by the CV; with one
@@ -172,7 +173,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     time_constants_ : tuple of float
         Chosen time constants.
     use_drivers_ : bool
-        Whether the chosen model uses the drivers.
+        Whether the chosen model uses the drivers' filters. Without them the
+        driver columns are left out (never taken as temperatures); with no
+        time constants the drivers have no features either.
     alpha_ : float
         Chosen ridge penalty.
     cv_results_ : dict
@@ -182,6 +185,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     best_score_ : float
         Mean squared validation error of the chosen settings.
     lag_features_ : LagFeatures
+        The fitted features, drivers included; the model reads the first
+        ``n_lag_features_`` of them.
+    n_lag_features_ : int
+        Number of features the ridge reads.
     scaler_ : StandardScaler
     ridge_ : Ridge
     relative_ : bool
@@ -244,14 +251,23 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.first_fraction = first_fraction
         self.dt = dt
 
-    def _features(self, taus, use_drivers, relative, dt=None):
+    def _features(self, taus, relative, dt=None):
         return LagFeatures(
             time_constants=tuple(taus),
             relative=relative,
-            drivers=self.drivers if use_drivers else None,
+            drivers=self.drivers,
             driver_initial=self.driver_initial,
             dt=dt,
         )
+
+    @staticmethod
+    def _n_temperature_features(lf):
+        """How many of ``lf``'s features come from the temperatures: they
+        come first, the drivers' filters after them. A candidate without the
+        drivers keeps these only (the driver columns are left out, not taken
+        as temperatures)."""
+        n_temp = lf.n_features_in_ - lf.driver_indices_.size
+        return n_temp * (int(lf.include_changes) + len(lf.time_constants))
 
     def _select(self, fold_sse, folds, n_feat, alphas):
         """Candidate and alpha chosen from the per-fold errors.
@@ -406,24 +422,28 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         fold_sse, n_feat, kept = [], [], []
         for taus, use, rel in cands:
             try:
-                lf = self._features(taus, use, rel, dt).fit(X_raw, groups=groups)
+                lf = self._features(taus, rel, dt).fit(X_raw, groups=groups)
             except ValueError as exc:
                 # A candidate without features (no filters, every column a
                 # driver) is skipped; anything else is the input's fault.
                 if "would produce no features" not in str(exc):
                     raise
                 continue
-            if use and self.drivers is not None and lf.driver_indices_.size == 0:
-                if (taus, False, rel) in cands:
-                    continue  # same model as without drivers
             F = lf.transform(X_raw, groups=groups)
+            n_temp = self._n_temperature_features(lf)
+            if use and F.shape[1] == n_temp and (taus, False, rel) in cands:
+                continue  # no driver features: the same model as without
+            if not use:
+                if n_temp == 0:
+                    continue  # every column a driver: nothing left
+                F = F[:, :n_temp]
             per = (
                 _ridge_path_sse(F, y, folds, alphas, per_fold=True)
                 if folds
                 else np.zeros((1, alphas.size))
             )
             results["time_constants"].append(taus)
-            results["use_drivers"].append(use and lf.driver_indices_.size > 0)
+            results["use_drivers"].append(F.shape[1] > n_temp)
             results["relative"].append(rel)
             results["sse"].append(per.sum(0))
             fold_sse.append(per)
@@ -440,11 +460,14 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         (taus, use, rel), self.alpha_ = kept[c], float(alphas[j])
         self.time_constants_ = taus
         self.relative_ = rel
-        self.lag_features_ = self._features(taus, use, rel, dt).fit(
-            X_raw, groups=groups
-        )
-        self.use_drivers_ = bool(self.lag_features_.driver_indices_.size)
+        self.lag_features_ = self._features(taus, rel, dt).fit(X_raw, groups=groups)
         F = self.lag_features_.transform(X_raw, groups=groups)
+        if not use:
+            F = F[:, : self._n_temperature_features(self.lag_features_)]
+        self.n_lag_features_ = F.shape[1]
+        self.use_drivers_ = F.shape[1] > self._n_temperature_features(
+            self.lag_features_
+        )
         self.scaler_ = StandardScaler().fit(F)
         self.ridge_ = Ridge(alpha=self.alpha_).fit(self.scaler_.transform(F), y)
         return self
@@ -491,6 +514,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")
             F = self.lag_features_.transform(X_raw, groups=groups)
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
+        F = F[:, : self.n_lag_features_]
         return self.ridge_.predict(self.scaler_.transform(F))
 
 

@@ -291,8 +291,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     temperatures, as changes since the run start ``dT`` (``relative=True``) or
     as absolute readings ``T``, the same through first-order exponential
     filters with the given time constants (each starting in steady state),
-    and these filters applied to the drivers (e.g. spindle speed) as
-    ``(u / driver_scale) ** p`` for every power ``p``.
+    these filters applied to the drivers (e.g. spindle speed) as
+    ``|u / driver_scale| ** p`` for every power ``p``, and, last, those
+    driver terms unfiltered (an error that follows the speed at once, such
+    as the centrifugal growth of a spindle). Columns in that order:
+    temperatures, their filters, the drivers' filters, the drivers.
 
     Within one run both choices give the same model up to a constant (the
     filters are linear and start in steady state), so they differ only
@@ -321,14 +324,16 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         Filter time constants in seconds, finite, > 0 and distinct. May be
         empty.
     include_changes : bool, default=True
-        Include the unfiltered temperatures (``dT`` or ``T``) themselves.
+        Include the unfiltered temperatures (``dT`` or ``T``) and driver
+        terms themselves.
     relative : bool, default=True
         Temperatures as changes since the run start (True) or as absolute
         readings (False).
     drivers : "auto", None or sequence of str or int, default="auto"
         Driver columns (names or positions), filtered but not differenced.
         ``"auto"`` uses the run table's drivers ``spindle_rpm`` and
-        ``feed_mm_min`` when present. All other columns are temperatures.
+        ``feed_mm_min`` when present. All other columns are temperatures,
+        the run table's air temperature ``ambient_C`` included.
     driver_powers : sequence of float, default=(1.0, 1.5)
         Powers applied to the magnitude of the scaled drivers (a spindle
         turning either way, an axis travelling either way, heats alike):
@@ -459,7 +464,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         )
         n_temp = X_arr.shape[1] - self.driver_indices_.size
         n_out = n_temp * (int(self.include_changes) + taus.size)
-        n_out += self.driver_indices_.size * powers.size * taus.size
+        n_out += (
+            self.driver_indices_.size
+            * powers.size
+            * (taus.size + int(self.include_changes))
+        )
         if n_out == 0:
             raise ValueError(
                 "LagFeatures would produce no features: set include_changes=True "
@@ -471,10 +480,15 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         memory = run_memory(X_arr, slices, labels, X_raw)
         if memory:
             F = self._compute(X_arr, slices, dts, times=row_times(X_raw))
+            # The filters' outputs: after the unfiltered temperatures, before
+            # the unfiltered drivers.
             skip = n_temp if self.include_changes else 0
+            end = F.shape[1] - (
+                self.driver_indices_.size * powers.size if self.include_changes else 0
+            )
             for sl, lab in zip(slices, labels, strict=True):
                 if lab in memory:
-                    memory[lab]["state"] = F[sl.stop - 1, skip:].copy()
+                    memory[lab]["state"] = F[sl.stop - 1, skip:end].copy()
         self.run_states_ = memory
         return self
 
@@ -512,6 +526,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             ]
         blocks = [T] if self.include_changes else []
         filtered = [(T, T_last, tau, "steady") for tau in taus]
+        instant = []  # the drivers as they are: the last columns
         if self.driver_indices_.size:
             D = X_arr[:, self.driver_indices_] / self.driver_scale
             D_last = [
@@ -521,6 +536,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             for p in self._powers():
                 Dp = np.abs(D) ** p
                 Dp_last = [None if x is None else np.abs(x) ** p for x in D_last]
+                if self.include_changes:
+                    instant.append(Dp)
                 filtered += [(Dp, Dp_last, tau, self.driver_initial) for tau in taus]
         states = [None] * n_runs if states is None else states
         start = 0
@@ -541,7 +558,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 )
             )
             start += width
-        return np.hstack(blocks)
+        return np.hstack(blocks + instant)
 
     def transform(self, X, *, groups=None):
         """Compute the lag features, restarting at every run.
@@ -639,4 +656,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                     f"{input_features[i]}_pow{p:g}_lp{tau:g}"
                     for i in self.driver_indices_
                 ]
+        if self.include_changes:
+            for p in self._powers():
+                out += [f"{input_features[i]}_pow{p:g}" for i in self.driver_indices_]
         return np.asarray(out, dtype=object)
