@@ -117,6 +117,25 @@ def workdir(tmp_path_factory):
     return folder
 
 
+def test_run_labels_with_spaces_can_be_chosen(capsys, tmp_path):
+    # Commas separate labels; a label may hold spaces.
+    runs = tmp_path / "r.csv"
+    for label in ("test 1", "test 2"):
+        argv = ["simulate", "--segment", "6000:2h", "--sample-period", "240"]
+        argv += ["--run", label, "--append", "--out", runs]
+        assert _run(capsys, *argv)[0] == 0
+    fit = ["fit", "--runs", runs, "--model", "ridge", "--sensors", "T05_C,T40_C"]
+    fit += ["--out", tmp_path / "m.joblib", "--train-runs"]
+    status, _, err = _run(capsys, *fit, "test 1, test 2")
+    assert status == 0, err
+    status, _, err = _run(capsys, *fit, "test 3")
+    assert status == 2 and "run(s) ['test 3'] are not in the table" in err
+    # A label the lists could not name is refused where it is made.
+    argv = ["simulate", "--segment", "3000:20min", "--run", "a,b"]
+    status, _, err = _run(capsys, *argv, "--out", tmp_path / "c.csv")
+    assert status == 2 and "without commas" in err
+
+
 def test_simulate_writes_a_valid_run_table(workdir):
     from skthermal.datasets import read_runs
 
@@ -444,6 +463,38 @@ def test_fit_the_baselines_and_predict(capsys, workdir):
         capsys, "search", "--runs", workdir / "tests.csv", "--model", "ridge"
     )
     assert status != 0 and "nothing to search" in err
+
+
+def test_predict_names_a_model_file_it_cannot_use(capsys, workdir, tmp_path):
+    # A model saved by another skthermal lacks an attribute this one reads;
+    # an empty file or a search's study is no model either. One line each.
+    import joblib
+
+    model = workdir / "lag-ridge.joblib"
+    if not model.is_file():
+        argv = ["fit", "--runs", workdir / "tests.csv", "--train-runs", "IV"]
+        assert _run(capsys, *argv, "--model", "lag-ridge", "--out", model)[0] == 0
+    bundle = joblib.load(model)
+    inner = bundle["estimator"]
+    inner = getattr(inner, "estimator_", inner)
+    del inner.n_lag_features_
+    stale = tmp_path / "stale.joblib"
+    joblib.dump(bundle, stale)
+    (tmp_path / "empty.joblib").write_bytes(b"")
+    study = tmp_path / "study.db"
+    import sqlite3
+
+    sqlite3.connect(study).execute("create table t (x)").connection.commit()
+    runs = workdir / "tests.csv"
+    for path, message in (
+        (stale, "saved by another skthermal version: fit it again"),
+        (tmp_path / "empty.joblib", "an empty file, not a model file"),
+        (study, "an SQLite database (a search's study?), not a model file"),
+    ):
+        argv = ["predict", "--model", path, "--runs", runs]
+        status, _, err = _run(capsys, *argv, "--out", tmp_path / "p.csv")
+        assert status == 2 and message in err, err
+        assert "Traceback" not in err
 
 
 def test_a_guarded_model_holds_a_spike_and_says_so(capsys, workdir):

@@ -755,6 +755,19 @@ def test_concat_runs_metadata_argument_and_errors(runs):
         concat_runs([a, bad])
 
 
+def test_concat_runs_of_pieces_filtered_from_one_campaign():
+    # pandas filtering keeps attrs: each piece carries the records of all
+    # six tests; the joined table keeps those of its own runs.
+    from skthermal.datasets import make_machine_b_tests
+
+    campaign = make_machine_b_tests(sample_period_s=1200, random_state=0)
+    heating = campaign[campaign["run"].isin(["I", "II"])]
+    cooling = campaign[campaign["run"].isin(["V"])]
+    assert len(heating.attrs["metadata"]) == 6
+    joined = concat_runs([heating, cooling])
+    assert [r["run"] for r in joined.attrs["metadata"]] == ["I", "II", "V"]
+
+
 # --- load_fl_thermal ---------------------------------------------------------
 
 

@@ -22,14 +22,19 @@ class UserError(Exception):
     """An error in the user's input: reported as one line, exit status 2."""
 
 
-def split_list(value):
-    """``"a,b c"`` or ``["a,b", "c"]`` -> ``["a", "b", "c"]``."""
+def split_list(value, keep=()):
+    """``"a, b"`` or ``["a,b", "c"]`` -> ``["a", "b", "c"]``: commas
+    separate, spaces around the items are dropped (a run label may hold
+    spaces: ``"test 1"``), unless an item with them is one of ``keep``."""
     if value is None:
         return None
     items = [value] if isinstance(value, str) else list(value)
     out = []
     for item in items:
-        out += [v for v in item.replace(",", " ").split() if v]
+        for v in item.split(","):
+            v = v if v in keep else v.strip()
+            if v:
+                out.append(v)
     return out
 
 
@@ -136,8 +141,8 @@ def run_mask(df, runs, option="--train-runs"):
     labels = df["run"].astype(str)
     if not runs:
         return np.ones(len(df), dtype=bool)
-    wanted = split_list(runs)
     present = list(pd.unique(labels))
+    wanted = split_list(runs, keep=present)
     unknown = [r for r in wanted if r not in present]
     if unknown:
         raise UserError(

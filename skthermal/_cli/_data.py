@@ -223,6 +223,12 @@ def cmd_simulate(args):
             noise_C=air["ambient_noise"],
         )
         check_air(ambient, duty.duration_s)
+        if "," in args.run or args.run != args.run.strip() or not args.run:
+            raise UserError(
+                f"--run {args.run!r}: a run label without commas and without "
+                "spaces at its ends (options such as --train-runs list labels "
+                "separated by commas)."
+            )
         runs = machine.simulate(
             duty,
             ambient,

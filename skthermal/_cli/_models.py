@@ -60,13 +60,15 @@ def _not_a_model(path):
     """What ``path`` is when it is plainly not a model file (a run table or
     another text file), else None. Model files are binary: pickles (raw or
     compressed, as joblib writes them) or zip archives (skops)."""
-    name = path.name.lower()
-    if name.endswith((".csv", ".csv.gz", ".parquet", ".pq")):
-        return "a run table"
     with open(path, "rb") as f:
         head = f.read(4096)
     if not head:
         return "an empty file"
+    if head.startswith(b"SQLite format 3\0"):
+        return "an SQLite database (a search's study?)"
+    name = path.name.lower()
+    if name.endswith((".csv", ".csv.gz", ".parquet", ".pq")):
+        return "a run table"
     if b"\0" not in head:
         try:
             head.decode("utf-8")
@@ -300,6 +302,15 @@ def _predict(bundle, df, then):
                 pred = checked["prediction"].to_numpy(dtype=float)
             else:
                 pred = np.asarray(estimator.predict(X), dtype=float)
+        except AttributeError as exc:
+            # A fitted attribute this skthermal reads and the file lacks.
+            from skthermal import __version__
+
+            raise UserError(
+                f"The model cannot predict {col} with skthermal {__version__} "
+                f"({exc}), so {then}. It was saved by another skthermal "
+                "version: fit it again with 'skthermal fit'."
+            ) from exc
         except ValueError as exc:
             # The readings are finite (read_table checked them): a step of
             # the model met a value its arithmetic overflowed to.

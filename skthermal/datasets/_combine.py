@@ -69,10 +69,16 @@ def _records(frames, metadata):
     """Metadata records of the joined table, or None when there are none."""
     if metadata is not None:
         return _as_records(metadata)
-    have = [f.attrs["metadata"] for f in frames if "metadata" in f.attrs]
+    have = [f for f in frames if "metadata" in f.attrs]
     if not have:
         return None
-    return _as_records([r for meta in have for r in _as_records(meta)])
+    # Each table's records of its own runs: a table filtered from a campaign
+    # with pandas keeps the records of every run of it in attrs.
+    own = []
+    for frame in have:
+        runs = set(pd.unique(frame[RUN]))
+        own += [r for r in _as_records(frame.attrs["metadata"]) if r[RUN] in runs]
+    return _as_records(own)
 
 
 def concat_runs(frames, *, metadata=None, validate=True):
@@ -91,7 +97,9 @@ def concat_runs(frames, *, metadata=None, validate=True):
         Metadata of the joined runs, in any form that
         :func:`~skthermal.datasets.write_runs` accepts; it replaces the
         records of the tables. Default: the records in the tables'
-        ``attrs["metadata"]``, in table order.
+        ``attrs["metadata"]`` of the runs each table holds, in table order
+        (a table filtered from a campaign with pandas keeps the records of
+        all its runs).
     validate : bool, default=True
         Check the joined table with :func:`validate_runs`.
 
