@@ -3,6 +3,7 @@ searches shared by several worker processes (SQLite, journal file and, when
 SKTHERMAL_TEST_POSTGRES_URL is set, PostgreSQL)."""
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -17,6 +18,7 @@ from sklearn.base import clone
 from sklearn.metrics import make_scorer, mean_squared_error
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import InvalidParameterError
 
 optuna = pytest.importorskip("optuna")
@@ -440,6 +442,34 @@ def test_bad_draws_fail_trials_not_the_search(runs_data):
     assert [t.state for t in result.study.trials] == [FAIL, FAIL]
     assert "n_clusters=10000" in result.study.trials[0].user_attrs["error"]
     assert result.best_params_ is None and result.best_estimator_ is None
+
+
+def test_a_value_the_estimator_refuses_is_named_before_any_trial(runs_data):
+    # A misspelt choice would fail every trial, found only at the end.
+    X, y, groups = runs_data
+    for space, message in (
+        (search_space("anfis", mf=["gausian"], epochs=2), "mf='gausian'"),
+        (search_space("anfis", epochs=(0, 5)), "epochs=0"),
+        (
+            {"anfisregressor": search_space("anfis", init="fcm", step_size=-1.0)},
+            "anfisregressor__step_size=-1.0",
+        ),
+    ):
+        estimator = ANFISRegressor()
+        if isinstance(space, dict):
+            estimator = make_pipeline(StandardScaler(), ANFISRegressor())
+        callback = _StopAfter(1)
+        with pytest.raises(ValueError, match=re.escape(message) + ", which ANFIS"):
+            run_search(
+                estimator,
+                X,
+                y,
+                groups=groups,
+                space=space,
+                n_trials=1,
+                callbacks=[callback],
+            )
+        assert callback.seen == 0
 
 
 class _StopAfter:

@@ -25,7 +25,9 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import (
     HasMethods,
     Interval,
+    InvalidParameterError,
     StrOptions,
+    validate_parameter_constraints,
     validate_params,
 )
 
@@ -38,6 +40,7 @@ from skthermal.model_selection._spaces import (
     combine_spaces,
     describe_space,
     search_space,
+    space_values,
 )
 from skthermal.utils._runs import row_times, run_table_index
 
@@ -350,6 +353,29 @@ def _resolve_space(space, estimator):
         "space must be None, a built-in name, a callable space(trial) -> dict or a "
         f"dict of those by pipeline step, got {type(space).__name__}."
     )
+
+
+def _check_space_values(space, estimator):
+    """Refuse a value the built-in parts of ``space`` set that the estimator
+    rejects (a choice misspelt, a fixed value out of range), before any
+    trial: each trial would fail on it."""
+    params = estimator.get_params(deep=True)
+    for key, values in space_values(space).items():
+        owner_key, _, name = key.rpartition("__")
+        owner = params.get(owner_key) if owner_key else estimator
+        constraints = getattr(owner, "_parameter_constraints", None)
+        if not constraints or name not in constraints:
+            continue
+        for value in values:
+            try:
+                validate_parameter_constraints(
+                    {name: constraints[name]}, {name: value}, type(owner).__name__
+                )
+            except InvalidParameterError as exc:
+                raise ValueError(
+                    f"The search space sets {key}={value!r}, which "
+                    f"{type(owner).__name__} refuses: {exc}"
+                ) from None
 
 
 def _take(data, rows):
@@ -1027,6 +1053,7 @@ def run_search(
             "callable whose smaller values are better."
         )
     space = _resolve_space(space, estimator)
+    _check_space_values(space, estimator)
     groups = _run_groups(X, groups)
     given_X = X
     X = _with_runs(X, groups)

@@ -345,6 +345,33 @@ class PrefixedSpace:
         return f"{describe_space(self.space)} for step {self.prefix!r}"
 
 
+def space_values(space):
+    """The values a space can set, by ``set_params`` key: every choice, every
+    fixed value and the ends of every range of its built-in parts (a
+    callable of the user's own gives none).
+
+    Examples
+    --------
+    >>> from skthermal.model_selection._spaces import space_values
+    >>> space_values(search_space("fcm_picker", prefix="p", scorer="gra"))
+    {'p__n_clusters': [2, 8], 'p__scorer': ['gra']}
+    """
+    if isinstance(space, SearchSpace):
+        return {
+            space._key(k): list(v) if isinstance(v, list | tuple) else [v]
+            for k, v in space.ranges.items()
+        }
+    if isinstance(space, PrefixedSpace):
+        inner = space_values(space.space)
+        return {f"{space.prefix}{_PREFIX_SEP}{k}": v for k, v in inner.items()}
+    if isinstance(space, _CombinedSpace):
+        out = {}
+        for part in space.spaces:
+            out.update(space_values(part))
+        return out
+    return {}
+
+
 def describe_space(space):
     """What a search space is, the same in every process: a built-in space
     with its overrides, or a callable's module and qualified name.
