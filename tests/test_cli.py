@@ -471,6 +471,7 @@ def test_predict_names_a_model_file_it_cannot_use(capsys, workdir, tmp_path):
     import joblib
 
     model = workdir / "lag-ridge.joblib"
+    runs = workdir / "tests.csv"
     if not model.is_file():
         argv = ["fit", "--runs", workdir / "tests.csv", "--train-runs", "IV"]
         assert _run(capsys, *argv, "--model", "lag-ridge", "--out", model)[0] == 0
@@ -485,7 +486,11 @@ def test_predict_names_a_model_file_it_cannot_use(capsys, workdir, tmp_path):
     import sqlite3
 
     sqlite3.connect(study).execute("create table t (x)").connection.commit()
-    runs = workdir / "tests.csv"
+    missing = tmp_path / "missing.csv"
+    pd.read_csv(runs).drop(columns=bundle["sensors"][0]).to_csv(missing, index=False)
+    argv = ["predict", "--model", model, "--runs", missing]
+    status, _, err = _run(capsys, *argv, "--out", tmp_path / "p.csv")
+    assert status == 2 and f"--runs {missing} lacks the model's input" in err
     for path, message in (
         (stale, "saved by another skthermal version: fit it again"),
         (tmp_path / "empty.joblib", "an empty file, not a model file"),

@@ -527,6 +527,8 @@ def test_metadata_errors(tmp_path, runs):
         write_runs(runs, path, metadata=pd.DataFrame({"machine": ["A"]}))
     with pytest.raises(ValueError, match=r"\['r0'\] more than once"):
         write_runs(runs, path, metadata=[{"run": "r0"}, {"run": "r0"}])
+    with pytest.raises(ValueError, match=r"maps every run to its fields.*'machine'"):
+        write_runs(runs, path, metadata={"machine": "x"})
     write_runs(runs, path)
     (tmp_path / "runs.csv.json").write_text('{"machine": "A"}')
     with pytest.raises(ValueError, match=r"runs.csv.json has no 'runs' list"):

@@ -192,11 +192,12 @@ def read_sensor_list(value, df):
     return names
 
 
-def features_of(df, sensors):
-    """``df[sensors]`` indexed by (run, time_s), as ``split_runs`` makes it."""
+def features_of(df, sensors, where="The run table"):
+    """``df[sensors]`` indexed by (run, time_s), as ``split_runs`` makes it;
+    ``where`` names the table in an error."""
     missing = [s for s in sensors if s not in df.columns]
     if missing:
-        raise UserError(f"The run table lacks the model's input column(s) {missing}.")
+        raise UserError(f"{where} lacks the model's input column(s) {missing}.")
     index = pd.MultiIndex.from_arrays(
         [df["run"], df["time_s"]], names=["run", "time_s"]
     )

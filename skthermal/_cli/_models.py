@@ -275,7 +275,7 @@ def _is_float_error(caught):
     )
 
 
-def _predict(bundle, df, then):
+def _predict(bundle, df, then, where="The run table"):
     """The model's predictions for the rows of ``df``, every one finite, and
     for a model fitted with ``--guard`` its checks (``predict_checked``:
     ``ok``, ``action``, ``reason`` per row; else None).
@@ -289,7 +289,7 @@ def _predict(bundle, df, then):
     that error, or by one warning naming the largest reading when the
     predictions are finite all the same.
     """
-    X = features_of(df, bundle["sensors"])
+    X = features_of(df, bundle["sensors"], where)
     col = f"pred_{bundle['target']}"
     cause = "Likely cause: an input reading far outside any physical range; "
     fix = "Check or drop that reading and predict again."
@@ -352,7 +352,9 @@ def cmd_predict(args):
     check_out_path(args.out, "--out")
     bundle = load_model(args.model)
     df = read_table(args.runs)
-    pred, checked = _predict(bundle, df, f"nothing was written to {args.out}")
+    pred, checked = _predict(
+        bundle, df, f"nothing was written to {args.out}", f"--runs {args.runs}"
+    )
     out = df.copy()
     out[f"pred_{bundle['target']}"] = pred
     if checked is not None:  # a model fitted with --guard
@@ -486,7 +488,7 @@ def cmd_evaluate(args):
             )
         if target not in df.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
-        pred, _ = _predict(bundle, df, "nothing was scored")
+        pred, _ = _predict(bundle, df, "nothing was scored", f"--runs {args.runs}")
         data = df
     else:
         if args.predictions:

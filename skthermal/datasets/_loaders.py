@@ -331,6 +331,14 @@ def _meta_records(meta):
         if RUN not in frame.columns and RUN in frame.index.names:
             frame = frame.reset_index()
     elif isinstance(meta, dict):
+        flat = [run for run, fields in meta.items() if not isinstance(fields, dict)]
+        if flat:
+            raise ValueError(
+                "Run metadata as a dict maps every run to its fields, "
+                "{run: {field: value}}; got "
+                f"{flat[0]!r}: {meta[flat[0]]!r}. For the same fields on every "
+                "run write {run: {...} for run in runs}."
+            )
         frame = pd.DataFrame.from_records(
             [{RUN: run, **dict(fields)} for run, fields in meta.items()]
         )
