@@ -466,6 +466,36 @@ def test_sequence_model_sees_the_runs(train, new_run):
     np.testing.assert_allclose(pred2, np.r_[pred, pred])
 
 
+@pytest.mark.parametrize("routing", [False, True])
+def test_groups_reach_the_steps_of_a_wrapped_pipeline(train, new_run, routing):
+    # A Pipeline takes no groups= of its own: without metadata routing the
+    # guard gives them as the rows' run index, with routing as routed
+    # metadata. Before, they were dropped and every row was one run.
+    import sklearn
+
+    from skthermal.selection import GRASelector
+
+    X, y = train
+    groups = X.index.get_level_values("run").to_numpy()
+    X_new = new_run[0]
+    two = pd.concat([X_new, X_new]).to_numpy()
+    new_groups = np.repeat(["a", "b"], len(X_new))
+    with sklearn.config_context(enable_metadata_routing=routing):
+        select, grey = GRASelector(n_features_to_select=2), GreyPSORegressor()
+        if routing:
+            select.set_fit_request(groups=True)
+            grey.set_fit_request(groups=True).set_predict_request(groups=True)
+        pipe = make_pipeline(select, grey.set_params(calibration="ls"))
+        reference = clone(pipe).fit(X, y).predict(X_new)
+        guard = GuardedRegressor(pipe)
+        if routing:
+            guard.set_fit_request(groups=True).set_predict_request(groups=True)
+        guard.fit(X.to_numpy(), y.to_numpy(), groups=groups)
+        pred, caught = _caught(guard.predict, two, groups=new_groups)
+    assert not [w for w in caught if "carry no run labels" in str(w.message)]
+    np.testing.assert_allclose(pred, np.r_[reference, reference], rtol=1e-10)
+
+
 SEQUENCE_MODELS = pytest.mark.parametrize(
     "inner",
     [

@@ -279,6 +279,26 @@ def test_epoch_callback_is_not_saved(runs_data, tmp_path):
     assert_array_equal(loaded.predict(X), model.predict(X))
 
 
+def test_a_pipeline_with_metadata_requests_saves(runs_data, tmp_path):
+    # scikit-learn keeps the estimator inside its own metadata requests, a
+    # cycle skops recursed into without end. The requests are not saved.
+    import sklearn
+    from sklearn.pipeline import make_pipeline
+
+    from skthermal import GRASelector, GreyPSORegressor
+
+    X, y = runs_data
+    with sklearn.config_context(enable_metadata_routing=True):
+        pipe = make_pipeline(
+            GRASelector(n_features_to_select=2).set_fit_request(groups=True),
+            GreyPSORegressor(calibration="ls").set_fit_request(groups=True),
+        ).fit(X, y)
+        loaded = load(save(pipe, tmp_path / "routed.skops"))
+    assert_array_equal(loaded.predict(X), pipe.predict(X))
+    assert pipe[-1].get_metadata_routing().fit.requests["groups"] is True
+    assert "_metadata_request" not in vars(loaded[-1])
+
+
 def test_missing_skops_says_how_to_install_it(monkeypatch):
     import sys
 

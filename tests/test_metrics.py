@@ -109,6 +109,8 @@ def test_constant_target_conventions():
     assert improvement(zero, [0.0, 1.0], force_finite=False) == -np.inf
     assert np.isnan(pearson_r(y, [1.0, 2.0, 3.0]))
     assert np.isnan(pearson_r([1.0, 2.0, 3.0], y))
+    # Constant by value, whatever the rounding of its mean (it left 0.0).
+    assert np.isnan(pearson_r([1.0, 2.0, 3.0], [0.1, 0.1, 0.1]))
     raw = pearson_r(
         np.column_stack([y, Z[:3]]),
         np.column_stack([Z[:3], Z[:3]]),

@@ -97,6 +97,32 @@ def test_prediction_from_estimator_one_run(run_data):
     assert lo == pytest.approx(-band) and hi == pytest.approx(band)
 
 
+@pytest.mark.parametrize("routing", [False, True])
+def test_prediction_gives_groups_to_a_pipeline(run_data, routing):
+    # A Pipeline takes groups through metadata routing, or as the rows' run
+    # index: the plotted predictions are its predictions run by run.
+    import sklearn
+    from sklearn.pipeline import make_pipeline
+
+    from skthermal import GreyPSORegressor
+
+    X, y, groups, _ = run_data
+    with sklearn.config_context(enable_metadata_routing=routing):
+        grey = GreyPSORegressor(calibration="ls")
+        if routing:
+            grey.set_fit_request(groups=True).set_predict_request(groups=True)
+        Xn = X.to_numpy()
+        if routing:
+            pipe = make_pipeline(grey).fit(Xn, y.to_numpy(), groups=groups)
+            reference = pipe.predict(Xn, groups=groups)
+        else:  # the runs in the index, columns unnamed as in Xn
+            Xi = pd.DataFrame(Xn, index=X.index)
+            pipe = make_pipeline(grey).fit(Xi, y)
+            reference = pipe.predict(Xi)
+        disp = PredictionDisplay.from_estimator(pipe, Xn, y.to_numpy(), groups=groups)
+    np.testing.assert_allclose(disp.y_pred, reference, rtol=1e-10)
+
+
 def test_prediction_facets_per_run(run_data):
     X, y, groups, model = run_data
     disp = PredictionDisplay.from_estimator(model, X, y)

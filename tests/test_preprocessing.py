@@ -69,6 +69,16 @@ def _frame():
     )
 
 
+def test_lag_feature_names_follow_scikit_learns_rule():
+    lf = LagFeatures(time_constants=[60.0]).fit(_frame())
+    assert list(lf.get_feature_names_out(["T1_C", "spindle_rpm"])) == list(
+        lf.get_feature_names_out()
+    )
+    for names in (["a", "b"], ["T1_C"]):
+        with pytest.raises(ValueError, match="input_features"):
+            lf.get_feature_names_out(names)
+
+
 def test_runs_restart_and_names_and_pandas_output():
     X = _frame()
     lf = LagFeatures(time_constants=[60.0]).set_output(transform="pandas")

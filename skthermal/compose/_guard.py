@@ -10,7 +10,6 @@ predictions outside a plausible band are reported with the sensor, the run and
 the time, and in a safe mode clipped or held.
 """
 
-import inspect
 import warnings
 from numbers import Integral, Real
 
@@ -34,6 +33,7 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     RunMemory,
+    accepts_groups,
     describe_unreadable,
     extract_runs,
     has_time_index,
@@ -41,6 +41,7 @@ from skthermal.utils._runs import (
     run_slices,
     target_names,
     unreadable,
+    with_run_index,
 )
 
 
@@ -186,11 +187,15 @@ def _continues(memory, label, t0):
     return not np.isfinite(t_first) or t0 == t_first or t0 > t_last
 
 
-def _accepts_groups(method):
-    try:
-        return "groups" in inspect.signature(method).parameters
-    except (TypeError, ValueError):
-        return False
+def _pass_runs(method, X, groups, kwargs):
+    """``X`` and the keyword arguments that give ``groups`` to the wrapped
+    model's ``method``: as ``groups=`` when it takes that argument, else as
+    a ``run`` index level of ``X`` (a Pipeline, whose steps read it there)."""
+    if groups is None:
+        return X, kwargs
+    if accepts_groups(method):
+        return X, {**kwargs, "groups": groups}
+    return with_run_index(X, groups), kwargs
 
 
 class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
@@ -424,9 +429,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         self.checked_inputs_ = self._resolve_inputs()
         self.estimator_ = clone(self.estimator)
-        if groups is not None and _accepts_groups(self.estimator_.fit):
-            fit_params["groups"] = groups
-        self.estimator_.fit(X, y, **fit_params)
+        X_inner, fit_params = _pass_runs(self.estimator_.fit, X, groups, fit_params)
+        self.estimator_.fit(X_inner, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
         self._output_names = target_names(y)
         return self
@@ -526,9 +530,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         else:
             self._refuse_faulty_update(A, features, runs)
         kwargs = {}
-        if groups is not None and _accepts_groups(self.estimator_.partial_fit):
-            kwargs["groups"] = groups
-        self.estimator_.partial_fit(X, y, **kwargs)
+        X_inner, kwargs = _pass_runs(self.estimator_.partial_fit, X, groups, kwargs)
+        self.estimator_.partial_fit(X_inner, y, **kwargs)
         Y = np.asarray(Y, dtype=float).reshape(A.shape[0], -1)
         if not first and Y.shape[1] != self.output_min_.size:
             raise ValueError(
@@ -695,9 +698,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             inputs_changed = fault.any(axis=1)
             X_inner = _with_values(X, B)
 
-        kwargs = {}
-        if groups is not None and _accepts_groups(self.estimator_.predict):
-            kwargs["groups"] = groups
+        X_inner, kwargs = _pass_runs(self.estimator_.predict, X_inner, groups, {})
         raw = np.asarray(self.estimator_.predict(X_inner, **kwargs), dtype=float)
         P = raw.reshape(n, -1)
         olo, ohi = _limits(self.output_min_, self.output_max_, self.output_span)

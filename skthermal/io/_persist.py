@@ -11,6 +11,7 @@ records the versions it was written with, and :func:`load` warns when they
 differ from the installed ones.
 """
 
+import copy
 import importlib
 import importlib.util
 import json
@@ -191,37 +192,59 @@ def _check_file(path):
 _KEY_TYPES = (str, int, float)
 
 
-def _bad_dict_key(obj, where, seen):
-    """``(where, key)`` of the first dict key inside ``obj`` (a model, its
-    attributes, lists, tuples and dicts, recursively) that a skops file
-    cannot hold, or None."""
+def _walk(obj, where, seen):
+    """``(where, value)`` for ``obj`` and everything inside it that a skops
+    file holds: its attributes (skthermal and scikit-learn objects), lists,
+    tuples and dicts, recursively, each object once."""
     if id(obj) in seen:
-        return None
+        return
     seen.add(id(obj))
+    yield where, obj
     if isinstance(obj, dict):
-        for key in obj:
-            # skops writes a numpy scalar key as its Python value.
-            value = key.item() if isinstance(key, np.generic) else key
-            if type(value) not in _KEY_TYPES:
-                return where, key
         children = ((f"[{k!r}]", v) for k, v in obj.items())
     elif isinstance(obj, list | tuple):
         children = ((f"[{i}]", v) for i, v in enumerate(obj))
     elif type(obj).__module__.split(".")[0] in ("skthermal", "sklearn"):
         children = ((f".{k}", v) for k, v in getattr(obj, "__dict__", {}).items())
     else:
-        return None
+        return
     for name, value in children:
-        found = _bad_dict_key(value, where + name, seen)
-        if found is not None:
-            return found
+        yield from _walk(value, where + name, seen)
+
+
+def _bad_dict_key(model):
+    """``(where, key)`` of the first dict key inside ``model`` that a skops
+    file cannot hold, or None."""
+    for where, obj in _walk(model, type(model).__name__, set()):
+        if not isinstance(obj, dict):
+            continue
+        for key in obj:
+            # skops writes a numpy scalar key as its Python value.
+            value = key.item() if isinstance(key, np.generic) else key
+            if type(value) not in _KEY_TYPES:
+                return where, key
     return None
+
+
+def _without_requests(model):
+    """``model``, or a copy without the metadata requests of its estimators
+    (``set_fit_request`` and the like): scikit-learn keeps the estimator
+    itself inside them, a cycle skops recurses into without end."""
+    if not any(
+        "_metadata_request" in getattr(obj, "__dict__", {})
+        for _, obj in _walk(model, "", set())
+    ):
+        return model
+    model = copy.deepcopy(model)
+    for _, obj in list(_walk(model, "", set())):
+        getattr(obj, "__dict__", {}).pop("_metadata_request", None)
+    return model
 
 
 def _check_dict_keys(model):
     """Raise a TypeError naming the first dict key that a skops file cannot
     hold (skops would fail on it deep inside, or give back another key)."""
-    found = _bad_dict_key(model, type(model).__name__, set())
+    found = _bad_dict_key(model)
     if found is None:
         return
     where, key = found
@@ -271,7 +294,10 @@ def save(model, path, *, compress=True):
     The file is a skops archive (readable by ``skops.io.load``) with one extra
     member, ``skthermal_metadata.json``, holding the versions of skthermal,
     scikit-learn, numpy, scipy, skops and Python that wrote it. An
-    ``ANFISRegressor.epoch_callback`` is not saved.
+    ``ANFISRegressor.epoch_callback`` is not saved, nor are metadata
+    requests (``set_fit_request(groups=True)`` and the like, for
+    scikit-learn's metadata routing): set them again after loading to route
+    ``groups`` through a loaded pipeline.
 
     Examples
     --------
@@ -292,7 +318,7 @@ def save(model, path, *, compress=True):
     path = os.fspath(path)
     _check_dict_keys(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
-    sio.dump(model, path, compression=compression)
+    sio.dump(_without_requests(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}
     with zipfile.ZipFile(path, "a", compression=compression) as archive:
         archive.writestr(_METADATA_NAME, json.dumps(metadata, indent=2))

@@ -205,8 +205,11 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     dt = y_true - y_true.mean(axis=0)
     dp = y_pred - y_pred.mean(axis=0)
     den = np.sqrt(np.sum(dt**2, axis=0) * np.sum(dp**2, axis=0))
+    # Constant by its values, not by the rounding of its mean (0.1 three
+    # times leaves deviations of 1e-17, a correlation of 0 or 1e-16).
+    constant = (np.ptp(y_true, axis=0) == 0) | (np.ptp(y_pred, axis=0) == 0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where(den > 0, np.sum(dt * dp, axis=0) / den, np.nan)
+        r = np.where((den > 0) & ~constant, np.sum(dt * dp, axis=0) / den, np.nan)
     return _aggregate(np.clip(r, -1.0, 1.0), weights)
 
 

@@ -42,7 +42,7 @@ from skthermal.model_selection._spaces import (
     search_space,
     space_values,
 )
-from skthermal.utils._runs import row_times, run_table_index
+from skthermal.utils._runs import with_run_index
 
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 _JOURNAL_SUFFIXES = (".log", ".journal", ".jsonl")
@@ -391,29 +391,6 @@ def _run_groups(X, groups):
     if "run" in names:
         return np.asarray(X.index.get_level_values("run"))
     return None
-
-
-def _with_runs(X, groups):
-    """``X`` carrying ``groups`` as a ``run`` index level, so that every fit
-    and predict of the search (in folds and the refit) sees the runs, also
-    through a Pipeline; ``X`` itself when it carries them already."""
-    if groups is None:
-        return X
-    columns = list(getattr(X, "columns", []))
-    index = getattr(X, "index", None)
-    names = [n for n in (getattr(index, "names", None) or []) if n is not None]
-    if "run" in columns or "run" in names:
-        return X
-    import pandas as pd
-
-    frame = X if isinstance(X, pd.DataFrame) else pd.DataFrame(np.asarray(X))
-    if len(groups) != len(frame):
-        raise ValueError(
-            f"groups has {len(groups)} run labels for {len(frame)} rows of X; "
-            "give one label per row."
-        )
-    times = row_times(frame)
-    return frame.set_axis(run_table_index(groups, times))
 
 
 def _resolve_cv(cv, groups):
@@ -1056,7 +1033,7 @@ def run_search(
     _check_space_values(space, estimator)
     groups = _run_groups(X, groups)
     given_X = X
-    X = _with_runs(X, groups)
+    X = with_run_index(X, groups)
     cv = _resolve_cv(cv, groups)
     splits = list(
         cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds

@@ -5,7 +5,6 @@ and the predicted displacement of a test against time, the residual below it
 with the residual band shaded, and the accuracy figures in the title.
 """
 
-import inspect
 import re
 
 import numpy as np
@@ -21,7 +20,14 @@ from skthermal.plotting._base import (
     _time_scale,
     check_matplotlib_support,
 )
-from skthermal.utils._runs import RUN_COLUMN, TIME_COLUMN, extract_runs, run_slices
+from skthermal.utils._runs import (
+    RUN_COLUMN,
+    TIME_COLUMN,
+    accepts_groups,
+    extract_runs,
+    run_slices,
+    with_run_index,
+)
 
 _DISP = re.compile(r"^disp_(?P<axis>[a-z0-9]+)_um$", re.IGNORECASE)
 
@@ -424,8 +430,10 @@ default=None
         """
         check_matplotlib_support(f"{cls.__name__}.from_estimator")
         check_is_fitted(estimator)
-        if groups is not None and _accepts_groups(estimator):
+        if groups is not None and accepts_groups(estimator.predict):
             y_pred = estimator.predict(X, groups=groups)
+        elif groups is not None:  # a Pipeline: its steps read the index
+            y_pred = estimator.predict(with_run_index(X, groups))
         else:
             y_pred = estimator.predict(X)
         if time is None:
@@ -454,10 +462,3 @@ default=None
             ax=ax,
             **plot_kwargs,
         )
-
-
-def _accepts_groups(estimator):
-    try:
-        return "groups" in inspect.signature(estimator.predict).parameters
-    except (TypeError, ValueError):  # pragma: no cover - builtins, C methods
-        return False

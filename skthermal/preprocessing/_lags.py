@@ -12,7 +12,11 @@ import numpy as np
 from scipy.signal import lfilter
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import (
+    _check_feature_names_in,
+    check_is_fitted,
+    validate_data,
+)
 
 from skthermal.utils._runs import (
     GAP_BRIDGE,
@@ -637,11 +641,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         ndarray of str
         """
         check_is_fitted(self, "driver_indices_")
-        if input_features is None:
-            input_features = getattr(self, "feature_names_in_", None)
-        if input_features is None:
-            input_features = [f"x{i}" for i in range(self.n_features_in_)]
-        input_features = np.asarray(input_features, dtype=object)
+        # scikit-learn's rule: None gives the names seen in fit (or x0, x1,
+        # ...); names given must match those, or their number.
+        input_features = _check_feature_names_in(self, input_features)
         temp = np.setdiff1d(np.arange(self.n_features_in_), self.driver_indices_)
         tnames = [str(c) for c in input_features[temp]]
         if self.relative:

@@ -1,6 +1,5 @@
 """Fuzzy c-means grouping of sensors with one representative per group."""
 
-import inspect
 import warnings
 from numbers import Integral, Real
 
@@ -12,7 +11,7 @@ from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from skthermal.fuzzy._cmeans import fuzzy_cmeans
 from skthermal.selection._base import RunAwareSelector
 from skthermal.selection._grey import GRASelector, GreyInfluenceSelector
-from skthermal.utils._runs import changes_since_start
+from skthermal.utils._runs import accepts_groups, changes_since_start
 
 
 def _pearson_scores(X, Y, slices):
@@ -169,7 +168,7 @@ class FCMClusterPicker(RunAwareSelector):
         else:
             est = clone(self.scorer)
         y = Y[:, 0] if Y.shape[1] == 1 else Y
-        if groups is not None and "groups" in inspect.signature(est.fit).parameters:
+        if groups is not None and accepts_groups(est.fit):
             est.fit(X, y, groups=groups)
         else:
             with warnings.catch_warnings():

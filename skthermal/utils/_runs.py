@@ -9,6 +9,7 @@ level of a DataFrame's index.
 """
 
 import datetime
+import inspect
 import warnings
 from numbers import Integral, Real
 
@@ -367,6 +368,48 @@ def run_table_index(groups, times):
         arrays.append(np.asarray(times, dtype=float))
         names.append(TIME_COLUMN)
     return pd.MultiIndex.from_arrays(arrays, names=names)
+
+
+def accepts_groups(method):
+    """Whether ``method`` (a bound ``fit``, ``predict``, ...) takes a
+    ``groups`` argument: by name, or, with scikit-learn's metadata routing
+    enabled, through ``**params`` (a Pipeline routes it to the steps that
+    request it)."""
+    from sklearn import get_config
+
+    try:
+        params = inspect.signature(method).parameters
+    except (TypeError, ValueError):  # builtins, C methods
+        return False
+    if "groups" in params:
+        return True
+    var_keyword = any(p.kind is p.VAR_KEYWORD for p in params.values())
+    return var_keyword and bool(get_config().get("enable_metadata_routing"))
+
+
+def with_run_index(X, groups):
+    """``X`` carrying ``groups`` as a ``run`` index level (and its times as
+    ``time_s``), for a model that reads the runs from its input rather than
+    from a ``groups`` argument: a Pipeline, a wrapper, every fit and predict
+    of a search. ``X`` itself when ``groups`` is None or ``X`` carries run
+    labels already."""
+    if groups is None:
+        return X
+    columns = list(getattr(X, "columns", []))
+    index = getattr(X, "index", None)
+    names = [n for n in (getattr(index, "names", None) or []) if n is not None]
+    if RUN_COLUMN in columns or RUN_COLUMN in names:
+        return X
+    import pandas as pd
+
+    frame = X if isinstance(X, pd.DataFrame) else pd.DataFrame(np.asarray(X))
+    if len(groups) != len(frame):
+        raise ValueError(
+            f"groups has {len(groups)} run labels for {len(frame)} rows of X; "
+            "give one label per row."
+        )
+    times = row_times(frame)
+    return frame.set_axis(run_table_index(groups, times))
 
 
 def describe_row(row, X, groups):
