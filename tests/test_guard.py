@@ -496,6 +496,20 @@ def test_groups_reach_the_steps_of_a_wrapped_pipeline(train, new_run, routing):
     np.testing.assert_allclose(pred, np.r_[reference, reference], rtol=1e-10)
 
 
+@pytest.mark.parametrize("labels", ["text", "int"])
+def test_run_and_time_columns_are_not_inputs_of_the_wrapped_model(train, labels):
+    # The run table as stored: run and time_s columns. A plain model took
+    # them as inputs (integer labels) or failed on them (text labels).
+    X, y = train
+    stored = X.reset_index()
+    if labels == "int":
+        stored["run"] = stored["run"].str[1:].astype(int)
+    guard = GuardedRegressor(LinearRegression()).fit(stored, y.to_numpy())
+    assert list(guard.estimator_.feature_names_in_) == SENSORS
+    reference = GuardedRegressor(LinearRegression()).fit(X, y)
+    np.testing.assert_allclose(guard.predict(stored), reference.predict(X))
+
+
 SEQUENCE_MODELS = pytest.mark.parametrize(
     "inner",
     [

@@ -269,6 +269,10 @@ def test_constant_target_is_named(selector):
     X, _, groups = _small()
     with pytest.raises(ValueError, match="Target 0 does not change within any run"):
         clone(selector).fit(X, np.ones(len(X)), groups=groups)
+    # A named target by its name.
+    y = pd.Series(np.ones(len(X)), name="disp_y_um")
+    with pytest.raises(ValueError, match="Target 'disp_y_um' does not change"):
+        clone(selector).fit(X, y, groups=groups)
 
 
 @pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)

@@ -188,13 +188,13 @@ def _continues(memory, label, t0):
 
 
 def _pass_runs(method, X, groups, kwargs):
-    """``X`` and the keyword arguments that give ``groups`` to the wrapped
-    model's ``method``: as ``groups=`` when it takes that argument, else as
-    a ``run`` index level of ``X`` (a Pipeline, whose steps read it there)."""
-    if groups is None:
-        return X, kwargs
-    if accepts_groups(method):
-        return X, {**kwargs, "groups": groups}
+    """``X`` and the keyword arguments that give the runs to the wrapped
+    model's ``method``: ``run`` and ``time_s`` columns of ``X`` as its index
+    (a plain model would take them as inputs), ``groups`` as ``groups=``
+    when the method takes that argument, else as a ``run`` index level (a
+    Pipeline, whose steps read it there)."""
+    if groups is not None and accepts_groups(method):
+        return with_run_index(X), {**kwargs, "groups": groups}
     return with_run_index(X, groups), kwargs
 
 

@@ -39,6 +39,9 @@ _HALF = np.sqrt(2.0 * np.log(2.0))
 # widths relative to each input's spread.
 _WIDTH_FLOOR = 1e-6
 _SLOPE_FLOOR = 1e-3
+# Normalised memberships and firing strengths below this are 0 in training
+# (see :func:`_flush_tiny`).
+_TINY = 1e-100
 
 
 # --------------------------------------------------------------------------
@@ -268,6 +271,17 @@ def _two_memberships(diff):
     return nu
 
 
+def _flush_tiny(a):
+    """``a`` (normalised memberships or firing strengths, in [0, 1]) with
+    values below :data:`_TINY` set to 0, in place. Products of such values
+    in the normal equations would otherwise be subnormal numbers, on which
+    the Cholesky factorisation runs tens of times slower (many inputs, each
+    rule far from most samples); their share of any output is below 1e-100.
+    """
+    a[a < _TINY] = 0.0
+    return a
+
+
 def _forward(XT, mf_params, mf, E, grid):
     """Forward pass of training: ``z``, ``nu`` and ``wbar`` (R, n).
 
@@ -286,13 +300,13 @@ def _forward(XT, mf_params, mf, E, grid):
         np.minimum(sq, -2.0 * _log_floor(d), out=sq)
         diff = sq[:, 0] - sq[:, 1]
         diff *= 0.5
-        nu = _two_memberships(diff)
-        return z, nu, _grid_firing(nu)
+        nu = _flush_tiny(_two_memberships(diff))
+        return z, nu, _flush_tiny(_grid_firing(nu))
     logmu, z = _forward_log(XT, mf_params, mf)
     if grid:
-        nu = _grid_memberships(logmu)
-        return z, nu, _grid_firing(nu)
-    return z, None, _firing_from_log(logmu, E)
+        nu = _flush_tiny(_grid_memberships(logmu))
+        return z, nu, _flush_tiny(_grid_firing(nu))
+    return z, None, _flush_tiny(_firing_from_log(logmu, E))
 
 
 def _grid_firing(nu):

@@ -26,6 +26,7 @@ from skthermal.utils._runs import (
     row_times,
     run_slices,
     run_table_index,
+    target_names,
     unreadable,
     warn_unlabelled_runs,
 )
@@ -90,6 +91,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         if y is not None:
             check_finite_target(y, X, groups)
         rows = X  # its run and time_s, for messages
+        names = target_names(y)
         X, y = validate_data(
             self,
             X,
@@ -102,7 +104,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         )
         Y = np.asarray(y, dtype=float).reshape(X.shape[0], -1)
         slices, labels = run_slices(groups, X.shape[0])
-        self._check_runs(X, Y, slices, labels, rows, groups)
+        self._check_runs(X, Y, slices, labels, rows, groups, names)
         self._fit_runs(X, Y, groups, slices)
         return self
 
@@ -132,15 +134,17 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             f"{describe_row(row, rows, groups)}{role}. {hint}"
         )
 
-    def _check_runs(self, X, Y, slices, labels, rows=None, groups=None):
+    def _check_runs(self, X, Y, slices, labels, rows=None, groups=None, names=None):
         for name, A in (("X", X), ("y", Y)):
             hint = "Impute or drop the samples before fitting."
             self._check_finite(name, A, rows, groups, hint)
         check_run_lengths(slices, labels, "measuring a change")
         flat = ~np.any(changes_since_start(Y, slices) != 0, axis=0)
         if flat.any():
+            k = int(np.argmax(flat))
+            target = f"{names[k]!r}" if names else str(k)
             raise ValueError(
-                f"Target {int(np.argmax(flat))} does not change within any run: "
+                f"Target {target} does not change within any run: "
                 "there is no thermal error to rank the sensors by (a correlation "
                 f"with it is undefined). {type(self).__name__} needs a varying "
                 "thermal error."

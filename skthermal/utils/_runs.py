@@ -387,12 +387,19 @@ def accepts_groups(method):
     return var_keyword and bool(get_config().get("enable_metadata_routing"))
 
 
-def with_run_index(X, groups):
-    """``X`` carrying ``groups`` as a ``run`` index level (and its times as
-    ``time_s``), for a model that reads the runs from its input rather than
-    from a ``groups`` argument: a Pipeline, a wrapper, every fit and predict
-    of a search. ``X`` itself when ``groups`` is None or ``X`` carries run
-    labels already."""
+def with_run_index(X, groups=None):
+    """``X`` with its runs (and times) in the index, for a model that reads
+    them from its input rather than from a ``groups`` argument: a Pipeline,
+    a wrapper's inner model, every fit and predict of a search. ``run`` and
+    ``time_s`` columns move into the index (a plain model would take them as
+    inputs); ``groups``, when ``X`` carries no run labels, become its
+    ``run`` level (with the times as ``time_s``)."""
+    import pandas as pd
+
+    if isinstance(X, pd.DataFrame):
+        moved = [c for c in (RUN_COLUMN, TIME_COLUMN) if c in X.columns]
+        if moved:
+            X = X.set_index(moved)
     if groups is None:
         return X
     columns = list(getattr(X, "columns", []))
@@ -400,8 +407,6 @@ def with_run_index(X, groups):
     names = [n for n in (getattr(index, "names", None) or []) if n is not None]
     if RUN_COLUMN in columns or RUN_COLUMN in names:
         return X
-    import pandas as pd
-
     frame = X if isinstance(X, pd.DataFrame) else pd.DataFrame(np.asarray(X))
     if len(groups) != len(frame):
         raise ValueError(
