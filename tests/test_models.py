@@ -102,7 +102,9 @@ def test_run_start_regressor_warns_when_runs_lose_their_labels():
     model = RunStartRegressor(LinearRegression()).fit(X, y, groups=groups)
     with pytest.warns(UserWarning, match="fitted on 2 labelled run.*ONE run"):
         model.predict(X)
-    unlabelled = RunStartRegressor(LinearRegression()).fit(X[:30], y[:30])
+    # A plain array in fit is one run, as the other sequence models say.
+    with pytest.warns(UserWarning, match="carry no run labels"):
+        unlabelled = RunStartRegressor(LinearRegression()).fit(X[:30], y[:30])
     import warnings
 
     with warnings.catch_warnings():

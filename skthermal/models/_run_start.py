@@ -150,6 +150,10 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
         A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        # Changes since the start of the run need the runs.
+        warn_unlabelled_runs(
+            type(self).__name__, None, groups, A.shape[0], X=X, stacklevel=4
+        )
         slices, labels = run_slices(groups, A.shape[0])
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
         changes = self._changes(A, groups, X)
