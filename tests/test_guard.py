@@ -282,15 +282,21 @@ def test_nan_is_an_error_naming_sensor_unless_hold(train, new_run):
     assert any("missing" in m for m in _messages(caught, SensorFaultWarning))
 
 
+def _relative_hold_guard(train, new_run):
+    """A guard in hold mode around a model of changes since the run start,
+    and its predictions of the clean new run."""
+    from skthermal.ensemble import ModularRegressor
+
+    guard = GuardedRegressor(ModularRegressor(relative=True), mode="hold")
+    guard.fit(*train)
+    return guard, guard.predict(new_run[0])
+
+
 def test_dropout_at_a_run_start_does_not_offset_the_run(train, new_run):
     # The first row is the run's reference for changes since the start: a
     # made-up value there shifts every later compensation of the run.
-    from skthermal.ensemble import ModularRegressor
-
     X, y = train
-    guard = GuardedRegressor(ModularRegressor(relative=True), mode="hold")
-    guard.fit(X, y)
-    good = guard.predict(new_run[0])
+    guard, good = _relative_hold_guard(train, new_run)
     X_bad = new_run[0].copy()
     X_bad.iloc[0, 1] = np.nan
     checked, _ = _caught(guard.predict_checked, X_bad)
@@ -308,12 +314,7 @@ def test_a_glitch_in_the_first_reading_is_flagged_and_held(train, new_run):
     # The first reading is the reference of changes since the run start: a
     # glitch there, inside the range, shifts every later compensation while
     # those rows look good. It is the jump, not the step back to normal.
-    from skthermal.ensemble import ModularRegressor
-
-    X, y = train
-    guard = GuardedRegressor(ModularRegressor(relative=True), mode="hold")
-    guard.fit(X, y)
-    good = guard.predict(new_run[0])
+    guard, good = _relative_hold_guard(train, new_run)
     X_bad = new_run[0].copy()
     X_bad.iloc[0, 0] += 1.5  # five largest training steps, within the range
     checked, caught = _caught(guard.predict_checked, X_bad)
