@@ -247,7 +247,9 @@ def test_a_small_machine_from_a_dict_simulates():
         ),
         (
             lambda d: d["displacement"]["z"].update(screw=1.0),
-            r"'k.z.screw' \(the ball screw's growth counts only on the feed axis",
+            r"'k.z.screw' \(the ball screw's growth counts only on a machine "
+            r"with a ball screw \(\[heat.feed\] screw = \[...\]\), which this "
+            "machine has not",
         ),
     ],
 )
@@ -1086,3 +1088,11 @@ def test_a_stiff_network_names_its_fastest_and_slowest_nodes():
         "C.base = 1e+08 J/K over G.bead-base = 1 W/K + hA.base = 0.1 W/K)" in message
     )
     assert "hA.air" not in message
+
+
+def test_a_screw_coefficient_off_the_feed_axis_names_the_feed_axis():
+    from skthermal.simulate import ThermalMachine
+
+    machine = ThermalMachine.from_preset("vmc-b", effects=[])
+    with pytest.raises(ValueError, match=r"only on the feed axis 'y' \('k.y.screw'\)"):
+        machine.with_params({"k.x.screw": 1.0})

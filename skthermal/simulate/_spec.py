@@ -227,11 +227,14 @@ def check_parameter_names(spec, names):
     for key in unknown:
         axis, _, node = str(key).removeprefix("k.").partition(".")
         if str(key).startswith("k.") and node == "screw" and axis in spec.axes:
-            hints.append(
-                f"{key!r} (the ball screw's growth counts only on the feed axis "
-                f"{spec.feed_axis!r} of a machine with a ball screw, "
-                "[heat.feed] screw = [...])"
+            where = (
+                f"only on the feed axis {spec.feed_axis!r} ("
+                f"'k.{spec.feed_axis}.screw')"
+                if spec.screw_nodes
+                else "only on a machine with a ball screw ([heat.feed] screw = "
+                "[...]), which this machine has not"
             )
+            hints.append(f"{key!r} (the ball screw's growth counts {where})")
         else:
             hints.append(f"{key!r}{suggest(key, known)}")
     raise ValueError(
