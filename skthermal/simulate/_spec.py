@@ -228,8 +228,7 @@ def check_parameter_names(spec, names):
         axis, _, node = str(key).removeprefix("k.").partition(".")
         if str(key).startswith("k.") and node == "screw" and axis in spec.axes:
             where = (
-                f"only on the feed axis {spec.feed_axis!r} ("
-                f"'k.{spec.feed_axis}.screw')"
+                f"only on the feed axis {spec.feed_axis!r} ('k.{spec.feed_axis}.screw')"
                 if spec.screw_nodes
                 else "only on a machine with a ball screw ([heat.feed] screw = "
                 "[...]), which this machine has not"
