@@ -33,15 +33,14 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     RunMemory,
-    accepts_groups,
     describe_unreadable,
     extract_runs,
     has_time_index,
+    pass_runs,
     run_first_rows,
     run_slices,
     target_names,
     unreadable,
-    with_run_index,
 )
 
 
@@ -185,17 +184,6 @@ def _continues(memory, label, t0):
         return False
     t_first, t_last = state["t_first"], state["t_last"]
     return not np.isfinite(t_first) or t0 == t_first or t0 > t_last
-
-
-def _pass_runs(method, X, groups, kwargs):
-    """``X`` and the keyword arguments that give the runs to the wrapped
-    model's ``method``: ``run`` and ``time_s`` columns of ``X`` as its index
-    (a plain model would take them as inputs), ``groups`` as ``groups=``
-    when the method takes that argument, else as a ``run`` index level (a
-    Pipeline, whose steps read it there)."""
-    if groups is not None and accepts_groups(method):
-        return with_run_index(X), {**kwargs, "groups": groups}
-    return with_run_index(X, groups), kwargs
 
 
 class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
@@ -429,7 +417,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         self.checked_inputs_ = self._resolve_inputs()
         self.estimator_ = clone(self.estimator)
-        X_inner, fit_params = _pass_runs(self.estimator_.fit, X, groups, fit_params)
+        X_inner, fit_params = pass_runs(self.estimator_.fit, X, groups, fit_params)
         self.estimator_.fit(X_inner, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
         self._output_names = target_names(y)
@@ -530,7 +518,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         else:
             self._refuse_faulty_update(A, features, runs)
         kwargs = {}
-        X_inner, kwargs = _pass_runs(self.estimator_.partial_fit, X, groups, kwargs)
+        X_inner, kwargs = pass_runs(self.estimator_.partial_fit, X, groups, kwargs)
         self.estimator_.partial_fit(X_inner, y, **kwargs)
         Y = np.asarray(Y, dtype=float).reshape(A.shape[0], -1)
         if not first and Y.shape[1] != self.output_min_.size:
@@ -698,7 +686,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             inputs_changed = fault.any(axis=1)
             X_inner = _with_values(X, B)
 
-        X_inner, kwargs = _pass_runs(self.estimator_.predict, X_inner, groups, {})
+        X_inner, kwargs = pass_runs(self.estimator_.predict, X_inner, groups, {})
         raw = np.asarray(self.estimator_.predict(X_inner, **kwargs), dtype=float)
         P = raw.reshape(n, -1)
         olo, ohi = _limits(self.output_min_, self.output_max_, self.output_span)

@@ -23,6 +23,7 @@ import zlib
 
 import numpy as np
 
+from skthermal._naming import qualified_name
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
 
@@ -70,7 +71,7 @@ def _type_name(t):
     if isinstance(t, str):
         return t
     if isinstance(t, type):
-        return f"{t.__module__}.{t.__qualname__}"
+        return qualified_name(t)
     raise TypeError(
         f"trusted must hold type names (str) or classes, got {type(t).__name__}."
     )

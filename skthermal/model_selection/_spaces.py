@@ -339,7 +339,9 @@ class PrefixedSpace:
         self.space = space
 
     def __call__(self, trial):
-        return {f"{self.prefix}__{k}": v for k, v in self.space(trial).items()}
+        return {
+            f"{self.prefix}{_PREFIX_SEP}{k}": v for k, v in self.space(trial).items()
+        }
 
     def __repr__(self):
         return f"{describe_space(self.space)} for step {self.prefix!r}"

@@ -23,10 +23,9 @@ from skthermal.plotting._base import (
 from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
-    accepts_groups,
     extract_runs,
+    pass_runs,
     run_slices,
-    with_run_index,
 )
 
 _DISP = re.compile(r"^disp_(?P<axis>[a-z0-9]+)_um$", re.IGNORECASE)
@@ -430,10 +429,9 @@ default=None
         """
         check_matplotlib_support(f"{cls.__name__}.from_estimator")
         check_is_fitted(estimator)
-        if groups is not None and accepts_groups(estimator.predict):
-            y_pred = estimator.predict(X, groups=groups)
-        elif groups is not None:  # a Pipeline: its steps read the index
-            y_pred = estimator.predict(with_run_index(X, groups))
+        if groups is not None:
+            X_in, kwargs = pass_runs(estimator.predict, X, groups, {})
+            y_pred = estimator.predict(X_in, **kwargs)
         else:
             y_pred = estimator.predict(X)
         if time is None:

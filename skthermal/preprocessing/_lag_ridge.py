@@ -260,15 +260,6 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             dt=dt,
         )
 
-    @staticmethod
-    def _n_temperature_features(lf):
-        """How many of ``lf``'s features come from the temperatures: they
-        come first, the drivers' filters after them. A candidate without the
-        drivers keeps these only (the driver columns are left out, not taken
-        as temperatures)."""
-        n_temp = lf.n_features_in_ - lf.driver_indices_.size
-        return n_temp * (int(lf.include_changes) + len(lf.time_constants))
-
     def _select(self, fold_sse, folds, n_feat, alphas):
         """Candidate and alpha chosen from the per-fold errors.
 
@@ -430,7 +421,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
                     raise
                 continue
             F = lf.transform(X_raw, groups=groups)
-            n_temp = self._n_temperature_features(lf)
+            # A candidate without the drivers keeps the temperatures'
+            # features only (the driver columns left out, not temperatures).
+            n_temp = lf.n_temperature_features_
             if use and F.shape[1] == n_temp and (taus, False, rel) in cands:
                 continue  # no driver features: the same model as without
             if not use:
@@ -462,12 +455,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.relative_ = rel
         self.lag_features_ = self._features(taus, rel, dt).fit(X_raw, groups=groups)
         F = self.lag_features_.transform(X_raw, groups=groups)
-        if not use:
-            F = F[:, : self._n_temperature_features(self.lag_features_)]
-        self.n_lag_features_ = F.shape[1]
-        self.use_drivers_ = F.shape[1] > self._n_temperature_features(
-            self.lag_features_
-        )
+        n_temp = self.lag_features_.n_temperature_features_
+        self.n_lag_features_ = F.shape[1] if use else n_temp
+        self.use_drivers_ = self.n_lag_features_ > n_temp
+        F = F[:, : self.n_lag_features_]
         self.scaler_ = StandardScaler().fit(F)
         self.ridge_ = Ridge(alpha=self.alpha_).fit(self.scaler_.transform(F), y)
         return self

@@ -366,6 +366,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         Only when fitted on a DataFrame with string column names.
     driver_indices_ : ndarray of int
         Positions of the driver columns.
+    n_temperature_features_ : int
+        How many features come from the temperatures (the first ones; the
+        drivers' terms follow them).
     n_fitted_runs_ : int or None
         Labelled runs seen in ``fit`` (None when ``fit`` got no run labels);
         ``transform`` then warns when given rows without run labels.
@@ -467,7 +470,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
         )
         n_temp = X_arr.shape[1] - self.driver_indices_.size
-        n_out = n_temp * (int(self.include_changes) + taus.size)
+        self.n_temperature_features_ = n_temp * (int(self.include_changes) + taus.size)
+        n_out = self.n_temperature_features_
         n_out += (
             self.driver_indices_.size
             * powers.size

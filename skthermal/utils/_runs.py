@@ -417,6 +417,18 @@ def with_run_index(X, groups=None):
     return frame.set_axis(run_table_index(groups, times))
 
 
+def pass_runs(method, X, groups, kwargs):
+    """``X`` and the keyword arguments that give the runs to ``method`` (a
+    wrapped model's ``fit``, ``predict``, ...): ``run`` and ``time_s``
+    columns of ``X`` as its index (a plain model would take them as inputs),
+    ``groups`` as ``groups=`` when the method takes that argument
+    (:func:`accepts_groups`), else as a ``run`` index level (a Pipeline,
+    whose steps read it there)."""
+    if groups is not None and accepts_groups(method):
+        return with_run_index(X), {**kwargs, "groups": groups}
+    return with_run_index(X, groups), kwargs
+
+
 def describe_row(row, X, groups):
     """``"row 3, run 'a', time_s=120"``: a row of a run table, with its run
     and time when known (``X`` and ``groups`` as :func:`extract_runs`
