@@ -92,11 +92,13 @@ def print_results(df, columns):
             print(f"  {k}: {v:.2f}" if not isinstance(v, str) else f"  {k}: {v}")
 
 
-def parse_args(description, argv=None):
+def parse_args(description, argv=None, add_arguments=None):
     """The protocol's command line: ``--seeds``, ``--effects`` (cases),
-    ``--n-runs``, ``--n-jobs``, ``--out``; returns the arguments and the
-    list of (case, seed) jobs."""
+    ``--n-runs``, ``--n-jobs``, ``--out`` and what ``add_arguments(parser)``
+    adds; returns the arguments and the list of (case, seed) jobs."""
     parser = argparse.ArgumentParser(description=description)
+    if add_arguments is not None:
+        add_arguments(parser)
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument(
         "--effects",

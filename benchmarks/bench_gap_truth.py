@@ -20,7 +20,7 @@ withheld effect >= 70%), the median share of the explainable gap and the
 time taken.
 
 Run:  python benchmarks/bench_gap_truth.py [--seeds 5] [--effects a,b]
-      [--n-jobs 2] [--out results.csv]
+      [--n-jobs 2] [--prehistory 12] [--out results.csv]
 """
 
 import sys
@@ -39,11 +39,14 @@ from skthermal.gap import diagnose  # noqa: E402
 from skthermal.simulate import ThermalMachine  # noqa: E402
 
 
-def one_case(case, seed, n_runs, diagnose_jobs):
+def one_case(case, seed, n_runs, diagnose_jobs, prehistory=0.0):
     """Diagnose one truth campaign; a dict of the figures of interest."""
     t0 = time.perf_counter()
     runs, truth = make_truth_campaign(
-        case, n_runs=n_runs, random_state=[seed, CASES.index(case)]
+        case,
+        n_runs=n_runs,
+        prehistory_hours=prehistory,
+        random_state=[seed, CASES.index(case)],
     )
     machine = ThermalMachine.from_preset("vmc-b", effects=[])
     report = diagnose(machine, runs, n_jobs=diagnose_jobs)
@@ -90,10 +93,25 @@ def one_case(case, seed, n_runs, diagnose_jobs):
 
 
 def main(argv=None):
-    args, jobs = parse_args(__doc__.splitlines()[0], argv)
+    def add_arguments(parser):
+        parser.add_argument(
+            "--prehistory",
+            type=float,
+            default=0.0,
+            help="hours of random duty before each run (0: runs start soaked)",
+        )
+
+    args, jobs = parse_args(__doc__.splitlines()[0], argv, add_arguments)
     # Parallel over cases; each diagnosis then runs its candidates serially.
     df, elapsed = run_cases(
-        partial(one_case, n_runs=args.n_runs, diagnose_jobs=1), jobs, args.n_jobs
+        partial(
+            one_case,
+            n_runs=args.n_runs,
+            diagnose_jobs=1,
+            prehistory=args.prehistory,
+        ),
+        jobs,
+        args.n_jobs,
     )
     if args.out:
         df.to_csv(args.out, index=False)

@@ -635,6 +635,9 @@ def test_a_candidate_that_cannot_act_is_not_scored(rig_runs):
     report = diagnose(rig, runs, candidates=["sensor_lag", "feed_heating"], **FAST)
     assert list(report.ranking["effect"]) == ["sensor_lag"]
     assert set(report.not_applicable) == {"feed_heating"}
+    assert report.not_applicable["feed_heating"] == (
+        "the machine has no ball screw ([heat.feed] screw = [...])"
+    )
     assert "Not applicable on these runs (not scored): feed_heating" in (
         report.verdict()
     )
@@ -646,6 +649,40 @@ def test_a_candidate_that_cannot_act_is_not_scored(rig_runs):
     disp = [c for c in runs.columns if c.startswith("disp_")]
     with pytest.raises(ValueError, match="sensor_drift: it acts on temperature"):
         diagnose(rig, runs, candidates=["sensor_drift"], channels=disp, **FAST)
+
+
+def test_a_candidate_names_the_part_the_machine_lacks(rig_runs):
+    # A machine described without head or exposed nodes: the candidates
+    # that act on them say which role of the description is missing.
+    from dataclasses import replace
+
+    rig, runs = rig_runs
+    spec = replace(rig.spec, head_nodes=(), exposed_nodes=())
+    bare = ThermalMachine.from_spec(spec, effects=[])
+    report = diagnose(
+        bare,
+        runs,
+        candidates=["sensor_lag", "speed_convection", "ambient_transient"],
+        **FAST,
+    )
+    assert list(report.ranking["effect"]) == ["sensor_lag"]
+    assert report.not_applicable == {
+        "speed_convection": "the machine has no head nodes whose convection "
+        "grows with speed ([roles] head = [...])",
+        "ambient_transient": "the machine has no nodes washed by the workshop "
+        "air ([roles] exposed = [...])",
+    }
+    # Embedded sensors only: nothing lags.
+    embedded = replace(
+        rig.spec, sensors=tuple(replace(s, kind="embedded") for s in rig.spec.sensors)
+    )
+    with pytest.raises(ValueError, match="sensor_lag: the machine has no surface"):
+        diagnose(
+            ThermalMachine.from_spec(embedded, effects=[]),
+            runs,
+            candidates=["sensor_lag"],
+            **FAST,
+        )
 
 
 def test_input_messages_name_the_real_values(rig_runs):

@@ -63,6 +63,16 @@ def test_a_sensor_on_one_node_is_a_node_name():
     assert MachineSpec.from_dict(spec.to_dict()) == spec
 
 
+def test_a_custom_source_may_heat_the_enclosure_air():
+    # Roles of solid bodies may not sit on the enclosure; a custom source
+    # may (a cabinet or hydraulic unit warming the air inside).
+    data = _small()
+    data["heat"]["custom"] = {"cabinet": {"node": "air", "W_constant": 50.0}}
+    machine = ThermalMachine.from_spec(data, effects=[])
+    run = machine.simulate(DutyCycle([(3600, 0, 0)]), 20.0, noise=False)
+    assert run["T1_C"].iloc[-1] > 20.1
+
+
 def test_a_small_machine_from_a_dict_simulates():
     machine = ThermalMachine.from_spec(_small(), effects=[])
     run = machine.simulate(DUTY, 20.0, noise=False)
@@ -235,7 +245,36 @@ def test_a_small_machine_from_a_dict_simulates():
         ),
         (
             lambda d: d.update(effects={"sensor_lag": {"tau_s": 0.0}}),
-            r"effect 'sensor_lag'.*'sensor_lag.tau_s' must be positive",
+            r"effect 'sensor_lag'.*'sensor_lag.tau_s' must lie in \(0, 86400\] s",
+        ),
+        (
+            # Milliseconds for seconds: a lag of 2.8 h would pass, 2.8e3 h not.
+            lambda d: d.update(effects={"sensor_lag": {"tau_s": 1e7}}),
+            r"'sensor_lag.tau_s' must lie in \(0, 86400\] s \(up to a day\), got "
+            r"10000000.0; a sensor lags its part by seconds to minutes\.$",
+        ),
+        (
+            lambda d: d.update(effects={"speed_convection": {"exponent": 8.0}}),
+            r"'speed_convection.exponent' must lie in \[0, 2\], got 8.0; forced",
+        ),
+        (
+            lambda d: d["roles"].update(tool="air"),
+            r"^role 'tool' \(the tool or test bar\) is the enclosure 'air', the "
+            r"air node around the machine; give it a solid node\.$",
+        ),
+        (
+            lambda d: d["heat"]["bearing"].update(node="air"),
+            r"^role 'bearing' \(the node the spindle bearings heat\) is the "
+            r"enclosure 'air'",
+        ),
+        (
+            lambda d: d["roles"].update(head=["spindle", "air"]),
+            r"^roles: head \(nodes whose convection grows with speed\) lists the "
+            r"enclosure 'air'",
+        ),
+        (
+            lambda d: d["roles"].update(exposed=["air"]),
+            r"^roles: exposed .* lists the enclosure 'air'",
         ),
         (
             lambda d: d.update(params={"q.bearng_W": 3.0}),
@@ -539,11 +578,20 @@ def test_custom_heat_source_heats_its_node_and_round_trips(tmp_path):
     # The source heats the machine even with the spindle off.
     idle = machine.simulate(DutyCycle([(7200, 0)]), 20.0, noise=False)
     assert idle["T1_C"].iloc[-1] > 20.05
-    # It is part of the "drive" response, so the parts still sum up.
+    # Its |feed| term is part of the "feed" response, the rest of the
+    # "drive" response (the gap diagnosis gives each part its own gains);
+    # the parts still sum up.
     t = np.arange(61) * 60.0
-    parts = machine.response(t, np.full(61, 2000.0), np.full(61, 20.0), by_source=True)
-    total = machine.response(t, np.full(61, 2000.0), np.full(61, 20.0))
-    np.testing.assert_allclose(sum(parts.values()), total)
+    rpm, air = np.full(61, 2000.0), np.full(61, 20.0)
+    feed = np.where(t < 1800, 3000.0, 0.0)
+    parts = machine.response(t, rpm, air, feed, by_source=True)
+    np.testing.assert_allclose(sum(parts.values()), machine.response(t, rpm, air, feed))
+    without_pump_feed = machine.with_params({"q.pump.W_per_m_min": 0.0})
+    np.testing.assert_allclose(
+        parts["drive"], without_pump_feed.response(t, rpm, air, by_source=True)["drive"]
+    )
+    assert parts["feed"][-1, machine.node_index["housing"]] > 0.1
+    assert "feed" not in machine.response(t, rpm, air, by_source=True)
 
 
 def test_per_sensor_noise_overrides_the_machine_figures():

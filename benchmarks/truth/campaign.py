@@ -74,6 +74,7 @@ def make_truth_campaign(
     n_runs=4,
     hours=(5.0, 7.0),
     sample_period_s=60.0,
+    prehistory_hours=0.0,
     random_state=None,
 ):
     """Noisy measured-like runs of a truth machine with one effect (or none).
@@ -86,6 +87,13 @@ def make_truth_campaign(
     hours : (float, float), default=(5, 7)
         Range of the runs' lengths.
     sample_period_s : float, default=60.0
+    prehistory_hours : float, default=0.0
+        Random duty the machine runs before each run's first sample: with
+        0 every run starts soaked at its first air reading; with more, it
+        starts warm from earlier work (the state a real test usually starts
+        in). The earlier work is simulated on the same machine, effects
+        included, and cut off; the run's clock, displacements and duty start
+        at its first sample. The other random draws do not change with it.
     random_state : int or None
 
     Returns
@@ -102,17 +110,35 @@ def make_truth_campaign(
     doors = rng.poisson(0.8, n_runs)
     if doors.sum() == 0:
         doors[0] = 1
+    # Its own stream (spawning leaves ``rng``'s draws as they were).
+    pre_rng = rng.spawn(1)[0] if prehistory_hours > 0 else None
     tables = []
     for i in range(n_runs):
         h = np.round(rng.uniform(*hours) * 60) / 60
         blocks = random_blocks(rng, h, sample_period_s)
-        tables.append(
-            truth.run_table(
-                blocks,
-                random_room(rng, doors[i]),
-                sample_period_s=sample_period_s,
-                run=f"run{i + 1}",
-                random_state=rng.integers(2**32),
+        room = random_room(rng, doors[i])
+        state = rng.integers(2**32)
+        if pre_rng is None:
+            tables.append(
+                truth.run_table(
+                    blocks,
+                    room,
+                    sample_period_s=sample_period_s,
+                    run=f"run{i + 1}",
+                    random_state=state,
+                )
             )
+            continue
+        pre = random_blocks(pre_rng, prehistory_hours, sample_period_s)
+        t_pre = sum(b.duration_s for b in pre)
+        table = truth.run_table(
+            pre + blocks,
+            lambda t, room=room, t_pre=t_pre: room(np.asarray(t) - t_pre),
+            sample_period_s=sample_period_s,
+            run=f"run{i + 1}",
+            random_state=state,
         )
+        table = table[table["time_s"] >= t_pre - 1e-6].reset_index(drop=True)
+        table["time_s"] = table["time_s"] - t_pre
+        tables.append(table)
     return pd.concat(tables, ignore_index=True), truth

@@ -624,7 +624,10 @@ def _not_applicable(problem, machine, candidates, simulated):
     """Candidates that cannot change the compared channels on these runs,
     with the reason: ``{effect: reason}``.
 
-    A simulated effect is added to the machine at its reference parameters
+    An effect whose part the machine lacks (:meth:`Effect.missing`: no
+    head nodes for ``speed_convection``, no ball screw for
+    ``feed_heating`` ...) says so. Otherwise a simulated effect is added to
+    the machine at its reference parameters
     (the calibration only scales them) and every run simulated: when no
     compared channel changes on any run from ``simulated`` (the machine's
     predictions, one per run), the effect has nothing to act on (e.g. no
@@ -637,6 +640,10 @@ def _not_applicable(problem, machine, candidates, simulated):
             out[c] = "it acts on temperature sensors and none is compared"
     for c in candidates:
         if c in RESIDUAL_EFFECTS:
+            continue
+        lacks = EFFECTS[c].missing(machine.spec)
+        if lacks is not None:
+            out[c] = lacks
             continue
         with_c = machine.with_effects(add=[c])
         if not any(

@@ -110,7 +110,9 @@ class Effect:
             value = params[full]
             valid = self.parameter_range(key)
             if value not in valid:
-                raise ValueError(f"Parameter {full!r} {valid.rule}, got {value}.")
+                raise ValueError(
+                    f"Parameter {full!r} {valid.rule}, got {value}{valid.hint}."
+                )
         self.check_joint(params)
 
     def check_joint(self, params):
@@ -126,6 +128,13 @@ class Effect:
                 f"{terms} = {total:g} must not exceed 1 (they are fractions "
                 "of one heat flow)."
             )
+
+    def missing(self, spec):
+        """What the machine description ``spec`` (a ``MachineSpec``) lacks
+        for this effect to act on it, in words; None when nothing is
+        missing. The gap diagnosis lists such an effect as not applicable,
+        with this reason."""
+        return None
 
     # Hooks; ``machine`` is the ThermalMachine, ``p`` its parameters.
 
@@ -162,8 +171,24 @@ class SensorLag(Effect):
     )
     params = {"tau_s": 480.0}
     units = {"tau_s": "s"}
-    ranges = {"tau_s": POSITIVE}
+    ranges = {
+        "tau_s": ParameterRange(
+            0.0,
+            86400.0,
+            True,
+            "must lie in (0, 86400] s (up to a day)",
+            "; a sensor lags its part by seconds to minutes",
+        )
+    }
     diagnosis_parameter = "sensor_lag.tau_s"
+
+    def missing(self, spec):
+        if not any(s.kind == "surface" for s in spec.sensors):
+            return (
+                "the machine has no surface-mounted sensor to lag (a sensor's "
+                'kind = "surface")'
+            )
+        return None
 
     def read(self, machine, p, x, lagged, dt):
         if lagged.any():
@@ -181,7 +206,32 @@ class SpeedConvection(Effect):
     )
     params = {"gain": 0.2, "exponent": 0.8}
     units = {"gain": "1", "exponent": "1"}
+    ranges = {
+        "gain": ParameterRange(
+            0.0,
+            20.0,
+            False,
+            "must lie in [0, 20]",
+            "; the convection grows by gain * (n / 1000 rpm)^exponent, "
+            "typically 0.1 to 1",
+        ),
+        "exponent": ParameterRange(
+            0.0,
+            2.0,
+            False,
+            "must lie in [0, 2]",
+            "; forced convection grows as the air speed^0.5 to ^0.8",
+        ),
+    }
     diagnosis_parameter = "speed_convection.gain"
+
+    def missing(self, spec):
+        if not spec.head_nodes:
+            return (
+                "the machine has no head nodes whose convection grows with "
+                "speed ([roles] head = [...])"
+            )
+        return None
 
     def convection(self, machine, p, rpm, h):
         if rpm > 0:
@@ -206,6 +256,15 @@ class ToolGrowth(Effect):
     )
     params = {"hA_rotating": 2.5}
     units = {"hA_rotating": "W/K at 1000 rpm"}
+    ranges = {
+        "hA_rotating": ParameterRange(
+            0.0,
+            1000.0,
+            False,
+            "must lie in [0, 1000] W/K",
+            "; a turning tool sheds a few W/K at 1000 rpm",
+        )
+    }
     diagnosis_parameter = "tool_growth.hA_rotating"
 
     def convection(self, machine, p, rpm, h):
@@ -225,6 +284,14 @@ class AmbientTransient(Effect):
         "effect the structure only sees the air inside the enclosure, which "
         "smooths the workshop air over about an hour."
     )
+
+    def missing(self, spec):
+        if not spec.exposed_nodes:
+            return (
+                "the machine has no nodes washed by the workshop air "
+                "([roles] exposed = [...])"
+            )
+        return None
 
     def exposed_nodes(self, machine):
         return machine.spec.exposed_nodes
@@ -254,6 +321,13 @@ class FeedHeating(Effect):
         "motor_share": "1",
     }
     ranges = {
+        "W_per_m_min": ParameterRange(
+            0.0,
+            1000.0,
+            False,
+            "must lie in [0, 1000] W per m/min",
+            "; a ball screw and nut lose a few W per m/min of feed",
+        ),
         "stroke": FRACTION,
         "measure_at": FRACTION,
         "nut_share": FRACTION,
@@ -266,6 +340,11 @@ class FeedHeating(Effect):
     # The nut and the axis motor take these fractions of the feed heat, the
     # screw the rest.
     shares = ("nut_share", "motor_share")
+
+    def missing(self, spec):
+        if not spec.screw_nodes:
+            return "the machine has no ball screw ([heat.feed] screw = [...])"
+        return None
 
     def heat(self, machine, p, rpm, feed, cols, sources):
         spec = machine.spec
@@ -309,6 +388,22 @@ class SensorDrift(Effect):
     )
     params = {"rate_C_per_h": 0.01, "walk_C_per_sqrt_h": 0.01}
     units = {"rate_C_per_h": "°C/h (std over sensors)", "walk_C_per_sqrt_h": "°C/√h"}
+    ranges = {
+        "rate_C_per_h": ParameterRange(
+            0.0,
+            10.0,
+            False,
+            "must lie in [0, 10] °C/h",
+            "; sensors drift by hundredths of a degree per hour",
+        ),
+        "walk_C_per_sqrt_h": ParameterRange(
+            0.0,
+            10.0,
+            False,
+            "must lie in [0, 10] °C/√h",
+            "; sensors wander by hundredths of a degree per √h",
+        ),
+    }
     residual = True
     default_on = False
 

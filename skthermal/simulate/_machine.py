@@ -524,9 +524,11 @@ class ThermalMachine:
             Split the response by what drives it (the network is linear):
             ``"air"`` (the air, from ``initial``, without heat), and the
             heat of the ``"bearing"`` (spindle bearings), the ``"drive"``
-            (motor, belt and cutting) and the ``"feed"`` (ball screw, only
-            with ``feed_heating`` and a non-zero feed), each from zero with
-            the air at zero. The parts sum to the response.
+            (motor, belt, cutting, and the custom sources but for their
+            |feed| terms) and the ``"feed"`` (ball screw with
+            ``feed_heating``, and the custom sources' |feed| terms; only
+            with a non-zero feed), each from zero with the air at zero. The
+            parts sum to the response.
         run : label, default="run1"
             Named in error messages.
 
@@ -561,9 +563,7 @@ class ThermalMachine:
             zero_air = np.zeros_like(air)
             zero_T = np.zeros_like(T0)
             for source in self.SOURCES[1:]:
-                if source == "feed" and not (
-                    self._on("feed_heating") and np.any(feed != 0)
-                ):
+                if source == "feed" and not (self._feed_heated() and np.any(feed != 0)):
                     continue
                 out[source] = self._integrate(
                     rpm, feed, zero_air, dt, zero_T, (source,), run
@@ -691,10 +691,12 @@ class ThermalMachine:
                 cols[spec.cutting] = (
                     cols.get(spec.cutting, 0.0) + p["q.cutting_W"] * running
                 )
-            for source, node in spec.custom_heat.items():
-                cols[node] = cols.get(node, 0.0) + self._custom_power(
-                    source, krpm, running, feed
-                )
+        for source, node in spec.custom_heat.items():
+            spindle, by_feed = self._custom_power(source, krpm, running, feed)
+            if "spindle" in sources or "drive" in sources:
+                cols[node] = cols.get(node, 0.0) + spindle
+            if "feed" in sources and by_feed is not None:
+                cols[node] = cols.get(node, 0.0) + by_feed
         for effect in self._active():
             effect.heat(self, p, rpm, feed, cols, sources)
         nodes = list(cols)
@@ -705,7 +707,9 @@ class ThermalMachine:
         return Q, [self._index[k] for k in nodes]
 
     def _custom_power(self, source, krpm, running, feed):
-        """Heat (W) of the custom source ``source`` (see ``MachineSpec``)."""
+        """Heat (W) of the custom source ``source`` (see ``MachineSpec``):
+        the part that follows the spindle (and the constant part), and the
+        part that follows |feed| (None without a ``W_per_m_min``)."""
         p = self._params
 
         def q(f, default=0.0):
@@ -715,9 +719,20 @@ class ThermalMachine:
         if q("W_at_1000_rpm"):
             power = power + q("W_at_1000_rpm") * krpm ** q("alpha", 1.5)
         power = power + q("W_per_1000_rpm") * krpm
+        by_feed = None
         if q("W_per_m_min"):
-            power = power + q("W_per_m_min") * np.abs(np.asarray(feed, float)) / 1e3
-        return power
+            by_feed = q("W_per_m_min") * np.abs(np.asarray(feed, float)) / 1e3
+        return power, by_feed
+
+    def _feed_heated(self):
+        """Whether any heat follows the feed: the ball screw of
+        ``feed_heating``, or a custom source with a ``W_per_m_min``."""
+        if self._on("feed_heating") and self.spec.screw_nodes:
+            return True
+        return any(
+            self._params.get(f"q.{source}.W_per_m_min", 0.0)
+            for source in self.spec.custom_heat
+        )
 
     def displacement_matrix(self):
         """Thermo-elastic map, DataFrame (axes x nodes) of µm per K of node rise.

@@ -284,8 +284,10 @@ def parameter_range(key):
     inputs ``q.*``, noise figures ``sensor.*`` and ``disp.*`` not negative;
     loss exponents ``q.*alpha`` lie in [0.5, 3]; displacement coefficients
     ``k.*`` are any finite number; effects' parameters follow their effect
-    (``sensor_lag.tau_s`` positive, the ``feed_heating`` fractions in
-    [0, 1], the rest not negative). ``calibrate`` keeps its bounds inside.
+    (:attr:`Effect.ranges`: ``sensor_lag.tau_s`` in (0, 1 day], the
+    ``feed_heating`` fractions in [0, 1], each other parameter from 0 to a
+    bound far above its physical values, which catches a unit slip such as
+    milliseconds for seconds). ``calibrate`` keeps its bounds inside.
 
     Parameters
     ----------
@@ -464,7 +466,8 @@ class MachineSpec:
         ``q.s.W_constant + q.s.W * on + q.s.W_at_1000_rpm * (n/1000)^q.s.alpha
         + q.s.W_per_1000_rpm * n/1000 + q.s.W_per_m_min * |feed|/1000`` (W;
         ``on``: the spindle turns; absent numbers are zero, ``alpha`` 1.5);
-        it belongs to the ``"drive"`` part of :meth:`ThermalMachine.response`.
+        its |feed| term belongs to the ``"feed"`` part of
+        :meth:`ThermalMachine.response`, the rest to the ``"drive"`` part.
     screw_nodes : tuple of str
         Ball-screw segments from the fixed bearing on (``feed_heating``).
     nut, axis_motor : str or None
@@ -559,6 +562,43 @@ class MachineSpec:
 
     # --- checks -------------------------------------------------------------
 
+    def _check_enclosure_roles(self):
+        """The enclosure is the air around the machine: no role of a solid
+        body sits on it. A tool, bearing, motor or ball screw there would
+        give the air the body's physics (its heat, its convection to the
+        enclosure, that is to itself), and the simulation would run without
+        a word. A custom heat source may heat the enclosure air (a cabinet
+        or a hydraulic unit inside it)."""
+        enc = self.enclosure
+        solid = {
+            "tool": "the tool or test bar",
+            "bearing": "the node the spindle bearings heat",
+            "motor": "the node the spindle drive heats",
+            "belt": "the node the belt loss heats",
+            "cutting": "the node cutting heats",
+            "nut": "the ball nut",
+            "axis_motor": "the feed-axis motor",
+        }
+        for role, meaning in solid.items():
+            if getattr(self, role) == enc:
+                raise ValueError(
+                    f"role {role!r} ({meaning}) is the enclosure {enc!r}, the "
+                    "air node around the machine; give it a solid node."
+                )
+        lists = {
+            "head_nodes": "roles: head (nodes whose convection grows with speed)",
+            "exposed_nodes": "roles: exposed (nodes washed by the workshop air "
+            "instead of the enclosure air)",
+            "screw_nodes": "heat source 'feed': screw (the ball-screw segments)",
+        }
+        for role, where in lists.items():
+            if enc in getattr(self, role):
+                raise ValueError(
+                    f"{where} lists the enclosure {enc!r}, the air node around "
+                    "the machine, which convects to the workshop air itself; "
+                    "list solid nodes only."
+                )
+
     def validate(self):
         """Check the description; raises ValueError naming the bad entry."""
         for f in ("name", "description"):
@@ -631,6 +671,7 @@ class MachineSpec:
         for role in ("head_nodes", "exposed_nodes", "screw_nodes"):
             for value in getattr(self, role):
                 _node(role, value, nodes)
+        self._check_enclosure_roles()
         axes = list(self.axes)
         if not axes:
             raise ValueError("axes: give at least one displacement channel.")
