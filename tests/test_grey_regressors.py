@@ -15,6 +15,7 @@ from skthermal.grey import (
     GreyPSORegressor,
     gmc1n,
     gmc1n_predict,
+    gmc1n_varpro,
     gmc_time_response,
     gnnmci_layers,
     gnnmci_predict,
@@ -674,3 +675,110 @@ def test_least_squares_that_explode_on_collinear_inputs_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error", ConvergenceWarning)
         GreyPSORegressor(calibration="varpro").fit(X, y, groups=np.zeros(300))
+
+
+# ------------------------------------------------------------- units, scale
+
+
+def smooth_run(n=160):
+    """A few smooth positive input series and a smooth target driven by them."""
+    t = np.arange(n, dtype=float)
+    X = np.c_[
+        20 + 6 * (1 - np.exp(-t / 40)),
+        21 + 3 * (1 - np.exp(-t / 90)),
+        22 + 2 * np.sin(t / 30) ** 2,
+    ]
+    y = 4.0 * (X[:, 0] - 20) + 2.5 * (X[:, 1] - 21) + 0.05 * np.sin(t / 7)
+    return X, y
+
+
+@pytest.mark.parametrize(
+    "est",
+    [
+        GreyPSORegressor(),  # varpro, alpha chosen by cross-validation
+        GreyPSORegressor(calibration="pso", n_particles=15, epochs=8, random_state=0),
+        GreyPSORegressor(calibration="ls"),
+        GNNMCIRegressor(n_particles=15, epochs=8, random_state=0),
+        # The papers' velocity_clamp=1.5 is in the weights' units: None (the
+        # width of the box, which scales with the data) for a random start.
+        GNNMCIRegressor(
+            alpha=0.0, init="random", velocity_clamp=None, n_particles=15, epochs=8
+        ),
+    ],
+    ids=["varpro", "pso", "ls", "gnnmci", "gnnmci-random"],
+)
+def test_units_of_target_and_inputs_do_not_matter(est):
+    # A target near 1e80 overflowed the squares of the cross-validation of
+    # alpha (RuntimeWarning, then the largest alpha: a wrong model, silently);
+    # inputs near 1e-80 vanished beside the constant u in the least-squares
+    # rank decision (predictions of 0). The fit now runs on the data scaled
+    # by powers of two: y * c predicts c times as much, whatever c and the
+    # units of the inputs.
+    X, y = smooth_run()
+    groups = np.zeros(len(y))
+    k = 120  # fit on the start of the run, continue it in predict
+    est = clone(est).set_params(random_state=0)
+    ref = est.fit(X[:k], y[:k], groups=groups[:k]).predict(X, groups=groups)
+    ref_coef = getattr(est, "coef_", getattr(est, "weights_", None)).copy()
+    assert np.all(np.isfinite(ref))
+    for y_scale, x_scale in [
+        (1e80, 1.0),
+        (1e-80, 1.0),
+        (1.0, 1e80),
+        (1.0, 1e-80),
+        (1e80, 1e-80),
+        (1e-80, 1e80),
+    ]:
+        model = clone(est)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no RuntimeWarning of numpy
+            Xs, ys = X * x_scale, y * y_scale
+            model.fit(Xs[:k], ys[:k], groups=groups[:k])
+            pred = model.predict(Xs, groups=groups)
+        assert np.all(np.isfinite(pred))
+        np.testing.assert_allclose(
+            pred / y_scale,
+            ref,
+            rtol=1e-7,
+            atol=1e-9 * np.ptp(ref),
+            err_msg=f"y * {y_scale:g}, X * {x_scale:g}",
+        )
+        coef = getattr(model, "coef_", getattr(model, "weights_", None))
+        expected = ref_coef * np.r_[1.0, np.full(3, y_scale / x_scale), y_scale]
+        np.testing.assert_allclose(coef[1:-1], expected[1:-1], rtol=1e-6)
+        assert np.isfinite(model.loss_) and np.all(np.isfinite(model.history_))
+
+
+def test_array_functions_do_not_depend_on_units():
+    X, y = smooth_run()
+    b1, b, u = gmc1n_varpro(y, X, alpha="auto")
+    b1_ls, b_ls, u_ls = gmc1n(y, X)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for y_scale, x_scale in [(1e80, 1.0), (1e-80, 1e80), (1e80, 1e-80)]:
+            c1, c, v = gmc1n_varpro(y * y_scale, X * x_scale, alpha="auto")
+            np.testing.assert_allclose(c1, b1, rtol=1e-6)
+            np.testing.assert_allclose(c * x_scale / y_scale, b, rtol=1e-6)
+            c1, c, v = gmc1n(y * y_scale, X * x_scale)
+            np.testing.assert_allclose(c1, b1_ls, rtol=1e-8)
+            np.testing.assert_allclose(c * x_scale / y_scale, b_ls, rtol=1e-8)
+            np.testing.assert_allclose(v / y_scale, u_ls, rtol=1e-8)
+
+
+@pytest.mark.parametrize(
+    "est", [GreyPSORegressor(), GNNMCIRegressor(n_particles=10, epochs=3)]
+)
+def test_coefficients_beyond_the_float_range_are_an_error(est):
+    # The target changes by ~1e90 per change of 1e-250 of the inputs: no
+    # float holds the coefficient (1e340), so no model in these units.
+    X, y = smooth_run()
+    groups = np.zeros(len(y))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"coefficient of input 0 is beyond"):
+            clone(est).fit(X * 1e-250, y * 1e90, groups=groups)
+        # Large coefficients (1e210) that fit, then inputs far beyond the
+        # training ones: the prediction would be inf.
+        model = clone(est).fit(X * 1e-210, y, groups=groups)
+        with pytest.raises(ValueError, match=r"prediction is beyond the float range"):
+            model.predict(X * 4e97, groups=groups + 1)

@@ -167,6 +167,47 @@ def test_regressor_errors(data):
         model.partial_fit(np.full((2, 3), np.nan), y[:2])
 
 
+def test_default_penalty_warns_on_inputs_far_from_degrees(data):
+    # alpha=25 (004) is an absolute penalty set for temperature changes in °C:
+    # on millidegrees it regularised 1e6 times less, on kilodegrees 1e6 times
+    # more, without a word. The default is kept (results in °C are 004's);
+    # fit says what scale it saw and what to do.
+    import warnings
+
+    X, y = data  # changes of 0-5 °C
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        degrees = UpdateRegressor().fit(X, y)
+        UpdateRegressor().partial_fit(X, y)
+        UpdateRegressor(alpha=25e6).fit(1000 * X, y)  # alpha set for the units
+        UpdateRegressor(eta=1e-7).partial_fit(1000 * X, y)
+        UpdateRegressor().fit(np.zeros_like(X), y)  # no scale to speak of
+    np.testing.assert_allclose(
+        np.r_[degrees.intercept_, degrees.coef_], ridge_coef(X, y)
+    )  # unchanged
+    with pytest.warns(
+        UserWarning,
+        match=r"X has a root-mean-square of 2\.\d+e\+03, far from the temperature "
+        r"changes in °C \(about 0\.01 to 100\) for which the default alpha=25\.0 "
+        r".*regularises far less .*millidegrees / 1000\) or standardise it, or "
+        r"set alpha for these units",
+    ):
+        milli = UpdateRegressor().fit(1000 * X, y)
+    np.testing.assert_allclose(  # a warning only: the published ridge
+        np.r_[milli.intercept_, milli.coef_], ridge_coef(1000 * X, y)
+    )
+    with pytest.warns(UserWarning, match=r"regularises far more"):
+        UpdateRegressor().fit(X / 1000, y)
+    with pytest.warns(UserWarning, match=r"default eta=0\.1 .* \(1 - eta\) / eta"):
+        UpdateRegressor().partial_fit(1000 * X, y)  # from scratch: a ridge
+    # The remedy the message gives: alpha times the unit ratio squared is the
+    # °C model (exactly, with a free intercept).
+    free = UpdateRegressor(penalize_intercept=False).fit(X, y)
+    scaled = UpdateRegressor(alpha=25e6, penalize_intercept=False).fit(1000 * X, y)
+    np.testing.assert_allclose(1000 * scaled.coef_, free.coef_, rtol=1e-8)
+    np.testing.assert_allclose(scaled.intercept_, free.intercept_, rtol=1e-8)
+
+
 # --- adaptive compensation --------------------------------------------------
 
 

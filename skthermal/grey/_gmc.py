@@ -180,6 +180,90 @@ def _model_runs(y, X, slices, *, relative=True, delay=0):
     return runs
 
 
+def _run_scales(runs):
+    """Binary exponents ``ey`` and ``ex`` (one per input) of the data's magnitude.
+
+    ``2^ey`` and ``2^ex_j`` are the powers of two just above the largest
+    ``|x_1^(0)|`` and ``|x_j^(0)|`` of ``runs`` (changes since the run start
+    for :func:`_model_runs` with ``relative=True``); 0 for a series that is 0
+    throughout. Found from the exponents of the largest values, without
+    squaring anything.
+    """
+    ymax = max(
+        (float(np.max(np.abs(y0), initial=0.0)) for _, y0 in runs if y0 is not None),
+        default=0.0,
+    )
+    xmax = np.max(
+        [
+            np.max(np.abs(np.diff(X1, axis=0, prepend=0.0)), axis=0, initial=0.0)
+            for X1, _ in runs
+        ],
+        axis=0,
+    )
+    return int(np.frexp(ymax)[1]), np.frexp(xmax)[1].astype(int)
+
+
+def _scale_runs(runs, ey, ex):
+    """``runs`` with the target divided by ``2^ey`` and input j by ``2^ex_j``.
+
+    The calibrations then work on series of magnitude ~1 whatever the units of
+    the data: sums of squares of a 1e80 target do not overflow, and an input
+    of 1e-80 is not lost beside the constant ``u`` (a rank decision). Scaling
+    by a power of two is exact in floating point and commutes with the AGO,
+    so on normal-scale data the calibration does the same arithmetic as on
+    the unscaled data up to rounding inside the least-squares solvers (column
+    pivoting, SVD), and ``y * c`` gives coefficients ``b * c`` (see
+    :func:`_coef_shift`).
+    """
+    return [
+        (np.ldexp(X1, -ex), None if y0 is None else np.ldexp(y0, -ey))
+        for X1, y0 in runs
+    ]
+
+
+def _coef_shift(ey, ex):
+    """Binary shift of ``(b1, b_2..b_N, u)`` between original and scaled data.
+
+    With the target divided by ``2^ey`` and input j by ``2^ex_j``, the same
+    model has ``b1`` unchanged, ``b_j`` multiplied by ``2^(ex_j - ey)`` and
+    ``u`` by ``2^-ey`` (the same for the GNNMCI weights ``(w11, w2j, w2N)``):
+    ``scaled = np.ldexp(original, shift)``.
+    """
+    return np.r_[0, np.asarray(ex, dtype=int) - ey, -ey].astype(int)
+
+
+def _decades(e):
+    """``2^e`` as a power of ten for messages (``1e+80``), never overflowing."""
+    return f"1e{round(float(e) * np.log10(2.0)):+d}"
+
+
+def _unscale_coef(theta, ey, ex, model, names=None):
+    """Coefficients fitted on :func:`_scale_runs` data, in the data's units.
+
+    A ``ValueError`` names the input whose coefficient does not fit in a float
+    (a target some 1e300 times larger than the changes of an input).
+    """
+    shift = _coef_shift(ey, ex)
+    with np.errstate(over="ignore"):
+        out = np.ldexp(np.asarray(theta, dtype=float), -shift)
+    bad = ~np.isfinite(out[1:-1])
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        name = f"input {j}" if names is None else f"input {str(names[j])!r}"
+        raise ValueError(
+            f"{model}: the coefficient of {name} is beyond the float range: the "
+            f"target changes by up to ~{_decades(ey)} while that input changes by "
+            f"up to ~{_decades(ex[j])} only. Express the target or that input in "
+            "other units."
+        )
+    if not np.isfinite(out[-1]):
+        raise ValueError(
+            f"{model}: the constant term is beyond the float range (the target "
+            f"changes by up to ~{_decades(ey)}). Express the target in other units."
+        )
+    return out
+
+
 def _tien_ls(runs, alpha=0.0):
     """Tien's least squares ``x_1^(0)(k) = -b1 z_1^(1)(k) + sum b_j z_j^(1)(k) + u``.
 
@@ -335,7 +419,9 @@ def gmc1n(y, X, *, groups=None, relative=True, delay=0, alpha=0.0):
     n_inputs = 1 if np.ndim(X) == 1 else np.shape(X)[1]
     y, X, slices = check_grey_data(y, X, groups, n_inputs + 2, "GMC(1,N)")
     runs = _model_runs(y, X, slices, relative=relative, delay=_check_delay(delay))
-    theta = _tien_ls(runs, alpha)
+    ey, ex = _run_scales(runs)
+    theta = _tien_ls(_scale_runs(runs, ey, ex), alpha)
+    theta = _unscale_coef(theta, ey, ex, "GMC(1,N)")
     return float(theta[0]), theta[1:-1], float(theta[-1])
 
 

@@ -19,10 +19,14 @@ from sklearn.utils.validation import _num_samples, check_is_fitted, validate_dat
 
 from skthermal.grey._ago import iago
 from skthermal.grey._gmc import (
+    _coef_shift,
     _GMCObjective,
     _gnnmci_sse,
     _model_runs,
+    _run_scales,
+    _scale_runs,
     _tien_ls,
+    _unscale_coef,
     gmc_time_response,
     gnnmci_time_response,
 )
@@ -121,7 +125,53 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         states = [None if lab is None else self.run_states_[lab] for lab in cont]
         return X, slices, states
 
-    def _swarm(self, objective, box, init, rng):
+    @staticmethod
+    def _scaled_runs(runs):
+        """``runs`` scaled to magnitude ~1, their binary exponents ``(ey, ex)``.
+
+        The calibration runs on the target divided by ``2^ey`` and input j by
+        ``2^ex_j`` (see :func:`skthermal.grey._gmc._scale_runs`), so that it
+        neither overflows nor loses an input on data in any units; the fitted
+        coefficients are scaled back by :meth:`_unscale`.
+        """
+        ey, ex = _run_scales(runs)
+        return _scale_runs(runs, ey, ex), (ey, ex)
+
+    def _unscale(self, theta, scales):
+        """Coefficients of the scaled data in the units of the data."""
+        names = getattr(self, "feature_names_in_", None)
+        return _unscale_coef(theta, *scales, type(self).__name__, names)
+
+    @staticmethod
+    def _unscale_loss(loss, scales):
+        """A sum of squares of the scaled target in the target's units squared."""
+        with np.errstate(over="ignore", under="ignore"):
+            return np.ldexp(loss, 2 * scales[0])
+
+    def _swarm(self, objective, box, init, rng, shift):
+        """The particle swarm on the scaled coefficients (``box`` is scaled).
+
+        A ``velocity_clamp`` is in the units of the coefficients: it is scaled
+        with them, so the swarm takes the same steps as on unscaled data.
+        """
+        clamp = self.velocity_clamp
+        if clamp is not None:
+            try:
+                v = np.asarray(clamp, dtype=float)
+            except (TypeError, ValueError):
+                v = None  # particle_swarm says what is wrong with it
+            if (
+                v is not None
+                and v.ndim <= 1
+                and v.size in (1, shift.size)
+                and np.all(np.isfinite(v))
+                and np.all(v > 0)
+            ):
+                v = np.broadcast_to(v.ravel(), shift.shape)
+                with np.errstate(over="ignore", under="ignore"):
+                    v = np.ldexp(v, shift)
+                tiny, big = np.finfo(float).tiny, np.finfo(float).max
+                clamp = np.clip(v, tiny, big)
         return particle_swarm(
             objective,
             box,
@@ -130,10 +180,35 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
             c1=self.c1,
             c2=self.c2,
             inertia=self.inertia,
-            velocity_clamp=self.velocity_clamp,
+            velocity_clamp=clamp,
             init=init,
             random_state=rng,
         )
+
+    @staticmethod
+    def _scaled_box(box, shift):
+        """A user's search box ``(low, high)`` per coefficient, scaled."""
+        with np.errstate(over="ignore", under="ignore"):
+            out = np.ldexp(box, shift[:, None])
+        if not np.all(np.isfinite(out)):
+            raise ValueError(
+                "bounds are beyond the float range once the data are brought to "
+                "magnitude ~1 (bounds of some 1e300 on data of very different "
+                "scales): give bounds closer to the expected coefficients."
+            )
+        return out
+
+    def _finite_prediction(self, out):
+        """``out``, or a ValueError where the prediction left the float range."""
+        bad = ~np.isfinite(out)
+        if bad.any():
+            raise ValueError(
+                f"{type(self).__name__}.predict: the prediction is beyond the "
+                f"float range at {int(bad.sum())} row(s) (first: row "
+                f"{int(np.flatnonzero(bad)[0])}): the inputs there are far outside "
+                "the range the model was fitted on. Check their units."
+            )
+        return out
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -339,6 +414,17 @@ class GreyPSORegressor(_GreyRunRegressor):
     least five folds). Among the ``alpha`` values whose mean held-out error
     is within one standard error of the best, the largest is taken.
 
+    *Units.* The calibration runs on the target and on each input divided by a
+    power of two near its largest change (exact in floating point), and the
+    coefficients are scaled back: the fit neither overflows on a target of
+    1e80 nor loses an input of 1e-80 beside the constant ``u``, and a target
+    in other units (``y * c``) gives ``c`` times the predictions. ``alpha`` is
+    relative (to the squared error) and ``bounds`` and ``velocity_clamp`` are
+    in the units of the coefficients, so they keep their meaning. A
+    coefficient that no float can hold (a target some 1e300 times larger than
+    an input's changes) is a ``ValueError``, as is a prediction beyond the
+    float range.
+
     References: A. M. Abdulshahed, PhD thesis (2015), §3.6 and Table 6-4;
     Abdulshahed et al., GNNMCI(1,N) for environmental thermal error (2015).
 
@@ -410,7 +496,8 @@ class GreyPSORegressor(_GreyRunRegressor):
                 "would be driven by the inputs held at the run's start. Give a "
                 f"delay below {longest - 1} (samples, not seconds)."
             )
-        runs = _model_runs(y, X, slices, delay=self.delay)
+        runs, scales = self._scaled_runs(_model_runs(y, X, slices, delay=self.delay))
+        shift = _coef_shift(*scales)
         n_coef = X.shape[1] + 2
         n_eq = X.shape[0] - len(slices)
         if self.calibration == "ls" and n_eq < n_coef:
@@ -423,7 +510,9 @@ class GreyPSORegressor(_GreyRunRegressor):
         user_box = (
             None
             if isinstance(self.bounds, str)
-            else _user_box(self.bounds, n_coef, "(b1, b_2..b_N, u)")
+            else self._scaled_box(
+                _user_box(self.bounds, n_coef, "(b1, b_2..b_N, u)"), shift
+            )
         )
         if self.calibration == "ls":
             alpha = 0.0 if isinstance(self.alpha, str) else float(self.alpha)
@@ -448,19 +537,24 @@ class GreyPSORegressor(_GreyRunRegressor):
                 ]
                 box = self._auto_box(theta_vp, runs) if user_box is None else user_box
                 rng = check_random_state(self.random_state)
-                res = self._swarm(objective, box, seed, rng)
+                res = self._swarm(objective, box, seed, rng, shift)
                 theta = res.x
                 self.n_iter_ = res.nit
                 self.history_ = res.history
-        self.coef_ = np.asarray(theta, dtype=float)
-        self.loss_ = float(_GMCObjective(runs)(self.coef_[None, :])[0])
+        theta = np.asarray(theta, dtype=float)
+        loss = float(_GMCObjective(runs)(theta[None, :])[0])
+        self.coef_ = self._unscale(theta, scales)
+        self.loss_ = float(self._unscale_loss(loss, scales))
+        self.history_ = self._unscale_loss(self.history_, scales)
         if self.calibration == "ls":
             # Tien's least squares fit the grey equation, not the restored
             # series: on (nearly) collinear inputs the series can explode.
             n_rows = sum(r[1].shape[0] for r in runs)
-            rmse = np.sqrt(self.loss_ / max(n_rows, 1))
+            rmse = np.sqrt(loss / max(n_rows, 1))
             spread = _run_stats(runs)[1]
             if not rmse <= 10.0 * max(spread, np.finfo(float).tiny):
+                # In the target's units for the message.
+                rmse, spread = (np.ldexp(v, scales[0]) for v in (rmse, spread))
                 warnings.warn(
                     f"GreyPSORegressor: calibration='ls' fits the training "
                     f"rows with an RMSE of {rmse:.3g}, {rmse / spread:.3g} "
@@ -536,15 +630,16 @@ class GreyPSORegressor(_GreyRunRegressor):
         X, slices, states = self._runs_for_predict(X, groups)
         b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
         out = np.empty(X.shape[0])
-        for sl, state in zip(slices, states, strict=True):
-            if state is None:
-                ((X1, _),) = _model_runs(
-                    None, X[sl], [slice(0, sl.stop - sl.start)], delay=self.delay
-                )
-                out[sl] = iago(gmc_time_response(X1, b1, b, u))
-            else:
-                out[sl] = self._continue(X[sl], state)
-        return out
+        with np.errstate(over="ignore", invalid="ignore"):
+            for sl, state in zip(slices, states, strict=True):
+                if state is None:
+                    ((X1, _),) = _model_runs(
+                        None, X[sl], [slice(0, sl.stop - sl.start)], delay=self.delay
+                    )
+                    out[sl] = iago(gmc_time_response(X1, b1, b, u))
+                else:
+                    out[sl] = self._continue(X[sl], state)
+        return self._finite_prediction(out)
 
 
 class GNNMCIRegressor(_GreyRunRegressor):
@@ -571,7 +666,9 @@ class GNNMCIRegressor(_GreyRunRegressor):
     inertia : float or (float, float), default=(0.9, 0.4)
         Inertia weight, constant or decreasing linearly (001: 0.9 to 0.4).
     velocity_clamp : float or array-like of shape (n_features + 2,), default=1.5
-        Largest velocity per weight (002: ±1.5); None: the width of the box.
+        Largest velocity per weight (002: ±1.5), in the weights' units (target
+        units per input unit: 1.5 suits µm and °C); None: the width of the
+        box, which scales with the data.
     bounds : "auto" or array-like of shape (n_features + 2, 2), default="auto"
         Search box of ``(w11, w2_2..w2_{N-1}, w2N)``. "auto": ``w11`` in
         ``[0, 1]``, each input weight in ``±3 s_y / s_j`` and ``w2N`` in
@@ -645,7 +742,9 @@ class GNNMCIRegressor(_GreyRunRegressor):
     travel with the rows (a ``run`` column or index level: ``groups`` passed to
     ``cross_validate`` reach the splitter, not ``predict``). A run label seen in
     ``fit`` continues that run in ``predict``, with the rules and warnings
-    described in the Notes of :class:`GreyPSORegressor`.
+    described in the Notes of :class:`GreyPSORegressor`; the training runs
+    on scaled data as described there (*Units*), the default
+    ``velocity_clamp=1.5`` being in the weights' units.
 
     With the target taken as its change since the run start,
     ``x_1^(1)(1) = 0``: the ``e^{-w11 k}`` term vanishes, ``w11`` no longer
@@ -710,7 +809,8 @@ class GNNMCIRegressor(_GreyRunRegressor):
         self.random_state = random_state
 
     def _fit(self, X, y, slices):
-        runs = _model_runs(y, X, slices)
+        runs, scales = self._scaled_runs(_model_runs(y, X, slices))
+        shift = _coef_shift(*scales)
         n_w = X.shape[1] + 2
         seed, self.alpha_, xnorm = _gnnmci_ridge(runs, self.alpha)
         if isinstance(self.bounds, str):
@@ -725,7 +825,9 @@ class GNNMCIRegressor(_GreyRunRegressor):
             )
             seed[0] = 0.5
         else:
-            box = _user_box(self.bounds, n_w, "(w11, w2_2..w2_{N-1}, w2N)")
+            box = self._scaled_box(
+                _user_box(self.bounds, n_w, "(w11, w2_2..w2_{N-1}, w2N)"), shift
+            )
         alpha = self.alpha_
 
         def objective(W):
@@ -736,10 +838,11 @@ class GNNMCIRegressor(_GreyRunRegressor):
 
         rng = check_random_state(self.random_state)
         init = seed if self.init == "ridge" else None
-        res = self._swarm(objective, box, init, rng)
-        self.weights_ = res.x
-        self.loss_ = float(_gnnmci_sse(res.x[None, :], runs)[0])
-        self.history_ = res.history
+        res = self._swarm(objective, box, init, rng, shift)
+        self.weights_ = self._unscale(res.x, scales)
+        loss = _gnnmci_sse(res.x[None, :], runs)[0]
+        self.loss_ = float(self._unscale_loss(loss, scales))
+        self.history_ = self._unscale_loss(res.history, scales)
         self.n_iter_ = res.nit
         return self
 
@@ -766,10 +869,13 @@ class GNNMCIRegressor(_GreyRunRegressor):
         """
         X, slices, states = self._runs_for_predict(X, groups)
         out = np.empty(X.shape[0])
-        for sl, state in zip(slices, states, strict=True):
-            if state is None:
-                ((X1, _),) = _model_runs(None, X[sl], [slice(0, sl.stop - sl.start)])
-                out[sl] = iago(gnnmci_time_response(X1, self.weights_))
-            else:
-                out[sl] = (X[sl] - state["x_first"]) @ self.weights_[1:-1]
-        return out
+        with np.errstate(over="ignore", invalid="ignore"):
+            for sl, state in zip(slices, states, strict=True):
+                if state is None:
+                    ((X1, _),) = _model_runs(
+                        None, X[sl], [slice(0, sl.stop - sl.start)]
+                    )
+                    out[sl] = iago(gnnmci_time_response(X1, self.weights_))
+                else:
+                    out[sl] = (X[sl] - state["x_first"]) @ self.weights_[1:-1]
+        return self._finite_prediction(out)

@@ -22,6 +22,9 @@ from skthermal.grey._gmc import (
     _gmc_penalty_weights,
     _model_runs,
     _penalty_scale,
+    _run_scales,
+    _scale_runs,
+    _unscale_coef,
 )
 from skthermal.grey._models import check_alpha, check_grey_data
 
@@ -395,5 +398,8 @@ def gmc1n_varpro(y, X, *, groups=None, delay=0, alpha=0.0, b1_bounds=None):
             )
     y, X, slices = check_grey_data(y, X, groups, 1, "GMC(1,N)")
     runs = _model_runs(y, X, slices, delay=_check_delay(delay))
-    theta, _, _ = _gmc_varpro(runs, alpha, b1_bounds=b1_bounds)
+    # On data of magnitude ~1 (exact powers of two): no overflow, no lost input.
+    ey, ex = _run_scales(runs)
+    theta, _, _ = _gmc_varpro(_scale_runs(runs, ey, ex), alpha, b1_bounds=b1_bounds)
+    theta = _unscale_coef(theta, ey, ex, "GMC(1,N)")
     return float(theta[0]), theta[1 : n_inputs + 1], float(theta[-1])

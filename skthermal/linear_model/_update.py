@@ -15,6 +15,7 @@ The array functions work on ``(n_samples, n_features)`` inputs and
 row is the intercept; :class:`UpdateRegressor` wraps them.
 """
 
+import warnings
 from numbers import Real
 
 import numpy as np
@@ -266,6 +267,45 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     return int(np.argmax(ok)) + 1 if ok.any() else None
 
 
+# The inputs' root-mean-square magnitude (uncentred, over all entries) for
+# which the absolute penalties of the defaults were set: temperature changes
+# in °C are ~0.1-20 (the simulated campaign: 2.5-6 per batch; absolute
+# readings in °C ~25). Two decades beyond, the penalty is 1e4 times weaker or
+# stronger than intended relative to the data term.
+_DESIGN_SCALE = (0.01, 100.0)
+
+
+def _warn_input_scale(X, name, value, stacklevel):
+    """Warn when ``X`` is far from the °C magnitudes a default penalty assumes.
+
+    ``name=value`` is the default penalty in use: ``alpha`` of ``fit``, or
+    ``eta`` of a ``partial_fit`` from scratch (ridge with ``(1 - eta) / eta``).
+    """
+    if X.size == 0:
+        return
+    scale = float(np.sqrt(np.mean(np.square(X))))
+    lo, hi = _DESIGN_SCALE
+    if not (scale > hi or 0.0 < scale < lo):
+        return
+    effect = (
+        "regularises far less than intended (the model over-fits)"
+        if scale > hi
+        else "regularises far more than intended (coefficients shrunk to ~0)"
+    )
+    what = "alpha" if name == "alpha" else "(1 - eta) / eta"
+    warnings.warn(
+        f"UpdateRegressor: X has a root-mean-square of {scale:.3g}, far from "
+        f"the temperature changes in °C (about {lo:g} to {hi:g}) for which the "
+        f"default {name}={value!r} (004's) was set; as an absolute penalty it "
+        f"{effect} here. Give X in °C (e.g. millidegrees / 1000) or "
+        f"standardise it, or set {name} for these units: {what} scales with "
+        "the square of the unit of X (times 1e6 for millidegrees; exactly so with "
+        "penalize_intercept=False). The units of y do not matter.",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
+
+
 def _features(X, groups=None, y=None):
     """``X`` without the run table's ``run`` and ``time_s`` columns: the
     model is static, but takes a run table as stored (the labels are
@@ -292,11 +332,13 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
     alpha : float, default=25.0
         Ridge parameter ``p`` of ``fit`` (004 uses 25, suitable between 10
         and 30 for temperatures in °C and errors in µm). 0 gives ordinary
-        multiple regression.
+        multiple regression. An absolute penalty, in the units of ``A^T A``
+        (the inputs' units squared, summed over samples): the default suits
+        inputs that are temperature changes in °C (see Notes, *Units*).
     eta : float in (0, 1], default=0.1
         Weight of the new samples in ``partial_fit``; the old coefficients
         get ``1 - eta``. Small values (004: 0.1) keep the update close to the
-        old model.
+        old model. Absolute as ``alpha`` is: the default suits °C.
     penalize_intercept : bool, default=True
         As in 004, the identity matrix covers the intercept too: ``fit``
         shrinks ``beta_0`` towards zero and ``partial_fit`` pulls it towards
@@ -332,6 +374,21 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
     column per displacement axis) fits one coefficient vector per axis.
     :meth:`update_path` gives the coefficients after each of the first N new
     samples, and :func:`update_is_stable` the paper's stopping rule.
+
+    *Units.* The penalties are those of 004, absolute: ``alpha ||beta||^2``
+    against ``||E - A beta||^2`` (and ``1 - eta`` against ``eta``). The units
+    of ``y`` do not matter (the coefficients scale with it), but those of
+    ``X`` do: with inputs ``c`` times larger (millidegrees: ``c = 1000``) the
+    same ``alpha`` regularises the slopes ``c^2`` times less. ``alpha * c^2``
+    gives the °C model back when the intercept is free
+    (``penalize_intercept=False``; a penalised intercept is then pinned
+    ``c^2`` times harder), as ``(1 - eta) / eta`` times ``c^2`` does for
+    ``eta``; the simplest remedy is to give ``X`` in °C, or to standardise
+    it. The defaults are kept as published, so that results in °C are
+    004's; ``fit`` with the default ``alpha`` (and ``partial_fit`` on an
+    unfitted model with the default ``eta``) warns when the root-mean-square
+    of ``X`` is outside 0.01-100, far from temperature changes in °C (e.g.
+    millidegrees, kelvin times 1000, absolute kelvin), and says what to set.
 
     Examples
     --------
@@ -395,6 +452,8 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
             dtype=np.float64,
         )
         self._target_names = names
+        if self.alpha == 25.0:
+            _warn_input_scale(X, "alpha", self.alpha, 4)
         coef = ridge_coef(
             X,
             _as_2d_target(y),
@@ -431,6 +490,9 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
             hint="; partial_fit needs the same targets as fit",
             groups=groups,
         )
+        if first and self.eta == 0.1:
+            # From scratch the update is ridge with p = (1 - eta) / eta.
+            _warn_input_scale(X, "eta", self.eta, 4)
         coef = update_coef(
             X, E, old, eta=self.eta, penalize_intercept=self.penalize_intercept
         )
