@@ -92,6 +92,17 @@ def print_results(df, columns):
             print(f"  {k}: {v:.2f}" if not isinstance(v, str) else f"  {k}: {v}")
 
 
+def add_prehistory(parser):
+    """``--prehistory HOURS``: random duty on the truth before each run."""
+    parser.add_argument(
+        "--prehistory",
+        type=float,
+        default=0.0,
+        help="hours of random duty on the truth before each run (default 0: "
+        "every run starts soaked at its first air reading)",
+    )
+
+
 def parse_args(description, argv=None, add_arguments=None):
     """The protocol's command line: ``--seeds``, ``--effects`` (cases),
     ``--n-runs``, ``--n-jobs``, ``--out`` and what ``add_arguments(parser)``

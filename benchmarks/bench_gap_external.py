@@ -22,7 +22,7 @@ out-of-vocabulary never blamed on a wrong effect, mean held-out shrink of the
 withheld effect >= 70%) and the time taken.
 
 Run:  python benchmarks/bench_gap_external.py [--seeds 5] [--effects a,b]
-      [--n-jobs 2] [--out results.csv]
+      [--n-jobs 2] [--prehistory 12] [--out results.csv]
 """
 
 import sys
@@ -35,13 +35,19 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _gap_targets import parse_args, print_results, run_cases  # noqa: E402
+from _gap_targets import (  # noqa: E402
+    add_prehistory,
+    parse_args,
+    print_results,
+    run_cases,
+)
 from truth import (  # noqa: E402
     CASES,
     EFFECTS,
     TruthMachine,
     random_blocks,
     random_room,
+    warm_run_table,
 )
 
 from skthermal.gap import diagnose_runs  # noqa: E402
@@ -49,9 +55,14 @@ from skthermal.gap import diagnose_runs  # noqa: E402
 DRIVERS = ("spindle_rpm", "feed_mm_min", "ambient_C")
 
 
-def make_pair(case, seed, n_runs=4, hours=(5.0, 7.0), sample_period_s=60.0):
+def make_pair(
+    case, seed, n_runs=4, hours=(5.0, 7.0), sample_period_s=60.0, prehistory=0.0
+):
     """Measured runs of the truth with ``case``, and the run table of an
-    imperfect simulation of the same runs without it."""
+    imperfect simulation of the same runs without it. With ``prehistory``
+    (hours), the truth runs random duty before each run and the simulation
+    does not know it: it starts every run soaked, as a simulation of the
+    test alone does."""
     rng = np.random.default_rng([seed, CASES.index(case), 17])
     effects = [] if case == "null" else [EFFECTS[case](rng.integers(2**32))]
     truth = TruthMachine(effects, random_state=rng.integers(2**32))
@@ -60,13 +71,22 @@ def make_pair(case, seed, n_runs=4, hours=(5.0, 7.0), sample_period_s=60.0):
     doors = rng.poisson(0.8, n_runs)
     if doors.sum() == 0:
         doors[0] = 1
+    # Its own stream (spawning leaves ``rng``'s draws as they were).
+    pre_rng = rng.spawn(1)[0] if prehistory > 0 else None
     measured, simulated = [], []
     for i in range(n_runs):
         h = np.round(rng.uniform(*hours) * 60) / 60
         blocks = random_blocks(rng, h, sample_period_s)
         room = random_room(rng, doors[i])
         name = f"run{i + 1}"
-        m = truth.run_table(
+        pre = (
+            random_blocks(pre_rng, prehistory, sample_period_s)
+            if pre_rng is not None
+            else []
+        )
+        m = warm_run_table(
+            truth,
+            pre,
             blocks,
             room,
             sample_period_s=sample_period_s,
@@ -87,10 +107,10 @@ def make_pair(case, seed, n_runs=4, hours=(5.0, 7.0), sample_period_s=60.0):
     )
 
 
-def one_case(case, seed, n_runs):
+def one_case(case, seed, n_runs, prehistory=0.0):
     """Diagnose one pair of tables; a dict of the figures of interest."""
     t0 = time.perf_counter()
-    simulated, measured, truth = make_pair(case, seed, n_runs)
+    simulated, measured, truth = make_pair(case, seed, n_runs, prehistory=prehistory)
     report = diagnose_runs(simulated, measured)
     ranking = report.ranking.reset_index(drop=True)
     top = ranking.iloc[0]
@@ -123,8 +143,12 @@ def one_case(case, seed, n_runs):
 
 
 def main(argv=None):
-    args, jobs = parse_args(__doc__.splitlines()[0], argv)
-    df, elapsed = run_cases(partial(one_case, n_runs=args.n_runs), jobs, args.n_jobs)
+    args, jobs = parse_args(__doc__.splitlines()[0], argv, add_prehistory)
+    df, elapsed = run_cases(
+        partial(one_case, n_runs=args.n_runs, prehistory=args.prehistory),
+        jobs,
+        args.n_jobs,
+    )
     if args.out:
         df.to_csv(args.out, index=False)
     print_results(

@@ -20,7 +20,7 @@ withheld effect >= 70%), the median share of the explainable gap and the
 time taken.
 
 Run:  python benchmarks/bench_gap_truth.py [--seeds 5] [--effects a,b]
-      [--n-jobs 2] [--prehistory 12] [--out results.csv]
+      [--n-jobs 2] [--prehistory 12] [--initial ambient] [--out results.csv]
 """
 
 import sys
@@ -32,14 +32,19 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _gap_targets import parse_args, print_results, run_cases  # noqa: E402
+from _gap_targets import (  # noqa: E402
+    add_prehistory,
+    parse_args,
+    print_results,
+    run_cases,
+)
 from truth import CASES, make_truth_campaign  # noqa: E402
 
 from skthermal.gap import diagnose  # noqa: E402
 from skthermal.simulate import ThermalMachine  # noqa: E402
 
 
-def one_case(case, seed, n_runs, diagnose_jobs, prehistory=0.0):
+def one_case(case, seed, n_runs, diagnose_jobs, prehistory=0.0, initial="auto"):
     """Diagnose one truth campaign; a dict of the figures of interest."""
     t0 = time.perf_counter()
     runs, truth = make_truth_campaign(
@@ -49,7 +54,7 @@ def one_case(case, seed, n_runs, diagnose_jobs, prehistory=0.0):
         random_state=[seed, CASES.index(case)],
     )
     machine = ThermalMachine.from_preset("vmc-b", effects=[])
-    report = diagnose(machine, runs, n_jobs=diagnose_jobs)
+    report = diagnose(machine, runs, n_jobs=diagnose_jobs, initial=initial)
     ranking = report.ranking.reset_index(drop=True)
     top = ranking.iloc[0]
     fine = report.how_far_evidence or {}
@@ -94,11 +99,12 @@ def one_case(case, seed, n_runs, diagnose_jobs, prehistory=0.0):
 
 def main(argv=None):
     def add_arguments(parser):
+        add_prehistory(parser)
         parser.add_argument(
-            "--prehistory",
-            type=float,
-            default=0.0,
-            help="hours of random duty before each run (0: runs start soaked)",
+            "--initial",
+            default="auto",
+            choices=["auto", "ambient", "measured"],
+            help="the runs' initial state in the diagnosis (diagnose's initial=)",
         )
 
     args, jobs = parse_args(__doc__.splitlines()[0], argv, add_arguments)
@@ -109,6 +115,7 @@ def main(argv=None):
             n_runs=args.n_runs,
             diagnose_jobs=1,
             prehistory=args.prehistory,
+            initial=args.initial,
         ),
         jobs,
         args.n_jobs,

@@ -541,6 +541,15 @@ def _add_gap(sub):
         "accepts block_hours)",
     )
     p.add_argument(
+        "--initial",
+        choices=["auto", "ambient", "measured"],
+        help="the machine's state at the start of every run (with --preset/"
+        "--machine): 'measured' (estimated from the run's first temperature "
+        "readings, for runs that start warm from earlier work), 'ambient' "
+        "(soaked at the first air reading) or 'auto' (default: 'measured' "
+        "when the runs hold any of the machine's sensors)",
+    )
+    p.add_argument(
         "--max-samples",
         type=int,
         metavar="N",

@@ -636,6 +636,27 @@ def test_gap_passes_runs_and_machine(capsys, workdir, monkeypatch, tmp_path):
     assert (tmp_path / "gap" / "report.md").is_file()
 
 
+def test_gap_initial_option(capsys, workdir, monkeypatch, tmp_path):
+    gap = pytest.importorskip("skthermal.gap")
+    seen = {}
+
+    def fake(machine, runs, candidates=None, **kwargs):
+        seen.update(kwargs)
+        return _FakeGapReport()
+
+    monkeypatch.setattr(gap, "diagnose", fake)
+    argv = ["gap", "--runs", workdir / "tests.csv"]
+    status, _, _ = _run(capsys, *argv, "--initial", "measured")
+    assert status == 0 and seen == {"initial": "measured"}
+    seen.clear()
+    status, _, _ = _run(capsys, *argv)
+    assert status == 0 and "initial" not in seen  # the library's default
+    status, _, err = _run(
+        capsys, *argv, "--simulated", workdir / "tests.csv", "--initial", "measured"
+    )
+    assert status != 0 and "--initial is not used with --simulated" in err
+
+
 def test_gap_check_exit_status_follows_targets(capsys, monkeypatch, tmp_path):
     gap = pytest.importorskip("skthermal.gap")
 

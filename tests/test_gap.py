@@ -995,3 +995,54 @@ def test_default_folds_follow_the_labels_in_natural_order():
         sorted(shuffled[i] for i in te) for _, te in heldout_folds(6, None, shuffled)
     ]
     assert held == [sorted(labels[i] for i in te) for _, te in in_order]
+
+
+def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
+    # Every run starts warm from earlier running at another speed. Simulated
+    # from the air, no base calibration fits them; started from their first
+    # readings, the base's held-out gap falls near the noise (the sensors'
+    # calibration offsets, 0.1 K, enter the estimate as temperatures).
+    from skthermal.simulate import DutyCycle
+
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    t = np.array([0.0, 1e7])
+    runs = pd.concat(
+        [
+            rig.simulate(
+                DutyCycle([(5400, rpm, 0), (5400, 0, 0)]),
+                20.0,
+                sample_period_s=60,
+                run=f"r{i}",
+                random_state=i,
+                initial=rig.response(t, np.full(2, before), np.full(2, 20.0))[-1],
+            )
+            for i, (rpm, before) in enumerate([(2000, 5000), (3500, 0), (5000, 2500)])
+        ],
+        ignore_index=True,
+    )
+    kw = {"candidates": ["sensor_lag"], **FAST}
+    ambient = diagnose(rig, runs, initial="ambient", **kw)
+    measured = diagnose(rig, runs, **kw)  # "auto": the runs hold sensors
+    floor = measured.noise_floor
+    assert ambient.ranking["gap_before"].iloc[0] > 10 * floor
+    gap = measured.ranking["gap_before"].iloc[0]
+    assert gap < 5 * floor and gap < 0.1 * ambient.ranking["gap_before"].iloc[0]
+    assert np.all(ambient.initial_states.to_numpy() == 0)
+    T0 = measured.initial_states
+    assert list(T0.columns) == list(rig.spec.nodes)
+    assert (T0.loc["r0"] > T0.loc["r2"]).all() and (T0.loc["r2"] > 0.3).all()
+    # Soaked: the sensors' 0.1 K offsets are all there is to estimate.
+    assert T0.loc["r1"].abs().mean() < 0.05 * T0.loc["r0"].mean()
+    assert measured.settings["initial"] == "measured"
+    assert measured.to_dict()["initial_states"]["r0"]["front_bearing"] > 3.0
+    assert "Initial states from the first readings" in measured.to_markdown()
+    assert "Initial states from the first readings" not in ambient.to_markdown()
+    with pytest.raises(ValueError, match="runs hold none of the machine's sensors"):
+        diagnose(rig, runs.drop(columns=rig.sensors), initial="measured", **kw)
+    # Displacements only: "auto" starts from the air.
+    bare = diagnose(
+        rig, runs.drop(columns=rig.sensors), candidates=["tool_growth"], **FAST
+    )
+    assert bare.settings["initial"] == "ambient"
+    with pytest.raises(ValueError, match="'initial' parameter of diagnose"):
+        diagnose(rig, runs, initial="warm", **kw)

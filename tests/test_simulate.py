@@ -409,6 +409,75 @@ def test_calibration_is_not_bent_by_sensor_offsets():
     assert result.params.iloc[0] == pytest.approx(truth.params["q.bearing_W"], rel=1e-6)
 
 
+def _warm(machine, rpm=4000.0, air=20.0):
+    """Node temperatures after running at ``rpm`` for a long time."""
+    t = np.array([0.0, 1e7])  # modal integration: exact for constant drivers
+    return machine.response(t, np.full(2, rpm), np.full(2, air))[-1]
+
+
+def test_initial_state_from_the_first_readings():
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    warm = _warm(rig)
+    readings = rig.read(warm[None], [20.0], rig.sensors, sample_period_s=60)[0]
+    # The rig's sensors read every node: the state comes back (to the
+    # readings' uncertainty, their 0.1 K calibration offsets).
+    T0 = rig.initial_from_readings(dict(zip(rig.sensors, readings)), 20.0)
+    np.testing.assert_allclose(T0, warm, atol=0.05)  # 0.7-5.8 K above the air
+    soaked = rig.initial_from_readings(dict.fromkeys(rig.sensors, 21.5), 21.5)
+    np.testing.assert_allclose(soaked, 21.5, atol=1e-9)
+    # Two sensors only: the others' nodes take the temperatures the
+    # machine's warm states give them beside the ones read.
+    few = rig.initial_from_readings(
+        {s: readings[rig.sensors.index(s)] for s in ("T1_C", "T9_C")}, 20.0
+    )
+    assert np.abs(few - warm).max() < 0.1 * (warm.max() - 20.0)
+    # First samples are read at the first one's time (a straight line).
+    times = np.arange(5) * 60.0
+    drifting = {"T1_C": 25.0 - 0.01 * times}
+    a = rig.initial_from_readings(drifting, np.full(5, 20.0), time_s=times)
+    b = rig.initial_from_readings({"T1_C": 25.0}, 20.0)
+    np.testing.assert_allclose(a, b)
+    with pytest.raises(ValueError, match="readings is empty"):
+        rig.initial_from_readings({}, 20.0)
+    with pytest.raises(ValueError, match=r"\['T1C'\] are not sensors.*'T1_C'"):
+        rig.initial_from_readings({"T1C": 25.0}, 20.0)
+    with pytest.raises(ValueError, match="readings\\['T1_C'\\] must be"):
+        rig.initial_from_readings({"T1_C": [25.0, np.nan]}, 20.0)
+    with pytest.raises(ValueError, match="initial='measured' is an option of"):
+        rig.simulate_drivers(times, np.zeros(5), np.full(5, 20.0), initial="measured")
+
+
+def test_calibration_of_runs_that_start_warm():
+    # Every run starts warm from earlier running; simulated from the air,
+    # the calibration has to bend the bearing loss to its bound.
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    truth = rig.with_params({"q.bearing_W": 1.4 * rig.params["q.bearing_W"]})
+    runs = pd.concat(
+        [
+            truth.simulate(
+                DutyCycle([(3600, 0, 0), (3600, rpm, 0), (3600, 0, 0)]),
+                20.0,
+                sample_period_s=60,
+                run=f"r{i}",
+                noise=False,
+                initial=_warm(truth),
+            )
+            for i, rpm in enumerate([2500, 5000])
+        ],
+        ignore_index=True,
+    )
+    true = truth.params["q.bearing_W"]
+    _, soaked = rig.calibrate(runs, ["q.bearing_W"])
+    _, measured = rig.calibrate(runs, ["q.bearing_W"], initial="measured")
+    assert abs(soaked.params.iloc[0] / true - 1) > 0.5
+    assert measured.params.iloc[0] == pytest.approx(true, rel=0.03)
+    assert (measured.rmse_after < 0.1 * soaked.rmse_after).all()
+    with pytest.raises(ValueError, match="runs hold none of the machine's sensors"):
+        rig.calibrate(
+            runs.drop(columns=rig.sensors), ["q.bearing_W"], initial="measured"
+        )
+
+
 def test_read_checks_the_sample_period():
     machine = ThermalMachine.from_preset("vmc-b", effects=["sensor_lag"])
     T = np.full((5, len(machine.spec.nodes)), 20.5)

@@ -5,7 +5,13 @@ inputs, thermo-elastic map and effect implementations (numpy and scipy
 only), writing run tables with the ``vmc-b`` preset's column names.
 """
 
-from .campaign import CASES, make_truth_campaign, random_blocks, random_room
+from .campaign import (
+    CASES,
+    make_truth_campaign,
+    random_blocks,
+    random_room,
+    warm_run_table,
+)
 from .effects import EFFECTS, TruthEffect
 from .vmc_truth import Block, TruthMachine
 
@@ -18,4 +24,5 @@ __all__ = [
     "make_truth_campaign",
     "random_blocks",
     "random_room",
+    "warm_run_table",
 ]

@@ -68,6 +68,28 @@ def random_room(rng, n_doors):
     return room
 
 
+def warm_run_table(machine, pre, blocks, room, **kwargs):
+    """``machine.run_table(blocks, room, **kwargs)`` after the earlier work
+    ``pre`` (blocks, possibly none).
+
+    The machine runs ``pre`` and then ``blocks`` from soaked; the rows of
+    ``pre`` are cut off and the clock restarts at the run's first sample.
+    ``room`` is the run's air as a function of the run's clock (earlier
+    times are negative).
+    """
+    if not pre:
+        return machine.run_table(blocks, room, **kwargs)
+    t_pre = sum(b.duration_s for b in pre)
+    table = machine.run_table(
+        list(pre) + list(blocks),
+        lambda t: room(np.asarray(t) - t_pre),
+        **kwargs,
+    )
+    table = table[table["time_s"] >= t_pre - 1e-6].reset_index(drop=True)
+    table["time_s"] = table["time_s"] - t_pre
+    return table
+
+
 def make_truth_campaign(
     case,
     *,
@@ -117,28 +139,20 @@ def make_truth_campaign(
         h = np.round(rng.uniform(*hours) * 60) / 60
         blocks = random_blocks(rng, h, sample_period_s)
         room = random_room(rng, doors[i])
-        state = rng.integers(2**32)
-        if pre_rng is None:
-            tables.append(
-                truth.run_table(
-                    blocks,
-                    room,
-                    sample_period_s=sample_period_s,
-                    run=f"run{i + 1}",
-                    random_state=state,
-                )
-            )
-            continue
-        pre = random_blocks(pre_rng, prehistory_hours, sample_period_s)
-        t_pre = sum(b.duration_s for b in pre)
-        table = truth.run_table(
-            pre + blocks,
-            lambda t, room=room, t_pre=t_pre: room(np.asarray(t) - t_pre),
-            sample_period_s=sample_period_s,
-            run=f"run{i + 1}",
-            random_state=state,
+        pre = (
+            random_blocks(pre_rng, prehistory_hours, sample_period_s)
+            if pre_rng is not None
+            else []
         )
-        table = table[table["time_s"] >= t_pre - 1e-6].reset_index(drop=True)
-        table["time_s"] = table["time_s"] - t_pre
-        tables.append(table)
+        tables.append(
+            warm_run_table(
+                truth,
+                pre,
+                blocks,
+                room,
+                sample_period_s=sample_period_s,
+                run=f"run{i + 1}",
+                random_state=rng.integers(2**32),
+            )
+        )
     return pd.concat(tables, ignore_index=True), truth

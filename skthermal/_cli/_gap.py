@@ -252,7 +252,7 @@ def cmd_gap_external(args):
     from skthermal.gap import diagnose_runs
 
     log_progress(args.quiet)
-    for option in ("preset", "machine", "effects"):
+    for option in ("preset", "machine", "effects", "initial"):
         if getattr(args, option, None):
             raise UserError(
                 f"--{option} is not used with --simulated: the simulation is the "
@@ -309,6 +309,8 @@ def cmd_gap(args):
         return cmd_gap_external(args)
     log_progress(args.quiet)
     kwargs = _options(args)
+    if args.initial is not None:
+        kwargs["initial"] = args.initial
     check_out_path(args.report, "--report", folder=True)
     df = read_gap_table(args.runs, "--runs", numeric=_used_columns(kwargs)[0])
     effects = parse_effects(args.effects)

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 from scipy import stats
-from sklearn.utils._param_validation import Interval, validate_params
+from sklearn.utils._param_validation import Interval, StrOptions, validate_params
 
 from skthermal.gap._evidence import (
     explainable_summary,
@@ -27,9 +27,12 @@ from skthermal.gap._problem import (
     drift_table,
     effect_parameters,
     floor_squared,
+    initial_table,
+    measured_initial,
     predict_run,
     refine,
     residuals,
+    sensor_columns,
     too_few_runs,
 )
 from skthermal.gap._regimes import label_regimes
@@ -416,6 +419,7 @@ def _explainable(ctx, screen, floor2):
         **DIAGNOSIS_PARAMS,
         "max_nfev": [Interval(Integral, 1, None, closed="left")],
         "fine": ["boolean"],
+        "initial": [StrOptions({"auto", "ambient", "measured"})],
     },
     prefer_skip_nested_validation=True,
 )
@@ -434,6 +438,7 @@ def diagnose(
     max_nfev=30,
     block_hours=None,
     fine=True,
+    initial="auto",
     n_jobs=None,
 ):
     """Diagnose the gap between a simulated machine and measured runs.
@@ -509,6 +514,21 @@ def diagnose(
     fine : bool, default=True
         Run the fine calibration of the "how far" step (``False``: the
         screening comparison decides, two to three times faster).
+    initial : {"auto", "ambient", "measured"}, default="auto"
+        The machine's state at the start of every run. ``"ambient"``: soaked
+        at the run's first air reading. ``"measured"``: estimated from the
+        run's first temperature readings
+        (:meth:`~skthermal.simulate.ThermalMachine.initial_from_readings`,
+        every sensor of the machine the runs hold, compared or not), for
+        runs that start warm from earlier work; only the first readings
+        enter the estimate, the same for the base and every candidate.
+        ``"auto"``: ``"measured"`` when the runs hold any of the machine's
+        sensors, else ``"ambient"`` (``report.settings["initial"]`` says
+        which). On the independent truth machine
+        (``benchmarks/bench_gap_truth.py``) "measured" halved the base's
+        held-out gap on runs that start warm and ranked the withheld effect
+        first as often as "ambient" on soaked runs; see "Runs that start
+        warm" in docs/gap.md.
     n_jobs : int, optional
         Candidates (and the folds of the fine calibration) evaluated in
         parallel (joblib).
@@ -529,6 +549,9 @@ def diagnose(
     """
     base_effects = tuple(machine.effects)
     candidates = candidate_list(candidates, EFFECTS, base_effects)
+    if initial == "auto":
+        held = sensor_columns(machine, runs.columns, mapping)
+        initial = "measured" if held else "ambient"
     problem = build_problem(
         machine,
         runs,
@@ -536,11 +559,14 @@ def diagnose(
         mapping=mapping,
         max_samples=max_samples,
         block_hours=block_hours,
+        first_readings=initial == "measured",
     )
     if len(problem.runs) < 2:
         longest = runs.groupby("run", sort=False)["time_s"].agg(np.ptp).max()
         raise too_few_runs(len(problem.runs), float(longest), block_hours)
     folds = heldout_folds(len(problem.runs), cv, [r.name for r in problem.runs])
+    if initial == "measured":
+        problem = measured_initial(machine, problem)
     # The simulation as given: what the candidates are checked against, and
     # the first residuals of the "where" step.
     simulated = [predict_run(machine, problem, r) for r in problem.runs]
@@ -611,12 +637,14 @@ def diagnose(
             "folds": len(folds),
             "fine": bool(fine),
             "base_effects": list(base_effects),
+            "initial": initial,
         },
     )
     report.machines = machines
     report.not_applicable = not_applicable
     report.explainable = explainable
     report.drift_rates = _drift_table(problem, screen)
+    report.initial_states = initial_table(machine, problem)
     return report
 
 

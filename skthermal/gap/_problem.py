@@ -11,7 +11,7 @@ estimated from second differences of its measurement.
 """
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -99,6 +99,12 @@ class MeasuredRun:
     feed_mm_min: np.ndarray
     rows: np.ndarray  # samples kept for the comparison
     y: np.ndarray  # measured channels at ``rows``, change since start
+    # The first readings of the machine's sensors (simulated name -> the
+    # run's first START_SAMPLES samples, °C), with initial="measured".
+    start: dict = None
+    # The run's initial node temperatures: "ambient" or an array (°C, in the
+    # order of ``spec.nodes``), as ThermalMachine.response takes.
+    initial: object = "ambient"
 
 
 @dataclass
@@ -322,7 +328,14 @@ def warn_uncompared(measured_columns, channels, why):
 
 
 def build_problem(
-    machine, runs, *, channels=None, mapping=None, max_samples=600, block_hours=None
+    machine,
+    runs,
+    *,
+    channels=None,
+    mapping=None,
+    max_samples=600,
+    block_hours=None,
+    first_readings=False,
 ):
     """Prepare measured runs: drivers, compared channels, scales, weights.
 
@@ -330,6 +343,9 @@ def build_problem(
     blocks that count as runs for the held-out scoring. A block is simulated
     from the start of its run (so its initial warm state is right) but
     compared only over its own time span, re-zeroed at the block's start.
+    With ``first_readings``, every run keeps the first readings of the
+    machine's sensors it holds (:attr:`MeasuredRun.start`; compared or not,
+    under their measured names through ``mapping``).
     """
     for col in ("run", "time_s", "spindle_rpm", "ambient_C"):
         if col not in runs.columns:
@@ -391,6 +407,9 @@ def build_problem(
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_channels = [mapping.get(c, c) for c in channels]
     is_disp = np.array([c in machine.targets for c in sim_channels])
+    starts = {}
+    if first_readings:
+        starts = _first_readings(machine, frames, mapping)
     prepared = []
     for name, frame, t, y_all in read:
         y_all = y_all[:, keep]
@@ -416,12 +435,45 @@ def build_problem(
                     feed_mm_min=feed[:b],
                     rows=rows,
                     y=y,
+                    start=starts.get(name),
                 )
             )
     Y = np.vstack([r.y for r in prepared])
     noise = pooled_noise([frame for _, frame in frames], channels)
     scale, weight = group_scales(Y, is_disp)
     return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
+
+
+def sensor_columns(machine, columns, mapping=None):
+    """The measured column of each of the machine's sensors the run table
+    holds, ``{sensor: column}``: named through ``mapping`` (measured ->
+    simulated), else by the sensor's own name."""
+    named = {}
+    for measured, simulated in dict(mapping or {}).items():
+        if simulated in machine.sensors:
+            named.setdefault(simulated, measured)
+    columns = set(columns)
+    return {s: named.get(s, s) for s in machine.sensors if named.get(s, s) in columns}
+
+
+def _first_readings(machine, frames, mapping):
+    """The first readings of the machine's sensors in every run, ``{run:
+    {sensor: samples}}``: the first :data:`START_SAMPLES` samples of the
+    measured column of each sensor (:func:`sensor_columns`)."""
+    columns = sensor_columns(machine, frames[0][1].columns, mapping)
+    if not columns:
+        raise ValueError(
+            "initial='measured' estimates each run's initial state from its "
+            "first temperature readings, and the runs hold none of the "
+            f"machine's sensors ({machine.sensors[:3]} ...)."
+        )
+    out = {}
+    for name, frame in frames:
+        t = frame["time_s"].to_numpy(float)
+        head = frame.iloc[:START_SAMPLES]
+        values = channel_values(head, list(columns.values()), t[:START_SAMPLES], name)
+        out[name] = dict(zip(columns, values.T, strict=True))
+    return out
 
 
 def block_spans(t, name, block_hours):
@@ -560,14 +612,53 @@ def predict_run(machine, problem, run, parts=False):
         return _channels_of(problem, run, values)
 
     if not parts:
-        return read(machine.response(*drivers, run=run.name), air)
+        return read(machine.response(*drivers, initial=run.initial, run=run.name), air)
     out = np.zeros((len(PARTS), run.rows.size, len(problem.channels)))
-    by_source = machine.response(*drivers, by_source=True, run=run.name)
+    by_source = machine.response(
+        *drivers, initial=run.initial, by_source=True, run=run.name
+    )
     zero_air = np.zeros_like(air)
     for k, source in enumerate(PARTS):
         if source in by_source:
             out[k] = read(by_source[source], air if source == "air" else zero_air)
     return out
+
+
+def measured_initial(machine, problem):
+    """``problem`` with every run's initial node temperatures estimated from
+    its first temperature readings (:attr:`MeasuredRun.start`) by
+    :meth:`ThermalMachine.initial_from_readings`, once, with ``machine``
+    as given. Only the first readings are used: the estimate is the same for
+    every candidate, and nothing an effect does later in a run enters it."""
+    # The prior of the initial states spans the runs' own speeds and feeds.
+    ranges = {
+        "max_rpm": max(float(np.max(np.abs(r.spindle_rpm))) for r in problem.runs),
+        "max_feed_mm_min": max(
+            float(np.max(np.abs(r.feed_mm_min))) for r in problem.runs
+        ),
+    }
+    runs = []
+    for run in problem.runs:
+        k = len(next(iter(run.start.values())))
+        T0 = machine.initial_from_readings(
+            run.start, run.ambient_C[:k], time_s=run.time_s[:k], **ranges
+        )
+        runs.append(replace(run, initial=T0))
+    return replace(problem, runs=runs)
+
+
+def initial_table(machine, problem):
+    """The runs' initial node temperatures above their first air reading
+    (K; rows: runs, columns: nodes), as :attr:`GapReport.initial_states`."""
+    rows = {}
+    for run in problem.runs:
+        air0 = run.ambient_C[0]
+        if isinstance(run.initial, str):  # "ambient": soaked at the air
+            rows[run.name] = np.zeros(len(machine.spec.nodes))
+        else:
+            rows[run.name] = np.asarray(run.initial, dtype=float) - air0
+    table = pd.DataFrame.from_dict(rows, orient="index", columns=machine.spec.nodes)
+    return table.rename_axis(index="run", columns="node")
 
 
 def _run_clock(run):

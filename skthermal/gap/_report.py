@@ -177,6 +177,12 @@ class GapReport:
         simulator's ``sensor_drift.rate_C_per_h``, a spread over sensors).
         In the run-table mode (:func:`diagnose_runs`), the ``sensor_drift``
         term's gain per channel. Empty when no calibration modelled drift.
+    initial_states : DataFrame or None
+        Every run's initial node temperatures above its first air reading
+        (K; rows: runs, columns: the machine's nodes), as the diagnosis
+        simulated them: zero with ``initial="ambient"``, estimated from the
+        first readings with ``initial="measured"``; None in the run-table
+        mode.
 
     The ranking also holds, per candidate, the evidence grey-box
     identification selects structure by: the likelihood-ratio test of the
@@ -202,6 +208,7 @@ class GapReport:
     not_applicable: dict = field(default_factory=dict)
     explainable: dict = field(default_factory=dict)
     drift_rates: dict = field(default_factory=dict)
+    initial_states: pd.DataFrame = field(default=None, repr=False)
 
     @classmethod
     def _build(
@@ -385,6 +392,9 @@ class GapReport:
             "not_applicable": plain(self.not_applicable),
             "explainable": plain(self.explainable),
             "drift_rates": plain(self.drift_rates),
+            "initial_states": None
+            if self.initial_states is None
+            else plain(self.initial_states.to_dict(orient="index")),
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
@@ -462,6 +472,14 @@ class GapReport:
                 "",
                 "## How much any added term could close",
                 table(pd.DataFrame([self.explainable])),
+            ]
+        if self.initial_states is not None and self.settings.get("initial") == (
+            "measured"
+        ):
+            parts += [
+                "",
+                "## Initial states from the first readings (K above the air)",
+                table(self.initial_states.round(3).reset_index()),
             ]
         if self.drift_rates:
             rates = pd.Series(self.drift_rates, name="rate_C_per_h")
@@ -629,6 +647,8 @@ class GapReport:
             pd.Series(self.drift_rates, name="rate_C_per_h").rename_axis(
                 "channel"
             ).reset_index().to_csv(folder / "drift_rates.csv", index=False)
+        if self.initial_states is not None:
+            self.initial_states.to_csv(folder / "initial_states.csv")
         try:
             plt = _pyplot()
         except ImportError:

@@ -90,6 +90,17 @@ class CalibrationResult:
 
 # A rise below this (K) is rounding noise, not heating (response_times).
 RISE_TOLERANCE_K = 1e-9
+# The prior of :meth:`ThermalMachine.initial_from_readings`: the states of
+# PRIOR_HOURS of random duty, scaled to PRIOR_RISE_K (rms per node), plus the
+# whole machine away from the air by PRIOR_AIR_K (rms); a reading is never
+# taken as surer than READING_FLOOR_C.
+PRIOR_HOURS = 48.0
+PRIOR_RISE_K = 5.0
+PRIOR_AIR_K = 2.0
+READING_FLOOR_C = 0.01
+# Samples of a run's first readings (calibrate's initial="measured").
+FIRST_READINGS = 5
+
 # The largest ratio of the fastest to the slowest decay rate of the network
 # that floating point resolves: an eigenvalue carries a rounding error of
 # about 1e-16 times the fastest rate, so beyond this the slow modes (hours
@@ -819,7 +830,12 @@ class ThermalMachine:
             Columns to fit, each once; default every displacement the machine
             predicts that the runs hold (with a warning naming those they
             lack). Any of the machine's temperature columns may be added.
-        initial : as in :meth:`simulate_drivers`, default="ambient"
+        initial : as in :meth:`simulate_drivers`, or "measured", default="ambient"
+            The machine's state at the start of every run; ``"measured"``
+            estimates each run's from its own first readings (its first
+            :data:`FIRST_READINGS` samples of every sensor of the machine
+            the runs hold; :meth:`initial_from_readings`, again for every
+            trial machine of the fit), for runs that start warm.
         **least_squares_kw
             Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``); a
             keyword it does not take is a TypeError naming it.
@@ -849,12 +865,153 @@ class ThermalMachine:
 
     # --- simulation ---------------------------------------------------------
 
+    def initial_from_readings(
+        self, readings, ambient_C, *, time_s=None, max_rpm=6000.0, max_feed_mm_min=0.0
+    ):
+        """Node temperatures that match the first readings of a run.
+
+        A run that starts warm from earlier work (or while the machine still
+        follows a change of the air) does not start in equilibrium with its
+        first air reading. Its initial node temperatures are estimated from
+        the temperature sensors at the start, as the most probable state
+        given the readings: a Gaussian prior over the states the machine
+        itself passes through (the node temperatures above the air during
+        two days of random duty, spindle blocks up to ``max_rpm`` and feed
+        up to ``max_feed_mm_min`` alternating with rests, scaled to
+        :data:`PRIOR_RISE_K` per node, plus the whole machine away from the
+        air by :data:`PRIOR_AIR_K`), and readings uncertain by the sensors'
+        calibration offset, noise and quantisation (``sensor.*``). Nodes no
+        sensor reads take the temperatures such states give them beside the
+        ones read; a sensor's calibration offset is taken as partly a
+        temperature.
+
+        Parameters
+        ----------
+        readings : mapping or DataFrame
+            Sensor column -> temperature (°C) at the start of the run, or
+            the run's first few samples of it (a sequence, or a DataFrame of
+            the first rows), for any of :attr:`sensors` (at least one).
+            Samples are read at the first one's time from a straight line
+            through them, which averages their noise and follows the
+            machine's drift over them.
+        ambient_C : float or sequence
+            The workshop air at the start (°C), or its first samples.
+        time_s : sequence, optional
+            Times of the samples (default: evenly spaced).
+        max_rpm, max_feed_mm_min : float, default=6000.0 and 0.0
+            The fastest spindle speed and feed of the prior's duty (the
+            machine's range; they set the shapes of the warm states, not
+            their size).
+
+        Returns
+        -------
+        ndarray of shape (n_nodes,)
+            Node temperatures (°C) in the order of ``spec.nodes``: an
+            ``initial=`` of :meth:`response` and :meth:`simulate_drivers`.
+            ``calibrate(initial="measured")`` and
+            ``skthermal.gap.diagnose(initial="measured")`` take each run's
+            from its own first readings, with the runs' fastest speed and
+            feed.
+
+        Examples
+        --------
+        >>> from skthermal.simulate import ThermalMachine
+        >>> rig = ThermalMachine.from_preset("spindle-rig")
+        >>> T0 = rig.initial_from_readings({"T1_C": 24.0, "T2_C": 23.5}, 20.0)
+        >>> T0.shape, bool(T0.max() > 20.0)
+        ((9,), True)
+        """
+        if isinstance(readings, pd.DataFrame):
+            readings = {c: readings[c].to_numpy() for c in readings.columns}
+        readings = dict(readings.items() if hasattr(readings, "items") else readings)
+        if not readings:
+            raise ValueError(
+                "readings is empty: give the first reading of at least one of "
+                f"the machine's sensors ({len(self.sensors)}, e.g. "
+                f"{self.sensors[:3]})."
+            )
+        unknown = [c for c in readings if c not in self.sensors]
+        if unknown:
+            raise ValueError(
+                f"readings: {unknown} are not sensors of the machine"
+                f"{suggest(unknown[0], self.sensors)}; its sensors: "
+                f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
+            )
+        names = list(readings)
+        m = np.array(
+            [_at_start(readings[c], time_s, f"readings[{c!r}]") for c in names]
+        )
+        air0 = _at_start(ambient_C, time_s, "ambient_C")
+        max_rpm = _check_number(max_rpm, "max_rpm", nonnegative=True)
+        max_feed = _check_number(max_feed_mm_min, "max_feed_mm_min", nonnegative=True)
+        n = len(self.spec.nodes)
+        # The readings are affine in the node temperatures: one node at a
+        # time (single rows: a sensor's lag does not act on one sample).
+        r = self.read(np.full((1, n), air0), [air0], names, sample_period_s=1.0)[0]
+        W = np.column_stack(
+            [
+                self.read(np.eye(n)[[j]], [0.0], names, sample_period_s=1.0)[0]
+                for j in range(n)
+            ]
+        )
+        P = self._state_prior(max_rpm, max_feed)
+        p = self._params
+        sigma2 = max(
+            p["sensor.offset_C"] ** 2
+            + p["sensor.noise_C"] ** 2
+            + p["sensor.quantization_C"] ** 2 / 12.0,
+            READING_FLOOR_C**2,
+        )
+        S = W @ P @ W.T + sigma2 * np.eye(len(names))
+        d = P @ W.T @ np.linalg.solve(S, m - r)
+        return air0 + d
+
+    def _state_prior(self, max_rpm, max_feed):
+        """Second moments (K^2) of the node temperatures above the air
+        (:meth:`initial_from_readings`), cached per speed and feed."""
+        key = ("state_prior", max_rpm, max_feed)
+        if key in self._cache:
+            return self._cache[key]
+        rng = np.random.default_rng(0)
+        dt = 60.0
+        steps = int(PRIOR_HOURS * 3600 / dt)
+        rpm, feed = np.zeros(steps), np.zeros(steps)
+        i, on = 0, True
+        while i < steps:
+            k = int(rng.uniform(25, 100) if on else rng.uniform(15, 70))
+            if on:
+                rpm[i : i + k] = rng.uniform(0.1, 1.0) * max_rpm
+                if rng.random() < 0.5:
+                    feed[i : i + k] = rng.uniform(0.2, 1.0) * max_feed
+            i, on = i + k, not on
+        t = np.arange(steps) * dt
+        rise = self.response(t, rpm, np.zeros(steps), feed, initial=0.0)[::10]
+        P = rise.T @ rise / rise.shape[0]
+        mean_var = float(np.trace(P)) / P.shape[0]
+        if mean_var > 0:
+            P *= PRIOR_RISE_K**2 / mean_var
+        P = P + PRIOR_AIR_K**2 * np.ones_like(P)
+        self._cache[key] = P
+        return P
+
     def _initial_state(self, initial, rpm0, feed0, air0, run=None):
         n = len(self.spec.nodes)
         if initial is None or (isinstance(initial, str) and initial == "ambient"):
             return np.full(n, air0)
         if isinstance(initial, str) and initial == "steady":
             return self._steady_state(rpm0, feed0, air0, run)
+        if isinstance(initial, str):
+            raise ValueError(
+                f"initial={initial!r}: give 'ambient', 'steady', a temperature, "
+                "a dict node -> °C or one temperature per node"
+                + (
+                    " (initial='measured' is an option of calibrate and of "
+                    "skthermal.gap.diagnose, which read each run's first "
+                    "readings; here give initial=initial_from_readings(...))."
+                    if initial == "measured"
+                    else "."
+                )
+            )
         if isinstance(initial, dict):
             T0 = np.full(n, air0)
             for node, value in initial.items():
@@ -1514,6 +1671,29 @@ def _least_squares_keywords(least_squares_kw):
             )
 
 
+def _at_start(samples, time_s, name):
+    """A reading at the time of its first sample: the number itself, or the
+    value at ``time_s[0]`` of the least-squares line through the samples."""
+    if np.ndim(samples) == 0:
+        return _check_number(samples, name)
+    x = _float_array(samples, name)
+    if x.size == 0 or not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} must be finite numbers (°C), got {samples!r}.")
+    if time_s is None:
+        t = np.arange(x.size, dtype=float)
+    else:
+        t = _float_array(time_s, "time_s")
+    if t.shape != x.shape:
+        raise ValueError(
+            f"{name} has {x.size} samples and time_s {t.size}: give one time "
+            "per sample."
+        )
+    if x.size == 1 or np.ptp(t) == 0:
+        return float(x.mean())
+    slope, intercept = np.polyfit(t - t[0], x, 1)
+    return float(intercept)
+
+
 def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_kw):
     from scipy.optimize import least_squares
 
@@ -1590,11 +1770,24 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     for c in channels:
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")
+    from_readings = isinstance(initial, str) and initial == "measured"
+    start_sensors = []
+    if from_readings:
+        start_sensors = [c for c in machine.sensors if c in runs.columns]
+        if not start_sensors:
+            raise ValueError(
+                "initial='measured' estimates each run's initial state from its "
+                "first temperature readings, and the runs hold none of the "
+                f"machine's sensors ({machine.sensors[:3]} ...)."
+            )
     # A text, a missing or an infinite value in a fitted channel or a driver
     # is named by its column, run, row and time.
     read = [
         c
-        for c in ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min", *channels)
+        for c in dict.fromkeys(
+            ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min", *channels)
+            + tuple(start_sensors)
+        )
         # Clock times are named per run by _run_drivers.
         if c in runs.columns and not is_clock_dtype(runs[c].dtype)
     ]
@@ -1607,6 +1800,13 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             {run: np.ptp(f["time_s"].to_numpy(float)) for run, f in groups},
             4,
         )
+    # The first readings of every run (initial="measured"): the mean of its
+    # first samples (the air's: of the driver, below).
+    first = {
+        run: frame[start_sensors].iloc[:FIRST_READINGS].astype(float)
+        for run, frame in groups
+        if from_readings
+    }
     measured = []
     for run, frame in groups:
         y = frame[channels].to_numpy(float, copy=True)
@@ -1630,13 +1830,32 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             scale[kind] = np.maximum(spread[kind], floor)
     scale = np.where(scale > 0, scale, 1.0)
 
+    # The prior of the initial states spans the runs' own speeds and feeds.
+    prior_range = {}
+    if from_readings:
+        drivers = [_run_drivers(frame, run) for run, frame in groups]
+        prior_range = {
+            "max_rpm": max(float(np.max(np.abs(d[1]))) for d in drivers),
+            "max_feed_mm_min": max(float(np.max(np.abs(d[3]))) for d in drivers),
+        }
+
     def simulate_all(values):
         m = machine.with_params(dict(zip(params, values, strict=True)))
         out = []
         for run, frame in groups:
             t, rpm, air, feed = _run_drivers(frame, run)
+            start = (
+                m.initial_from_readings(
+                    first[run],
+                    air[:FIRST_READINGS],
+                    time_s=t[: len(first[run])],
+                    **prior_range,
+                )
+                if from_readings
+                else initial
+            )
             sim = m.simulate_drivers(
-                t, rpm, air, feed, run=run, initial=initial, noise=False
+                t, rpm, air, feed, run=run, initial=start, noise=False
             )
             values = sim[channels].to_numpy(float)
             out.append(values - values[0])
