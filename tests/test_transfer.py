@@ -7,6 +7,10 @@ import pandas as pd
 import pytest
 
 from skthermal.linear_model import TransferFunctionRegressor, first_order_lags
+from skthermal.linear_model._transfer import (
+    _ridge_column_changes,
+    _ridge_with_intercept,
+)
 
 
 def _heating_runs(taus=(300.0, 1200.0), gains=(2.0, -0.5), speed_gain=0.003):
@@ -253,3 +257,73 @@ def test_second_order_needs_room_for_two_time_constants():
     X, y = _heating_runs()
     with pytest.raises(ValueError, match=r"order=2.*factor 2 apart.*tau_bounds"):
         TransferFunctionRegressor(order=2, tau_bounds=(100.0, 150.0)).fit(X, y)
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.5])
+def test_column_changes_match_a_direct_solve(alpha):
+    # The Jacobian's ridge with one or two lag columns replaced, from one
+    # factorisation of the whole design, against a solve from scratch. Five
+    # inputs of four lags each are nearly dependent columns, as many sensors
+    # give: without penalty their Gram matrix has a condition of 4e8, and
+    # the reference is then an orthogonal factorisation of each design (the
+    # direct Cholesky solve is itself off by 5e-5 there).
+    rng = np.random.default_rng(0)
+    slices = [slice(0, 150), slice(150, 300)]
+    dt = np.array([10.0, 10.0])
+    U = np.repeat(np.cumsum(rng.normal(size=(300, 5)), axis=0), 4, axis=1)
+    taus = np.tile(np.geomspace(30.0, 3000.0, 4), 5) * rng.uniform(0.8, 1.2, 20)
+    Phi = first_order_lags(U, taus, dt, slices)
+    y = Phi @ rng.normal(size=20) + 0.01 * rng.normal(size=300)
+
+    def orthogonal(Phi):
+        A = (Phi - Phi.mean(axis=0)) / Phi.std(axis=0)
+        Q = np.linalg.qr(A)[0]
+        return y - y.mean() - Q @ (Q.T @ (y - y.mean()))
+
+    groups = [np.array([0]), np.array([9]), np.array([18, 19]), np.array([], int)]
+    h = 1e-3
+    new = first_order_lags(
+        U[:, [0, 9, 18, 19]], taus[[0, 9, 18, 19]] * np.exp(h), dt, slices
+    )
+    changes = _ridge_column_changes(Phi, y, alpha, groups, new) / h
+    np.testing.assert_array_equal(changes[:, 3], 0.0)
+    r0 = _ridge_with_intercept(Phi, y, alpha)[2]
+    start = 0
+    for cols, fast in zip(groups[:3], changes.T, strict=False):
+        trial = Phi.copy()
+        trial[:, cols] = new[:, start : start + cols.size]
+        start += cols.size
+        if alpha > 0:
+            ref = (_ridge_with_intercept(trial, y, alpha)[2] - r0) / h
+        else:
+            ref = (orthogonal(trial) - orthogonal(Phi)) / h
+            np.testing.assert_array_equal(fast[y.size :], 0.0)
+            fast = fast[: y.size]
+        np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+    # A singular design (a sensor that never changes, no penalty), or a
+    # singular replacement: solved directly.
+    if alpha == 0:
+        still = np.c_[Phi, np.zeros(300)]
+        assert _ridge_column_changes(still, y, alpha, groups[:1], new[:, :1]) is None
+        again = _ridge_column_changes(Phi, y, alpha, [np.array([1])], Phi[:, [0]])
+        assert np.isnan(again).all()
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_fit_matches_the_direct_jacobian(order, monkeypatch):
+    # The Jacobian from one factorisation per evaluation gives the fit of
+    # the Jacobian that re-solves the ridge for every time constant.
+    X, y = _heating_runs()
+    params = {"speed_column": 2, "order": order, "n_grid": 5, "max_iter": 10}
+    fast = TransferFunctionRegressor(**params).fit(X, y)
+    monkeypatch.setattr(
+        "skthermal.linear_model._transfer._ridge_column_changes",
+        lambda *args: None,
+    )
+    slow = TransferFunctionRegressor(**params).fit(X, y)
+    np.testing.assert_allclose(fast.predict(X), slow.predict(X), rtol=0, atol=1e-8)
+    # Steady-state gains (a lag of negligible gain may move its time
+    # constant a little with order=2).
+    np.testing.assert_allclose(
+        fast.coef_.sum(axis=1), slow.coef_.sum(axis=1), rtol=1e-6
+    )

@@ -176,6 +176,116 @@ def _ridge_with_intercept(Phi, y, alpha):
     return coef, intercept, np.concatenate([resid, np.sqrt(alpha) * w])
 
 
+def _ridge_column_changes(Phi, y, alpha, groups, new):
+    """Changes of the residual vector of :func:`_ridge_with_intercept` when
+    groups of columns of ``Phi`` are replaced, one group at a time.
+
+    The finite-difference Jacobian replaces the one or two lag columns of
+    one time constant at a time. A full solve for each costs a Gram matrix
+    and a Cholesky factorisation of all the lags, so the Jacobian grew with
+    the cube of the number of lags; and it is only as accurate as the
+    normal equations, off by several per cent with hundreds of nearly
+    dependent lags. Here one QR factorisation of the design (augmented for
+    the ridge) serves all the replacements: products with all the new
+    columns at once, then per group a few vectors of the length of a row of
+    the design and a solve of the group's size.
+
+    Parameters
+    ----------
+    Phi : ndarray of shape (n_samples, n_columns)
+        Design.
+    y : ndarray of shape (n_samples,)
+        Target.
+    alpha : float
+        Ridge penalty, as in :func:`_ridge_with_intercept`.
+    groups : list of ndarray of int
+        The columns that each change replaces.
+    new : ndarray of shape (n_samples, n_new)
+        Their new columns, group after group.
+
+    Returns
+    -------
+    changes : ndarray of shape (n_samples + n_columns, len(groups)) or None
+        Per group, the residual vector of :func:`_ridge_with_intercept` with
+        the group's columns replaced, less that of ``Phi``. NaN where the
+        new design is (nearly) singular, and None when ``Phi``'s is: there
+        the normal equations of a direct solve fall back to a least-norm
+        solution, which is left to them.
+    """
+    mean = Phi.mean(axis=0)
+    scale = Phi.std(axis=0)
+    scale[scale < 1e-12] = 1.0
+    A = (Phi - mean) / scale
+    yc = y - y.mean()
+    n, p = A.shape
+    if alpha > 0:  # the ridge as least squares with sqrt(alpha) I below
+        A = np.vstack([A, np.sqrt(alpha) * np.eye(p)])
+        yc = np.concatenate([yc, np.zeros(p)])
+    Q, R = np.linalg.qr(A)
+    # The squares of R's diagonal are the pivots of a Cholesky factorisation
+    # of the Gram matrix R'R: below the rounding of the largest, it fails.
+    tiny = 1e-16 * np.max(np.diag(R) ** 2)
+    if not np.min(np.diag(R) ** 2) > tiny:
+        return None
+    z = Q.T @ yc
+    base = yc - Q @ z
+    R_inv = linalg.solve_triangular(R, np.eye(p), check_finite=False)
+    mean = new.mean(axis=0)
+    scale = new.std(axis=0)
+    scale[scale < 1e-12] = 1.0
+    cols = np.concatenate(groups)
+    delta = np.zeros((A.shape[0], new.shape[1]))
+    delta[:n] = (new - mean) / scale - A[:n, cols]
+    # The new columns within Q's span (coordinates t) and orthogonal to it
+    # (o), projected twice: once loses digits to nearly dependent columns.
+    inside = Q.T @ delta
+    outside = delta - Q @ inside
+    again = Q.T @ outside
+    outside -= Q @ again
+    t = R[:, cols] + inside + again
+    o_base = outside.T @ base
+    # In Q's coordinates the kept columns span the orthogonal complement of
+    # N, a basis of the replaced columns' rows of R^-1 (each orthogonal to
+    # R's other columns). Off the kept columns, y is Q N N'z + base and the
+    # new columns Q N N't + o, whose least squares give their gains beta
+    # and the new residual Q N (N'z - N't beta) + base - o beta.
+    within = np.zeros((p, len(groups)))
+    changes = np.zeros((A.shape[0], len(groups)))
+    bad = np.zeros(len(groups), dtype=bool)
+    end = 0
+    for g, group in enumerate(groups):
+        k = group.size
+        block = slice(end, end + k)
+        end += k
+        if k == 0:
+            continue
+        # An orthonormal basis N by Gram-Schmidt, twice (of one or two
+        # columns: a fraction of a QR call's overhead).
+        N = R_inv[group].T
+        for i in range(k):
+            for _ in range(2):
+                N[:, i] -= N[:, :i] @ (N[:, :i].T @ N[:, i])
+            N[:, i] /= np.linalg.norm(N[:, i])
+        Nz = N.T @ z
+        Nt = N.T @ t[:, block]
+        o = outside[:, block]
+        # The new columns' Gram off the kept ones: the last pivots of a
+        # Cholesky factorisation with them last.
+        gram = Nt.T @ Nt + o.T @ o
+        if not np.linalg.eigvalsh(gram)[0] > tiny:
+            bad[g] = True
+            continue
+        beta = np.linalg.solve(gram, Nt.T @ Nz + o_base[block])
+        within[:, g] = N @ (Nz - Nt @ beta)
+        changes[:, g] = -(o @ beta)
+    changes += Q @ within
+    # The augmented rows hold -sqrt(alpha) w, the residual vector +.
+    tail = -changes[n:] if alpha > 0 else np.zeros((p, len(groups)))
+    changes = np.vstack([changes[:n], tail])
+    changes[:, bad] = np.nan
+    return changes
+
+
 class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
     """Thermal error as a sum of discrete transfer functions of the inputs.
 
@@ -519,6 +629,33 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             w = _solve_normal(gram[np.ix_(cols, cols)] + eye, b)
             return float(yy[k] - w @ b)
 
+        def costs_at(pick, i, k):
+            # The cost of every grid time constant for lag i, the others as
+            # in pick: one Cholesky factor of the others' Gram, bordered by
+            # each candidate (a Cholesky with lag i last), where a full
+            # factorisation per candidate made a sweep grow with the fourth
+            # power of the number of lags. NaN where a candidate's pivot
+            # vanishes to within rounding, or all when the others' Gram is
+            # singular: there a Cholesky factorisation may fail, and the
+            # direct solve (falling back to least norm) decides, as it did.
+            rest = np.delete(base + pick, i)
+            cand = base[i] + np.arange(n_grid)
+            diag = gram[cand, cand] + self.alpha
+            G = gram[np.ix_(rest, rest)]
+            G[np.diag_indices_from(G)] += self.alpha
+            rhs = np.column_stack([cross[rest, k], gram[np.ix_(rest, cand)]])
+            if rest.size:
+                try:
+                    L = linalg.cholesky(G, lower=True, check_finite=False)
+                except linalg.LinAlgError:
+                    return np.full(n_grid, np.nan)
+                rhs = linalg.solve_triangular(L, rhs, lower=True, check_finite=False)
+            z, border = rhs[:, 0], rhs[:, 1:]
+            pivot = diag - np.einsum("ij,ij->j", border, border)
+            ok = pivot > 1e-12 * diag
+            fit = z @ z + (cross[cand, k] - z @ border) ** 2 / np.where(ok, pivot, 1.0)
+            return np.where(ok, yy[k] - fit, np.nan)
+
         out = []
         for k in range(Y.shape[1]):
             costs = [cost(p, k) for p in starts]
@@ -527,6 +664,9 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             for _ in range(5):
                 improved = False
                 for i in range(pick.size):
+                    # Changing lag i leaves the others, so the costs of its
+                    # candidates hold through the scan below.
+                    at_i = costs_at(pick, i, k)
                     for g in range(n_grid):
                         if g == pick[i]:
                             continue
@@ -534,7 +674,9 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                         trial[i] = g
                         if not apart(trial):
                             continue
-                        c = cost(trial, k)
+                        c = float(at_i[g])
+                        if np.isnan(c):
+                            c = cost(trial, k)
                         if c < best * (1 - 1e-9):
                             best, pick, improved = c, trial, True
                 if not improved:
@@ -550,29 +692,60 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         def to_log_tau(x):
             return _pair_log_tau(x, lo, hi, self.order)
 
+        last = {}
+
+        def features(x):
+            # The Jacobian is taken where the residuals were just evaluated:
+            # filter the lags once for both.
+            key = x.tobytes()
+            if key not in last:
+                last.clear()
+                last[key] = self._features(U, to_log_tau(x), dts, slices)
+            return last[key]
+
         def residual(x):
-            Phi = self._features(U, to_log_tau(x), dts, slices)
-            return _ridge_with_intercept(Phi, y, self.alpha)[2]
+            return _ridge_with_intercept(features(x), y, self.alpha)[2]
 
         def jacobian(x):
             # Forward differences, refiltering only the lags whose time
-            # constants move (the other columns of the design are unchanged).
+            # constants move (the other columns of the design are unchanged)
+            # and solving with them replaced from one factorisation of the
+            # whole design (see _ridge_column_changes).
             log_tau = to_log_tau(x)
-            Phi = self._features(U, log_tau, dts, slices)
-            r0 = _ridge_with_intercept(Phi, y, self.alpha)[2]
-            J = np.empty((r0.size, x.size))
+            Phi = features(x)
+            steps, moved = np.empty(x.size), []
             for j, xj in enumerate(x):
                 h = 1e-3 * max(1.0, abs(xj))
-                h = h if xj + h <= x_high[j] else -h
+                steps[j] = h if xj + h <= x_high[j] else -h
                 step = x.copy()
-                step[j] += h
-                moved = to_log_tau(step)
-                cols = np.flatnonzero(moved != log_tau)
+                step[j] += steps[j]
+                moved.append(to_log_tau(step))
+            # The moved lags of all the steps filtered in one call (column by
+            # column as one at a time), sparing a call's overhead per step.
+            lags = [np.flatnonzero(m != log_tau) for m in moved]
+            filtered = exponential_filter(
+                U_lags[:, np.concatenate(lags)],
+                np.exp(
+                    np.concatenate([m[c] for m, c in zip(moved, lags, strict=True)])
+                ),
+                dts,
+                slices,
+                initial="rest",
+            )
+            changes = _ridge_column_changes(Phi, y, self.alpha, lags, filtered)
+            if changes is None:
+                changes = np.full((Phi.shape[0] + Phi.shape[1], x.size), np.nan)
+            J = changes / steps
+            r0 = None
+            ends = np.cumsum([c.size for c in lags])
+            for j in np.flatnonzero(np.isnan(J).any(axis=0)):
+                # (Nearly) singular: the direct solve, as before.
+                if r0 is None:
+                    r0 = _ridge_with_intercept(Phi, y, self.alpha)[2]
                 trial = Phi.copy()
-                trial[:, cols] = exponential_filter(
-                    U_lags[:, cols], np.exp(moved[cols]), dts, slices, initial="rest"
-                )
-                J[:, j] = (_ridge_with_intercept(trial, y, self.alpha)[2] - r0) / h
+                trial[:, lags[j]] = filtered[:, ends[j] - lags[j].size : ends[j]]
+                r = _ridge_with_intercept(trial, y, self.alpha)[2]
+                J[:, j] = (r - r0) / steps[j]
             return J
 
         x, (x_low, x_high) = _pair_coordinates(log_tau, lo, hi, self.order)
