@@ -685,6 +685,13 @@ def test_a_candidate_names_the_part_the_machine_lacks(rig_runs):
         )
 
 
+def test_two_measured_columns_onto_one_simulated_are_refused(rig_runs):
+    rig, runs = rig_runs
+    renamed = runs.assign(front_C=runs["T1_C"])
+    with pytest.raises(ValueError, match="'T1_C' and 'front_C' would both be"):
+        diagnose(rig, renamed, mapping={"front_C": "T1_C"}, **FAST)
+
+
 def test_input_messages_name_the_real_values(rig_runs):
     rig, runs = rig_runs
     shuffled = runs.copy()
@@ -1039,10 +1046,29 @@ def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
     assert "Initial states from the first readings" not in ambient.to_markdown()
     with pytest.raises(ValueError, match="runs hold none of the machine's sensors"):
         diagnose(rig, runs.drop(columns=rig.sensors), initial="measured", **kw)
-    # Displacements only: "auto" starts from the air.
-    bare = diagnose(
-        rig, runs.drop(columns=rig.sensors), candidates=["tool_growth"], **FAST
+    # Displacements only, or with the sensors of the air alone (they
+    # cannot tell a warm machine): "auto" starts from the air.
+    air_only = [c for c in rig.sensors if c not in rig.structure_sensors]
+    assert air_only == ["T6_C", "T7_C", "T10_C"]
+    for drop in (rig.sensors, rig.structure_sensors):
+        bare = diagnose(
+            rig,
+            runs.drop(columns=drop),
+            candidates=["tool_growth"],
+            channels=[c for c in runs.columns if c.startswith("disp_")],
+            **FAST,
+        )
+        assert bare.settings["initial"] == "ambient"
+    # A sensor missing in the first rows is left out of the estimate.
+    gap_in_first_rows = runs.copy()
+    gap_in_first_rows.loc[gap_in_first_rows.index[:2], "T1_C"] = np.nan
+    kept = diagnose(
+        rig,
+        gap_in_first_rows,
+        candidates=["tool_growth"],
+        channels=[c for c in runs.columns if c.startswith("disp_")],
+        **FAST,
     )
-    assert bare.settings["initial"] == "ambient"
+    assert kept.settings["initial"] == "measured"
     with pytest.raises(ValueError, match="'initial' parameter of diagnose"):
         diagnose(rig, runs, initial="warm", **kw)

@@ -212,6 +212,12 @@ def pair():
     return _tables(np.random.default_rng(0), "null", n_runs=3, hours=2.0)
 
 
+def test_two_measured_columns_onto_one_simulated_are_refused(pair):
+    sim, meas = pair
+    with pytest.raises(ValueError, match="'T1_C' and 'T2_C' would both be"):
+        diagnose_runs(sim, meas, mapping={"T2_C": "T1_C"})
+
+
 def test_different_drivers_are_named(pair):
     sim, meas = pair
     sim = sim.copy()

@@ -437,6 +437,18 @@ def test_initial_state_from_the_first_readings():
     a = rig.initial_from_readings(drifting, np.full(5, 20.0), time_s=times)
     b = rig.initial_from_readings({"T1_C": 25.0}, 20.0)
     np.testing.assert_allclose(a, b)
+    # The spindle started at the first sample: the heating over the samples
+    # (a bearing sensor warms fast) is taken out before the line is drawn.
+    rpm = np.full(5, 8000.0)
+    T = rig.response(times, rpm, np.full(5, 20.0))
+    heating = rig.read(T, np.full(5, 20.0), rig.sensors, sample_period_s=60.0)
+    first = dict(zip(rig.sensors, heating.T))
+    tilted = rig.initial_from_readings(first, 20.0, time_s=times)
+    assert tilted.max() > 20.5  # read as a warm machine
+    straight = rig.initial_from_readings(first, 20.0, time_s=times, spindle_rpm=rpm)
+    np.testing.assert_allclose(straight, 20.0, atol=1e-6)
+    with pytest.raises(ValueError, match=r"293.15 K from the air .* give temperatures"):
+        rig.initial_from_readings({"T1_C": 313.15}, 20.0)
     with pytest.raises(ValueError, match="readings is empty"):
         rig.initial_from_readings({}, 20.0)
     with pytest.raises(ValueError, match=r"\['T1C'\] are not sensors.*'T1_C'"):
@@ -468,7 +480,10 @@ def test_calibration_of_runs_that_start_warm():
     )
     true = truth.params["q.bearing_W"]
     _, soaked = rig.calibrate(runs, ["q.bearing_W"])
-    _, measured = rig.calibrate(runs, ["q.bearing_W"], initial="measured")
+    # (No feed column: the axis never moved.)
+    _, measured = rig.calibrate(
+        runs.drop(columns="feed_mm_min"), ["q.bearing_W"], initial="measured"
+    )
     assert abs(soaked.params.iloc[0] / true - 1) > 0.5
     assert measured.params.iloc[0] == pytest.approx(true, rel=0.03)
     assert (measured.rmse_after < 0.1 * soaked.rmse_after).all()

@@ -523,8 +523,10 @@ def diagnose(
         runs that start warm from earlier work; only the first readings
         enter the estimate, the same for the base and every candidate.
         ``"auto"``: ``"measured"`` when the runs hold any of the machine's
-        sensors, else ``"ambient"`` (``report.settings["initial"]`` says
-        which). On the independent truth machine
+        sensors that read its structure
+        (:attr:`~skthermal.simulate.ThermalMachine.structure_sensors`, not
+        the air alone), else ``"ambient"`` (``report.settings["initial"]``
+        says which). On the independent truth machine
         (``benchmarks/bench_gap_truth.py``) "measured" halved the base's
         held-out gap on runs that start warm and ranked the withheld effect
         first as often as "ambient" on soaked runs; see "Runs that start
@@ -550,8 +552,11 @@ def diagnose(
     base_effects = tuple(machine.effects)
     candidates = candidate_list(candidates, EFFECTS, base_effects)
     if initial == "auto":
+        # From the first readings when a sensor reads the structure (an air
+        # sensor alone cannot tell a warm machine).
         held = sensor_columns(machine, runs.columns, mapping)
-        initial = "measured" if held else "ambient"
+        structure = set(machine.structure_sensors)
+        initial = "measured" if structure.intersection(held) else "ambient"
     problem = build_problem(
         machine,
         runs,

@@ -36,6 +36,7 @@ from skthermal.gap._problem import (
     check_channel_names,
     check_length,
     check_mapping,
+    check_one_to_one,
     check_times,
     drift_table,
     driver_values,
@@ -131,6 +132,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
             measured.columns, channels, "the simulated table has no column for"
         )
     sim_cols = [mapping.get(c, c) for c in channels]
+    check_one_to_one(channels, sim_cols)
     for table, label in ((simulated, "simulated"), (measured, "measured")):
         try:
             check_labels(table["run"].to_numpy())

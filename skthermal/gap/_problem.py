@@ -221,6 +221,21 @@ def channel_values(frame, columns, t, run, table=""):
     return out
 
 
+def check_one_to_one(channels, simulated):
+    """Raise a ValueError when two measured ``channels`` are compared with
+    the same ``simulated`` column (a mapping onto a name the measured table
+    also holds)."""
+    seen = {}
+    for measured, sim in zip(channels, simulated, strict=True):
+        if sim in seen:
+            raise ValueError(
+                f"The measured columns {seen[sim]!r} and {measured!r} would both "
+                f"be compared with the simulated {sim!r}: compare one of them "
+                "(channels=, or map only one)."
+            )
+        seen[sim] = measured
+
+
 def check_channel_names(channels):
     """Raise a ValueError naming the channels given more than once."""
     seen, twice = set(), []
@@ -406,6 +421,7 @@ def build_problem(
     keep = measured_varying([y for *_, y in read], channels, explicit)
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_channels = [mapping.get(c, c) for c in channels]
+    check_one_to_one(channels, sim_channels)
     is_disp = np.array([c in machine.targets for c in sim_channels])
     starts = {}
     if first_readings:
@@ -458,8 +474,8 @@ def sensor_columns(machine, columns, mapping=None):
 
 def _first_readings(machine, frames, mapping):
     """The first readings of the machine's sensors in every run, ``{run:
-    {sensor: samples}}``: the first :data:`START_SAMPLES` samples of the
-    measured column of each sensor (:func:`sensor_columns`)."""
+    {sensor: samples}}`` (:meth:`ThermalMachine.first_readings`, the columns
+    by :func:`sensor_columns`)."""
     columns = sensor_columns(machine, frames[0][1].columns, mapping)
     if not columns:
         raise ValueError(
@@ -467,13 +483,10 @@ def _first_readings(machine, frames, mapping):
             "first temperature readings, and the runs hold none of the "
             f"machine's sensors ({machine.sensors[:3]} ...)."
         )
-    out = {}
-    for name, frame in frames:
-        t = frame["time_s"].to_numpy(float)
-        head = frame.iloc[:START_SAMPLES]
-        values = channel_values(head, list(columns.values()), t[:START_SAMPLES], name)
-        out[name] = dict(zip(columns, values.T, strict=True))
-    return out
+    return {
+        name: machine.first_readings(frame, columns=columns, run=name)
+        for name, frame in frames
+    }
 
 
 def block_spans(t, name, block_hours):
@@ -606,16 +619,17 @@ def predict_run(machine, problem, run, parts=False):
     dt = float(run.time_s[1] - run.time_s[0])
     air = run.ambient_C
     drivers = (run.time_s, run.spindle_rpm, air, run.feed_mm_min)
+    initial = run_initial(problem, run, machine)
 
     def read(T, ambient):
         values = machine.read(T, ambient, problem.sim_channels, sample_period_s=dt)
         return _channels_of(problem, run, values)
 
     if not parts:
-        return read(machine.response(*drivers, initial=run.initial, run=run.name), air)
+        return read(machine.response(*drivers, initial=initial, run=run.name), air)
     out = np.zeros((len(PARTS), run.rows.size, len(problem.channels)))
     by_source = machine.response(
-        *drivers, initial=run.initial, by_source=True, run=run.name
+        *drivers, initial=initial, by_source=True, run=run.name
     )
     zero_air = np.zeros_like(air)
     for k, source in enumerate(PARTS):
@@ -627,24 +641,62 @@ def predict_run(machine, problem, run, parts=False):
 def measured_initial(machine, problem):
     """``problem`` with every run's initial node temperatures estimated from
     its first temperature readings (:attr:`MeasuredRun.start`) by
-    :meth:`ThermalMachine.initial_from_readings`, once, with ``machine``
-    as given. Only the first readings are used: the estimate is the same for
-    every candidate, and nothing an effect does later in a run enters it."""
+    :meth:`ThermalMachine.initial_from_readings`, with ``machine`` as given
+    (:attr:`MeasuredRun.initial`). A machine with other effects (a
+    candidate) starts from its own estimate, with ``machine``'s parameters
+    and its effects (:func:`run_initial`): an effect changes the states the
+    machine passes through, so the temperatures of the nodes no sensor
+    reads. Only the first readings enter the estimates, and nothing an
+    effect does later in a run."""
+    meta = dict(problem.meta)
+    meta["initial_from"] = machine
     # The prior of the initial states spans the runs' own speeds and feeds.
-    ranges = {
+    meta["initial_ranges"] = {
         "max_rpm": max(float(np.max(np.abs(r.spindle_rpm))) for r in problem.runs),
         "max_feed_mm_min": max(
             float(np.max(np.abs(r.feed_mm_min))) for r in problem.runs
         ),
     }
-    runs = []
-    for run in problem.runs:
-        k = len(next(iter(run.start.values())))
-        T0 = machine.initial_from_readings(
-            run.start, run.ambient_C[:k], time_s=run.time_s[:k], **ranges
-        )
-        runs.append(replace(run, initial=T0))
+    meta["initial_cache"] = {}
+    problem = replace(problem, meta=meta)
+    runs = [
+        replace(run, initial=_estimate(problem, run, machine)) for run in problem.runs
+    ]
     return replace(problem, runs=runs)
+
+
+def _estimate(problem, run, machine):
+    """``machine``'s initial node temperatures of ``run`` from its first
+    readings."""
+    k = len(next(iter(run.start.values())))
+    return machine.initial_from_readings(
+        run.start,
+        run.ambient_C[:k],
+        time_s=run.time_s[:k],
+        spindle_rpm=run.spindle_rpm[:k],
+        feed_mm_min=run.feed_mm_min[:k],
+        **problem.meta["initial_ranges"],
+    )
+
+
+def run_initial(problem, run, machine):
+    """The initial state ``machine`` simulates ``run`` from: the run's own
+    (:attr:`MeasuredRun.initial`), or with first readings
+    (:func:`measured_initial`), the estimate of the machine as given with
+    ``machine``'s effects, computed once per run and set of effects (the
+    same whatever parameters a calibration tries, and in whatever order
+    the candidates come)."""
+    if run.start is None or "initial_from" not in problem.meta:
+        return run.initial
+    given = problem.meta["initial_from"]
+    effects = frozenset(machine.effects)
+    if effects == frozenset(given.effects):
+        return run.initial
+    cache = problem.meta["initial_cache"]
+    key = (run.name, effects)
+    if key not in cache:
+        cache[key] = _estimate(problem, run, given.with_effects(sorted(effects)))
+    return cache[key]
 
 
 def initial_table(machine, problem):

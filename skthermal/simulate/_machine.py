@@ -98,6 +98,9 @@ PRIOR_HOURS = 48.0
 PRIOR_RISE_K = 5.0
 PRIOR_AIR_K = 2.0
 READING_FLOOR_C = 0.01
+# A first reading this far from the air is in other units (kelvin,
+# fahrenheit), not a warm machine.
+READING_SPAN_K = 100.0
 # Samples of a run's first readings (calibrate's initial="measured").
 FIRST_READINGS = 5
 
@@ -312,6 +315,56 @@ class ThermalMachine:
     def targets(self):
         """Names of the displacement columns the machine produces."""
         return [f"disp_{a}_um" for a in self.spec.axes]
+
+    @property
+    def structure_sensors(self):
+        """Names of the sensors that read the structure: a weight on a node
+        other than the enclosure (not the air alone). The first readings of
+        these tell a warm machine (:meth:`initial_from_readings`)."""
+        enc = self.spec.enclosure
+        return [
+            s.name
+            for s in self.spec.sensors
+            if any(w > 0 and n not in (enc, ROOM) for n, w in s.weights.items())
+        ]
+
+    def first_readings(self, run_table, *, columns=None, run=None):
+        """A run's first readings, for :meth:`initial_from_readings`.
+
+        Parameters
+        ----------
+        run_table : DataFrame
+            One run (its rows in time order).
+        columns : dict, optional
+            Sensor -> column of ``run_table``, where the names differ;
+            default every sensor of the machine the table holds.
+        run : label, optional
+            Named in the error.
+
+        Returns
+        -------
+        dict
+            Sensor -> its first :data:`FIRST_READINGS` samples, of every
+            sensor whose first samples are finite numbers (one missing there
+            is left out).
+        """
+        if columns is None:
+            columns = {c: c for c in self.sensors if c in run_table.columns}
+        head = run_table.iloc[:FIRST_READINGS]
+        out = {}
+        for sensor, column in columns.items():
+            values = pd.to_numeric(head[column], errors="coerce").to_numpy(float)
+            if np.all(np.isfinite(values)):
+                out[sensor] = values
+        if not out:
+            where = "" if run is None else f"Run {run!r}: "
+            raise ValueError(
+                f"{where}none of the machine's sensors ({list(columns)[:3]} "
+                f"...) holds numbers in its first {FIRST_READINGS} samples, "
+                "from which initial='measured' estimates the run's initial "
+                "state."
+            )
+        return out
 
     def with_effects(self, effects=None, *, add=(), remove=()):
         """A copy with other effects: ``effects`` replaces, ``add``/``remove`` edit."""
@@ -866,7 +919,15 @@ class ThermalMachine:
     # --- simulation ---------------------------------------------------------
 
     def initial_from_readings(
-        self, readings, ambient_C, *, time_s=None, max_rpm=6000.0, max_feed_mm_min=0.0
+        self,
+        readings,
+        ambient_C,
+        *,
+        time_s=None,
+        spindle_rpm=None,
+        feed_mm_min=None,
+        max_rpm=6000.0,
+        max_feed_mm_min=0.0,
     ):
         """Node temperatures that match the first readings of a run.
 
@@ -898,10 +959,16 @@ class ThermalMachine:
             The workshop air at the start (°C), or its first samples.
         time_s : sequence, optional
             Times of the samples (default: evenly spaced).
+        spindle_rpm, feed_mm_min : sequence, optional
+            The drivers over the samples (with ``time_s``): what the machine
+            warms by during them (simulated from soaked at the air's
+            samples) is taken out before the line is drawn, so that a
+            spindle started at the first sample does not tilt it (a bearing
+            sensor warms fast).
         max_rpm, max_feed_mm_min : float, default=6000.0 and 0.0
-            The fastest spindle speed and feed of the prior's duty (the
-            machine's range; they set the shapes of the warm states, not
-            their size).
+            The fastest spindle speed and feed of the machine's duty (its
+            range, not this run's: they set the shapes of the warm states of
+            the prior, not their size; with neither, only the air moves it).
 
         Returns
         -------
@@ -938,10 +1005,30 @@ class ThermalMachine:
                 f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
             )
         names = list(readings)
+        heating = {}
+        if spindle_rpm is not None:
+            heating = self._heating(names, ambient_C, time_s, spindle_rpm, feed_mm_min)
         m = np.array(
-            [_at_start(readings[c], time_s, f"readings[{c!r}]") for c in names]
+            [
+                _at_start(
+                    np.asarray(readings[c], dtype=float) - heating.get(c, 0.0)
+                    if c in heating
+                    else readings[c],
+                    time_s,
+                    f"readings[{c!r}]",
+                )
+                for c in names
+            ]
         )
         air0 = _at_start(ambient_C, time_s, "ambient_C")
+        far = np.abs(m - air0)
+        if far.max() > READING_SPAN_K:
+            c = names[int(np.argmax(far))]
+            raise ValueError(
+                f"readings[{c!r}] is {m[names.index(c)]:g}, {far.max():g} K from "
+                f"the air ({air0:g} °C): give temperatures in °C, as the air "
+                f"(a machine tool runs within some {READING_SPAN_K:g} K of it)."
+            )
         max_rpm = _check_number(max_rpm, "max_rpm", nonnegative=True)
         max_feed = _check_number(max_feed_mm_min, "max_feed_mm_min", nonnegative=True)
         n = len(self.spec.nodes)
@@ -965,6 +1052,25 @@ class ThermalMachine:
         S = W @ P @ W.T + sigma2 * np.eye(len(names))
         d = P @ W.T @ np.linalg.solve(S, m - r)
         return air0 + d
+
+    def _heating(self, names, ambient_C, time_s, spindle_rpm, feed_mm_min):
+        """How much the sensors ``names`` warm over the samples of
+        :meth:`initial_from_readings` from the drivers, started soaked:
+        ``{sensor: change since the first sample}``."""
+        rpm = _float_array(spindle_rpm, "spindle_rpm")
+        if rpm.size < 2:
+            return {}
+        if time_s is None:
+            raise ValueError(
+                "spindle_rpm needs time_s: the times of the samples, to "
+                "simulate what the drivers warm the machine by over them."
+            )
+        air = np.broadcast_to(np.asarray(ambient_C, dtype=float), rpm.shape)
+        feed = None if feed_mm_min is None else _float_array(feed_mm_min, "feed_mm_min")
+        t = _float_array(time_s, "time_s")
+        T = self.response(t, rpm, air, feed)
+        values = self.read(T, air, names, sample_period_s=float(np.median(np.diff(t))))
+        return dict(zip(names, (values - values[0]).T, strict=True))
 
     def _state_prior(self, max_rpm, max_feed):
         """Second moments (K^2) of the node temperatures above the air
@@ -1771,23 +1877,17 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")
     from_readings = isinstance(initial, str) and initial == "measured"
-    start_sensors = []
-    if from_readings:
-        start_sensors = [c for c in machine.sensors if c in runs.columns]
-        if not start_sensors:
-            raise ValueError(
-                "initial='measured' estimates each run's initial state from its "
-                "first temperature readings, and the runs hold none of the "
-                f"machine's sensors ({machine.sensors[:3]} ...)."
-            )
+    if from_readings and not any(c in runs.columns for c in machine.sensors):
+        raise ValueError(
+            "initial='measured' estimates each run's initial state from its "
+            "first temperature readings, and the runs hold none of the "
+            f"machine's sensors ({machine.sensors[:3]} ...)."
+        )
     # A text, a missing or an infinite value in a fitted channel or a driver
     # is named by its column, run, row and time.
     read = [
         c
-        for c in dict.fromkeys(
-            ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min", *channels)
-            + tuple(start_sensors)
-        )
+        for c in ("time_s", "spindle_rpm", "ambient_C", "feed_mm_min", *channels)
         # Clock times are named per run by _run_drivers.
         if c in runs.columns and not is_clock_dtype(runs[c].dtype)
     ]
@@ -1800,13 +1900,12 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             {run: np.ptp(f["time_s"].to_numpy(float)) for run, f in groups},
             4,
         )
-    # The first readings of every run (initial="measured"): the mean of its
-    # first samples (the air's: of the driver, below).
-    first = {
-        run: frame[start_sensors].iloc[:FIRST_READINGS].astype(float)
-        for run, frame in groups
+    # The first readings of every run (initial="measured").
+    first = (
+        {run: machine.first_readings(frame, run=run) for run, frame in groups}
         if from_readings
-    }
+        else {}
+    )
     measured = []
     for run, frame in groups:
         y = frame[channels].to_numpy(float, copy=True)
@@ -1836,7 +1935,10 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         drivers = [_run_drivers(frame, run) for run, frame in groups]
         prior_range = {
             "max_rpm": max(float(np.max(np.abs(d[1]))) for d in drivers),
-            "max_feed_mm_min": max(float(np.max(np.abs(d[3]))) for d in drivers),
+            "max_feed_mm_min": max(
+                float(np.max(np.abs(d[3]))) if d[3] is not None else 0.0
+                for d in drivers
+            ),
         }
 
     def simulate_all(values):
@@ -1844,11 +1946,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         out = []
         for run, frame in groups:
             t, rpm, air, feed = _run_drivers(frame, run)
+            k = FIRST_READINGS
             start = (
                 m.initial_from_readings(
                     first[run],
-                    air[:FIRST_READINGS],
-                    time_s=t[: len(first[run])],
+                    air[:k],
+                    time_s=t[:k],
+                    spindle_rpm=rpm[:k],
+                    feed_mm_min=None if feed is None else feed[:k],
                     **prior_range,
                 )
                 if from_readings
