@@ -699,8 +699,11 @@ def test_calibration_names_bad_values_by_column_run_and_row():
     bad.loc[2, "disp_ch1_um"] = np.nan
     with pytest.raises(
         ValueError, match=r"Column 'disp_ch1_um' is missing \(NaN\) at row 2, run"
-    ):
+    ) as info:
         machine.calibrate(bad, ["q.bearing_W"])
+    # The calibration's advice, not a deployed model's.
+    assert "in the runs). The calibration compares every sample" in str(info.value)
+    assert "GuardedRegressor" not in str(info.value)
     text = runs.astype({"spindle_rpm": object})
     text.loc[3, "spindle_rpm"] = "fast"
     with pytest.raises(

@@ -1892,7 +1892,13 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         if c in runs.columns and not is_clock_dtype(runs[c].dtype)
     ]
     check_numeric_columns(runs[read], runs["run"])
-    check_finite_columns(runs[read].astype(float), runs["run"])
+    check_finite_columns(
+        runs[read].astype(float),
+        runs["run"],
+        what="the runs",
+        hint="The calibration compares every sample: impute or drop those "
+        "rows first, or leave the channel out (channels=).",
+    )
     groups = [(run, frame) for run, frame in runs.groupby("run", sort=False)]
     if "time_s" in runs.columns and not is_clock_dtype(runs["time_s"].dtype):
         warn_short_runs(

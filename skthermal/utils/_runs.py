@@ -642,10 +642,11 @@ def _bad_values_note(bad, values, name):
     return f"{n_other} non-finite value(s) in {name} and {n_large} {large}"
 
 
-def check_finite_columns(X, groups=None):
+def check_finite_columns(X, groups=None, *, what="X", hint=None):
     """Raise a ValueError naming the first missing, infinite or absurdly large
     (:func:`unreadable`) value of the feature columns: the column, the row,
-    and the run and time of that row when known.
+    and the run and time of that row when known. ``what`` names the table
+    and ``hint`` says what to do (default: a model's advice).
 
     Missing and infinite values of a plain array are left to scikit-learn
     (its usual message); a finite value beyond :data:`MAX_MAGNITUDE` is an
@@ -668,12 +669,16 @@ def check_finite_columns(X, groups=None):
         return
     row, col = (int(i) for i in np.argwhere(bad)[0])
     name = repr(plain(columns[col])) if columns is not None else f"{col} of X"
+    if hint is None:
+        hint = (
+            "The model needs every reading: impute or drop those rows first "
+            "(skthermal.compose.GuardedRegressor(mode='hold') bridges sensor "
+            "dropouts in service)."
+        )
     raise ValueError(
         f"Column {name} is {describe_unreadable(values[row, col])} at "
-        f"{describe_row(row, X, groups)} ({_bad_values_note(bad, values, 'X')}). The "
-        "model needs every reading: impute or drop those rows first "
-        "(skthermal.compose.GuardedRegressor(mode='hold') bridges sensor "
-        "dropouts in service)."
+        f"{describe_row(row, X, groups)} ({_bad_values_note(bad, values, what)}). "
+        + hint
     )
 
 
