@@ -160,8 +160,8 @@ def test_fine_calibration_recovers_the_spindle_heads_dynamics():
 
 
 # The tests sharing the tool-growth campaign and its diagnosis run in one
-# pytest-xdist worker (--dist loadgroup), so the module fixtures are built once.
-ONE_WORKER = pytest.mark.xdist_group("tool_case")
+# pytest-xdist worker (--dist loadfile: a module's tests go to one worker),
+# so the module fixtures are built once.
 
 
 @pytest.fixture(scope="module")
@@ -180,7 +180,6 @@ def tool_report(tool_case):
     )
 
 
-@ONE_WORKER
 def test_campaign_perturbs_the_truth_and_hides_the_effect(tool_case):
     sim, truth = tool_case.simulation, tool_case.truth
     assert truth.effects == ("tool_growth",) and sim.effects == ()
@@ -195,7 +194,6 @@ def test_campaign_perturbs_the_truth_and_hides_the_effect(tool_case):
     assert tool_case.runs["run"].nunique() == 4
 
 
-@ONE_WORKER
 def test_diagnose_names_the_withheld_effect(tool_report):
     report = tool_report
     assert isinstance(report, GapReport)
@@ -220,7 +218,6 @@ def test_diagnose_names_the_withheld_effect(tool_report):
     assert how_far.loc["after stop", "shrink"] > 0.3
 
 
-@ONE_WORKER
 def test_structure_evidence_and_explainable_gap(tool_report):
     """The evidence grey-box identification selects structure by, beside
     the held-out shrink: in-sample likelihood ratio and information criteria,
@@ -248,7 +245,6 @@ def test_structure_evidence_and_explainable_gap(tool_report):
     assert "could close" in tool_report.to_markdown()
 
 
-@ONE_WORKER
 def test_where_tables(tool_report):
     where = tool_report.where
     assert set(where) >= {"runs", "regimes", "channels", "bands", "jumps"}
@@ -265,7 +261,6 @@ def test_where_tables(tool_report):
     assert bands.groupby("model")["share"].sum().round(6).eq(1.0).all()
 
 
-@ONE_WORKER
 def test_timeline_and_overlay_plots(tool_report):
     pytest.importorskip("matplotlib")
     import matplotlib
@@ -287,7 +282,6 @@ def test_timeline_and_overlay_plots(tool_report):
     plt.close("all")
 
 
-@ONE_WORKER
 def test_report_files_and_formats(tool_report, tmp_path):
     data = json.loads(tool_report.to_json())
     assert data["best_effect"] == "tool_growth"
@@ -355,7 +349,6 @@ def test_vmc_a_campaign_and_another_strength():
     assert report.best_effect == "feed_heating"
 
 
-@ONE_WORKER
 def test_diagnose_errors(tool_case):
     runs = tool_case.runs
     sim = tool_case.simulation
@@ -388,7 +381,6 @@ def test_diagnose_errors(tool_case):
         diagnose(sim, bad)
 
 
-@ONE_WORKER
 def test_verdict_and_tables_show_the_same_numbers(tool_report):
     """The sentence quotes the numbers of the tables it names, with units."""
     text = tool_report.verdict()
@@ -401,7 +393,6 @@ def test_verdict_and_tables_show_the_same_numbers(tool_report):
     assert "| gap_before [norm.] |" in md and "normalised" in md
 
 
-@ONE_WORKER
 def test_mapping_renamed_channels(tool_case, caplog):
     caplog.set_level(logging.INFO, logger="skthermal.gap")
     runs = tool_case.runs[
@@ -480,7 +471,6 @@ def test_simulator_exposes_what_the_diagnosis_needs():
     assert machine.effects == ()
 
 
-@ONE_WORKER
 def test_downstream_view(tool_report, tool_case):
     """A compensation model trained on the simulation with the identified
     effect does better on the measured runs than one trained without it."""
@@ -1044,8 +1034,12 @@ def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
     assert measured.to_dict()["initial_states"]["r0"]["front_bearing"] > 3.0
     assert "Initial states from the first readings" in measured.to_markdown()
     assert "Initial states from the first readings" not in ambient.to_markdown()
-    with pytest.raises(ValueError, match="runs hold none of the machine's sensors"):
+    with pytest.raises(ValueError, match="table holds none of the sensors that"):
         diagnose(rig, runs.drop(columns=rig.sensors), initial="measured", **kw)
+    with pytest.raises(ValueError, match=r"the air alone, \['T10_C', 'T6_C', 'T7"):
+        diagnose(
+            rig, runs.drop(columns=rig.structure_sensors), initial="measured", **kw
+        )
     # Displacements only, or with the sensors of the air alone (they
     # cannot tell a warm machine): "auto" starts from the air.
     air_only = [c for c in rig.sensors if c not in rig.structure_sensors]

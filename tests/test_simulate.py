@@ -18,6 +18,7 @@ from skthermal.simulate import (
     AmbientProfile,
     DoorEvent,
     DutyCycle,
+    ImplausibleDriverWarning,
     ModalSystem,
     ThermalMachine,
     describe_effects,
@@ -487,10 +488,85 @@ def test_calibration_of_runs_that_start_warm():
     assert abs(soaked.params.iloc[0] / true - 1) > 0.5
     assert measured.params.iloc[0] == pytest.approx(true, rel=0.03)
     assert (measured.rmse_after < 0.1 * soaked.rmse_after).all()
-    with pytest.raises(ValueError, match="runs hold none of the machine's sensors"):
+    # "auto": from the first readings, as the runs hold the rig's sensors.
+    _, auto = rig.calibrate(runs, ["q.bearing_W"], initial="auto")
+    assert auto.params.iloc[0] == measured.params.iloc[0]
+    with pytest.raises(ValueError, match="table holds none of the sensors that read"):
         rig.calibrate(
             runs.drop(columns=rig.sensors), ["q.bearing_W"], initial="measured"
         )
+    # The air alone cannot tell a warm machine: refused, not run.
+    air_only = runs.drop(columns=[s for s in rig.sensors if s != "T6_C"])
+    with pytest.raises(ValueError, match=r"the air alone, \['T6_C'\], cannot tell"):
+        rig.calibrate(air_only, ["q.bearing_W"], initial="measured")
+    _, from_air = rig.calibrate(air_only, ["q.bearing_W"], initial="auto")
+    assert from_air.params.iloc[0] == soaked.params.iloc[0]
+    # Errors of a run's first readings name the run.
+    kelvin = runs.copy()
+    kelvin.loc[kelvin["run"] == "r1", "T1_C"] += 273.15
+    with pytest.raises(ValueError, match=r"Run 'r1': readings\['T1_C'\] is 29"):
+        rig.calibrate(kelvin, ["q.bearing_W"], initial="measured")
+    swapped = runs.copy()
+    rows = swapped.index[swapped["run"] == "r1"][:2]
+    swapped.loc[rows, "time_s"] = swapped.loc[rows[::-1], "time_s"].to_numpy()
+    with pytest.raises(ValueError, match=r"Run 'r1': time_s must increase"):
+        rig.calibrate(swapped, ["q.bearing_W"], initial="measured")
+
+
+def test_first_readings_and_their_estimate_name_bad_input():
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = pd.concat(
+        [
+            rig.simulate(
+                DutyCycle([(1800, 3000, 0)]),
+                air,
+                sample_period_s=60,
+                run=name,
+                noise=False,
+            )
+            for name, air in (("r0", 20.0), ("r1", 23.0))
+        ],
+        ignore_index=True,
+    )
+    # run= picks the run (its first samples, not the table's).
+    first = rig.first_readings(runs, run="r1")
+    np.testing.assert_allclose(
+        first["T1_C"], runs.loc[runs["run"] == "r1", "T1_C"].to_numpy()[:5]
+    )
+    with pytest.raises(ValueError, match=r"run 'r9' is not in the table.*'r0'"):
+        rig.first_readings(runs, run="r9")
+    with pytest.raises(ValueError, match="holds 2 runs.*give run="):
+        rig.first_readings(runs)
+    with pytest.raises(ValueError, match="the table has no rows"):
+        rig.first_readings(runs.iloc[:0])
+    with pytest.raises(ValueError, match=r"'T1_C' is mapped to column 'Tfront_C'"):
+        rig.first_readings(runs, run="r0", columns={"T1_C": "Tfront_C"})
+    with pytest.raises(ValueError, match=r"\['T99_C'\] are not sensors"):
+        rig.first_readings(runs, run="r0", columns={"T99_C": "T1_C"})
+    with pytest.raises(TypeError, match="must be a run table"):
+        rig.first_readings(runs.to_numpy())
+    # The estimate's inputs.
+    t = np.arange(5) * 60.0
+    ok = {"T1_C": np.full(5, 25.0)}
+    with pytest.raises(ValueError, match=r"Run 'x': time_s is NaN or infinite"):
+        rig.initial_from_readings(ok, 20.0, time_s=[0, 60, np.nan, 180, 240], run="x")
+    with pytest.raises(ValueError, match=r"spindle_rpm must be .* shape \(5,\)"):
+        rig.initial_from_readings(ok, 20.0, time_s=t, spindle_rpm=np.zeros(3))
+    # A spindle far too fast is named, not the readings' unit.
+    with pytest.warns(ImplausibleDriverWarning, match="spindle_rpm is 1e"):
+        with pytest.raises(ValueError, match=r"after taking out what spindle_rpm"):
+            rig.initial_from_readings(ok, 20.0, time_s=t, spindle_rpm=np.full(5, 1e7))
+    with pytest.warns(ImplausibleDriverWarning, match=r"^max_rpm is 1e\+07"):
+        rig.initial_from_readings(ok, 20.0, max_rpm=1e7)
+    # Readings in fahrenheit against the air in °C, or far below the air:
+    # warned of.
+    with pytest.warns(UserWarning, match=r"median \+52.*same unit"):
+        rig.initial_from_readings(dict.fromkeys(["T1_C", "T2_C"], 72.0), 20.0)
+    with pytest.warns(UserWarning, match=r"'T1_C'\] is -60 K from the air"):
+        rig.initial_from_readings({"T1_C": -40.0}, 20.0)
+    for odd in (True, "24.0", [24.0, "24.1"]):
+        with pytest.raises(ValueError, match=r"readings\['T1_C'\] must be numbers"):
+            rig.initial_from_readings({"T1_C": odd}, 20.0)
 
 
 def test_read_checks_the_sample_period():

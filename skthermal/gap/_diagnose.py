@@ -520,17 +520,19 @@ def diagnose(
         run's first temperature readings
         (:meth:`~skthermal.simulate.ThermalMachine.initial_from_readings`,
         every sensor of the machine the runs hold, compared or not), for
-        runs that start warm from earlier work; only the first readings
-        enter the estimate, the same for the base and every candidate.
+        runs that start warm from earlier work; it needs a sensor on the
+        structure. Only the first readings enter the estimate, and each
+        candidate starts from its own (made with the effect added).
         ``"auto"``: ``"measured"`` when the runs hold any of the machine's
         sensors that read its structure
         (:attr:`~skthermal.simulate.ThermalMachine.structure_sensors`, not
         the air alone), else ``"ambient"`` (``report.settings["initial"]``
         says which). On the independent truth machine
         (``benchmarks/bench_gap_truth.py``) "measured" halved the base's
-        held-out gap on runs that start warm and ranked the withheld effect
-        first as often as "ambient" on soaked runs; see "Runs that start
-        warm" in docs/gap.md.
+        held-out gap on runs that start warm (the withheld effect first in
+        47% of the cases, 43% from the air) and changed nothing that
+        counts on soaked runs (60% either way); see "Runs that start warm"
+        in docs/gap.md.
     n_jobs : int, optional
         Candidates (and the folds of the fine calibration) evaluated in
         parallel (joblib).

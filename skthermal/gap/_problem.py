@@ -477,12 +477,6 @@ def _first_readings(machine, frames, mapping):
     {sensor: samples}}`` (:meth:`ThermalMachine.first_readings`, the columns
     by :func:`sensor_columns`)."""
     columns = sensor_columns(machine, frames[0][1].columns, mapping)
-    if not columns:
-        raise ValueError(
-            "initial='measured' estimates each run's initial state from its "
-            "first temperature readings, and the runs hold none of the "
-            f"machine's sensors ({machine.sensors[:3]} ...)."
-        )
     return {
         name: machine.first_readings(frame, columns=columns, run=name)
         for name, frame in frames
@@ -676,6 +670,7 @@ def _estimate(problem, run, machine):
         spindle_rpm=run.spindle_rpm[:k],
         feed_mm_min=run.feed_mm_min[:k],
         **problem.meta["initial_ranges"],
+        run=run.name,
     )
 
 

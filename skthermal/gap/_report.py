@@ -632,7 +632,9 @@ class GapReport:
 
     def save(self, folder):
         """Write report.md, report.html, report.json, the tables as CSV (with
-        drift_rates.csv when drift was fitted) and, with matplotlib, timeline
+        drift_rates.csv when drift was fitted, and initial_states.csv: every
+        run's initial node temperatures, in K above its first air reading,
+        a column ``<node>_K_above_air`` each) and, with matplotlib, timeline
         figures into ``folder``."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
@@ -648,7 +650,9 @@ class GapReport:
                 "channel"
             ).reset_index().to_csv(folder / "drift_rates.csv", index=False)
         if self.initial_states is not None:
-            self.initial_states.to_csv(folder / "initial_states.csv")
+            self.initial_states.add_suffix("_K_above_air").to_csv(
+                folder / "initial_states.csv"
+            )
         try:
             plt = _pyplot()
         except ImportError:

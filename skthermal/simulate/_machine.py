@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils import check_random_state
 
-from skthermal._naming import shown, suggest
+from skthermal._naming import plain, shown, suggest
 from skthermal.simulate._drivers import (
     AmbientProfile,
     DutyCycle,
@@ -101,6 +101,10 @@ READING_FLOOR_C = 0.01
 # A first reading this far from the air is in other units (kelvin,
 # fahrenheit), not a warm machine.
 READING_SPAN_K = 100.0
+# First readings a median this far above the air, or one this far below it,
+# seldom are a machine's: a warning (readings in fahrenheit, say).
+READING_ABOVE_K = 30.0
+READING_BELOW_K = 20.0
 # Samples of a run's first readings (calibrate's initial="measured").
 FIRST_READINGS = 5
 
@@ -334,12 +338,14 @@ class ThermalMachine:
         Parameters
         ----------
         run_table : DataFrame
-            One run (its rows in time order).
+            A run table (its rows in time order within each run), or one
+            run of it.
         columns : dict, optional
             Sensor -> column of ``run_table``, where the names differ;
             default every sensor of the machine the table holds.
         run : label, optional
-            Named in the error.
+            The run whose first readings to take, from a table with a
+            ``run`` column; needed when it holds more than one run.
 
         Returns
         -------
@@ -347,22 +353,82 @@ class ThermalMachine:
             Sensor -> its first :data:`FIRST_READINGS` samples, of every
             sensor whose first samples are finite numbers (one missing there
             is left out).
+
+        Examples
+        --------
+        >>> from skthermal.simulate import ThermalMachine, DutyCycle
+        >>> rig = ThermalMachine.from_preset("spindle-rig")
+        >>> runs = rig.simulate(DutyCycle.heat_cool(3000, heat_h=1, cool_h=1),
+        ...                     noise=False, run="R1")
+        >>> first = rig.first_readings(runs, run="R1")
+        >>> list(first)[:2], first["T1_C"].shape
+        (['T1_C', 'T2_C'], (5,))
         """
+        if not isinstance(run_table, pd.DataFrame):
+            raise TypeError(
+                "run_table must be a run table (a pandas DataFrame), got "
+                f"{type(run_table).__name__}."
+            )
+        frame = run_table
+        if "run" in frame.columns:
+            labels = [plain(x) for x in pd.unique(frame["run"])]
+            if run is not None:
+                if run not in labels:
+                    raise ValueError(
+                        f"run {run!r} is not in the table; its runs: "
+                        f"{labels[:6]}{' ...' if len(labels) > 6 else ''}."
+                    )
+                frame = frame[(frame["run"] == run).to_numpy()]
+            elif len(labels) > 1:
+                raise ValueError(
+                    f"The table holds {len(labels)} runs ({labels[:3]} ...): "
+                    "give run= to say whose first readings to take."
+                )
+        where = "" if run is None else f"Run {run!r}: "
+        if frame.empty:
+            raise ValueError(f"{where}the table has no rows to read.")
         if columns is None:
-            columns = {c: c for c in self.sensors if c in run_table.columns}
-        head = run_table.iloc[:FIRST_READINGS]
+            columns = {c: c for c in self.sensors if c in frame.columns}
+        else:
+            columns = dict(columns)
+            unknown = [c for c in columns if c not in self.sensors]
+            if unknown:
+                raise ValueError(
+                    f"columns: {unknown} are not sensors of the machine"
+                    f"{suggest(unknown[0], self.sensors)}; its sensors: "
+                    f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
+                )
+            absent = {s: c for s, c in columns.items() if c not in frame.columns}
+            if absent:
+                s, c = next(iter(absent.items()))
+                raise ValueError(
+                    f"columns: sensor {s!r} is mapped to column {c!r}, which the "
+                    f"table lacks{suggest(str(c), [str(x) for x in frame.columns])}."
+                )
+        head = frame.iloc[:FIRST_READINGS]
         out = {}
         for sensor, column in columns.items():
             values = pd.to_numeric(head[column], errors="coerce").to_numpy(float)
             if np.all(np.isfinite(values)):
                 out[sensor] = values
-        if not out:
-            where = "" if run is None else f"Run {run!r}: "
+        structure = self.structure_sensors
+        if not any(sensor in structure for sensor in out):
+            read = [c for c in columns if c in structure]
+            pool = read or structure
+            listed = f"{pool[:4]}{' ...' if len(pool) > 4 else ''}"
+            what = (
+                f"none of the sensors that read the machine's structure ({listed}) "
+                f"holds numbers in its first {FIRST_READINGS} samples"
+                if read
+                else "the table holds none of the sensors that read the "
+                f"machine's structure ({listed})"
+            )
+            air = f" (the air alone, {sorted(out)}, cannot tell a warm machine)"
             raise ValueError(
-                f"{where}none of the machine's sensors ({list(columns)[:3]} "
-                f"...) holds numbers in its first {FIRST_READINGS} samples, "
-                "from which initial='measured' estimates the run's initial "
-                "state."
+                f"{where}{what}{air if out else ''}: initial='measured' "
+                "estimates the run's initial state from them; give "
+                "initial='ambient' (soaked at the first air reading) for such "
+                "runs."
             )
         return out
 
@@ -883,12 +949,20 @@ class ThermalMachine:
             Columns to fit, each once; default every displacement the machine
             predicts that the runs hold (with a warning naming those they
             lack). Any of the machine's temperature columns may be added.
-        initial : as in :meth:`simulate_drivers`, or "measured", default="ambient"
-            The machine's state at the start of every run; ``"measured"``
-            estimates each run's from its own first readings (its first
+        initial : as in :meth:`simulate_drivers`, "measured" or "auto", \
+                default="ambient"
+            The machine's state at the start of every run. ``"ambient"``:
+            soaked at the run's first air reading. ``"measured"`` estimates
+            each run's from its own first readings (its first
             :data:`FIRST_READINGS` samples of every sensor of the machine
             the runs hold; :meth:`initial_from_readings`, again for every
-            trial machine of the fit), for runs that start warm.
+            trial machine of the fit), for runs that start warm; it needs a
+            sensor on the structure (:attr:`structure_sensors`). ``"auto"``:
+            ``"measured"`` when the runs hold such a sensor, else
+            ``"ambient"`` (the default of ``skthermal.gap.diagnose``). Runs
+            that start warm, calibrated from the air, take their warm
+            start's decay as physics: pass ``"auto"`` or ``"measured"`` for
+            them.
         **least_squares_kw
             Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``); a
             keyword it does not take is a TypeError naming it.
@@ -928,6 +1002,7 @@ class ThermalMachine:
         feed_mm_min=None,
         max_rpm=6000.0,
         max_feed_mm_min=0.0,
+        run="run1",
     ):
         """Node temperatures that match the first readings of a run.
 
@@ -969,6 +1044,8 @@ class ThermalMachine:
             The fastest spindle speed and feed of the machine's duty (its
             range, not this run's: they set the shapes of the warm states of
             the prior, not their size; with neither, only the air moves it).
+        run : label, default="run1"
+            Named in error messages and warnings.
 
         Returns
         -------
@@ -988,49 +1065,69 @@ class ThermalMachine:
         >>> T0.shape, bool(T0.max() > 20.0)
         ((9,), True)
         """
+        where = f"Run {run!r}: "
         if isinstance(readings, pd.DataFrame):
             readings = {c: readings[c].to_numpy() for c in readings.columns}
         readings = dict(readings.items() if hasattr(readings, "items") else readings)
         if not readings:
             raise ValueError(
-                "readings is empty: give the first reading of at least one of "
-                f"the machine's sensors ({len(self.sensors)}, e.g. "
+                f"{where}readings is empty: give the first reading of at least "
+                f"one of the machine's sensors ({len(self.sensors)}, e.g. "
                 f"{self.sensors[:3]})."
             )
         unknown = [c for c in readings if c not in self.sensors]
         if unknown:
             raise ValueError(
-                f"readings: {unknown} are not sensors of the machine"
+                f"{where}readings: {unknown} are not sensors of the machine"
                 f"{suggest(unknown[0], self.sensors)}; its sensors: "
                 f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
             )
+        max_rpm = _check_number(max_rpm, "max_rpm", nonnegative=True)
+        max_feed = _check_number(max_feed_mm_min, "max_feed_mm_min", nonnegative=True)
+        for name, value, limit, unit in (
+            ("max_rpm", max_rpm, PLAUSIBLE_RPM, "rpm"),
+            ("max_feed_mm_min", max_feed, PLAUSIBLE_FEED_MM_MIN, "mm/min"),
+        ):
+            if value > limit:
+                warnings.warn(
+                    f"{name} is {value:g} {unit}, beyond any machine tool's "
+                    f"({limit:g} {unit}): check the value and its unit. The "
+                    "estimate goes on.",
+                    ImplausibleDriverWarning,
+                    stacklevel=2,
+                )
         names = list(readings)
+        air0 = _at_start(ambient_C, time_s, "ambient_C", run)
+        raw = np.array(
+            [_at_start(readings[c], time_s, f"readings[{c!r}]", run) for c in names]
+        )
+        _check_span(raw - air0, names, air0, where)
         heating = {}
         if spindle_rpm is not None:
-            heating = self._heating(names, ambient_C, time_s, spindle_rpm, feed_mm_min)
+            heating = self._heating(
+                names, ambient_C, time_s, spindle_rpm, feed_mm_min, run
+            )
         m = np.array(
             [
                 _at_start(
-                    np.asarray(readings[c], dtype=float) - heating.get(c, 0.0)
-                    if c in heating
-                    else readings[c],
+                    _float_array(readings[c], f"readings[{c!r}]") - heating[c],
                     time_s,
                     f"readings[{c!r}]",
+                    run,
                 )
-                for c in names
+                if c in heating
+                else raw[i]
+                for i, c in enumerate(names)
             ]
         )
-        air0 = _at_start(ambient_C, time_s, "ambient_C")
-        far = np.abs(m - air0)
-        if far.max() > READING_SPAN_K:
-            c = names[int(np.argmax(far))]
-            raise ValueError(
-                f"readings[{c!r}] is {m[names.index(c)]:g}, {far.max():g} K from "
-                f"the air ({air0:g} °C): give temperatures in °C, as the air "
-                f"(a machine tool runs within some {READING_SPAN_K:g} K of it)."
-            )
-        max_rpm = _check_number(max_rpm, "max_rpm", nonnegative=True)
-        max_feed = _check_number(max_feed_mm_min, "max_feed_mm_min", nonnegative=True)
+        _check_span(
+            m - air0,
+            names,
+            air0,
+            where,
+            " after taking out what spindle_rpm and feed_mm_min warm the "
+            "machine by over the samples: check their values and units",
+        )
         n = len(self.spec.nodes)
         # The readings are affine in the node temperatures: one node at a
         # time (single rows: a sensor's lag does not act on one sample).
@@ -1053,7 +1150,7 @@ class ThermalMachine:
         d = P @ W.T @ np.linalg.solve(S, m - r)
         return air0 + d
 
-    def _heating(self, names, ambient_C, time_s, spindle_rpm, feed_mm_min):
+    def _heating(self, names, ambient_C, time_s, spindle_rpm, feed_mm_min, run):
         """How much the sensors ``names`` warm over the samples of
         :meth:`initial_from_readings` from the drivers, started soaked:
         ``{sensor: change since the first sample}``."""
@@ -1062,13 +1159,16 @@ class ThermalMachine:
             return {}
         if time_s is None:
             raise ValueError(
-                "spindle_rpm needs time_s: the times of the samples, to "
-                "simulate what the drivers warm the machine by over them."
+                f"Run {run!r}: spindle_rpm needs time_s: the times of the "
+                "samples, to simulate what the drivers warm the machine by "
+                "over them."
             )
-        air = np.broadcast_to(np.asarray(ambient_C, dtype=float), rpm.shape)
-        feed = None if feed_mm_min is None else _float_array(feed_mm_min, "feed_mm_min")
         t = _float_array(time_s, "time_s")
-        T = self.response(t, rpm, air, feed)
+        air = _float_array(ambient_C, "ambient_C")
+        if air.ndim == 0:
+            air = np.full(t.shape, float(air))
+        feed = None if feed_mm_min is None else _float_array(feed_mm_min, "feed_mm_min")
+        T = self.response(t, rpm, air, feed, run=run)
         values = self.read(T, air, names, sample_period_s=float(np.median(np.diff(t))))
         return dict(zip(names, (values - values[0]).T, strict=True))
 
@@ -1091,7 +1191,10 @@ class ThermalMachine:
                     feed[i : i + k] = rng.uniform(0.2, 1.0) * max_feed
             i, on = i + k, not on
         t = np.arange(steps) * dt
-        rise = self.response(t, rpm, np.zeros(steps), feed, initial=0.0)[::10]
+        with warnings.catch_warnings():
+            # initial_from_readings has warned of an implausible max_rpm.
+            warnings.simplefilter("ignore", ImplausibleDriverWarning)
+            rise = self.response(t, rpm, np.zeros(steps), feed, initial=0.0)[::10]
         P = rise.T @ rise / rise.shape[0]
         mean_var = float(np.trace(P)) / P.shape[0]
         if mean_var > 0:
@@ -1111,10 +1214,10 @@ class ThermalMachine:
                 f"initial={initial!r}: give 'ambient', 'steady', a temperature, "
                 "a dict node -> °C or one temperature per node"
                 + (
-                    " (initial='measured' is an option of calibrate and of "
+                    f" (initial={initial!r} is an option of calibrate and of "
                     "skthermal.gap.diagnose, which read each run's first "
                     "readings; here give initial=initial_from_readings(...))."
-                    if initial == "measured"
+                    if initial in ("measured", "auto")
                     else "."
                 )
             )
@@ -1777,27 +1880,87 @@ def _least_squares_keywords(least_squares_kw):
             )
 
 
-def _at_start(samples, time_s, name):
+def _numbers(samples, name, run):
+    """``samples`` (a number or a sequence of them) as floats; booleans and
+    text are refused (``True`` is not 1 °C)."""
+    a = np.asarray(samples)
+    if a.dtype.kind == "O":
+        odd = [v for v in a.ravel() if isinstance(v, (bool, np.bool_, str, bytes))]
+        if not odd:
+            return _float_array(a, name)
+    if a.dtype.kind not in "iuf" or a.dtype.kind == "O":
+        raise ValueError(
+            f"Run {run!r}: {name} must be numbers (°C), got {shown(samples)} "
+            f"(dtype {a.dtype})."
+        )
+    return _float_array(a, name)
+
+
+def _at_start(samples, time_s, name, run="run1"):
     """A reading at the time of its first sample: the number itself, or the
     value at ``time_s[0]`` of the least-squares line through the samples."""
-    if np.ndim(samples) == 0:
-        return _check_number(samples, name)
-    x = _float_array(samples, name)
+    x = _numbers(samples, name, run)
+    if x.ndim == 0:
+        return _check_number(x, name)
     if x.size == 0 or not np.all(np.isfinite(x)):
-        raise ValueError(f"{name} must be finite numbers (°C), got {samples!r}.")
+        raise ValueError(
+            f"Run {run!r}: {name} must be finite numbers (°C), got {shown(samples)}."
+        )
     if time_s is None:
         t = np.arange(x.size, dtype=float)
     else:
         t = _float_array(time_s, "time_s")
     if t.shape != x.shape:
         raise ValueError(
-            f"{name} has {x.size} samples and time_s {t.size}: give one time "
-            "per sample."
+            f"Run {run!r}: {name} has {x.size} samples and time_s {t.size}: "
+            "give one time per sample."
         )
-    if x.size == 1 or np.ptp(t) == 0:
-        return float(x.mean())
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(f"Run {run!r}: time_s is NaN or infinite at sample {bad[0]}.")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        raise ValueError(
+            f"Run {run!r}: time_s must increase strictly, got {t[bad[0] + 1]:g} "
+            f"after {t[bad[0]]:g} (samples {bad[0]} and {bad[0] + 1})."
+        )
+    if x.size == 1:
+        return float(x[0])
     slope, intercept = np.polyfit(t - t[0], x, 1)
     return float(intercept)
+
+
+def _check_span(rise, names, air0, where, after=None):
+    """Refuse first readings (``rise``: K above the air ``air0``) that no
+    machine tool gives, and warn of ones that seldom are (a unit slip);
+    ``after``: what was taken out of them (the drivers' heating)."""
+    far = np.abs(rise)
+    i = int(np.argmax(far))
+    if far[i] > READING_SPAN_K:
+        if after is not None:
+            raise ValueError(
+                f"{where}readings[{names[i]!r}] is {far[i]:g} K from the air "
+                f"({air0:g} °C){after}."
+            )
+        raise ValueError(
+            f"{where}readings[{names[i]!r}] is {air0 + rise[i]:g}, {far[i]:g} K "
+            f"from the air ({air0:g} °C): give temperatures in °C, as the air "
+            f"(a machine tool runs within some {READING_SPAN_K:g} K of it)."
+        )
+    if after is not None:
+        return
+    if np.median(rise) > READING_ABOVE_K or rise.min() < -READING_BELOW_K:
+        j = int(np.argmin(rise)) if rise.min() < -READING_BELOW_K else i
+        warnings.warn(
+            f"{where}readings[{names[j]!r}] is {rise[j]:+.3g} K from the air "
+            f"({air0:g} °C), the readings a median {np.median(rise):+.3g} K: "
+            f"a machine tool's structure seldom starts more than "
+            f"{READING_ABOVE_K:g} K above the air or {READING_BELOW_K:g} K below "
+            "it. Check that the readings and the air are in the same unit "
+            "(°C); the estimate goes on.",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_kw):
@@ -1876,13 +2039,10 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     for c in channels:
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")
+    structure = [c for c in machine.structure_sensors if c in runs.columns]
+    if isinstance(initial, str) and initial == "auto":
+        initial = "measured" if structure else "ambient"
     from_readings = isinstance(initial, str) and initial == "measured"
-    if from_readings and not any(c in runs.columns for c in machine.sensors):
-        raise ValueError(
-            "initial='measured' estimates each run's initial state from its "
-            "first temperature readings, and the runs hold none of the "
-            f"machine's sensors ({machine.sensors[:3]} ...)."
-        )
     # A text, a missing or an infinite value in a fitted channel or a driver
     # is named by its column, run, row and time.
     read = [
@@ -1961,6 +2121,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
                     spindle_rpm=rpm[:k],
                     feed_mm_min=None if feed is None else feed[:k],
                     **prior_range,
+                    run=run,
                 )
                 if from_readings
                 else initial
