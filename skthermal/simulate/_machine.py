@@ -391,13 +391,7 @@ class ThermalMachine:
             columns = {c: c for c in self.sensors if c in frame.columns}
         else:
             columns = dict(columns)
-            unknown = [c for c in columns if c not in self.sensors]
-            if unknown:
-                raise ValueError(
-                    f"columns: {unknown} are not sensors of the machine"
-                    f"{suggest(unknown[0], self.sensors)}; its sensors: "
-                    f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
-                )
+            self._check_sensor_names(columns, "columns")
             absent = {s: c for s, c in columns.items() if c not in frame.columns}
             if absent:
                 s, c = next(iter(absent.items()))
@@ -431,6 +425,17 @@ class ThermalMachine:
                 "runs."
             )
         return out
+
+    def _check_sensor_names(self, names, what):
+        """A ValueError naming the entries of ``names`` that are not sensors
+        of the machine (``what``: where they come from)."""
+        unknown = [c for c in names if c not in self.sensors]
+        if unknown:
+            raise ValueError(
+                f"{what}: {unknown} are not sensors of the machine"
+                f"{suggest(unknown[0], self.sensors)}; its sensors: "
+                f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
+            )
 
     def with_effects(self, effects=None, *, add=(), remove=()):
         """A copy with other effects: ``effects`` replaces, ``add``/``remove`` edit."""
@@ -1075,13 +1080,7 @@ class ThermalMachine:
                 f"one of the machine's sensors ({len(self.sensors)}, e.g. "
                 f"{self.sensors[:3]})."
             )
-        unknown = [c for c in readings if c not in self.sensors]
-        if unknown:
-            raise ValueError(
-                f"{where}readings: {unknown} are not sensors of the machine"
-                f"{suggest(unknown[0], self.sensors)}; its sensors: "
-                f"{self.sensors[:6]}{' ...' if len(self.sensors) > 6 else ''}."
-            )
+        self._check_sensor_names(readings, f"{where}readings")
         max_rpm = _check_number(max_rpm, "max_rpm", nonnegative=True)
         max_feed = _check_number(max_feed_mm_min, "max_feed_mm_min", nonnegative=True)
         for name, value, limit, unit in (
