@@ -1925,8 +1925,10 @@ def _at_start(samples, time_s, name, run="run1"):
         )
     if x.size == 1:
         return float(x[0])
-    slope, intercept = np.polyfit(t - t[0], x, 1)
-    return float(intercept)
+    # The least-squares line through the samples, at the first one's time.
+    dt = t - t.mean()
+    slope = float(dt @ (x - x.mean())) / float(dt @ dt)
+    return float(x.mean() - slope * (t.mean() - t[0]))
 
 
 def _check_span(rise, names, air0, where, after=None):
@@ -2106,8 +2108,19 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             ),
         }
 
+    # The prior of the initial states (initial="measured") depends on the
+    # parameters of the network and its heat, not on the thermo-elastic
+    # coefficients: one per set of the others (a finite-difference step of a
+    # coefficient reuses it).
+    priors = {}
+
     def simulate_all(values):
         m = machine.with_params(dict(zip(params, values, strict=True)))
+        thermal = tuple(
+            v for k, v in zip(params, values, strict=True) if not k.startswith("k.")
+        )
+        if thermal in priors:
+            m._cache.update(priors[thermal])
         out = []
         for run, frame in groups:
             t, rpm, air, feed = _run_drivers(frame, run)
@@ -2130,6 +2143,12 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             )
             values = sim[channels].to_numpy(float)
             out.append(values - values[0])
+        if from_readings and thermal not in priors:
+            priors[thermal] = {
+                key: value
+                for key, value in m._cache.items()
+                if isinstance(key, tuple) and key[0] == "state_prior"
+            }
         return out
 
     def residuals(variables):
