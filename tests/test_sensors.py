@@ -553,3 +553,49 @@ def test_missing_extra_values_are_named(stack):
     disp = np.r_[np.nan, np.arange(6.0)]
     with pytest.raises(ValueError, match=r"'disp_y_um' is missing .* at frame 0"):
         ext.transform(stack, extra={"disp_y_um": disp})
+
+
+def test_strain_functions_name_bad_input():
+    runs = pd.DataFrame(
+        {
+            "run": ["a", "a", "a", "b", "b", "b"],
+            "time_s": [0.0, 60.0, 120.0, 0.0, 60.0, 120.0],
+            "T1_C": [20.0, 21.0, 22.0, 25.0, 26.0, 27.0],
+            "Sram_ue": [0.0, 20.0, 40.0, 0.0, 20.0, 40.0],
+        }
+    )
+    text = runs.astype({"Sram_ue": object})
+    text.loc[2, "Sram_ue"] = "n/a"
+    with pytest.raises(ValueError, match=r"Column 'Sram_ue' is not numeric: row 2"):
+        correct_strain_channels(text, {"Sram_ue": "T1_C"})
+    gap = runs.copy()
+    gap.loc[4, "T1_C"] = np.nan
+    with pytest.raises(ValueError, match=r"Column 'T1_C' is missing .* run 'b'"):
+        correct_strain_channels(gap, {"Sram_ue": "T1_C"})
+    with pytest.raises(ValueError, match="runs is empty"):
+        correct_strain_channels(runs.iloc[:0], {"Sram_ue": "T1_C"})
+    # A run out of time order would be referred to the wrong first row.
+    swapped = runs.iloc[[1, 0, 2, 3, 4, 5]]
+    with pytest.raises(ValueError, match=r"in run 'a' row 1 has time_s=0 after 60"):
+        correct_strain_channels(swapped, {"Sram_ue": "T1_C"})
+    states = pd.DataFrame({"carrier2": np.linspace(20.0, 21.0, 6)})
+    gauges = {"c": FBGGauge({"carrier2": 1.0})}
+    with pytest.raises(ValueError, match=r"in run 'a' row 1 has time_s=0"):
+        add_strain_channels(swapped, states, gauges)
+    # One temperature for many readings corrects nothing: refused.
+    for temperature in (20.0, [20.0], np.full((1, 2), 20.0)):
+        with pytest.raises(ValueError, match="one co-located temperature per"):
+            correct_fbg_strain(np.zeros((5, 2)), temperature)
+
+
+def test_extractor_run_label_and_strip_spots():
+    frames = 20 + np.random.default_rng(0).normal(0, 0.1, (6, 10, 12))
+    extractor = VirtualSensorExtractor(grid=(2, 2)).fit(frames)
+    for run in (np.nan, ["A", "B"]):
+        with pytest.raises(ValueError, match="run must be one run label"):
+            extractor.transform(frames, np.arange(6) * 10.0, run=run)
+    assert extractor.transform(frames, run="A")["run"].eq("A").all()
+    with pytest.raises(ValueError, match="5 spots over 2 pixel.*at most 2"):
+        VirtualSensorExtractor(strips={1: ((2, 2), (2, 3), 5)}).fit(frames)
+    strip = VirtualSensorExtractor(strips={1: ((2, 2), (2, 3), 2)}).fit(frames)
+    assert len(strip.spots_) == 2

@@ -924,3 +924,10 @@ def test_absurd_drivers_and_stiff_parameters_are_named_not_nan():
             stiff.simulate(
                 DutyCycle([(3600, 6000)]), 20.0, sample_period_s=60, noise=False
             )
+
+
+def test_a_run_label_is_one_label(vmc_b):
+    t = np.arange(5) * 30.0
+    for run in (None, np.nan, ["a", "b"], True):
+        with pytest.raises(ValueError, match="run must be one run label"):
+            vmc_b.simulate_drivers(t, np.zeros(5), np.full(5, 20.0), run=run)

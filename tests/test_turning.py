@@ -192,3 +192,10 @@ def test_anfis_predicts_aggregate_error_lines():
     mean_error = (predicted - measured).abs().groupby(prof.case).mean()
     # 003 Table 2 reports mean errors of 1.2-3.4 µm on its six cases.
     assert mean_error.max() < 3.5
+
+
+def test_fit_error_lines_names_text():
+    with pytest.raises(ValueError, match=r"L_mm must hold numbers, got \['x'"):
+        fit_error_lines(["x", 20, 30], [1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="d_um must hold numbers"):
+        fit_error_lines([10.0, 20.0, 30.0], [1.0, "n/a", 3.0])

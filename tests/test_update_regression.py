@@ -418,3 +418,63 @@ def test_old_coefficients_of_the_wrong_length_are_named():
         with pytest.raises(ValueError, match=r"coef_old must have shape \(4,\): the"):
             function(X, y, np.zeros(3))  # the intercept left out
     assert update_coef(X, y, np.zeros((4, 1))).shape == (4, 1)
+
+
+def test_array_functions_check_their_input():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(10, 2))
+    y = X @ [2.0, 1.0]
+    holed = X.copy()
+    holed[3, 0] = np.nan
+    with pytest.raises(ValueError, match="Input X contains NaN"):
+        ridge_coef(holed, y)
+    with pytest.raises(ValueError, match="inconsistent numbers of samples"):
+        ridge_coef(X, y[:-1])
+    with pytest.raises(ValueError, match="Expected 2D array"):
+        ridge_coef(X[:, 0], y)
+    with pytest.raises(InvalidParameterError, match="'alpha' parameter"):
+        ridge_coef(X, y, alpha=-1000)
+    for eta in (2.0, -1.0, 0.0):
+        with pytest.raises(InvalidParameterError, match="'eta' parameter"):
+            update_coef(X[:6], y[:6], np.zeros(3), eta=eta)
+        with pytest.raises(InvalidParameterError, match="'eta' parameter"):
+            update_path(X[:6], y[:6], np.zeros(3), eta=eta)
+    with pytest.raises(ValueError, match="coef_old contains NaN"):
+        update_coef(X[:6], y[:6], np.array([np.nan, 1.0, 1.0]))
+    with pytest.raises(ValueError, match="Input y contains NaN"):
+        update_path(X[:6], np.r_[np.nan, y[1:6]], np.zeros(3))
+    with pytest.raises(ValueError, match="path contains NaN"):
+        first_stable_update(np.full((5, 3), np.nan))
+    with pytest.raises(InvalidParameterError, match="'rtol' parameter"):
+        first_stable_update(np.ones((5, 3)), rtol=-1)
+    with pytest.raises(ValueError, match="path must hold one coefficient vector"):
+        first_stable_update(np.zeros((0, 3)))
+    with pytest.raises(InvalidParameterError, match="'atol' parameter"):
+        update_is_stable(np.ones((3, 2)), atol=-1.0)
+
+
+def test_adaptive_compensation_checks_times_and_text():
+    runs = make_batch_campaign(n_batches=3, random_state=0)
+    first = changes_since_start(runs[runs["run"] == "B1"])
+    model = UpdateRegressor().fit(first[["T09_C", "T35_C"]], first["disp_y_um"])
+    rest = runs[runs["run"] != "B1"].reset_index(drop=True)
+    clock = rest.assign(time_s=pd.to_datetime(rest["time_s"], unit="s"))
+    with pytest.raises(ValueError, match="'time_s' column holds datetime64"):
+        adaptive_compensation(model, clock)
+    swapped = rest.iloc[[1, 0, *range(2, len(rest))]]
+    with pytest.raises(ValueError, match="in run 'B2' row 1 has time_s=0"):
+        adaptive_compensation(model, swapped)
+    text = rest.astype({"disp_y_um": object})
+    text.loc[5, "disp_y_um"] = "n/a"
+    with pytest.raises(ValueError, match=r"Column 'disp_y_um' is not numeric: row 5"):
+        adaptive_compensation(model, text)
+
+
+def test_cross_batch_rmse_refuses_a_scattered_batch():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(9, 2))
+    y = X @ [1.0, 2.0]
+    with pytest.raises(ValueError, match="rows of run 'b1' are not contiguous"):
+        cross_batch_rmse(
+            {"ols": LinearRegression()}, X, y, ["b1"] * 3 + ["b2"] * 3 + ["b1"] * 3
+        )

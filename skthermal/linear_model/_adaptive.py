@@ -30,7 +30,12 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
+    check_numeric_columns,
+    check_table_times,
+    check_time_order,
     extract_runs,
+    frame_run_labels,
+    row_times,
     run_slices,
 )
 
@@ -162,6 +167,7 @@ def _stream_inputs(model, runs, target, sensors, relative):
             f"The model expects {n_in} inputs but {len(sensors)} sensors were given."
         )
     labels = [RUN_COLUMN] if RUN_COLUMN in runs.columns else []
+    check_numeric_columns(runs[[*sensors, target]], frame_run_labels(runs))
     features, groups = extract_runs(runs[[*sensors, *labels]], finite=False)
     slices, _ = run_slices(groups, len(runs))
     X = features.to_numpy(dtype=float)
@@ -180,11 +186,11 @@ def _stream_inputs(model, runs, target, sensors, relative):
         X = changes_since_start(X, slices)
         y = changes_since_start(y, slices)
     if TIME_COLUMN in runs.columns:
+        check_table_times(runs, groups)
         t = runs[TIME_COLUMN].to_numpy(dtype=float)
-    elif TIME_COLUMN in (runs.index.names or []):
-        t = runs.index.get_level_values(TIME_COLUMN).to_numpy(dtype=float)
     else:
-        t = None
+        check_time_order(features, groups)
+        t = row_times(features)
     period = None
     if t is not None:
         steps = np.concatenate([np.diff(t[sl]) for sl in slices])

@@ -20,7 +20,8 @@ from numbers import Real
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
-from sklearn.utils._param_validation import Interval
+from sklearn.utils import check_X_y
+from sklearn.utils._param_validation import Interval, validate_params
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import extract_runs, run_slices, target_names
@@ -50,6 +51,26 @@ def _as_2d_target(y):
     return y[:, None] if y.ndim == 1 else y
 
 
+def _samples(X, y):
+    """``X`` (2-D) and ``y`` (2-D), checked as scikit-learn checks them: one
+    target row per sample, finite numbers."""
+    X, y = check_X_y(X, y, multi_output=True, y_numeric=True, dtype=float)
+    return X, _as_2d_target(y)
+
+
+_ETA = [Interval(Real, 0, 1, closed="right")]
+_TOLERANCE = [Interval(Real, 0, None, closed="left")]
+
+
+@validate_params(
+    {
+        "X": ["array-like"],
+        "y": ["array-like"],
+        "alpha": [Interval(Real, 0, None, closed="left")],
+        "penalize_intercept": ["boolean"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def ridge_coef(X, y, *, alpha=25.0, penalize_intercept=True):
     """Ridge coefficients ``(A^T A + p I)^-1 A^T E`` with ``A = [1, X]``.
 
@@ -81,8 +102,7 @@ def ridge_coef(X, y, *, alpha=25.0, penalize_intercept=True):
     >>> ridge_coef(X, 1 + 2 * X[:, 0], alpha=25.0).round(3).tolist()
     [0.278, 0.406]
     """
-    X = np.asarray(X, dtype=float)
-    E = _as_2d_target(y)
+    X, E = _samples(X, y)
     A = _design(X)
     P = np.diag(_penalty(A.shape[1], alpha, penalize_intercept))
     coef = _solve(A.T @ A + P, A.T @ E)
@@ -101,9 +121,21 @@ def _old_coefficients(coef_old, X, E):
             + ("" if n_targets == 1 else f", one column per target ({n_targets})")
             + f"; got shape {old.shape}."
         )
+    if not np.all(np.isfinite(old)):
+        raise ValueError("coef_old contains NaN or infinite values.")
     return old.reshape(p, n_targets)
 
 
+@validate_params(
+    {
+        "X": ["array-like"],
+        "y": ["array-like"],
+        "coef_old": ["array-like"],
+        "eta": _ETA,
+        "penalize_intercept": ["boolean"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """Update-regression coefficients from an old model and new samples.
 
@@ -136,8 +168,7 @@ def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     >>> update_coef(X, y, np.zeros(2), eta=0.5).round(4).tolist()
     [1.0, 1.6667]
     """
-    X = np.asarray(X, dtype=float)
-    E = _as_2d_target(y)
+    X, E = _samples(X, y)
     old = _old_coefficients(coef_old, X, E)
     A = _design(X)
     d = _penalty(A.shape[1], 1.0 - eta, penalize_intercept)
@@ -145,6 +176,16 @@ def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     return coef.reshape(np.shape(coef_old))
 
 
+@validate_params(
+    {
+        "X": ["array-like"],
+        "y": ["array-like"],
+        "coef_old": ["array-like"],
+        "eta": _ETA,
+        "penalize_intercept": ["boolean"],
+    },
+    prefer_skip_nested_validation=True,
+)
 def update_path(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """Update-regression coefficients after each of the first 1..n new samples.
 
@@ -172,8 +213,7 @@ def update_path(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     >>> bool(np.allclose(path[2], update_coef(X[:3], y[:3], np.ones(3))))
     True
     """
-    X = np.asarray(X, dtype=float)
-    E = _as_2d_target(y)
+    X, E = _samples(X, y)
     old = _old_coefficients(coef_old, X, E)
     A = _design(X)
     G = np.cumsum(A[:, :, None] * A[:, None, :], axis=0)
@@ -185,6 +225,10 @@ def update_path(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     return path.reshape((X.shape[0], *np.shape(coef_old)))
 
 
+@validate_params(
+    {"coefs": ["array-like"], "rtol": _TOLERANCE, "atol": _TOLERANCE},
+    prefer_skip_nested_validation=True,
+)
 def update_is_stable(coefs, *, rtol=0.1, atol=0.0):
     """The stability rule of update regression (004 §3.2).
 
@@ -224,13 +268,15 @@ def update_is_stable(coefs, *, rtol=0.1, atol=0.0):
         )
     if not np.all(np.isfinite(c)):
         raise ValueError("coefs contains NaN or infinite values.")
-    if rtol < 0 or atol < 0:
-        raise ValueError(f"rtol and atol must be >= 0, got {rtol} and {atol}.")
     spread = c.max(axis=0) - c.min(axis=0)
     scale = np.abs(c).max(axis=0)
     return bool(np.all(spread <= rtol * scale + atol))
 
 
+@validate_params(
+    {"path": ["array-like"], "rtol": _TOLERANCE, "atol": _TOLERANCE},
+    prefer_skip_nested_validation=True,
+)
 def first_stable_update(path, *, rtol=0.1, atol=0.0):
     """Smallest ``N`` whose updates with N, N + 1, N + 2 samples agree.
 
@@ -257,6 +303,13 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
     3
     """
     p = np.asarray(path, dtype=float)
+    if p.ndim < 2 or p.shape[0] == 0 or p[0].size == 0:
+        raise ValueError(
+            "path must hold one coefficient vector per number of new samples "
+            f"(the output of update_path), got shape {p.shape}."
+        )
+    if not np.all(np.isfinite(p)):
+        raise ValueError("path contains NaN or infinite values.")
     p = p.reshape(p.shape[0], -1)
     if p.shape[0] < 3:
         return None

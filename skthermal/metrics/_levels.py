@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
-from skthermal.utils._runs import check_labels
+from skthermal.utils._runs import check_labels, run_slices
 
 RMSELevels = namedtuple("RMSELevels", ["per_batch", "per_model", "per_method"])
 RMSELevels.__doc__ = """The three levels of 004 eq. 16.
@@ -203,6 +203,9 @@ def cross_batch_rmse(estimators, X, y, groups, *, include_self=True):
         )
     y = _as_vector(y, "y")
     groups = _batch_labels(groups, y.shape[0])
+    # Every batch model is fitted on one contiguous batch (a sequence model
+    # would join the pieces of a scattered one).
+    run_slices(groups)
     if not hasattr(X, "shape"):  # a list of rows
         X = np.asarray(X)
     if X.ndim != 2:

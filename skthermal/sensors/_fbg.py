@@ -22,7 +22,12 @@ from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import STRAIN_PATTERN, TEMPERATURE_PATTERN
 from skthermal._run_changes import changes_since_first_row
-from skthermal.utils._runs import check_numeric_columns, frame_run_labels
+from skthermal.utils._runs import (
+    check_finite_columns,
+    check_numeric_columns,
+    check_table_times,
+    frame_run_labels,
+)
 
 FBG_SENSITIVITY_UE_PER_C = 8.64
 """Apparent strain of a grating per °C of its own temperature (µε/°C, 001
@@ -89,6 +94,12 @@ def correct_fbg_strain(
         raise ValueError(
             f"raw_ue must have shape (n_samples,) or (n_samples, n_gratings), got "
             f"{raw.shape}."
+        )
+    if temp.ndim == 0 or temp.shape[0] != raw.shape[0]:
+        raise ValueError(
+            f"temperature_C of shape {temp.shape} does not match raw_ue of shape "
+            f"{raw.shape}: give one co-located temperature per sample (and per "
+            "grating); a constant temperature corrects nothing."
         )
     if temp.ndim == 1 and raw.ndim == 2:
         temp = temp[:, None]
@@ -314,6 +325,7 @@ def add_strain_channels(
         row = int(np.argwhere(~np.isfinite(T))[0][0])
         raise ValueError(f"states is NaN or infinite at row {row}.")
     groups = frame_run_labels(runs)
+    check_table_times(runs, groups)
     dT = changes_since_first_row(T, groups)
     index = {n: i for i, n in enumerate(states.columns)}
     # Gauges are linear in the node rises: one matrix product for all of them.
@@ -413,8 +425,20 @@ def correct_strain_channels(
                 raise ValueError(f"The {what} column {col!r} is not in the table.")
             if not pattern.fullmatch(str(col)):
                 raise ValueError(f"{col!r} is not a {what} column name.")
+    if len(runs) == 0:
+        raise ValueError("runs is empty: no rows to correct.")
     strain = list(colocated)
     groups = frame_run_labels(runs)
+    used = runs[list(dict.fromkeys([*strain, *colocated.values()]))]
+    check_numeric_columns(used, groups)
+    check_finite_columns(
+        used.astype(float),
+        groups,
+        what="runs",
+        hint="Every reading of a corrected grating and of its co-located "
+        "sensor is needed: impute or drop those rows first.",
+    )
+    check_table_times(runs, groups)
     corrected = correct_fbg_strain(
         runs[strain].to_numpy(dtype=float),
         runs[[colocated[s] for s in strain]].to_numpy(dtype=float),

@@ -23,7 +23,7 @@ from sklearn.utils import check_random_state, check_scalar
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import TEMPERATURE_PATTERN
-from skthermal.utils._runs import is_clock_dtype
+from skthermal.utils._runs import check_run_label, is_clock_dtype
 
 _NAME = re.compile(r"[A-Za-z0-9]+")
 # Frames processed at once: bounds the memory of the integral images.
@@ -299,6 +299,13 @@ class VirtualSensorExtractor:
             ends = self._points([start, end], f"The ends of strip {name!r}")
             t = np.linspace(0.0, 1.0, n) if n > 1 else np.zeros(1)
             line = np.rint(ends[0] + t[:, None] * (ends[1] - ends[0])).astype(int)
+            span = int(np.abs(ends[1] - ends[0]).max()) + 1
+            if n > span:
+                raise ValueError(
+                    f"Strip {name!r} has {n} spots over {span} pixel(s) from "
+                    f"{tuple(ends[0].tolist())} to {tuple(ends[1].tolist())}: "
+                    f"spots would share centres; use at most {span} spots."
+                )
             width = max(2, len(str(n)))
             names += [f"Tstrip{label}_{k + 1:0{width}d}_C" for k in range(n)]
             kinds += ["strip"] * n
@@ -490,6 +497,7 @@ class VirtualSensorExtractor:
             )
         columns = {}
         if run is not None:
+            check_run_label(run)
             columns["run"] = None
         if time_s is not None:
             t = _seconds(time_s)

@@ -47,6 +47,7 @@ from skthermal.simulate._spec import (
 from skthermal.utils._runs import (
     check_finite_columns,
     check_numeric_columns,
+    check_run_label,
     is_clock_dtype,
     warn_short_runs,
 )
@@ -1290,6 +1291,7 @@ class ThermalMachine:
         states : DataFrame
             Only with ``return_states=True``.
         """
+        check_run_label(run)
         t, rpm, air, feed = self._drivers(time_s, spindle_rpm, ambient_C, feed_mm_min)
         self._check_drivers(t, rpm, air, feed, run)
         rng = check_random_state(random_state)

@@ -18,7 +18,7 @@ import pandas as pd
 from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, validate_params
 
-from skthermal._naming import plain
+from skthermal._naming import plain, shown
 from skthermal.utils._runs import check_labels
 
 _UNITS = {"mm": 1000.0, "um": 1.0}
@@ -212,8 +212,14 @@ def fit_error_lines(L_mm, d_um, groups=None):
     >>> (lines.round(6) + 0.0).to_dict("list")
     {'a_um_per_mm': [0.1, 0.0], 'b_um': [0.0, 5.0]}
     """
-    L = np.asarray(L_mm, dtype=float)
-    d = np.asarray(d_um, dtype=float)
+    arrays = []
+    for name, values in (("L_mm", L_mm), ("d_um", d_um)):
+        try:
+            arrays.append(np.asarray(values, dtype=float))
+        except (TypeError, ValueError):
+            msg = f"{name} must hold numbers, got {shown(values)}."
+            raise ValueError(msg) from None
+    L, d = arrays
     if L.ndim != 1 or d.shape != L.shape:
         raise ValueError(
             f"L_mm and d_um must be 1-D of the same length, got {L.shape} and "

@@ -141,6 +141,22 @@ def check_labels(groups, *, item="row", label="run", whole="run (test)"):
     )
 
 
+def check_run_label(run, name="run"):
+    """Raise a ValueError unless ``run`` is one run label: a string or a
+    number, not missing (None, NaN) and not a sequence."""
+    import pandas as pd
+
+    if (
+        isinstance(run, (bool, np.bool_))
+        or not isinstance(run, (str, Integral, Real))
+        or pd.isna(run)
+    ):
+        raise ValueError(
+            f"{name} must be one run label (a string or a number) for the "
+            f"whole run, got {run!r}."
+        )
+
+
 def run_first_rows(groups, n_samples):
     """The first row of the run of every row.
 
@@ -802,6 +818,32 @@ def check_time_order(X, groups):
     t = row_times(X)
     if t is None:
         return
+    _check_increasing(t, groups)
+
+
+def check_table_times(frame, groups):
+    """Check a run table's ``time_s`` column, when it has one: seconds (not
+    clock times or text), increasing strictly within each run (``groups``:
+    its run labels, :func:`frame_run_labels`).
+
+    Raises
+    ------
+    ValueError
+        Naming the column, or the run, the row and the two times.
+    """
+    if TIME_COLUMN not in frame.columns:
+        return
+    t = _time_seconds(frame[TIME_COLUMN], f"The {TIME_COLUMN!r} column")
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(
+            f"The {TIME_COLUMN!r} column is missing or infinite at "
+            f"{describe_row(int(bad[0]), frame, groups)}."
+        )
+    _check_increasing(t, groups)
+
+
+def _check_increasing(t, groups):
     slices, labels = run_slices(groups, t.shape[0])
     for sl, lab in zip(slices, labels, strict=True):
         bad = np.flatnonzero(np.diff(t[sl]) <= 0)
