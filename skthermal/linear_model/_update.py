@@ -58,7 +58,14 @@ def _samples(X, y):
     return X, _as_2d_target(y)
 
 
-_ETA = [Interval(Real, 0, 1, closed="right")]
+# The parameters of update_coef and update_path.
+_UPDATE_PARAMS = {
+    "X": ["array-like"],
+    "y": ["array-like"],
+    "coef_old": ["array-like"],
+    "eta": [Interval(Real, 0, 1, closed="right")],
+    "penalize_intercept": ["boolean"],
+}
 _TOLERANCE = [Interval(Real, 0, None, closed="left")]
 
 
@@ -126,16 +133,7 @@ def _old_coefficients(coef_old, X, E):
     return old.reshape(p, n_targets)
 
 
-@validate_params(
-    {
-        "X": ["array-like"],
-        "y": ["array-like"],
-        "coef_old": ["array-like"],
-        "eta": _ETA,
-        "penalize_intercept": ["boolean"],
-    },
-    prefer_skip_nested_validation=True,
-)
+@validate_params(_UPDATE_PARAMS, prefer_skip_nested_validation=True)
 def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """Update-regression coefficients from an old model and new samples.
 
@@ -176,16 +174,7 @@ def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     return coef.reshape(np.shape(coef_old))
 
 
-@validate_params(
-    {
-        "X": ["array-like"],
-        "y": ["array-like"],
-        "coef_old": ["array-like"],
-        "eta": _ETA,
-        "penalize_intercept": ["boolean"],
-    },
-    prefer_skip_nested_validation=True,
-)
+@validate_params(_UPDATE_PARAMS, prefer_skip_nested_validation=True)
 def update_path(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     """Update-regression coefficients after each of the first 1..n new samples.
 
