@@ -968,7 +968,10 @@ class ThermalMachine:
             ``"ambient"`` (the default of ``skthermal.gap.diagnose``). Runs
             that start warm, calibrated from the air, take their warm
             start's decay as physics: pass ``"auto"`` or ``"measured"`` for
-            them.
+            them. On soaked runs the first readings cost a little: the
+            sensors' calibration offsets are read partly as temperatures
+            (0.5 K offsets on the ``spindle-rig`` bent its fitted bearing
+            loss by 6% with ``"auto"``, not at all with ``"ambient"``).
         **least_squares_kw
             Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``); a
             keyword it does not take is a TypeError naming it.
