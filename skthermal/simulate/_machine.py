@@ -968,10 +968,11 @@ class ThermalMachine:
             ``"ambient"`` (the default of ``skthermal.gap.diagnose``). Runs
             that start warm, calibrated from the air, take their warm
             start's decay as physics: pass ``"auto"`` or ``"measured"`` for
-            them. On soaked runs the first readings cost a little: the
-            sensors' calibration offsets are read partly as temperatures
-            (0.5 K offsets on the ``spindle-rig`` bent its fitted bearing
-            loss by 6% with ``"auto"``, not at all with ``"ambient"``).
+            them. On soaked runs the first readings cost: the sensors'
+            calibration offsets are read partly as temperatures (0.5 K
+            offsets on soaked ``spindle-rig`` runs: the bearing loss fitted
+            6% low from the temperature channels and 42% low from the
+            displacements with ``"auto"``, within 1.1% with ``"ambient"``).
         **least_squares_kw
             Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``); a
             keyword it does not take is a TypeError naming it.
