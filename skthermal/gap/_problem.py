@@ -100,7 +100,8 @@ class MeasuredRun:
     rows: np.ndarray  # samples kept for the comparison
     y: np.ndarray  # measured channels at ``rows``, change since start
     # The first readings of the machine's sensors (simulated name -> the
-    # run's first START_SAMPLES samples, °C), with initial="measured".
+    # run's first samples, ThermalMachine.first_readings, °C), with
+    # initial="measured".
     start: dict = None
     # The run's initial node temperatures: "ambient" or an array (°C, in the
     # order of ``spec.nodes``), as ThermalMachine.response takes.

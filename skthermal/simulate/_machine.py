@@ -1101,24 +1101,20 @@ class ThermalMachine:
                     stacklevel=2,
                 )
         names = list(readings)
-        air0 = _at_start(ambient_C, time_s, "ambient_C", run)
+        t = None if time_s is None else _sample_times(time_s, run)
+        air0 = _at_start(ambient_C, t, "ambient_C", run)
+        samples = {c: _numbers(readings[c], f"readings[{c!r}]", run) for c in names}
         raw = np.array(
-            [_at_start(readings[c], time_s, f"readings[{c!r}]", run) for c in names]
+            [_at_start(samples[c], t, f"readings[{c!r}]", run) for c in names]
         )
         _check_span(raw - air0, names, air0, where)
+        _warn_unlikely(raw - air0, names, air0, where)
         heating = {}
         if spindle_rpm is not None:
-            heating = self._heating(
-                names, ambient_C, time_s, spindle_rpm, feed_mm_min, run
-            )
+            heating = self._heating(names, ambient_C, t, spindle_rpm, feed_mm_min, run)
         m = np.array(
             [
-                _at_start(
-                    _float_array(readings[c], f"readings[{c!r}]") - heating[c],
-                    time_s,
-                    f"readings[{c!r}]",
-                    run,
-                )
+                _at_start(samples[c] - heating[c], t, f"readings[{c!r}]", run)
                 if c in heating
                 else raw[i]
                 for i, c in enumerate(names)
@@ -1167,7 +1163,7 @@ class ThermalMachine:
                 "samples, to simulate what the drivers warm the machine by "
                 "over them."
             )
-        t = _float_array(time_s, "time_s")
+        t = time_s
         air = _float_array(ambient_C, "ambient_C")
         if air.ndim == 0:
             air = np.full(t.shape, float(air))
@@ -1889,11 +1885,11 @@ def _numbers(samples, name, run):
     """``samples`` (a number or a sequence of them) as floats; booleans and
     text are refused (``True`` is not 1 °C)."""
     a = np.asarray(samples)
-    if a.dtype.kind == "O":
-        odd = [v for v in a.ravel() if isinstance(v, (bool, np.bool_, str, bytes))]
-        if not odd:
-            return _float_array(a, name)
-    if a.dtype.kind not in "iuf" or a.dtype.kind == "O":
+    numeric = a.dtype.kind in "iuf" or (
+        a.dtype.kind == "O"
+        and not any(isinstance(v, (bool, np.bool_, str, bytes)) for v in a.ravel())
+    )
+    if not numeric:
         raise ValueError(
             f"Run {run!r}: {name} must be numbers (°C), got {shown(samples)} "
             f"(dtype {a.dtype})."
@@ -1901,25 +1897,9 @@ def _numbers(samples, name, run):
     return _float_array(a, name)
 
 
-def _at_start(samples, time_s, name, run="run1"):
-    """A reading at the time of its first sample: the number itself, or the
-    value at ``time_s[0]`` of the least-squares line through the samples."""
-    x = _numbers(samples, name, run)
-    if x.ndim == 0:
-        return _check_number(x, name)
-    if x.size == 0 or not np.all(np.isfinite(x)):
-        raise ValueError(
-            f"Run {run!r}: {name} must be finite numbers (°C), got {shown(samples)}."
-        )
-    if time_s is None:
-        t = np.arange(x.size, dtype=float)
-    else:
-        t = _float_array(time_s, "time_s")
-    if t.shape != x.shape:
-        raise ValueError(
-            f"Run {run!r}: {name} has {x.size} samples and time_s {t.size}: "
-            "give one time per sample."
-        )
+def _sample_times(time_s, run):
+    """The times of a run's first samples as floats: finite, increasing."""
+    t = _float_array(time_s, "time_s")
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise ValueError(f"Run {run!r}: time_s is NaN or infinite at sample {bad[0]}.")
@@ -1928,6 +1908,27 @@ def _at_start(samples, time_s, name, run="run1"):
         raise ValueError(
             f"Run {run!r}: time_s must increase strictly, got {t[bad[0] + 1]:g} "
             f"after {t[bad[0]]:g} (samples {bad[0]} and {bad[0] + 1})."
+        )
+    return t
+
+
+def _at_start(samples, t, name, run):
+    """A reading at the time of its first sample: the number itself, or the
+    value at ``t[0]`` of the least-squares line through the samples (``t``:
+    checked times, :func:`_sample_times`, or None for evenly spaced)."""
+    x = _numbers(samples, name, run)
+    if x.ndim == 0:
+        return _check_number(x, name)
+    if x.size == 0 or not np.all(np.isfinite(x)):
+        raise ValueError(
+            f"Run {run!r}: {name} must be finite numbers (°C), got {shown(samples)}."
+        )
+    if t is None:
+        t = np.arange(x.size, dtype=float)
+    if t.shape != x.shape:
+        raise ValueError(
+            f"Run {run!r}: {name} has {x.size} samples and time_s {t.size}: "
+            "give one time per sample."
         )
     if x.size == 1:
         return float(x[0])
@@ -1939,35 +1940,40 @@ def _at_start(samples, time_s, name, run="run1"):
 
 def _check_span(rise, names, air0, where, after=None):
     """Refuse first readings (``rise``: K above the air ``air0``) that no
-    machine tool gives, and warn of ones that seldom are (a unit slip);
-    ``after``: what was taken out of them (the drivers' heating)."""
+    machine tool gives; ``after``: what was taken out of them (the drivers'
+    heating), else they are taken to be in other units."""
     far = np.abs(rise)
     i = int(np.argmax(far))
-    if far[i] > READING_SPAN_K:
-        if after is not None:
-            raise ValueError(
-                f"{where}readings[{names[i]!r}] is {far[i]:g} K from the air "
-                f"({air0:g} °C){after}."
-            )
-        raise ValueError(
-            f"{where}readings[{names[i]!r}] is {air0 + rise[i]:g}, {far[i]:g} K "
-            f"from the air ({air0:g} °C): give temperatures in °C, as the air "
-            f"(a machine tool runs within some {READING_SPAN_K:g} K of it)."
-        )
-    if after is not None:
+    if far[i] <= READING_SPAN_K:
         return
-    if np.median(rise) > READING_ABOVE_K or rise.min() < -READING_BELOW_K:
-        j = int(np.argmin(rise)) if rise.min() < -READING_BELOW_K else i
-        warnings.warn(
-            f"{where}readings[{names[j]!r}] is {rise[j]:+.3g} K from the air "
-            f"({air0:g} °C), the readings a median {np.median(rise):+.3g} K: "
-            f"a machine tool's structure seldom starts more than "
-            f"{READING_ABOVE_K:g} K above the air or {READING_BELOW_K:g} K below "
-            "it. Check that the readings and the air are in the same unit "
-            "(°C); the estimate goes on.",
-            UserWarning,
-            stacklevel=3,
+    if after is not None:
+        raise ValueError(
+            f"{where}readings[{names[i]!r}] is {far[i]:g} K from the air "
+            f"({air0:g} °C){after}."
         )
+    raise ValueError(
+        f"{where}readings[{names[i]!r}] is {air0 + rise[i]:g}, {far[i]:g} K "
+        f"from the air ({air0:g} °C): give temperatures in °C, as the air "
+        f"(a machine tool runs within some {READING_SPAN_K:g} K of it)."
+    )
+
+
+def _warn_unlikely(rise, names, air0, where):
+    """Warn of first readings (``rise``: K above the air ``air0``) that a
+    machine's structure seldom gives: a unit slip (fahrenheit, say)."""
+    if np.median(rise) <= READING_ABOVE_K and rise.min() >= -READING_BELOW_K:
+        return
+    j = int(np.argmin(rise)) if rise.min() < -READING_BELOW_K else int(np.argmax(rise))
+    warnings.warn(
+        f"{where}readings[{names[j]!r}] is {rise[j]:+.3g} K from the air "
+        f"({air0:g} °C), the readings a median {np.median(rise):+.3g} K: "
+        f"a machine tool's structure seldom starts more than "
+        f"{READING_ABOVE_K:g} K above the air or {READING_BELOW_K:g} K below "
+        "it. Check that the readings and the air are in the same unit "
+        "(°C); the estimate goes on.",
+        UserWarning,
+        stacklevel=3,
+    )
 
 
 def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_kw):
@@ -2102,15 +2108,15 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             scale[kind] = np.maximum(spread[kind], floor)
     scale = np.where(scale > 0, scale, 1.0)
 
+    drivers = {run: _run_drivers(frame, run) for run, frame in groups}
     # The prior of the initial states spans the runs' own speeds and feeds.
     prior_range = {}
     if from_readings:
-        drivers = [_run_drivers(frame, run) for run, frame in groups]
         prior_range = {
-            "max_rpm": max(float(np.max(np.abs(d[1]))) for d in drivers),
+            "max_rpm": max(float(np.max(np.abs(d[1]))) for d in drivers.values()),
             "max_feed_mm_min": max(
                 float(np.max(np.abs(d[3]))) if d[3] is not None else 0.0
-                for d in drivers
+                for d in drivers.values()
             ),
         }
 
@@ -2128,8 +2134,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         if thermal in priors:
             m._cache.update(priors[thermal])
         out = []
-        for run, frame in groups:
-            t, rpm, air, feed = _run_drivers(frame, run)
+        for run, (t, rpm, air, feed) in drivers.items():
             k = FIRST_READINGS
             start = (
                 m.initial_from_readings(
