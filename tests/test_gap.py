@@ -529,6 +529,48 @@ def test_broyden_jacobian_starts_as_forward_differences_then_updates():
     np.testing.assert_allclose(fit.x, [3.0, 0.7, 0.5], atol=1e-5)
 
 
+def test_broyden_reduced_problem_has_the_full_cost_gradient_and_model(rng):
+    """least_squares sees n + 1 residuals with the same cost, gradient and
+    Gauss-Newton model as the m residuals, and takes the same steps."""
+    from scipy.optimize import least_squares
+
+    t = np.linspace(0.0, 4.0, 400)
+    y = 3.0 * np.exp(-0.7 * t) + 0.5 + rng.normal(0.0, 0.05, t.size)
+
+    def resid(x):
+        return x[0] * np.exp(-x[1] * t) + x[2] - y
+
+    lo, hi = np.array([0.0, 0.0, -5.0]), np.array([10.0, 5.0, 5.0])
+    x = np.array([1.0, 1.0, 0.0])
+    jac = BroydenJacobian(resid, (lo, hi))
+    g, R = jac.reduced_fun(x), jac.reduced_jac(x)
+    f, J = resid(x), jac.J
+    assert g.shape == (4,) and R.shape == (4, 3)
+    np.testing.assert_allclose(g[1:], 0.0)
+    np.testing.assert_allclose(0.5 * g @ g, 0.5 * f @ f, rtol=1e-12)
+    np.testing.assert_allclose(R.T @ g, J.T @ f, rtol=1e-10)
+    np.testing.assert_allclose(R.T @ R, J.T @ J, rtol=1e-10)
+    p = rng.normal(size=3)
+    np.testing.assert_allclose(
+        np.sum((g + R @ p) ** 2), np.sum((f + J @ p) ** 2), rtol=1e-10
+    )
+    # A Jacobian column without effect (a singular J) is still factored.
+    flat = BroydenJacobian(lambda x: resid(x[:3]), (np.r_[lo, 0.0], np.r_[hi, 1.0]))
+    x4 = np.r_[x, 0.5]
+    R4, g4 = flat.reduced_jac(x4), flat.reduced_fun(x4)
+    np.testing.assert_allclose(R4[:, 3], 0.0, atol=1e-9)
+    np.testing.assert_allclose(R4.T @ g4, flat.J.T @ resid(x), rtol=1e-10, atol=1e-9)
+    # The same steps as the full problem with the same Jacobian.
+    full, reduced = BroydenJacobian(resid, (lo, hi)), BroydenJacobian(resid, (lo, hi))
+    a = least_squares(full.fun, x, jac=full, bounds=(lo, hi), max_nfev=15)
+    b = least_squares(
+        reduced.reduced_fun, x, jac=reduced.reduced_jac, bounds=(lo, hi), max_nfev=15
+    )
+    assert a.nfev == b.nfev
+    np.testing.assert_allclose(b.x, a.x, rtol=1e-7)
+    np.testing.assert_allclose(b.cost, a.cost, rtol=1e-9)
+
+
 # --- audit fixes: small spindle-rig runs, screening only --------------------
 
 

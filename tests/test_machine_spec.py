@@ -393,6 +393,28 @@ def test_response_and_read_reproduce_the_noiseless_simulation(name):
         machine.read(T, sim["ambient_C"], ["T99_C"], sample_period_s=30.0)
 
 
+def test_with_params_is_the_machine_built_with_those_params():
+    """with_params checks only the changed values, yet gives the machine the
+    constructor builds, and still refuses bad values and joint rules."""
+    machine = ThermalMachine.from_preset("spindle-rig", effects=list(EFFECTS))
+    sim = machine.simulate(DUTY, 20.0, noise=False)  # fills the caches
+    cap = next(k for k in machine.params if k.startswith("C."))
+    change = {cap: 2.0 * machine.params[cap], "speed_convection.gain": 0.5}
+    fast = machine.with_params(change)
+    built = ThermalMachine(machine.spec, {**machine.params, **change}, machine.effects)
+    assert fast.params == built.params
+    pd.testing.assert_frame_equal(
+        fast.simulate(DUTY, 20.0, noise=False), built.simulate(DUTY, 20.0, noise=False)
+    )
+    assert not sim.equals(fast.simulate(DUTY, 20.0, noise=False))
+    with pytest.raises(ValueError, match="must be positive"):
+        machine.with_params({cap: -1.0})
+    with pytest.raises(ValueError, match="must not exceed 1"):
+        machine.with_params(
+            {"feed_heating.nut_share": 0.8, "feed_heating.motor_share": 0.7}
+        )
+
+
 def test_an_effect_is_one_class(monkeypatch):
     """A new effect needs only its class: parameters, checks and physics."""
 

@@ -41,15 +41,20 @@ def test_linear_recurrence_matches_loop(n, rng):
     np.testing.assert_allclose(x, ref, rtol=1e-10, atol=1e-10)
 
 
-def test_modal_step_matches_an_ode_solver(rng):
-    """Exact discretisation: ZOH heat, linearly varying air, any step length."""
-    n = 6
+def _random_chain(rng, n):
+    """Capacities, ``L + H`` and convection of a random chain of ``n`` nodes."""
     C = rng.uniform(1e3, 1e5, n)
     G = np.zeros((n, n))
     for i in range(n - 1):
         G[i, i + 1] = G[i + 1, i] = rng.uniform(1, 20)
     h = rng.uniform(0.1, 2, n)
-    K = np.diag(G.sum(axis=1)) - G + np.diag(h)
+    return C, np.diag(G.sum(axis=1)) - G + np.diag(h), h
+
+
+def test_modal_step_matches_an_ode_solver(rng):
+    """Exact discretisation: ZOH heat, linearly varying air, any step length."""
+    n = 6
+    C, K, h = _random_chain(rng, n)
     modal = ModalSystem.from_network(C, K)
     dt, steps = 60.0, 120
     Q = np.zeros((steps, n))
@@ -73,6 +78,22 @@ def test_modal_step_matches_an_ode_solver(rng):
         max_step=dt / 8,
     )
     np.testing.assert_allclose(T, ref.y.T, atol=1e-6)
+
+
+def test_modal_step_advances_several_responses_together(rng):
+    """Parts stacked on a leading axis give each part's own response."""
+    n = 5
+    C, K, h = _random_chain(rng, n)
+    modal = ModalSystem.from_network(C, K)
+    steps = 90
+    T0 = rng.normal(20.0, 2.0, (3, n))
+    heat = rng.uniform(0.0, 50.0, (3, steps, 2))
+    air = rng.normal(20.0, 1.0, (3, steps + 1))
+    T = modal.step(T0, heat, h, air, 30.0, [1, 3])
+    assert T.shape == (steps + 1, 3, n)
+    for k in range(3):
+        alone = modal.step(T0[k], heat[k], h, air[k], 30.0, [1, 3])
+        np.testing.assert_allclose(T[:, k], alone, rtol=1e-12, atol=1e-10)
 
 
 def test_first_order_lag_settles_and_starts_at_input():

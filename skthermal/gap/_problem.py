@@ -922,7 +922,12 @@ def calibrate(
 
     jac = BroydenJacobian(vector, (lo, hi))
     res = least_squares(
-        jac.fun, x0, jac=jac, bounds=(lo, hi), max_nfev=max_nfev, x_scale=1.0
+        jac.reduced_fun,
+        x0,
+        jac=jac.reduced_jac,
+        bounds=(lo, hi),
+        max_nfev=max_nfev,
+        x_scale=1.0,
     )
     m = model(res.x)
     preds = {i: predict_run(m, problem, problem.runs[i], parts=True) for i in train_idx}
@@ -1041,7 +1046,11 @@ def refine(
     lo, hi = np.full(len(keys), -bound), np.full(len(keys), bound)
     jac = BroydenJacobian(vector, (lo, hi))
     res = least_squares(
-        jac.fun, np.zeros(len(keys)), jac=jac, bounds=(lo, hi), max_nfev=max_nfev
+        jac.reduced_fun,
+        np.zeros(len(keys)),
+        jac=jac.reduced_jac,
+        bounds=(lo, hi),
+        max_nfev=max_nfev,
     )
     _, gain, m, preds = data(res.x)
     return Fit(
@@ -1080,17 +1089,32 @@ class BroydenJacobian:
     accepted steps): Broyden's rank-one update from the step and the change
     of the residuals, ``J += (df - J dx) dx^T / (dx^T dx)``, which costs no
     simulation. Exact along the steps taken, approximate across them.
+
+    ``least_squares`` takes :meth:`reduced_fun` and :meth:`reduced_jac`: the
+    residuals (``m`` of them, tens of thousands) folded into ``n + 1``
+    (``n`` parameters). With ``f`` the residuals and ``J`` the Jacobian at a
+    point, ``[f J] = Q R`` with ``R`` upper triangular; the reduced
+    residuals are ``R[:, 0] = (|f|, 0, ..., 0)`` and their Jacobian
+    ``R[:, 1:]``. The cost ``|f|^2 / 2``, the gradient ``J^T f`` and the
+    Gauss-Newton model ``|f + J p|^2`` are those of the full problem, so the
+    trust-region steps are the same, and each costs an ``(n + 1) x n``
+    decomposition instead of an ``m x n`` one.
     """
 
     def __init__(self, fun, bounds, rel_step=1e-3):
         self.fun = _Memo(fun)
         self.lo, self.hi = (np.asarray(b, dtype=float) for b in bounds)
         self.rel_step = rel_step
-        self.x = self.f = self.J = None
+        self.x = self.f = None
+        # J = J0 + U V^T (the rank-one updates kept apart, so an update costs
+        # no m x n matrix) and its Gram matrix J^T J, updated alike.
+        self._J0 = self._gram = None
+        self._U, self._V = [], []
 
-    def __call__(self, x):
+    def _advance(self, x):
+        """Residuals at ``x``, with the Jacobian brought to ``x``."""
         f = self.fun(x)
-        if self.J is None:
+        if self._J0 is None:
             sign = np.where(x >= 0, 1.0, -1.0)
             h = self.rel_step * sign * np.maximum(1.0, np.abs(x))
             out = (x + h < self.lo) | (x + h > self.hi)
@@ -1102,14 +1126,70 @@ class BroydenJacobian:
                 step = np.array(x, dtype=float, copy=True)
                 step[k] += h[k]
                 J[:, k] = (self.fun.fun(step) - f) / h[k]
+            self._J0, self._gram = J, J.T @ J
         else:
             dx = x - self.x
             norm = float(dx @ dx)
-            J = self.J
             if norm > 0:
-                J = J + np.outer(f - self.f - J @ dx, dx / norm)
-        self.x, self.f, self.J = np.array(x, dtype=float, copy=True), f, J
+                u = f - self.f - self._times(dx)
+                v = dx / norm
+                Ju = self._transposed_times(u)
+                self._gram = (
+                    self._gram
+                    + np.outer(Ju, v)
+                    + np.outer(v, Ju)
+                    + float(u @ u) * np.outer(v, v)
+                )
+                self._U.append(u)
+                self._V.append(v)
+        self.x, self.f = np.array(x, dtype=float, copy=True), f
+        return f
+
+    def _times(self, p):
+        """``J @ p``."""
+        out = self._J0 @ p
+        for u, v in zip(self._U, self._V, strict=True):
+            out += u * float(v @ p)
+        return out
+
+    def _transposed_times(self, w):
+        """``J^T @ w``."""
+        out = w @ self._J0
+        for u, v in zip(self._U, self._V, strict=True):
+            out += v * float(u @ w)
+        return out
+
+    @property
+    def J(self):
+        """The Jacobian at the last point (m x n)."""
+        J = self._J0.copy()
+        for u, v in zip(self._U, self._V, strict=True):
+            J += np.outer(u, v)
         return J
+
+    def __call__(self, x):
+        self._advance(x)
+        return self.J
+
+    def reduced_fun(self, x):
+        """``(|f(x)|, 0, ..., 0)``: residuals of the reduced problem."""
+        f = self.fun(x)
+        out = np.zeros(np.size(x) + 1)
+        out[0] = np.sqrt(f @ f)
+        return out
+
+    def reduced_jac(self, x):
+        """``R[:, 1:]`` of ``[f J] = Q R`` at ``x`` (the class's notes)."""
+        f = self._advance(x)
+        norm = np.sqrt(f @ f)
+        n = np.size(x)
+        first = self._transposed_times(f) / norm if norm > 0 else np.zeros(n)
+        # The rest of R: any factor of J^T J minus the first row's part
+        # (only its Gram matrix enters the model); the eigenvalue square
+        # root is exact for a singular J too.
+        rest = self._gram - np.outer(first, first)
+        w, V = np.linalg.eigh((rest + rest.T) / 2)
+        return np.vstack([first, np.sqrt(np.clip(w, 0.0, None))[:, None] * V.T])
 
 
 def effect_parameters(effects):

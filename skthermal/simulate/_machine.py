@@ -9,6 +9,7 @@ any of them can be changed with :meth:`ThermalMachine.with_params` or fitted to
 measurements with :meth:`ThermalMachine.calibrate`.
 """
 
+import copy
 import dataclasses
 import math
 import warnings
@@ -28,6 +29,7 @@ from skthermal.simulate._drivers import (
 )
 from skthermal.simulate._effects import (
     EFFECTS,
+    Effect,
     check_effects,
     default_effects,
     sensor_draws,
@@ -449,9 +451,20 @@ class ThermalMachine:
 
     def with_params(self, params=None, **kwargs):
         """A copy with some parameters changed (validated)."""
-        new = dict(self._params)
-        new.update(dict(params or {}, **kwargs))  # checked by the constructor
-        return ThermalMachine(self.spec, new, self._effects)
+        changes = dict(params or {}, **kwargs)
+        # Only the changed values need their checks (the rest were checked
+        # when this machine was built), and the joint ones.
+        new = check_parameters(self.spec, changes, base=self._params)
+        check_connected(self.spec, new)
+        machine = copy.copy(self)
+        machine._params = new
+        # The sensors' weights and the read plans depend on the structure only.
+        machine._cache = {
+            k: v
+            for k, v in self._cache.items()
+            if isinstance(k, tuple) and k[0] in ("sensors", "read")
+        }
+        return machine
 
     def parameter_table(self):
         """All parameters as a Series (name -> value), sorted by name."""
@@ -519,9 +532,14 @@ class ThermalMachine:
         return K, to_room
 
     def _modal(self, rpm):
-        key = float(rpm)
+        """The modal system and convection to the workshop air at ``rpm``,
+        cached per speed, or once for every speed when the network does
+        not follow the speed."""
+        # Without an effect whose convection follows the speed, one
+        # network serves every speed.
+        key = float(rpm) if self._speed_dependent() else "any speed"
         if key not in self._cache:
-            K, to_room = self._network(key)
+            K, to_room = self._network(float(rpm))
             C = np.array([self._params[f"C.{n}"] for n in self.spec.nodes])
             try:
                 with np.errstate(over="ignore", invalid="ignore"):
@@ -533,9 +551,17 @@ class ThermalMachine:
             if modal is None or not modal.rates[-1] <= (
                 STIFFNESS_LIMIT * modal.rates[0]
             ):
-                raise _StiffNetwork(self._stiff_message(np.array([key])))
+                raise _StiffNetwork(self._stiff_message(np.array([float(rpm)])))
             self._cache[key] = (modal, to_room)
         return self._cache[key]
+
+    def _speed_dependent(self):
+        """Whether an active effect makes the convection follow the speed
+        (overrides :meth:`Effect.convection`)."""
+        return any(
+            type(effect).convection is not Effect.convection
+            for effect in self._active()
+        )
 
     def _resolvable(self, rpm):
         """Whether floating point resolves the network at ``rpm`` (its
@@ -695,16 +721,15 @@ class ThermalMachine:
         with single_threaded_blas():
             if not by_source:
                 return self._integrate(rpm, feed, air, dt, T0, run=run)
-            out = {"air": self._integrate(rpm, feed, air, dt, T0, (), run)}
             zero_air = np.zeros_like(air)
             zero_T = np.zeros_like(T0)
+            parts = {"air": ((), air, T0)}
             for source in self.SOURCES[1:]:
                 if source == "feed" and not (self._feed_heated() and np.any(feed != 0)):
                     continue
-                out[source] = self._integrate(
-                    rpm, feed, zero_air, dt, zero_T, (source,), run
-                )
-        return out
+                parts[source] = ((source,), zero_air, zero_T)
+            T = self._integrate_parts(rpm, feed, dt, list(parts.values()), run)
+        return {source: T[:, j] for j, source in enumerate(parts)}
 
     def read(
         self, node_T, ambient_C, channels=None, *, sample_period_s, reference=None
@@ -760,23 +785,12 @@ class ThermalMachine:
             channels = self.sensors + self.targets
         else:
             channels = [channels] if isinstance(channels, str) else list(channels)
-        sensors, targets = set(self.sensors), set(self.targets)
-        bad = [c for c in channels if c not in sensors and c not in targets]
-        if bad:
-            raise ValueError(
-                f"The machine does not predict {bad}; its channels are its "
-                f"sensors ({len(sensors)}) and {self.targets}."
-            )
+        temp, names, disp, rows = self._read_plan(channels)
         out = np.empty((T.shape[0], len(channels)))
-        temp = [i for i, c in enumerate(channels) if c in sensors]
-        if temp:
-            out[:, temp] = self._sensor_values(
-                T, air, float(sample_period_s), [channels[i] for i in temp]
-            )
-        disp = [i for i, c in enumerate(channels) if c in targets]
-        if disp:
+        if names:
+            out[:, temp] = self._sensor_values(T, air, float(sample_period_s), names)
+        if rows:
             M = self._displacement_array()
-            rows = [self.targets.index(channels[i]) for i in disp]
             ref = T[0] if reference is None else np.asarray(reference, dtype=float)
             if ref.shape != (n_nodes,):
                 raise ValueError(
@@ -785,6 +799,29 @@ class ThermalMachine:
                 )
             out[:, disp] = (T - ref) @ M[rows].T
         return out
+
+    def _read_plan(self, channels):
+        """Where :meth:`read` puts each of ``channels``: the columns and
+        names of the sensors, the columns of the displacements and their
+        rows of the thermo-elastic map; cached per channel list."""
+        key = ("read", tuple(channels))
+        if key not in self._cache:
+            sensors, targets = set(self.sensors), list(self.targets)
+            bad = [c for c in channels if c not in sensors and c not in targets]
+            if bad:
+                raise ValueError(
+                    f"The machine does not predict {bad}; its channels are its "
+                    f"sensors ({len(sensors)}) and {targets}."
+                )
+            temp = [i for i, c in enumerate(channels) if c in sensors]
+            disp = [i for i, c in enumerate(channels) if c in targets]
+            self._cache[key] = (
+                _as_slice(temp),
+                [channels[i] for i in temp],
+                _as_slice(disp),
+                [targets.index(channels[i]) for i in disp],
+            )
+        return self._cache[key]
 
     @staticmethod
     def _drivers(time_s, spindle_rpm, ambient_C, feed_mm_min):
@@ -1470,24 +1507,55 @@ class ThermalMachine:
             )
 
     def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed"), run=None):
+        return self._integrate_parts(rpm, feed, dt, [(sources, air, T0)], run)[:, 0]
+
+    def _integrate_parts(self, rpm, feed, dt, parts, run=None):
+        """Node temperatures of several responses of the network at once,
+        shape (n, k, n_nodes): ``parts`` holds ``(sources, air, T0)`` of each
+        (the heat sources of :meth:`_heat`, the driving air and the initial
+        state); they advance together, one recursion per operating point."""
         n_steps = rpm.shape[0] - 1
-        Q, cols = self._checked_heat(rpm[:-1], feed[:-1], sources, run)
-        T = np.empty((n_steps + 1, len(self.spec.nodes)))
-        T[0] = T0
-        change = np.flatnonzero(np.diff(rpm[:-1]) != 0) + 1
-        bounds = np.concatenate(([0], change, [n_steps]))
+        heats = [
+            self._checked_heat(rpm[:-1], feed[:-1], sources, run)
+            for sources, _, _ in parts
+        ]
+        nodes = sorted({c for _, cols in heats for c in cols})
+        pos = {c: i for i, c in enumerate(nodes)}
+        Q = np.zeros((len(parts), n_steps, len(nodes)))
+        for j, (q, cols) in enumerate(heats):
+            Q[j][:, [pos[c] for c in cols]] = q
+        air = np.stack([a for _, a, _ in parts])
+        T = np.empty((n_steps + 1, len(parts), len(self.spec.nodes)))
+        T[0] = np.stack([T0 for _, _, T0 in parts])
         try:
             with np.errstate(over="raise", invalid="raise"):
-                for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-                    modal, to_room = self._modal(rpm[a])
+                for a, b, (modal, to_room) in self._segments(rpm[:-1]):
                     T[a : b + 1] = modal.step(
-                        T[a], Q[a:b], to_room, air[a : b + 1], dt, cols
+                        T[a], Q[:, a:b], to_room, air[:, a : b + 1], dt, nodes
                     )
         except (FloatingPointError, _StiffNetwork):
             T[:] = np.nan
         if not np.all(np.isfinite(T)):
             raise ValueError(self._stiff_message(rpm[:-1], run))
         return T
+
+    def _segments(self, rpm):
+        """``(start, stop, modal system)`` of the steps over which the
+        network stays the same (it changes with the speed only when an
+        effect makes the convection follow it)."""
+        if rpm.shape[0] == 0:
+            return []
+        change = np.flatnonzero(np.diff(rpm) != 0) + 1
+        starts = np.concatenate(([0], change))
+        systems = [self._modal(rpm[a]) for a in starts]
+        keep = [0] + [
+            k for k in range(1, len(starts)) if systems[k] is not systems[k - 1]
+        ]
+        stops = [*starts[keep[1:]], rpm.shape[0]]
+        return [
+            (int(starts[k]), int(b), systems[k])
+            for k, b in zip(keep, stops, strict=True)
+        ]
 
     def _checked_heat(self, rpm, feed, sources=("spindle", "feed"), run=None):
         """:meth:`_heat`, with an error naming the drivers where it overflows."""
@@ -1661,6 +1729,14 @@ class ThermalMachine:
 # calibrate scales a channel by no less than this share of the root mean
 # square spread of the channels of its kind.
 CHANNEL_SCALE_FLOOR = 0.25
+
+
+def _as_slice(index):
+    """``index`` (a list of column numbers) as a slice when they follow
+    one another (a cheaper view), else as it is."""
+    if index and index == list(range(index[0], index[-1] + 1)):
+        return slice(index[0], index[-1] + 1)
+    return index
 
 
 def _run_drivers(frame, run):

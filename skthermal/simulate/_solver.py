@@ -171,32 +171,48 @@ class ModalSystem:
     def step(self, T0, heat, air_conductance, air, dt, heat_nodes=None):
         """Advance node temperatures over ``n`` steps of length ``dt``.
 
+        Several responses of the same network (for example the parts of a
+        response driven by different heat sources) advance together when
+        the arguments carry a leading axis of ``k`` parts: one recursion
+        over ``k`` times the modes.
+
         Parameters
         ----------
-        T0 : ndarray of shape (n_nodes,)
+        T0 : ndarray of shape (n_nodes,) or (k, n_nodes)
             Temperatures at the start.
-        heat : ndarray of shape (n, n_heated)
+        heat : ndarray of shape (n, n_heated) or (k, n, n_heated)
             Heat input (W) held constant over each step, into the nodes
             ``heat_nodes`` (default: every node, in order).
         air_conductance : ndarray of shape (n_nodes,)
             Convection ``h A`` (W/K) of each node to the driving air.
-        air : ndarray of shape (n + 1,)
+        air : ndarray of shape (n + 1,) or (k, n + 1)
             Driving air temperature at the step boundaries, linear in between.
         dt : float
             Step length (s).
 
         Returns
         -------
-        T : ndarray of shape (n + 1, n_nodes)
+        T : ndarray of shape (n + 1, n_nodes) or (n + 1, k, n_nodes)
         """
+        T0 = np.asarray(T0, dtype=float)
+        single = T0.ndim == 1
+        T0, heat, air = np.atleast_2d(T0), np.asarray(heat), np.asarray(air)
+        if single:
+            heat, air = heat[None], air[None]
         lam, phi0, phi1 = self._gains(dt)
         p_air = self.to_modal @ air_conductance  # (n_modes,)
         P = self.to_modal if heat_nodes is None else self.to_modal[:, heat_nodes]
-        g = heat @ (P.T * phi0[None, :])
-        g += np.outer(air[:-1], p_air * (phi0 - phi1))
-        g += np.outer(air[1:], p_air * phi1)
-        z = linear_recurrence(lam, g, self.state_to_modal @ T0)
-        return z @ self.from_modal.T
+        g = heat @ (P.T * phi0[None, :])  # (k, n, n_modes)
+        g += air[:, :-1, None] * (p_air * (phi0 - phi1))
+        g += air[:, 1:, None] * (p_air * phi1)
+        k, n, modes = g.shape
+        z = linear_recurrence(
+            np.tile(lam, k),
+            g.transpose(1, 0, 2).reshape(n, k * modes),
+            (T0 @ self.state_to_modal.T).ravel(),
+        )
+        T = (z.reshape((n + 1) * k, modes) @ self.from_modal.T).reshape(n + 1, k, -1)
+        return T[:, 0] if single else T
 
 
 def first_order_lag(x, tau, dt):

@@ -330,7 +330,7 @@ def parameter_range(key):
     return ANY
 
 
-def check_parameters(spec, params, *, strict=False):
+def check_parameters(spec, params, *, strict=False, base=None):
     """Check the names and values of a machine's parameters.
 
     The one home of the parameter rules: names belong to the structure
@@ -350,11 +350,15 @@ def check_parameters(spec, params, *, strict=False):
         Values must be real numbers (not strings that parse as numbers), as
         in a machine file. Without it, numeric 0-d arrays are taken too, but
         never text or a bool (``True`` is no heat input).
+    base : dict, optional
+        Parameters already checked (a machine's), which ``params`` change:
+        only the values of ``params`` are checked, the effects' joint rules
+        on the whole set.
 
     Returns
     -------
     dict
-        The parameters as floats.
+        The parameters as floats (with ``base``: the whole set).
     """
     check_parameter_names(spec, params)
     out = {}
@@ -372,14 +376,19 @@ def check_parameters(spec, params, *, strict=False):
                 f"got {value}{valid.hint}."
             )
         out[key] = value
-    full = {f"{e.name}.{k}": v for e in EFFECTS.values() for k, v in e.params.items()}
+    if base is None:
+        full = {
+            f"{e.name}.{k}": v for e in EFFECTS.values() for k, v in e.params.items()
+        }
+    else:
+        full = dict(base)
     full.update(out)
     for effect in EFFECTS.values():
         try:
             effect.check(full)
         except ValueError as exc:
             raise ValueError(f"effect {effect.name!r}: {exc}") from None
-    return out
+    return out if base is None else full
 
 
 @dataclass(frozen=True)
