@@ -393,6 +393,32 @@ def test_response_and_read_reproduce_the_noiseless_simulation(name):
         machine.read(T, sim["ambient_C"], ["T99_C"], sample_period_s=30.0)
 
 
+def test_one_recursion_over_speed_steps_equals_one_per_step():
+    """Without an effect that makes the network follow the speed, a run
+    integrates in one recursion; with one whose convection does not change
+    (speed_convection at gain 0) it integrates step by step: the same."""
+    still = ThermalMachine.from_preset("vmc-b", effects=["feed_heating"])
+    stepped = ThermalMachine.from_preset(
+        "vmc-b", effects=["feed_heating", "speed_convection"]
+    ).with_params({"speed_convection.gain": 0.0})
+    sim = still.simulate(DUTY, 20.0, noise=False)
+    drivers = (sim["time_s"], sim["spindle_rpm"], sim["ambient_C"], sim["feed_mm_min"])
+    np.testing.assert_allclose(
+        still.response(*drivers, initial="steady"),
+        stepped.response(*drivers, initial="steady"),
+        rtol=1e-9,
+        atol=1e-9,
+    )
+    a = still.response(*drivers, initial="steady", by_source=True)
+    b = stepped.response(*drivers, initial="steady", by_source=True)
+    assert list(a) == list(b) == ["air", "bearing", "drive", "feed"]
+    for source in a:
+        np.testing.assert_allclose(a[source], b[source], rtol=1e-9, atol=1e-9)
+    # With a gain the convection follows the speed, and the response changes.
+    cooled = stepped.with_params({"speed_convection.gain": 0.5})
+    assert np.abs(cooled.response(*drivers) - still.response(*drivers)).max() > 0.1
+
+
 def test_with_params_is_the_machine_built_with_those_params():
     """with_params checks only the changed values, yet gives the machine the
     constructor builds, and still refuses bad values and joint rules."""
