@@ -391,6 +391,14 @@ def test_response_and_read_reproduce_the_noiseless_simulation(name):
     np.testing.assert_allclose(sum(parts.values()), T, atol=1e-9)
     with pytest.raises(ValueError, match="does not predict"):
         machine.read(T, sim["ambient_C"], ["T99_C"], sample_period_s=30.0)
+    holed = T.copy()
+    holed[7, 2] = np.nan
+    with pytest.raises(ValueError, match="node_T holds a value that is not finite"):
+        machine.read(holed, sim["ambient_C"], sample_period_s=30.0)
+    air = sim["ambient_C"].to_numpy(copy=True)
+    air[4] = np.inf
+    with pytest.raises(ValueError, match=r"ambient_C .* not finite .* row 4"):
+        machine.read(T, air, sample_period_s=30.0)
 
 
 def test_one_recursion_over_speed_steps_equals_one_per_step():

@@ -210,6 +210,8 @@ def test_effects_are_switchable_and_reported(vmc_b):
     assert both.with_effects(remove="sensor_lag").effects == ("tool_growth",)
     with pytest.raises(ValueError, match="Unknown effect"):
         vmc_b.with_effects(add=["magic"])
+    with pytest.raises(ValueError, match="did you mean 'sensor_lag'"):
+        vmc_b.with_effects(add=["sensor_lagg"])
 
 
 def test_tool_keeps_growing_after_the_spindle_stops(vmc_b):

@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 import pandas as pd
 
+from skthermal._naming import suggest
 from skthermal.simulate._solver import first_order_lag
 
 
@@ -503,6 +504,7 @@ def check_effects(effects):
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise ValueError(
-            f"Unknown effect(s) {unknown}; the vocabulary is {list(EFFECTS)}."
+            f"Unknown effect(s) {unknown}{suggest(unknown[0], EFFECTS)}; the "
+            f"vocabulary is {list(EFFECTS)}."
         )
     return tuple(e for e in EFFECTS if e in effects)

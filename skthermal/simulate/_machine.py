@@ -101,6 +101,9 @@ PRIOR_HOURS = 48.0
 PRIOR_RISE_K = 5.0
 PRIOR_AIR_K = 2.0
 READING_FLOOR_C = 0.01
+# Longest stretch of steps integrated in one recursion (longer ones go in
+# pieces: the arrays of a piece stay in the cache).
+SEGMENT_STEPS = 512
 # A first reading this far from the air is in other units (kelvin,
 # fahrenheit), not a warm machine.
 READING_SPAN_K = 100.0
@@ -780,6 +783,14 @@ class ThermalMachine:
             raise ValueError(
                 f"ambient_C has shape {air.shape}, expected ({T.shape[0]},)."
             )
+        for what, values in (("node_T", T), ("ambient_C", air)):
+            bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+            if bad.any():
+                row = int(np.flatnonzero(bad)[0])
+                raise ValueError(
+                    f"{what} holds a value that is not finite (NaN or inf) in "
+                    f"row {row}; read needs finite temperatures."
+                )
         _check_number(sample_period_s, "sample_period_s", positive=True)
         if channels is None:
             channels = self.sensors + self.targets
@@ -1552,9 +1563,12 @@ class ThermalMachine:
             k for k in range(1, len(starts)) if systems[k] is not systems[k - 1]
         ]
         stops = [*starts[keep[1:]], rpm.shape[0]]
+        # Long stretches go in pieces that stay in the processor's cache
+        # (each piece starts from the state the previous one ends in).
         return [
-            (int(starts[k]), int(b), systems[k])
+            (a, min(a + SEGMENT_STEPS, int(b)), systems[k])
             for k, b in zip(keep, stops, strict=True)
+            for a in range(int(starts[k]), int(b), SEGMENT_STEPS)
         ]
 
     def _checked_heat(self, rpm, feed, sources=("spindle", "feed"), run=None):
