@@ -1524,7 +1524,8 @@ class ThermalMachine:
         """Node temperatures of several responses of the network at once,
         shape (n, k, n_nodes): ``parts`` holds ``(sources, air, T0)`` of each
         (the heat sources of :meth:`_heat`, the driving air and the initial
-        state); they advance together, one recursion per operating point."""
+        state); they advance together, one recursion per stretch of
+        :meth:`_segments`."""
         n_steps = rpm.shape[0] - 1
         heats = [
             self._checked_heat(rpm[:-1], feed[:-1], sources, run)
@@ -1551,9 +1552,10 @@ class ThermalMachine:
         return T
 
     def _segments(self, rpm):
-        """``(start, stop, modal system)`` of the steps over which the
-        network stays the same (it changes with the speed only when an
-        effect makes the convection follow it)."""
+        """``(start, stop, modal system)`` of the stretches of steps over
+        which the network stays the same (it changes with the speed only
+        when an effect makes the convection follow it), none longer than
+        ``SEGMENT_STEPS``."""
         if rpm.shape[0] == 0:
             return []
         change = np.flatnonzero(np.diff(rpm) != 0) + 1
