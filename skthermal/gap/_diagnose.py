@@ -742,7 +742,12 @@ class Screen:
 
 def _screen(ctx, candidates, rules, n_jobs):
     logger.info("Which: calibrating the base on %d fold(s).", len(ctx.folds))
-    base_R, base_fits = ctx.heldout(())
+    base_R, base_fits = ctx.assemble(
+        (),
+        Parallel(n_jobs=n_jobs)(
+            delayed(ctx.fold)(k, ()) for k in range(len(ctx.folds))
+        ),
+    )
     base_preds = [ctx.predictions(f) for f in base_fits]
     evaluations = Parallel(n_jobs=n_jobs)(
         delayed(_evaluate)(ctx, (), base_R, base_fits, base_preds, c, *rules)
