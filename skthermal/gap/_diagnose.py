@@ -160,12 +160,13 @@ class _Context:
                 out[i] = R
         return out, [fit for _, fit in results]
 
-    def heldout(self, effects, starts=None):
-        """Held-out residuals of every run with ``effects`` added, and fits."""
-        results = [
-            self.fold(k, effects, None if starts is None else starts[k])
+    def heldout(self, effects, starts=None, n_jobs=None):
+        """Held-out residuals of every run with ``effects`` added, and fits
+        (the folds in parallel with ``n_jobs``)."""
+        results = Parallel(n_jobs=n_jobs)(
+            delayed(self.fold)(k, effects, None if starts is None else starts[k])
             for k in range(len(self.folds))
-        ]
+        )
         return self.assemble(effects, results)
 
 
@@ -742,12 +743,7 @@ class Screen:
 
 def _screen(ctx, candidates, rules, n_jobs):
     logger.info("Which: calibrating the base on %d fold(s).", len(ctx.folds))
-    base_R, base_fits = ctx.assemble(
-        (),
-        Parallel(n_jobs=n_jobs)(
-            delayed(ctx.fold)(k, ()) for k in range(len(ctx.folds))
-        ),
-    )
+    base_R, base_fits = ctx.heldout((), n_jobs=n_jobs)
     base_preds = [ctx.predictions(f) for f in base_fits]
     evaluations = Parallel(n_jobs=n_jobs)(
         delayed(_evaluate)(ctx, (), base_R, base_fits, base_preds, c, *rules)
