@@ -599,6 +599,40 @@ def test_search_runs_a_small_study(capsys, workdir):
     assert doc["study_name"] == "skthermal-grey-pso" and doc["best_rmse_um"] > 0
 
 
+def test_search_and_guard_ignore_each_runs_starting_offset(capsys, workdir, tmp_path):
+    # The named models predict the change since each run's start. The search
+    # scored those predictions against the absolute target, so each held-out
+    # run's starting offset went into its RMSE, and `fit --guard` drew its
+    # output band from the absolute target, holding healthy rows.
+    pytest.importorskip("optuna")
+    table = pd.read_csv(workdir / "tests.csv")
+    shifted = table.copy()
+    codes = pd.factorize(shifted["run"])[0]
+    shifted["disp_y_um"] += np.array([0.0, 14.0, -9.0, 25.0])[codes]
+    tables = {"as simulated": table, "offset per run": shifted}
+    best, held = {}, {}
+    for name, frame in tables.items():
+        runs = tmp_path / f"{len(best)}.csv"
+        frame.to_csv(runs, index=False)
+        out = tmp_path / f"best{len(best)}.json"
+        argv = ["search", "--runs", runs, "--model", "grey-pso", "--sensors"]
+        argv += ["T05_C,T40_C", "--trials", "1", "--seed", "0", "--out", out]
+        status, _, err = _run(capsys, *argv)
+        assert status == 0, err
+        best[name] = json.loads(out.read_text())["best_rmse_um"]
+        model = tmp_path / f"guarded{len(held)}.joblib"
+        argv = ["fit", "--runs", runs, "--model", "lag-ridge", "--guard", "hold"]
+        status, _, err = _run(capsys, *argv, "--out", model)
+        assert status == 0, err
+        pred = tmp_path / f"pred{len(held)}.csv"
+        argv = ["predict", "--model", model, "--runs", runs, "--out", pred]
+        status, _, err = _run(capsys, *argv)
+        assert status == 0, err
+        held[name] = (pd.read_csv(pred)["guard_action"] == "held").mean()
+    assert best["offset per run"] == pytest.approx(best["as simulated"], rel=1e-9)
+    assert held["offset per run"] == held["as simulated"]
+
+
 class _FakeGapReport:
     ranking = pd.DataFrame(
         {"effect": ["tool_growth"], "shrink": [0.9], "explains": [True]}

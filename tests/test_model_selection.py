@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 import uuid
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -125,11 +126,17 @@ def test_space_conditional_and_fixed_parameters():
         "epochs": 12,
         "step_size": 0.1,
     }
-    ls = search_space("grey_pso")(optuna.trial.FixedTrial({"calibration": "ls"}))
-    assert ls == {"calibration": "ls"}
-    pso = search_space("grey_pso", calibration="pso", n_particles=20)(
+    ls = search_space("grey_pso")(
+        optuna.trial.FixedTrial({"calibration": "ls", "alpha": 0.1, "delay": 1})
+    )
+    assert ls == {"calibration": "ls", "alpha": 0.1, "delay": 1}
+    # A swarm is searched only when asked for, and then not from the
+    # variable-projection optimum, where its settings would change nothing.
+    pso = search_space("grey_pso", calibration="pso", n_particles=20, delay=0)(
         optuna.trial.FixedTrial(
             {
+                "alpha": 1.0,
+                "init": "random",
                 "epochs": 50,
                 "c1": 1.0,
                 "c2": 2.0,
@@ -139,6 +146,7 @@ def test_space_conditional_and_fixed_parameters():
         )
     )
     assert pso["inertia"] == (0.9, 0.4) and pso["n_particles"] == 20
+    assert pso["init"] == "random" and pso["delay"] == 0
 
 
 def test_prefixed_and_combined_spaces():
@@ -330,16 +338,21 @@ def test_anfis_epoch_pruning(runs_data, validation_fraction):
     X, y, groups = runs_data
     est = make_pipeline(ANFISRegressor(random_state=0))
     est.set_params(anfisregressor__validation_fraction=validation_fraction)
-    result = run_search(
-        est,
-        X,
-        y,
-        groups=groups,
-        space={"anfisregressor": _small_anfis_space(epochs=5)},
-        n_trials=3,
-        pruner=_pruner(2),
-        random_state=0,
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = run_search(
+            est,
+            X,
+            y,
+            groups=groups,
+            space={"anfisregressor": _small_anfis_space(epochs=5)},
+            n_trials=3,
+            pruner=_pruner(2),
+            random_state=0,
+        )
+    # Pruned by the training error: said once per search.
+    training = [w for w in caught if "by its training RMSE" in str(w.message)]
+    assert len(training) == (validation_fraction is None)
     first, *others = result.study.trials
     assert first.state == COMPLETE
     assert sorted(first.intermediate_values) == [1, 2, 3, 4, 5]

@@ -154,6 +154,15 @@ def _resolve_params(model, params):
     return out
 
 
+def _target_changes(y, groups):
+    """The target as the change since the first row of each run: what the
+    named models predict (they are :class:`~skthermal.models.RunStartRegressor`
+    wrappers)."""
+    from skthermal._run_changes import changes_since_first_row
+
+    return pd.Series(changes_since_first_row(y, groups), index=y.index, name=y.name)
+
+
 def cmd_fit(args):
     from skthermal import __version__
     from skthermal.datasets import sensor_columns, split_runs
@@ -204,7 +213,9 @@ def cmd_fit(args):
         model = GuardedRegressor(model, mode=args.guard)
     with warnings.catch_warnings():
         warnings.simplefilter("always", ConvergenceWarning)
-        model.fit(X[mask], y[mask])
+        # On the changes the model predicts, so that a guard's output band
+        # is a band of changes too.
+        model.fit(X[mask], _target_changes(y, groups)[mask])
         fitted = model.predict(X[mask])
     scores = score_runs(y[mask], fitted, groups[mask])
     bundle = {
@@ -601,7 +612,9 @@ def cmd_search(args):
         result = run_search(
             model,
             X,
-            y,
+            # Scored as `fit` and `evaluate` score: the change since the start
+            # of each held-out run, which is what the model predicts.
+            _target_changes(y, groups),
             groups=groups,
             space=model_search_space(args.model),
             n_trials=args.trials,

@@ -45,6 +45,8 @@ from skthermal.gap._scores import (
     excess_shrink,
     gap_of,
     heldout_folds,
+    order_candidates,
+    rank_key,
     regime_gaps,
     ruled_out,
 )
@@ -189,7 +191,7 @@ class Evaluation:
     @property
     def rank_key(self):
         """Sort key, best first with ``reverse=True``."""
-        return (self.row["explains"], self.row["shrink"])
+        return rank_key(self.row)
 
 
 def _evaluate(
@@ -752,10 +754,7 @@ def _screen(ctx, candidates, rules, n_jobs):
     if n_jobs not in (None, 1):  # workers' log records stay in the workers
         for ev in evaluations:
             _log_row("Which", ev.row)
-    ranking = pd.DataFrame([ev.row for ev in evaluations])
-    ranking = ranking.sort_values(
-        ["explains", "shrink"], ascending=False, kind="stable"
-    ).reset_index(drop=True)
+    ranking = order_candidates(pd.DataFrame([ev.row for ev in evaluations]))
     return Screen(
         base_R,
         base_fits,

@@ -59,6 +59,8 @@ from skthermal.gap._scores import (
     excess_shrink,
     gap_of,
     heldout_folds,
+    order_candidates,
+    rank_key,
     regime_gaps,
     ruled_out,
 )
@@ -460,21 +462,6 @@ def _flexible_heldout(signals, folds, fitted):
     return flexible_heldout([signals] * len(folds), folds, extra)
 
 
-def _order(ranking):
-    """Candidates best first: by ``explains``, then by held-out shrink.
-
-    The candidates are alternatives, not nested models: each adds its own
-    term to the same base, and how many parameters it adds mostly counts the
-    channels it acts on. Parsimony is already in each candidate's own tests
-    against the base (the likelihood ratio's degrees of freedom; the
-    held-out score, which an over-fitted term does not win), so there is no
-    second rule that prefers the candidate with fewer parameters.
-    """
-    return ranking.sort_values(
-        ["explains", "shrink"], ascending=False, kind="stable"
-    ).reset_index(drop=True)
-
-
 def train_key(train):
     """Key of a fold's fitted terms: its training runs."""
     return tuple(int(i) for i in train)
@@ -738,7 +725,7 @@ def diagnose_runs(
             " (explains)" if row["explains"] else "",
         )
     by_name = {j[0]["effect"]: j for j in jobs}
-    ranking = _order(pd.DataFrame(rows))
+    ranking = order_candidates(pd.DataFrame(rows))
     regime_shrink = pd.concat(
         [
             (1.0 - ra / rb.reindex(ra.index)).rename(row["effect"])
@@ -775,7 +762,7 @@ def diagnose_runs(
                 )
                 for c in remaining
             )
-            more.sort(key=lambda j: (j[0]["explains"], j[0]["shrink"]), reverse=True)
+            more.sort(key=lambda j: rank_key(j[0]), reverse=True)
             top = more[0]
             if not top[0]["explains"]:
                 break

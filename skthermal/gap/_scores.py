@@ -86,6 +86,30 @@ DIAGNOSIS_PARAMS = {
 }
 
 
+# The order of the candidates, best first: those that explain the gap,
+# then by held-out shrink. The candidates are alternatives, not nested
+# models: each adds its own term or effect to the same base, and how many
+# parameters it adds mostly counts the channels it acts on. Parsimony is
+# already in each candidate's own tests against the base (the likelihood
+# ratio's degrees of freedom; the held-out score, which an over-fitted
+# candidate does not win), so there is no second rule that prefers the
+# candidate with fewer parameters.
+RANK_BY = ("explains", "shrink")
+
+
+def rank_key(row):
+    """Sort key of one ranking row (a mapping), best first with
+    ``reverse=True``."""
+    return tuple(row[k] for k in RANK_BY)
+
+
+def order_candidates(ranking):
+    """The ranking table sorted best first (:data:`RANK_BY`, stable)."""
+    return ranking.sort_values(
+        list(RANK_BY), ascending=False, kind="stable"
+    ).reset_index(drop=True)
+
+
 def excess_shrink(gap_b, gap_a, floor2):
     """Share of the gap above the noise floor removed: ``1 - excess after /
     excess before``, the excess being ``sqrt(gap^2 - floor^2)``."""

@@ -499,6 +499,23 @@ class _Objective:
         self.pruning = pruning
         self.sign = sign
         self.guard = guard
+        self.warned = False
+
+    def _warn_training_error(self, model, prefix):
+        """Once per search: pruning ANFIS by its training error."""
+        if self.warned or model.get_params()[f"{prefix}validation_fraction"]:
+            return
+        self.warned = True
+        warnings.warn(
+            "The pruner judges each ANFIS epoch by its training RMSE: the "
+            "ANFISRegressor has no validation_fraction. The training error "
+            "keeps falling where the held-out error does not, so trials that "
+            "would generalise better can be pruned. Set validation_fraction "
+            "(e.g. 0.2) so that the pruner sees held-out rows of the training "
+            "runs.",
+            UserWarning,
+            stacklevel=2,
+        )
 
     def __call__(self, trial):
         optuna = _import_optuna()
@@ -517,6 +534,7 @@ class _Objective:
             hook = None
             if self.pruning == "epochs" and fold == 0:
                 _, prefix = _final_step(model)
+                self._warn_training_error(model, prefix)
                 key = f"{prefix}epoch_callback"
                 hook = _PruningCallback(trial, self.sign, model.get_params()[key])
                 model.set_params(**{key: hook})

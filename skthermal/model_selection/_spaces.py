@@ -60,9 +60,19 @@ def _pso(trial, key, r):
 
 
 def _grey_pso(trial, key, r):
+    # What changes the held-out error: the calibration, the ridge on the
+    # driving coefficients and the delay. A swarm started at the
+    # variable-projection optimum ends there whatever its settings, so with
+    # "pso" (only when asked for) it starts elsewhere and its settings are
+    # searched.
     calibration = _cat(trial, key("calibration"), r["calibration"])
-    params = {"calibration": calibration}
+    params = {
+        "calibration": calibration,
+        "alpha": _float(trial, key("alpha"), r["alpha"], log=True),
+        "delay": _int(trial, key("delay"), r["delay"]),
+    }
     if calibration == "pso":
+        params["init"] = _cat(trial, key("init"), r["init"])
         params.update(_pso(trial, key, r))
     return params
 
@@ -109,7 +119,13 @@ _REGISTRY = {
     ),
     "grey_pso": (
         _grey_pso,
-        {"calibration": ["pso", "ls"], **_PSO_RANGES},
+        {
+            "calibration": ["varpro", "ls"],
+            "alpha": (1e-6, 1e2),
+            "delay": (0, 3),
+            "init": ["ls", "random"],
+            **_PSO_RANGES,
+        },
         "GreyPSORegressor",
     ),
     "gnnmci": (
