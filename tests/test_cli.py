@@ -1090,6 +1090,11 @@ def test_output_paths_are_checked_before_the_work(
     assert message in err and text == ""
 
 
+def test_gap_check_refuses_zero_jobs_before_the_work(capsys):
+    status, text, err = _run(capsys, "gap-check", "--n-jobs", "0")
+    assert status == 2 and "--n-jobs must be 1 or more" in err and text == ""
+
+
 def test_os_errors_are_one_line(capsys, monkeypatch):
     from skthermal._cli import _data
 

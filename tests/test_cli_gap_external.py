@@ -248,7 +248,9 @@ def test_gap_one_record_points_to_block_hours(tables, tmp_path, capsys):
     argv += ["--channels", "disp_z_um", "--mapping", "disp_z_um=disp_y_um"]
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert "at least 2 runs (got 1)" in err and "--block-hours H" in err
+    assert "at least 2 runs (got 1)" in err
+    # One hint, sized to the record (it lasts 3.98 h).
+    assert err.count("--block-hours") == 2 and "--block-hours 1.3 for 3" in err
     assert len(err.strip().splitlines()) == 1
 
 

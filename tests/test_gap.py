@@ -289,6 +289,10 @@ def test_report_files_and_formats(tool_report, tmp_path):
     md = tool_report.to_markdown()
     assert md.startswith("# Sim-to-real gap report") and "| effect |" in md
     assert "<table" in tool_report.to_html()
+    taken = tmp_path / "taken.csv"
+    taken.write_text("x\n")
+    with pytest.raises(ValueError, match="a file of that name exists"):
+        tool_report.save(taken)
     pytest.importorskip("matplotlib")
     import matplotlib
 
@@ -757,10 +761,19 @@ def test_mapping_typos_and_uncompared_channels(rig_runs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         build_problem(rig, extra, channels=["disp_ch1_um"])
+    # A column that breaks the naming rule (a unit slip) is named, not left
+    # out silently; mapped explicitly, it is compared.
+    slip = runs.rename(columns={"disp_ch1_um": "disp_ch1_mm"})
+    with pytest.raises(ValueError, match="'disp_ch1_mm' looks like a displacement"):
+        build_problem(rig, slip)
+    problem = build_problem(rig, slip, mapping={"disp_ch1_mm": "disp_ch1_um"})
+    assert "disp_ch1_mm" in problem.channels
 
 
 def test_cv_as_folds_over_runs(rig_runs):
     rig, runs = rig_runs
+    with pytest.raises(ValueError, match="'n_jobs' parameter of diagnose must be"):
+        diagnose(rig, runs, n_jobs=0)
     pairs = [([1, 2], [0]), ([0, 2], [1]), ([0, 1], [2])]
     folds = heldout_folds(3, pairs)
     assert [te.tolist() for _, te in folds] == [[0], [1], [2]]
@@ -862,9 +875,9 @@ def test_report_json_strict_full_precision_and_lr_df(rig_runs):
 
 
 def test_report_dict_has_no_nan():
-    from skthermal.gap._report import plain
+    from skthermal.gap._report import jsonable
 
-    out = plain({"a": np.nan, 1: [np.float64(3.427e-15), np.inf], "b": np.int64(2)})
+    out = jsonable({"a": np.nan, 1: [np.float64(3.427e-15), np.inf], "b": np.int64(2)})
     assert out == {"a": None, "1": [3.427e-15, None], "b": 2}
     assert isinstance(out["b"], int)
 
@@ -1036,28 +1049,64 @@ def test_default_folds_follow_the_labels_in_natural_order():
     assert held == [sorted(labels[i] for i in te) for _, te in in_order]
 
 
+def _rig_campaign(rig, duties, sample_period_s, initials=None):
+    """Runs ``r0, r1, ...`` of ``rig`` at 20 °C air, one per duty cycle,
+    each started soaked or from ``initials[i]``."""
+    from skthermal.simulate import DutyCycle
+
+    return pd.concat(
+        [
+            rig.simulate(
+                DutyCycle(duty),
+                20.0,
+                sample_period_s=sample_period_s,
+                run=f"r{i}",
+                random_state=i,
+                **({} if initials is None else {"initial": initials[i]}),
+            )
+            for i, duty in enumerate(duties)
+        ],
+        ignore_index=True,
+    )
+
+
+def test_a_dead_probe_does_not_set_the_initial_states():
+    # A probe stuck at one value is left out of the comparison; it used to
+    # set every run's initial state all the same (a stuck 25 °C on a soaked
+    # 20 °C machine started the structure warm).
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = _rig_campaign(
+        rig, [[(3600, rpm, 0), (1800, 0, 0)] for rpm in (2000, 3500, 5000)], 120
+    )
+    probe = rig.structure_sensors[0]
+    kw = {"candidates": ["sensor_lag"], "initial": "measured", **FAST}
+    removed = diagnose(rig, runs.drop(columns=probe), **kw)
+    with pytest.warns(UserWarning, match=rf"\['{probe}'\] are constant on every"):
+        dead = diagnose(rig, runs.assign(**{probe: 25.0}), **kw)
+    np.testing.assert_allclose(dead.initial_states, removed.initial_states)
+    assert dead.initial_states.abs().to_numpy().max() < 0.5
+    # Not compared (channels=), it is still left out of the states, and said.
+    others = [c for c in rig.sensors if c in runs and c != probe]
+    with pytest.warns(UserWarning, match="left out of the runs' initial states"):
+        dead = diagnose(
+            rig, runs.assign(**{probe: 25.0}), channels=[*others, *rig.targets], **kw
+        )
+    np.testing.assert_allclose(dead.initial_states, removed.initial_states)
+
+
 def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
     # Every run starts warm from earlier running at another speed. Simulated
     # from the air, no base calibration fits them; started from their first
     # readings, the base's held-out gap falls near the noise (the sensors'
     # calibration offsets, 0.1 K, enter the estimate as temperatures).
-    from skthermal.simulate import DutyCycle
-
     rig = ThermalMachine.from_preset("spindle-rig", effects=[])
     t = np.array([0.0, 1e7])
-    runs = pd.concat(
-        [
-            rig.simulate(
-                DutyCycle([(5400, rpm, 0), (5400, 0, 0)]),
-                20.0,
-                sample_period_s=60,
-                run=f"r{i}",
-                random_state=i,
-                initial=rig.response(t, np.full(2, before), np.full(2, 20.0))[-1],
-            )
-            for i, (rpm, before) in enumerate([(2000, 5000), (3500, 0), (5000, 2500)])
-        ],
-        ignore_index=True,
+    plan = [(2000, 5000), (3500, 0), (5000, 2500)]
+    runs = _rig_campaign(
+        rig,
+        [[(5400, rpm, 0), (5400, 0, 0)] for rpm, _ in plan],
+        60,
+        [rig.response(t, np.full(2, rpm), np.full(2, 20.0))[-1] for _, rpm in plan],
     )
     kw = {"candidates": ["sensor_lag"], **FAST}
     ambient = diagnose(rig, runs, initial="ambient", **kw)

@@ -185,16 +185,9 @@ def _used_columns(kwargs):
     return measured, [*mapping.values()]
 
 
-def _library_error(exc, *, blocks_hint, prefix=""):
-    """A UserError of the diagnosis's ValueError, in the options' words;
-    ``blocks_hint``: point a too-few-runs error to ``--block-hours``."""
-    message = cli_words(exc)
-    if "at least 2 runs" in message and blocks_hint:
-        message = message.rstrip(".") + (
-            "; to diagnose one long record, cut it into blocks that count as "
-            "runs with --block-hours H (e.g. --block-hours 8)."
-        )
-    return UserError(prefix + message)
+def _library_error(exc, *, prefix=""):
+    """A UserError of the diagnosis's ValueError, in the options' words."""
+    return UserError(prefix + cli_words(exc))
 
 
 def _show(report, columns, folder, *, rename=None):
@@ -281,11 +274,7 @@ def cmd_gap_external(args):
         with _option_words():
             report = diagnose_runs(simulated, measured, candidates=candidates, **kwargs)
     except ValueError as exc:
-        raise _library_error(
-            exc,
-            blocks_hint=blocks and args.block_hours is None,
-            prefix="--simulated/--runs: ",
-        ) from exc
+        raise _library_error(exc, prefix="--simulated/--runs: ") from exc
     print(report.verdict())
     shown = [
         "effect",
@@ -332,7 +321,7 @@ def cmd_gap(args):
         with _option_words():
             report = diagnose(machine, df, candidates=candidates, **kwargs)
     except ValueError as exc:
-        raise _library_error(exc, blocks_hint=args.block_hours is None) from exc
+        raise _library_error(exc) from exc
     print(report.verdict())
     overall = _how_far_overall(report)
     if overall is not None:
@@ -357,6 +346,11 @@ def cmd_gap_check(args):
     log_progress(args.quiet)
     if args.seeds < 1:
         raise UserError(f"--seeds must be at least 1, got {args.seeds}.")
+    if args.n_jobs == 0:
+        raise UserError(
+            "--n-jobs must be 1 or more (or -1 for all cores, -2 for all but "
+            "one, ...), got 0."
+        )
     check_out_path(args.report, "--report", folder=True)
     effects = parse_effects(args.effects)
     print(

@@ -192,16 +192,20 @@ def _as_float(df, columns):
     return df[list(columns)].to_numpy(dtype=float, na_value=np.nan)
 
 
-def _check_names(df):
+def check_column_names(columns, *, table="Run table", exempt=()):
+    """Raise a ValueError naming every column of ``columns`` that looks like
+    a sensor, a displacement or a known column while breaking its naming
+    rule (``disp_x_mm``, ``T1``, ``Time_s``), with the rule; ``exempt``
+    columns (e.g. mapped explicitly by the caller) are not checked."""
     problems = []
-    for name in df.columns:
-        hit = _looks_like(name)
+    for name in columns:
+        hit = None if name in exempt else _looks_like(name)
         if hit is not None:
             kind, expected = hit
             problems.append(f"{name!r} looks like {kind} but {expected}")
     if problems:
         raise ValueError(
-            "Run table columns break the naming rule (rename or drop them): "
+            f"{table} columns break the naming rule (rename or drop them): "
             + "; ".join(problems)
             + "."
         )
@@ -418,7 +422,7 @@ def validate_runs(
             if c.strip().lower().startswith(("time", "t_")) or c.strip() == "t"
         ]
         raise _missing_column(TIME, "time since the start of the run, in s", candidates)
-    _check_names(df)
+    check_column_names(df.columns)
     sensors = sensor_columns(df)
     targets = target_columns(df)
     drivers = driver_columns(df)

@@ -52,6 +52,7 @@ from skthermal.gap._scores import (
 )
 from skthermal.gap._terms import RunSignals, Signals, flexible_heldout
 from skthermal.simulate import EFFECTS, ThermalMachine
+from skthermal.utils._threads import with_single_threaded_blas
 
 logger = logging.getLogger("skthermal.gap")
 
@@ -426,6 +427,7 @@ def _explainable(ctx, screen, floor2):
     },
     prefer_skip_nested_validation=True,
 )
+@with_single_threaded_blas
 def diagnose(
     machine,
     runs,
@@ -534,8 +536,9 @@ def diagnose(
         (``benchmarks/bench_gap_truth.py``) "measured" halved the base's
         held-out gap on runs that start warm (the withheld effect first in
         47% of the cases, 43% from the air) and changed nothing that
-        counts on soaked runs (60% either way); see "Runs that start warm"
-        in docs/gap.md.
+        counts on soaked runs (60% either way, measured with the
+        two-multiplier base of earlier versions); see "Runs that start
+        warm" in docs/gap.md.
     n_jobs : int, optional
         Candidates (and the folds of the fine calibration) evaluated in
         parallel (joblib).
@@ -550,7 +553,7 @@ def diagnose(
     >>> case = make_gap_campaign("tool_growth", n_runs=3, hours=4, random_state=0)
     >>> report = diagnose(case.simulation, case.runs,
     ...                   candidates=["tool_growth", "speed_convection"],
-    ...                   greedy=False, fine=False, max_samples=150)
+    ...                   greedy=False, max_samples=150)
     >>> report.best_effect
     'tool_growth'
     """

@@ -21,6 +21,7 @@ from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
 from skthermal._naming import percent
+from skthermal.datasets._runtable import check_column_names
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -72,6 +73,7 @@ from skthermal.gap._terms import (
     flexible_heldout,
 )
 from skthermal.utils._runs import check_labels, warn_short_runs
+from skthermal.utils._threads import with_single_threaded_blas
 
 logger = logging.getLogger("skthermal.gap")
 
@@ -97,6 +99,13 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
     _check_table(simulated, "simulated")
     _check_table(measured, "measured")
     mapping = dict(mapping or {})
+    # The measured table is a run table; the simulated one may be another
+    # tool's export, its columns matched by name or through the mapping.
+    check_column_names(
+        measured.columns,
+        table="The measured table's",
+        exempt={*mapping, *(channels or ())},
+    )
     check_mapping(
         mapping,
         measured.columns,
@@ -144,9 +153,17 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
     meas_runs = list(measured.groupby("run", sort=False))
     missing = [name for name, _ in meas_runs if name not in sim_runs]
     if missing:
+        as_text = {str(name) for name in sim_runs}
+        hint = (
+            "; the labels differ only in type (numbers in one table, text in "
+            "the other): give both tables' run columns one type, e.g. "
+            "measured['run'] = measured['run'].astype(str)"
+            if all(str(name) in as_text for name in missing)
+            else ""
+        )
         raise ValueError(
             f"Run(s) {missing} of the measured table are missing from the "
-            f"simulated table (it has {list(sim_runs)})."
+            f"simulated table (it has {list(sim_runs)}){hint}."
         )
     extra = [name for name in sim_runs if name not in dict(meas_runs)]
     if extra:
@@ -165,6 +182,11 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
         check_times(t, name, "measured")
         check_times(ts, name, "simulated")
         tol = 1e-6 * max(1.0, float(np.max(np.abs(t))))
+        # Simulated rows beyond the measured span, but for one on either
+        # side to interpolate from, are neither compared nor checked.
+        first = max(int(np.searchsorted(ts, t[0] + tol, side="right")) - 1, 0)
+        last = min(int(np.searchsorted(ts, t[-1] - tol, side="left")), ts.size - 1)
+        sim, ts = sim.iloc[first : last + 1], ts[first : last + 1]
         # The simulation at the measured times, or (another tool's export
         # at its own time step) interpolated linearly onto them.
         same = ts.size == t.size and not np.any(np.abs(t - ts) > tol)
@@ -185,6 +207,10 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
             else np.clip(np.searchsorted(t, ts, side="right") - 1, 0, t.size - 1)
         )
         inside = (ts >= t[0] - tol) & (ts <= t[-1] + tol)
+        if not same and t.size > 1:
+            # Inside a logging gap of the measurement its drivers are not
+            # known (the last logged value is only carried across it).
+            inside &= ts - t[at] <= 1.5 * float(np.median(np.diff(t))) + tol
         drivers = {}
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
@@ -530,6 +556,7 @@ class ExternalGapReport(GapReport):
     },
     prefer_skip_nested_validation=True,
 )
+@with_single_threaded_blas
 def diagnose_runs(
     simulated,
     measured,

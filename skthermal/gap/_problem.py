@@ -18,22 +18,44 @@ import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares
 
-from skthermal._naming import suggest
+from skthermal._naming import shown, suggest
+from skthermal.datasets._runtable import check_column_names
 from skthermal.simulate import EFFECTS
 from skthermal.utils._runs import check_labels, is_clock_dtype, warn_short_runs
 
-# Base calibration. The network's time scales are set by two multipliers (all
-# capacities, all convection coefficients), fitted by nonlinear least squares.
+
+# Base calibration. The network's time scales are set by three multipliers
+# (all capacities, all convection coefficients, the enclosure air's exchange
+# with the workshop), fitted by nonlinear least squares.
 # Every channel's response is split into its parts driven by the air, the
 # spindle bearings, the spindle drive and the feed (the model is linear in
 # its inputs), and each part gets its own gain per channel, solved in closed
 # form (variable projection) under a hierarchical prior (see fit_gains): that
 # absorbs the amplitude offsets of heat inputs, thermo-elastic coefficients
 # and sensor couplings, but not the shapes that unmodelled effects leave.
-BASE_GROUPS = {
-    "scale.C": lambda key: key.startswith("C."),
-    "scale.hA": lambda key: key.startswith("hA."),
-}
+def base_groups(machine):
+    """The base calibration's multipliers, ``{name: which parameters}`` (a
+    predicate on the keys of ``machine.params``): every capacity, every
+    convection, and on top the enclosure air's exchange with the workshop.
+
+    With the conductances fixed, the first two set the network's time
+    scales relative to its conduction; the heat-driven amplitude is left to
+    the parts' gains (capacities, convections and conductances scaled alike
+    change no time constant and only scale the response to the heat, so a
+    third family multiplier would only trade places with the gains). How
+    fast the air around a machine follows the workshop's (doors,
+    ventilation, the enclosure's size) varies between machines more than
+    any one part of the network, and the air's response has no gain to take
+    it up: with it fixed, a base built differently takes an effect that
+    brings the workshop air to the structure faster for what it lacks."""
+    exchange = f"hA.{machine.spec.enclosure}"
+    return {
+        "scale.C": lambda key: key.startswith("C."),
+        "scale.hA": lambda key: key.startswith("hA."),
+        "scale.enclosure": lambda key: key == exchange,
+    }
+
+
 # "Change since the start of the run" is taken relative to the mean of the
 # first few compared samples, on both sides: relative to one sample, that
 # sample's noise would offset the whole run.
@@ -165,7 +187,7 @@ def driver_values(frame, col, run, table=""):
         what = (
             f"is negative ({values[k]:g})"
             if np.isfinite(values[k])
-            else f"is missing or not finite ({frame[col].iloc[k]!r})"
+            else f"is missing or not finite ({shown(frame[col].iloc[k])})"
         )
         raise ValueError(
             f"{col} {what} in {_where(run, table)} at row {k}: the drivers must "
@@ -383,6 +405,11 @@ def build_problem(
             if col in frame.columns:
                 driver_values(frame, col, name)
     mapping = dict(mapping or {})
+    check_column_names(
+        runs.columns,
+        table="The measured runs'",
+        exempt={*mapping, *(channels or ())},
+    )
     predicted = list(machine.targets) + list(machine.sensors)
     check_mapping(
         mapping,
@@ -420,13 +447,14 @@ def build_problem(
         read.append((name, frame, t, channel_values(frame, channels, t, name)))
     warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)
+    dead = [c for c, k in zip(channels, keep, strict=True) if not k]
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_channels = [mapping.get(c, c) for c in channels]
     check_one_to_one(channels, sim_channels)
     is_disp = np.array([c in machine.targets for c in sim_channels])
     starts = {}
     if first_readings:
-        starts = _first_readings(machine, frames, mapping)
+        starts = _first_readings(machine, frames, mapping, dead)
     prepared = []
     for name, frame, t, y_all in read:
         y_all = y_all[:, keep]
@@ -473,11 +501,30 @@ def sensor_columns(machine, columns, mapping=None):
     return {s: named.get(s, s) for s in machine.sensors if named.get(s, s) in columns}
 
 
-def _first_readings(machine, frames, mapping):
+def _first_readings(machine, frames, mapping, dead=()):
     """The first readings of the machine's sensors in every run, ``{run:
     {sensor: samples}}`` (:meth:`ThermalMachine.first_readings`, the columns
-    by :func:`sensor_columns`)."""
+    by :func:`sensor_columns`). A column constant on every run (a dead or
+    unplugged probe) tells nothing of the machine's state and is left out,
+    with a warning unless it is among ``dead``, the compared channels already
+    left out for it."""
     columns = sensor_columns(machine, frames[0][1].columns, mapping)
+    values = [
+        frame[list(columns.values())].apply(pd.to_numeric, errors="coerce")
+        for _, frame in frames
+    ]
+    flat = np.all([flat_columns(v.to_numpy(float)) for v in values], axis=0)
+    stuck = [c for c, f in zip(columns.values(), flat, strict=True) if f]
+    unsaid = [c for c in stuck if c not in dead]
+    if unsaid:
+        warnings.warn(
+            f"The sensor column(s) {unsaid} are constant on every run (a dead "
+            "or unplugged probe?) and are left out of the runs' initial "
+            "states.",
+            UserWarning,
+            stacklevel=5,
+        )
+    columns = {s: c for s, c in columns.items() if c not in stuck}
     return {
         name: machine.first_readings(frame, columns=columns, run=name)
         for name, frame in frames
@@ -574,17 +621,19 @@ def group_scales(Y, is_disp):
 def with_scales(machine, reference, values):
     """``machine`` with group scales and effect parameters applied.
 
-    ``values`` maps names to multipliers: ``scale.C`` etc. multiply a family
-    of ``reference`` parameters; an effect parameter name multiplies that
-    parameter's reference value.
+    ``values`` maps names to multipliers: those of :func:`base_groups`
+    multiply a family of ``reference`` parameters (several on one parameter
+    compound, as the enclosure's exchange and the convections); an effect
+    parameter name multiplies that parameter's reference value.
     """
     new = {}
+    groups = base_groups(machine)
     for name, factor in values.items():
-        if name in BASE_GROUPS:
-            match = BASE_GROUPS[name]
+        if name in groups:
+            match = groups[name]
             for key, value in reference.items():
                 if match(key):
-                    new[key] = value * factor
+                    new[key] = new.get(key, value) * factor
         else:
             new[name] = reference[name] * factor
     return machine.with_params(new)
@@ -893,14 +942,15 @@ def calibrate(
     problem, machine, reference, effects, train_idx, *, start=None, max_nfev=40
 ):
     """Fit base scales (and the candidate effects' parameters) on training runs."""
-    names = list(BASE_GROUPS)
+    groups = base_groups(machine)
+    names = list(groups)
     for e in effects:
         p = EFFECT_PARAMETER.get(e)
         if p is not None:
             names.append(p)
     start = dict(start or {})
     x0 = np.log([start.get(n, 1.0) for n in names])
-    lo = np.array([np.log(0.25) if n in BASE_GROUPS else np.log(0.05) for n in names])
+    lo = np.array([np.log(0.25) if n in groups else np.log(0.05) for n in names])
     hi = -lo
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     sim_effects = [e for e in effects if e not in RESIDUAL_EFFECTS]

@@ -145,10 +145,11 @@ class GapReport:
         The gap that measurement noise alone would leave.
     machines : dict
         The simulation with the network parameters calibrated on all runs
-        (the capacity and convection multipliers, and an identified effect's
-        parameter), without and (when an effect explains the gap) with the
-        identified effects, for :func:`skthermal.gap.downstream_error`. The
-        calibration's per-channel gains of the air, bearing, drive and feed
+        (the capacity, convection and air-exchange multipliers, and an
+        identified effect's parameter), without and (when an effect
+        explains the gap) with the identified effects, for
+        :func:`skthermal.gap.downstream_error`. The calibration's
+        per-channel gains of the air, bearing, drive and feed
         parts are not part of these machines (a network has no such
         parameter), so they do not reproduce the "calibrated" fit of the
         where-table; to get a machine that does, fit it with
@@ -381,24 +382,24 @@ class GapReport:
         None, so that :meth:`to_json` writes strict JSON."""
 
         def records(df):
-            return plain(df.to_dict(orient="records"))
+            return jsonable(df.to_dict(orient="records"))
 
         return {
             "verdict": self.verdict(),
             "best_effect": self.best_effect,
-            "noise_floor": plain(self.noise_floor),
-            "how_far_evidence": plain(self.how_far_evidence),
-            "settings": plain(self.settings),
-            "not_applicable": plain(self.not_applicable),
-            "explainable": plain(self.explainable),
-            "drift_rates": plain(self.drift_rates),
+            "noise_floor": jsonable(self.noise_floor),
+            "how_far_evidence": jsonable(self.how_far_evidence),
+            "settings": jsonable(self.settings),
+            "not_applicable": jsonable(self.not_applicable),
+            "explainable": jsonable(self.explainable),
+            "drift_rates": jsonable(self.drift_rates),
             "initial_states": None
             if self.initial_states is None
-            else plain(self.initial_states.to_dict(orient="index")),
+            else jsonable(self.initial_states.to_dict(orient="index")),
             "ranking": records(self.ranking),
             "how_far": records(self.how_far),
             "steps": records(self.steps),
-            "regime_shrink": plain(self.regime_shrink.to_dict(orient="index")),
+            "regime_shrink": jsonable(self.regime_shrink.to_dict(orient="index")),
             "where": {k: records(v) for k, v in self.where.items()},
         }
 
@@ -637,6 +638,11 @@ class GapReport:
         a column ``<node>_K_above_air`` each) and, with matplotlib, timeline
         figures into ``folder``."""
         folder = Path(folder)
+        if folder.exists() and not folder.is_dir():
+            raise ValueError(
+                f"Cannot save the report into {str(folder)!r}: a file of that "
+                "name exists; save() writes a folder of files."
+            )
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "report.md").write_text(self.to_markdown())
         (folder / "report.html").write_text(self.to_html())
@@ -668,14 +674,16 @@ class GapReport:
         return folder
 
 
-def plain(value):
+def jsonable(value):
     """``value`` as plain Python for JSON: dicts (keys as strings), lists,
     Python numbers at full precision, and None for a missing or infinite
     number."""
     if isinstance(value, dict):
-        return {k if isinstance(k, str) else str(k): plain(v) for k, v in value.items()}
+        return {
+            k if isinstance(k, str) else str(k): jsonable(v) for k, v in value.items()
+        }
     if isinstance(value, list | tuple | np.ndarray | pd.Series):
-        return [plain(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, bool | np.bool_):
         return bool(value)
     if isinstance(value, int | np.integer):

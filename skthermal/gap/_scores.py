@@ -81,7 +81,12 @@ DIAGNOSIS_PARAMS = {
     "alpha": [Interval(Real, 0, 1, closed="neither")],
     "greedy": ["boolean"],
     "max_samples": [Interval(Integral, 10, None, closed="left")],
-    "n_jobs": [None, Integral],
+    # joblib's meaning: 1 or more processes, or -1 all cores, -2 all but one..
+    "n_jobs": [
+        None,
+        Interval(Integral, None, -1, closed="right"),
+        Interval(Integral, 1, None, closed="left"),
+    ],
     "block_hours": [None, Interval(Real, 0, None, closed="neither")],
 }
 

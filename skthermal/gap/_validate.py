@@ -24,6 +24,7 @@ from skthermal.simulate import (
     DutyCycle,
     ThermalMachine,
 )
+from skthermal.utils._threads import with_single_threaded_blas
 
 # Effect parameter scaled by the strength of a validation case; drift gets a
 # visible default (the simulator's 0.01 °C/h is below the sensor noise).
@@ -323,6 +324,7 @@ def _one_case(kind, effect, seed, strength, preset, n_runs, hours, candidates, k
     }
 
 
+@with_single_threaded_blas
 def validate(
     effects=None,
     *,

@@ -53,7 +53,10 @@ from skthermal.utils._runs import (
     is_clock_dtype,
     warn_short_runs,
 )
-from skthermal.utils._threads import single_threaded_blas
+from skthermal.utils._threads import (
+    single_threaded_blas,
+    with_single_threaded_blas,
+)
 
 
 @dataclass
@@ -963,6 +966,7 @@ class ThermalMachine:
         self._cache["displacement"] = M
         return M
 
+    @with_single_threaded_blas
     def calibrate(
         self,
         runs,
@@ -1512,9 +1516,14 @@ class ThermalMachine:
                 f"(time_s {t[bad[0] + 1]:g} after {t[bad[0]]:g})."
             )
         if np.ptp(steps) > 1e-6 * steps.mean():
+            period = float(np.median(steps))
             raise ValueError(
-                f"Run {run!r} is not regularly sampled (steps from {steps.min():g} to "
-                f"{steps.max():g} s); resample it to a constant period first."
+                f"Run {run!r} is not regularly sampled (steps from "
+                f"{steps.min():.9g} to {steps.max():.9g} s); the simulation "
+                "runs at one period. Resample it to a constant period first, "
+                "or, where the logger's clock only jitters, round time_s to "
+                f"its period (time_s = round(time_s / {period:.6g}) * "
+                f"{period:.6g})."
             )
 
     def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed"), run=None):

@@ -1,5 +1,7 @@
 """Thread control for loops of many small BLAS calls."""
 
+import functools
+
 from threadpoolctl import ThreadpoolController
 
 _CONTROLLER = None
@@ -17,3 +19,20 @@ def single_threaded_blas():
     if _CONTROLLER is None:
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=1, user_api="blas")
+
+
+def with_single_threaded_blas(func):
+    """Decorator: ``func`` runs under :func:`single_threaded_blas`.
+
+    For whole computations made of small arrays (a gap diagnosis, a
+    calibration): their worker processes already get one BLAS thread each
+    from joblib, and in the calling process more threads only wait on each
+    other (4-5 times slower serial diagnoses on a loaded 2-core machine).
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        with single_threaded_blas():
+            return func(*args, **kwargs)
+
+    return wrapper
