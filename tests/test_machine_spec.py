@@ -112,7 +112,15 @@ def test_a_small_machine_from_a_dict_simulates():
         ),
         (
             lambda d: d["displacement"].update(x={"spindle": 1.0}),
-            r"displacement: unknown field 'x'",
+            r"displacement: the table 'x' names no axis of the machine",
+        ),
+        (
+            lambda d: d["displacement"].update(typo_um=0.2),
+            r"displacement: unknown field 'typo_um'",
+        ),
+        (
+            lambda d: d["displacement"][d["axes"][0]].update(noise_um=0.2),
+            r"noise_um is a field of \[displacement\] itself",
         ),
         (
             lambda d: d["heat"]["bearing"].update(W_at_1000rpm=3.0),

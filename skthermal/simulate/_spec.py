@@ -1144,6 +1144,14 @@ class MachineSpec:
         if feed is not None and "axis" in feed and feed["axis"] not in axes:
             raise _unknown("heat source 'feed': axis", feed["axis"], axes, "axis")
         disp = data.get("displacement", {})
+        if isinstance(disp, dict):
+            for key, value in disp.items():
+                if key not in axes and key != "noise_um" and isinstance(value, dict):
+                    raise ValueError(
+                        f"displacement: the table {key!r} names no axis of the "
+                        f"machine (axes = {list(axes)}); add it to axes or "
+                        "rename it."
+                    )
         _check_fields("displacement", disp, ("noise_um", *axes))
         if "noise_um" in disp:
             p["disp.noise_um"] = _number(
@@ -1159,6 +1167,13 @@ class MachineSpec:
             if not isinstance(coefficients, dict):
                 _check_fields(f"displacement {axis!r}", coefficients, known)
             for node in coefficients:
+                if node == "noise_um":
+                    raise ValueError(
+                        f"displacement {axis!r}: noise_um is a field of "
+                        "[displacement] itself (the noise of every displacement "
+                        "channel, µm), not of an axis; write it beside the "
+                        "axes' tables."
+                    )
                 if node not in known:
                     raise _unknown(f"displacement {axis!r}", node, known)
             for node, value in coefficients.items():
