@@ -21,7 +21,6 @@ from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
 from skthermal._naming import percent
-from skthermal.datasets._runtable import check_column_names
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -37,6 +36,7 @@ from skthermal.gap._problem import (
     check_channel_names,
     check_length,
     check_mapping,
+    check_measured_names,
     check_one_to_one,
     check_times,
     drift_table,
@@ -101,11 +101,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
     mapping = dict(mapping or {})
     # The measured table is a run table; the simulated one may be another
     # tool's export, its columns matched by name or through the mapping.
-    check_column_names(
-        measured.columns,
-        table="The measured table's",
-        exempt={*mapping, *(channels or ())},
-    )
+    check_measured_names(measured.columns, mapping, channels, "The measured table's")
     check_mapping(
         mapping,
         measured.columns,

@@ -351,6 +351,13 @@ def check_mapping(mapping, measured_columns, simulated_columns, what):
         )
 
 
+def check_measured_names(columns, mapping, channels, table):
+    """The run-table naming rule on a measured table's ``columns`` (as
+    :func:`skthermal.datasets.read_runs` applies it), but for the columns
+    the caller took explicitly: ``mapping``'s keys and ``channels``."""
+    check_column_names(columns, table=table, exempt={*mapping, *(channels or ())})
+
+
 def warn_uncompared(measured_columns, channels, why):
     """Warn (UserWarning) about the measured channel columns left out of the
     comparison ``channels`` (when they were not chosen explicitly)."""
@@ -405,11 +412,7 @@ def build_problem(
             if col in frame.columns:
                 driver_values(frame, col, name)
     mapping = dict(mapping or {})
-    check_column_names(
-        runs.columns,
-        table="The measured runs'",
-        exempt={*mapping, *(channels or ())},
-    )
+    check_measured_names(runs.columns, mapping, channels, "The measured runs'")
     predicted = list(machine.targets) + list(machine.sensors)
     check_mapping(
         mapping,

@@ -501,9 +501,9 @@ class _Objective:
         self.guard = guard
         self.warned = False
 
-    def _warn_training_error(self, model, prefix):
+    def _warn_training_error(self, validation_fraction):
         """Once per search: pruning ANFIS by its training error."""
-        if self.warned or model.get_params()[f"{prefix}validation_fraction"]:
+        if self.warned or validation_fraction:
             return
         self.warned = True
         warnings.warn(
@@ -534,9 +534,10 @@ class _Objective:
             hook = None
             if self.pruning == "epochs" and fold == 0:
                 _, prefix = _final_step(model)
-                self._warn_training_error(model, prefix)
+                params = model.get_params()
+                self._warn_training_error(params[f"{prefix}validation_fraction"])
                 key = f"{prefix}epoch_callback"
-                hook = _PruningCallback(trial, self.sign, model.get_params()[key])
+                hook = _PruningCallback(trial, self.sign, params[key])
                 model.set_params(**{key: hook})
             try:
                 model.fit(_take(self.X, train), _take(self.y, train))
