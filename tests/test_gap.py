@@ -733,12 +733,15 @@ def test_input_messages_name_the_real_values(rig_runs):
     shuffled = runs.copy()
     first = shuffled.index[shuffled["run"] == "r0"][:2]
     shuffled.loc[first, "time_s"] = shuffled.loc[first[::-1], "time_s"].to_numpy()
-    with pytest.raises(ValueError, match=r"run 'r0' at row 1 \(time_s 0 after 60\)"):
+    with pytest.raises(
+        ValueError, match=r"run 'r0' at row 1 of the run \(time_s 0 after 60\)"
+    ):
         diagnose(rig, shuffled)
     missing = runs.copy()
     missing.loc[missing.index[missing["run"] == "r1"][4], "T3_C"] = np.nan
     with pytest.raises(
-        ValueError, match=r"T3_C is missing .* run 'r1' at row 4 \(time_s 240\)"
+        ValueError,
+        match=r"T3_C is missing .* run 'r1' at row 4 of the run \(time_s 240\)",
     ):
         diagnose(rig, missing)
     with pytest.raises(ValueError, match=r"at least 2 runs \(got 1\): block_hours=100"):

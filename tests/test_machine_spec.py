@@ -4,6 +4,7 @@ import ast
 import json
 import re
 import tomllib
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -545,8 +546,10 @@ def test_a_machine_round_trips_with_its_effects(effects, tmp_path):
 
 def test_effect_switches_in_a_file_and_files_without_them():
     data = _small()
-    default = tuple(e for e in EFFECTS if e != "sensor_drift")
-    assert ThermalMachine.from_spec(data).effects == default  # as before
+    # Every effect but sensor_drift, less those that cannot act on this
+    # machine: it has no ball screw and no node washed by the workshop air.
+    default = ("sensor_lag", "speed_convection", "tool_growth")
+    assert ThermalMachine.from_spec(data).effects == default
     data["effects"] = {
         "sensor_drift": {"on": True},
         "sensor_lag": {"on": False, "tau_s": 100.0},
@@ -559,6 +562,29 @@ def test_effect_switches_in_a_file_and_files_without_them():
     assert machine.params["sensor_lag.tau_s"] == 100.0
     assert MachineSpec.from_dict(spec.to_dict()) == spec
     assert tomllib.loads(spec.to_toml())["effects"]["sensor_lag"]["on"] is False
+
+
+def test_an_effect_that_cannot_act_is_off_by_default_and_warns_when_asked():
+    """The rig has no ball screw: feed_heating is not on by default, and
+    switching it on (argument, file or with_effects) warns with the reason."""
+    rig = ThermalMachine.from_preset("spindle-rig")
+    assert "feed_heating" not in rig.effects
+    assert rig.effect_status()["sensor_lag"]
+    with pytest.warns(
+        UserWarning,
+        match="'feed_heating' is switched on but does "
+        "nothing: the machine has no ball screw",
+    ):
+        ThermalMachine.from_preset("spindle-rig", effects=["feed_heating"])
+    with pytest.warns(UserWarning, match="'feed_heating'.*no ball screw"):
+        on = rig.with_effects(add=["feed_heating"])
+    assert "feed_heating" in on.effects
+    with pytest.warns(UserWarning, match="'feed_heating'.*no ball screw"):
+        ThermalMachine.from_spec(on.to_spec())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        on.with_effects(remove=["sensor_lag"])  # nothing newly switched on
+        ThermalMachine.from_spec(rig.to_spec())
 
 
 def test_unknown_parameter_names_are_rejected_on_every_path():

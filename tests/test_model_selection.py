@@ -257,6 +257,23 @@ def test_run_search_in_memory(runs_data):
     assert "n_trials=4" in repr(result)
 
 
+def test_more_folds_than_runs_is_refused_naming_both(runs_data):
+    X, y, _ = runs_data  # 3 runs
+    with pytest.raises(
+        ValueError,
+        match=r"cv=4 asks for more folds than there "
+        r"are runs \(3\)",
+    ):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            n_trials=1,
+            cv=4,
+        )
+
+
 def test_run_search_groups_from_index_and_scorer_names(runs_data):
     X, y, _ = runs_data
     for scoring in ("nse", "r2"):

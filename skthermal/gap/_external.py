@@ -228,7 +228,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
             if off.size:
                 k = int(off[0])
                 where = "" if in_m and in_s else " (absent from one table: 0)"
-                row = f"row {k}" if same else f"simulated row {k}"
+                row = f"row {k} of the run" if same else f"simulated row {k} of the run"
                 raise ValueError(
                     f"The drivers differ: {col} in run {name!r} at {row} "
                     f"(time {ts[k]:g} s) is {m[at[k]]:g} measured and {sim_d[k]:g} "

@@ -190,7 +190,8 @@ def driver_values(frame, col, run, table=""):
             else f"is missing or not finite ({shown(frame[col].iloc[k])})"
         )
         raise ValueError(
-            f"{col} {what} in {_where(run, table)} at row {k}: the drivers must "
+            f"{col} {what} in {_where(run, table)} at row {k} of the run: the "
+            "drivers must "
             "be finite"
             + (" and spindle_rpm not negative." if col == "spindle_rpm" else ".")
         )
@@ -205,7 +206,7 @@ def check_times(t, run, table=""):
         k = int(bad[0]) + 1
         raise ValueError(
             f"time_s is not strictly increasing in {_where(run, table)} at row "
-            f"{k} (time_s {t[k]:g} after {t[k - 1]:g})."
+            f"{k} of the run (time_s {t[k]:g} after {t[k - 1]:g})."
         )
 
 
@@ -236,7 +237,7 @@ def channel_values(frame, columns, t, run, table=""):
             r = int(np.flatnonzero(text)[0])
             raise ValueError(
                 f"{col} holds {raw.iloc[r]!r}, not a number, in "
-                f"{_where(run, table)} at row {r} (time_s {t[r]:g}): the "
+                f"{_where(run, table)} at row {r} of the run (time_s {t[r]:g}): the "
                 "channels must hold numbers."
             )
         out[:, c] = values.to_numpy(float)
@@ -316,7 +317,7 @@ def check_finite_channels(Y, columns, t, run, table=""):
         r, c = map(int, np.argwhere(bad)[0])
         raise ValueError(
             f"{columns[c]} is missing or not finite in {_where(run, table)} at "
-            f"row {r} (time_s {t[r]:g})."
+            f"row {r} of the run (time_s {t[r]:g})."
         )
 
 

@@ -403,6 +403,11 @@ def _resolve_cv(cv, groups):
             )
         n_runs = len(np.unique(groups))
         n_splits = min(5, n_runs) if cv is None else int(cv)
+        if n_splits > n_runs:
+            raise ValueError(
+                f"cv={n_splits} asks for more folds than there are runs "
+                f"({n_runs}); each fold leaves out whole runs."
+            )
         if n_splits < 2:
             raise ValueError(
                 f"GroupKFold needs at least 2 runs to score on unseen runs, got "

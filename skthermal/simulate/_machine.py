@@ -148,6 +148,23 @@ def _weights_matrix(spec, names_index, items):
     return W
 
 
+def _warn_inactive(spec, effects):
+    """Warn, naming each, when effects switched on cannot act on ``spec``."""
+    lacking = {e: EFFECTS[e].missing(spec) for e in effects}
+    lacking = {e: why for e, why in lacking.items() if why is not None}
+    if lacking:
+        warnings.warn(
+            f"Machine {spec.name!r}: "
+            + "; ".join(
+                f"effect {e!r} is switched on but does nothing: {why}"
+                for e, why in lacking.items()
+            )
+            + ".",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
 class ThermalMachine:
     """A simulated machine tool: thermal network, heat sources, sensors, errors.
 
@@ -210,8 +227,10 @@ class ThermalMachine:
             Effects switched on. Default: the switches the description
             records (:attr:`MachineSpec.effects`, written by
             :meth:`to_spec`); an effect it does not record takes its default
-            (every effect except ``sensor_drift`` is on). Given, it replaces
-            the recorded switches.
+            (every effect except ``sensor_drift`` is on, unless the machine
+            lacks what it acts on, e.g. ``feed_heating`` without a ball
+            screw). Given, it replaces the recorded switches. Switching on an
+            effect that cannot act on the machine warns, with the reason.
         params : dict, optional
             Parameter overrides (names as in :meth:`parameter_table`).
 
@@ -238,7 +257,18 @@ class ThermalMachine:
                 "give capacities, conductances and the other parameters."
             )
         if effects is None:
-            effects = default_effects(spec.effects)
+            # Effects on by default that cannot act on this machine (no ball
+            # screw for feed_heating, say) stay off; those the description
+            # switches on itself are kept, with a warning.
+            recorded = {e for e, on in (spec.effects or {}).items() if on}
+            effects = tuple(
+                e
+                for e in default_effects(spec.effects)
+                if e in recorded or EFFECTS[e].missing(spec) is None
+            )
+            _warn_inactive(spec, recorded)
+        else:
+            _warn_inactive(spec, check_effects(effects))
         merged = dict(NUMBER_DEFAULTS)
         merged.update(
             {f"k.{axis}.{node}": 0.0 for axis in spec.axes for node in spec.nodes}
@@ -285,7 +315,8 @@ class ThermalMachine:
             base, air), 16 sensors and 5 displacement channels of the
             spindle nose, laid out like the FL_THERMAL record.
         effects : sequence of str, optional
-            Default: every effect except ``sensor_drift``.
+            Default: every effect except ``sensor_drift``, and on
+            ``"spindle-rig"`` except ``feed_heating`` (no ball screw).
         params : dict, optional
             Parameter overrides (names as in :meth:`parameter_table`).
         """
@@ -449,7 +480,11 @@ class ThermalMachine:
     def with_effects(self, effects=None, *, add=(), remove=()):
         """A copy with other effects: ``effects`` replaces, ``add``/``remove`` edit."""
         current = list(self._effects if effects is None else check_effects(effects))
-        current += [e for e in check_effects(add) if e not in current]
+        added = [e for e in check_effects(add) if e not in current]
+        _warn_inactive(
+            self.spec, [e for e in current + added if e not in self._effects]
+        )
+        current += added
         drop = set(check_effects(remove))
         return ThermalMachine(
             self.spec, self._params, [e for e in current if e not in drop]
