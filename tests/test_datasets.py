@@ -285,6 +285,25 @@ def test_missing_sensor(runs):
     assert validate_runs(df, allow_missing_sensors=True) is df
 
 
+def test_missing_sensor_hint_fits_the_function_called(runs, tmp_path):
+    """Each function's way out of missing sensor values is one of its own
+    arguments."""
+    df = with_value(runs, "Tcarrier3_C", 4, np.nan)
+    way_out = r"or pass validate=False and impute them in the pipeline"
+    for call in (
+        lambda: split_runs(df),
+        lambda: write_runs(df, tmp_path / "runs.csv"),
+    ):
+        with pytest.raises(ValueError, match=way_out) as info:
+            call()
+        assert "allow_missing_sensors" not in str(info.value)
+    X, _, _ = split_runs(df, validate=False)
+    assert X["Tcarrier3_C"].isna().sum() == 1
+    write_runs(df, tmp_path / "runs.csv", validate=False)
+    with pytest.raises(ValueError, match=way_out):
+        read_runs(tmp_path / "runs.csv")
+
+
 def test_nullable_missing_sensor(runs):
     df = runs.astype({"T1_C": "Float64"})
     df.loc[1, "T1_C"] = pd.NA
@@ -633,6 +652,20 @@ def test_read_csv_empty_trailing_field_is_not_a_cut(tmp_path, runs):
     runs.assign(note="").to_csv(path, index=False)  # every row ends with ","
     assert path.read_text().splitlines()[-1].endswith(",")
     assert len(read_runs(path)) == len(runs)
+    path.write_text(path.read_text().rstrip("\n"))  # nor without a line end
+    assert len(read_runs(path)) == len(runs)
+
+
+def test_read_csv_cut_right_after_a_separator(tmp_path, runs):
+    path = tmp_path / "runs.csv"
+    text = runs.to_csv(index=False).rstrip("\n")
+    path.write_text(text[: text.rfind(",") + 1])  # the last field gone, not its ","
+    with pytest.raises(
+        ValueError,
+        match=r"the file is cut off: its last line \(line 13\) has 9 of the 10 "
+        r"fields of the header and no line end",
+    ):
+        read_runs(path)
 
 
 def test_read_damaged_parquet(tmp_path, runs):

@@ -264,6 +264,19 @@ def test_slow_drift_flagged_when_it_leaves_the_range(train, new_run):
     assert not out[:first].any() and out[first:].all()
 
 
+def test_the_allowed_range_stops_where_an_input_physically_ends(train, new_run):
+    """Widened by span, a spindle speed's range would reach below 0 rpm: the
+    allowed range stops at 0, and a speed above it is still flagged."""
+    X, y = train
+    rpm = np.tile(np.r_[np.zeros(60), np.full(60, 6000.0)], 3)
+    X = X.assign(spindle_rpm=rpm)
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    X_new = new_run[0].assign(spindle_rpm=np.r_[np.zeros(60), np.full(60, 9000.0)])
+    _, caught = _caught(guard.predict_checked, X_new)
+    (msg,) = _messages(caught, SensorRangeWarning)
+    assert "'spindle_rpm'" in msg and "allowed 0 to 7500" in msg
+
+
 # --- non-finite readings ----------------------------------------------------
 
 

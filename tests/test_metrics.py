@@ -3,6 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
+from sklearn.exceptions import UndefinedMetricWarning
 from sklearn.linear_model import LinearRegression
 from sklearn.metrics import r2_score
 from sklearn.model_selection import GroupKFold, cross_validate
@@ -107,15 +108,18 @@ def test_constant_target_conventions():
     assert improvement(zero, zero) == 1.0
     assert improvement(zero, [0.0, 1.0]) == 0.0
     assert improvement(zero, [0.0, 1.0], force_finite=False) == -np.inf
-    assert np.isnan(pearson_r(y, [1.0, 2.0, 3.0]))
-    assert np.isnan(pearson_r([1.0, 2.0, 3.0], y))
-    # Constant by value, whatever the rounding of its mean (it left 0.0).
-    assert np.isnan(pearson_r([1.0, 2.0, 3.0], [0.1, 0.1, 0.1]))
-    raw = pearson_r(
-        np.column_stack([y, Z[:3]]),
-        np.column_stack([Z[:3], Z[:3]]),
-        multioutput="raw_values",
-    )
+    with pytest.warns(UndefinedMetricWarning, match="y_true is constant"):
+        assert np.isnan(pearson_r(y, [1.0, 2.0, 3.0]))
+    with pytest.warns(UndefinedMetricWarning, match="y_pred is constant"):
+        assert np.isnan(pearson_r([1.0, 2.0, 3.0], y))
+        # Constant by value, whatever the rounding of its mean (it left 0.0).
+        assert np.isnan(pearson_r([1.0, 2.0, 3.0], [0.1, 0.1, 0.1]))
+    with pytest.warns(UndefinedMetricWarning, match="NaN for 1 of 2 output"):
+        raw = pearson_r(
+            np.column_stack([y, Z[:3]]),
+            np.column_stack([Z[:3], Z[:3]]),
+            multioutput="raw_values",
+        )
     assert np.isnan(raw[0]) and raw[1] == pytest.approx(1.0)
 
 

@@ -1,3 +1,4 @@
+import re
 import warnings
 from pathlib import Path
 
@@ -133,12 +134,20 @@ def test_rows_without_times_warn_unless_dt_is_given(model):
     X = _frame()
     y = np.arange(len(X), dtype=float)
     bare = X.reset_index(drop=True)  # no run labels, no times
-    with pytest.warns(UserWarning, match="no time_s.*dt=") as record:
+    with pytest.warns(UserWarning) as record:
         clone(model).fit(bare, y)
-    assert len(record) == 1  # once, not once per candidate
+    # Each said once, not once per candidate: no times (give dt), and rows
+    # without run labels taken as one run.
+    messages = sorted(str(w.message) for w in record)
+    assert len(messages) == 2
+    assert re.search("ONE run", messages[0]) and re.search(
+        "no time_s.*dt=", messages[1]
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        explicit = clone(model).set_params(dt=30.0).fit(bare, y)
+        explicit = (
+            clone(model).set_params(dt=30.0).fit(bare, y, groups=np.zeros(len(y)))
+        )
     # dt=30 on the bare rows is the same model as a 30 s time index.
     timed_rows = bare.set_axis(pd.Index(np.arange(len(X)) * 30.0, name="time_s"))
     timed = clone(model).fit(timed_rows, y)
@@ -325,8 +334,20 @@ def test_rows_without_run_labels_warn_with_the_fix(model):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         use(X)  # the run labels of the index: no warning
+    # Plain rows in fit (a step in front that outputs numpy): the runs and
+    # the drivers' names are lost, and fit says both.
+    with pytest.warns(UserWarning) as record:
         model.set_params(dt=30.0).fit(X.to_numpy(), y)
+    messages = sorted(str(w.message) for w in record)
+    assert len(messages) == 2
+    assert re.search(r"\.fit got 10 rows .* ONE run", messages[0])
+    assert re.search(
+        r"drivers='auto' finds the drivers .* no column names", messages[1]
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         use(X.to_numpy())  # fitted without labels: nothing to warn about
+        model.set_params(drivers=None).fit(X.to_numpy(), y, groups=np.zeros(len(y)))
 
 
 @LAG_MODELS
@@ -650,3 +671,17 @@ def test_run_folds_do_not_depend_on_the_order_of_unsortable_labels():
         return sorted(sorted({repr(labs[int(i) // 3]) for i in va}) for _, va in folds)
 
     assert held_out([0, 1, 2, 3]) == held_out([3, 1, 0, 2]) == held_out([2, 0, 3, 1])
+
+
+def test_two_targets_are_refused_naming_them_and_the_way_out():
+    X = _frame()
+    Y = pd.DataFrame(
+        {"disp_x_um": np.arange(10.0), "disp_y_um": np.arange(10.0) ** 2},
+        index=X.index,
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"LagRidgeCV fits one target, got 2 \(\['disp_x_um', 'disp_y_um'\]\).*"
+        r"MultiOutputRegressor",
+    ):
+        make_lag_pipeline().fit(X, Y)

@@ -743,3 +743,23 @@ def test_a_late_start_is_named_once_by_the_model_called():
         model.predict(table.iloc[cut:].assign(run="new"))
     late = [str(w.message) for w in caught if "not 0" in str(w.message)]
     assert len(late) == 1 and "RunStartRegressor.predict" in late[0], late
+
+
+def test_groups_that_cut_other_runs_than_the_index_warn():
+    X = table(np.r_[np.arange(4), np.arange(4)] * 30.0, ["a"] * 4 + ["b"] * 4)
+    # The same runs under other names (codes, as a CV splitter may pass):
+    # nothing to say.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, groups = extract_runs(X, np.repeat([7, 9], 4))
+    assert groups.tolist() == [7] * 4 + [9] * 4
+    with pytest.warns(
+        UserWarning,
+        match=r"groups cut the rows into 4 run\(s\), X's 'run' index level into "
+        r"2, and they first disagree at row 2 \(groups 1, X 'a'\); groups are used",
+    ):
+        _, groups = extract_runs(X, np.repeat([0, 1, 2, 3], 2))
+    assert groups.tolist() == [0, 0, 1, 1, 2, 2, 3, 3]
+    frame = X.reset_index(level="run")  # the labels as a column
+    with pytest.warns(UserWarning, match=r"X's 'run' column into 2"):
+        extract_runs(frame, np.repeat([0, 1, 2, 3], 2))

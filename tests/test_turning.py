@@ -60,6 +60,8 @@ def test_decomposition_with_fewer_measurements_and_units():
         ({}, "at least one"),
         ({"D_omc": [40.0, np.nan]}, "D_omc is NaN or infinite at position 1"),
         ({"D_omc": [40.0, 40.0, 40.0]}, "different lengths"),
+        # A sequence of one is one part, not a number for all parts.
+        ({"D_pp": [40.012]}, r"different lengths: \{'D_des': 2, 'D_pp': 1\}"),
         ({"D_pp": -1.0}, "positive"),
         ({"D_omc": "x"}, "numeric"),
         ({"D_omc": 40.0, "unit": "inch"}, "unit"),
@@ -79,7 +81,7 @@ def test_decomposition_matches_pandas_inputs_by_their_index():
         decompose_turning_error(des, D_pp=pp)
     out = decompose_turning_error(des, D_pp=pp.reindex(des.index))
     np.testing.assert_allclose(out["d_tot"], [1.0, 1.0])
-    with pytest.raises(ValueError, match="index has 1 labels"):
+    with pytest.raises(ValueError, match=r"different lengths: \{'D_des': 1, 'D_pp': 2"):
         decompose_turning_error(des.iloc[:1], D_pp=[40.001, 40.002])
     with pytest.raises(ValueError, match="D_des is empty"):
         decompose_turning_error([], D_pp=[])

@@ -38,14 +38,10 @@ def split_list(value, keep=()):
     return out
 
 
-# The hint of skthermal.datasets.validate_runs for missing sensor values that
-# only a Python caller can follow.
-_PYTHON_ONLY = "or pass allow_missing_sensors=True"
-
-
 def read_table(path, what="--runs", *, validate=True):
     """Read (and validate) a run table, naming the option on failure."""
     from skthermal.datasets import read_runs
+    from skthermal.datasets._runtable import SKIP_VALIDATION
 
     if path is None:
         raise UserError(f"{what} FILE is required.")
@@ -63,9 +59,11 @@ def read_table(path, what="--runs", *, validate=True):
         ) from exc
     except (ValueError, ImportError, pd.errors.ParserError) as exc:
         message = str(exc)
-        if _PYTHON_ONLY in message:
-            # validate_runs' way out is a Python argument; none here.
-            message = message.replace(_PYTHON_ONLY, "or drop those rows")
+        if SKIP_VALIDATION in message:
+            # read_runs' way out is a Python argument; none here.
+            message = message.replace(
+                SKIP_VALIDATION, "impute them first or drop those rows"
+            )
         if str(path) not in message:
             message = f"{path}: {message}"
         raise UserError(f"{what}: {message}") from exc

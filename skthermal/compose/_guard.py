@@ -28,6 +28,7 @@ from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal._naming import plain
+from skthermal.datasets._runtable import physical_lows
 from skthermal.utils._runs import (
     MAX_MAGNITUDE,
     RUN_COLUMN,
@@ -662,7 +663,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
         inputs_changed = np.zeros(n, dtype=bool)
         X_inner = X
-        lo, hi = _limits(self.input_min_, self.input_max_, self.span)
+        lo, hi = self._input_limits()
         if self.mode == "clip":
             B = np.where(self.checked_inputs_, np.clip(A, lo, hi), A)
             inputs_changed = (B != A).any(axis=1)
@@ -727,6 +728,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "reason": reason,
         }
 
+    def _input_limits(self):
+        """The inputs' allowed ranges: the training ranges widened by
+        ``span``, not below what an input can physically read (0 rpm, say)."""
+        lo, hi = _limits(self.input_min_, self.input_max_, self.span)
+        return np.maximum(lo, physical_lows(self._sensor_names())), hi
+
     def _sensor_names(self):
         names = getattr(self, "feature_names_in_", None)
         if names is None:
@@ -754,7 +761,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 "A sensor can drop out on the machine: mode='hold' holds the "
                 "last good compensation instead of failing."
             )
-        lo, hi = _limits(self.input_min_, self.input_max_, self.span)
+        lo, hi = self._input_limits()
         with np.errstate(invalid="ignore", over="ignore"):
             flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
             if self.jump is not None:

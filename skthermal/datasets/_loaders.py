@@ -25,7 +25,13 @@ import pandas as pd
 
 from skthermal._naming import plain
 from skthermal._optional import import_optional, missing_dependency
-from skthermal.datasets._runtable import RUN, check_label_kinds, validate_runs
+from skthermal.datasets._runtable import (
+    RUN,
+    SKIP_VALIDATION,
+    check_label_kinds,
+    check_run_table,
+    validate_runs,
+)
 
 _PARQUET_SUFFIXES = (".parquet", ".pq")
 FL_THERMAL_FILE = "fl_thermal_spindle.csv.gz"
@@ -147,9 +153,19 @@ def _check_complete(path, data):
     line_no = body.count(b"\n") + 1
     last = body[body.rfind(b"\n") + 1 :].decode("utf-8", errors="replace")
     n_header, n_last = len(_csv_fields(header)), len(_csv_fields(last))
-    if not last.strip() or n_last >= n_header:
+    no_end = not data.endswith(b"\n")
+    # Cut right after a separator: every field is there, the last one empty
+    # where the line before has it, and the line has no end.
+    start = body.rfind(b"\n")
+    before = body[body.rfind(b"\n", 0, start) + 1 : start].rstrip(b"\r")
+    after_separator = (
+        no_end and last.rstrip("\r").endswith(",") and not before.endswith(b",")
+    )
+    if not last.strip() or (n_last >= n_header and not after_separator):
         return
-    newline = "" if data.endswith(b"\n") else " and no line end"
+    if after_separator and n_last >= n_header:
+        n_last -= 1  # the empty field after the cut
+    newline = "" if not no_end else " and no line end"
     shown = last if len(last) <= 60 else last[:57] + "..."
     raise ValueError(
         f"{path}: the file is cut off: its last line (line {line_no}) has "
@@ -589,7 +605,7 @@ def read_runs(path, *, validate=True, metadata=False):
     df = _read_table(path, labels)
     if validate:
         try:
-            validate_runs(df)
+            check_run_table(df, missing_hint=SKIP_VALIDATION)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from exc
     if metadata:
@@ -648,7 +664,7 @@ def write_runs(df, path, *, metadata=None, validate=True):
     See :func:`read_runs`.
     """
     if validate:
-        validate_runs(df)
+        check_run_table(df, missing_hint=SKIP_VALIDATION)
     elif not isinstance(df, pd.DataFrame):
         raise ValueError(
             f"A run table must be a pandas DataFrame, got {type(df).__name__}."

@@ -404,6 +404,33 @@ def validate_runs(
     ...
     ValueError: Run 'b' has a single row (row 2); a run needs at least two samples.
     """
+    return check_run_table(
+        df,
+        require_targets=require_targets,
+        require_drivers=require_drivers,
+        allow_missing_sensors=allow_missing_sensors,
+    )
+
+
+# How a caller of validate_runs lets missing sensor values through, and how a
+# caller of a function that takes ``validate=`` does.
+ALLOW_MISSING = "impute them first (and say how) or pass allow_missing_sensors=True"
+SKIP_VALIDATION = (
+    "impute them first, or pass validate=False and impute them in the "
+    "pipeline (e.g. sklearn.impute.SimpleImputer)"
+)
+
+
+def check_run_table(
+    df,
+    *,
+    require_targets=False,
+    require_drivers=False,
+    allow_missing_sensors=False,
+    missing_hint=ALLOW_MISSING,
+):
+    """:func:`validate_runs`, the way out of missing sensor values worded for
+    the caller (``missing_hint``)."""
     if not isinstance(df, pd.DataFrame):
         raise ValueError(
             f"A run table must be a pandas DataFrame, got {type(df).__name__}."
@@ -477,7 +504,7 @@ def validate_runs(
     )
     _check_ranges(df, everything, values)
     if not allow_missing_sensors:
-        _check_missing_sensors(df, sensors, values[:, len(strict) :])
+        _check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
 
 
@@ -499,6 +526,16 @@ def _range_rules(columns):
     return rules
 
 
+def physical_lows(columns):
+    """The lowest value each of ``columns`` can physically hold (its run-table
+    range; -inf for a column without one), as an array: 0 rpm for
+    ``spindle_rpm``, -273.15 °C for a temperature."""
+    lows = np.full(len(columns), -np.inf)
+    for j, lowest, _, _ in _range_rules([str(c) for c in columns]):
+        lows[j] = lowest
+    return lows
+
+
 def _check_ranges(df, columns, values):
     """Raise naming the first column, run and row outside its physical range."""
     for j, lowest, strict, expected in _range_rules(columns):
@@ -513,16 +550,10 @@ def _check_ranges(df, columns, values):
             )
 
 
-def _check_missing_sensors(df, sensors, values=None):
+def _check_missing_sensors(df, sensors, values=None, hint=ALLOW_MISSING):
     if values is None:
         values = _as_float(df, sensors)
-    _report_nonfinite(
-        df,
-        sensors,
-        np.isnan(values),
-        "missing",
-        "; impute them first (and say how) or pass allow_missing_sensors=True",
-    )
+    _report_nonfinite(df, sensors, np.isnan(values), "missing", f"; {hint}")
 
 
 def _as_list(columns):
@@ -625,7 +656,7 @@ def split_runs(df, *, sensors=None, targets=None, validate=True):
     if not outputs:
         raise ValueError(f"The run table has no target column: {_RULES['target']}.")
     if validate:
-        _check_missing_sensors(df, features)
+        _check_missing_sensors(df, features, hint=SKIP_VALIDATION)
 
     index = pd.MultiIndex.from_arrays([df[RUN], df[TIME]], names=[RUN, TIME])
     X = df.loc[:, features].set_axis(index, axis=0)

@@ -8,7 +8,10 @@ improvement ``1 - max|z - p| / max|z|`` (the "94%" of error removed). All take
 ``(n_samples,)`` or ``(n_samples, n_outputs)``.
 """
 
+import warnings
+
 import numpy as np
+from sklearn.exceptions import UndefinedMetricWarning
 
 _MULTIOUTPUT = ("raw_values", "uniform_average")
 
@@ -190,8 +193,8 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     -------
     float or ndarray of shape (n_outputs,)
         R in [-1, 1] per output (or their mean). R is undefined, and NaN is
-        returned for that output, when ``y_true`` or ``y_pred`` is constant in
-        it (or has a single sample).
+        returned for that output with an ``UndefinedMetricWarning``, when
+        ``y_true`` or ``y_pred`` is constant in it (or has a single sample).
 
     Examples
     --------
@@ -208,6 +211,14 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     # Constant by its values, not by the rounding of its mean (0.1 three
     # times leaves deviations of 1e-17, a correlation of 0 or 1e-16).
     constant = (np.ptp(y_true, axis=0) == 0) | (np.ptp(y_pred, axis=0) == 0)
+    if constant.any():
+        which = "y_true" if (np.ptp(y_true, axis=0) == 0).any() else "y_pred"
+        warnings.warn(
+            f"Pearson's R is undefined where {which} is constant (or a single "
+            f"sample): NaN for {int(constant.sum())} of {constant.size} output(s).",
+            UndefinedMetricWarning,
+            stacklevel=2,
+        )
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.where((den > 0) & ~constant, np.sum(dt * dp, axis=0) / den, np.nan)
     return _aggregate(np.clip(r, -1.0, 1.0), weights)

@@ -26,6 +26,7 @@ from skthermal.utils._runs import (
     warn_no_time,
     warn_pauses,
     warn_unlabelled_runs,
+    warn_unnamed_drivers,
 )
 from skthermal.utils._threads import single_threaded_blas
 
@@ -174,8 +175,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         Chosen time constants.
     use_drivers_ : bool
         Whether the chosen model uses the drivers' filters. Without them the
-        driver columns are left out (never taken as temperatures); with no
-        time constants the drivers have no features either.
+        driver columns are left out (never taken as temperatures); with
+        them but no time constants, the drivers enter unfiltered (their
+        powers, as :class:`LagFeatures` makes them).
     alpha_ : float
         Chosen ridge penalty.
     cv_results_ : dict
@@ -301,7 +303,21 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         """
         sets, alphas = self._check_grids()
         X_raw, groups = extract_runs(X, groups, y=y)
+        shape = getattr(y, "shape", None) or np.asarray(y).shape
+        if len(shape) == 2 and shape[1] > 1:
+            names = getattr(y, "columns", None)
+            which = "" if names is None else f" ({[str(c) for c in names]})"
+            raise ValueError(
+                f"{type(self).__name__} fits one target, got {shape[1]}{which}: "
+                "fit one model per target, e.g. "
+                "sklearn.multioutput.MultiOutputRegressor(make_lag_pipeline())."
+            )
         _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
+        name = type(self).__name__
+        # Level 4: the caller of fit, which _fit_context wraps.
+        warn_unlabelled_runs(name, None, groups, len(y), X=X_raw, stacklevel=4)
+        names = getattr(self, "feature_names_in_", None)
+        warn_unnamed_drivers(name, self.drivers, names, stacklevel=4)
         # Without times, warn once here (not once per candidate), then give
         # the candidates one second per row explicitly.
         warn_no_time(
@@ -328,6 +344,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         # FL_THERMAL's 6,669 training rows).
         with warnings.catch_warnings(), single_threaded_blas():
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
+            # Said above, in this estimator's name.
+            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit got")
+            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit: drivers=")
             return self._fit(X_raw, y, groups, slices, labels, sets, alphas, dt)
 
     def _check_grids(self):
@@ -500,6 +519,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             # just warned about rows without run labels, a late start or a
             # pause.
             warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
+            # Said above, in this estimator's name.
+            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit got")
+            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit: drivers=")
             warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")
@@ -510,7 +532,13 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
 
 
 def make_lag_pipeline(
-    time_constant_sets=None, *, drivers="auto", alphas=None, n_splits=4, dt=None
+    time_constant_sets=None,
+    *,
+    drivers="auto",
+    alphas=None,
+    n_splits=4,
+    dt=None,
+    relative="auto",
 ):
     """The recommended dynamic compensation model, unfitted.
 
@@ -521,7 +549,7 @@ def make_lag_pipeline(
 
     Parameters
     ----------
-    time_constant_sets, drivers, alphas, n_splits, dt
+    time_constant_sets, drivers, alphas, n_splits, dt, relative
         See :class:`LagRidgeCV`.
 
     Returns
@@ -540,4 +568,5 @@ def make_lag_pipeline(
         alphas=alphas,
         n_splits=n_splits,
         dt=dt,
+        relative=relative,
     )

@@ -41,6 +41,7 @@ from skthermal.utils._runs import (
     warn_no_time,
     warn_pauses,
     warn_unlabelled_runs,
+    warn_unnamed_drivers,
 )
 
 
@@ -459,6 +460,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         X_arr = validate_data(self, X_raw, dtype=np.float64)
         slices, labels = run_slices(groups, X_arr.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
+        name = type(self).__name__
+        # Level 4: the caller of fit, which _fit_context wraps.
+        warn_unlabelled_runs(name, None, groups, X_arr.shape[0], X=X_raw, stacklevel=4)
+        names = getattr(self, "feature_names_in_", None)
+        warn_unnamed_drivers(name, self.drivers, names, stacklevel=4)
         warn_no_time(type(self).__name__, X_raw, self.dt, taus)
         # From the times (runs of one row take the others' period), else dt
         # (one second when None): not a period kept from an earlier fit.

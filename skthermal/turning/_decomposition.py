@@ -114,11 +114,15 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
     index = _common_index({"D_des": D_des, **given})
     arrays = {"D_des": _series(D_des, "D_des", scale)}
     arrays.update({k: _series(v, k, scale) for k, v in given.items() if v is not None})
-    try:
-        b = np.broadcast_arrays(*arrays.values())
-    except ValueError:
-        shapes = {k: v.shape for k, v in arrays.items()}
-        raise ValueError(f"The diameters have different lengths: {shapes}.") from None
+    # A number applies to every part; sequences give one diameter per part
+    # and must agree in length (a sequence of one is one part, not a number).
+    lengths = {k: v.size for k, v in arrays.items() if v.ndim == 1}
+    if len(set(lengths.values())) > 1:
+        raise ValueError(
+            f"The diameters have different lengths: {lengths}; give one "
+            "diameter per part in each (or a number for all parts)."
+        )
+    b = np.broadcast_arrays(*arrays.values())
     a = {k: np.atleast_1d(v) for k, v in zip(arrays, b, strict=True)}
     des = a["D_des"]
     out = {}

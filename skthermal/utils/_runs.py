@@ -276,16 +276,23 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
             "column of its own name."
         )
     has_column = columns is not None and RUN_COLUMN in list(columns)
+    given = groups
     if has_column:
         run_col = X[RUN_COLUMN]
         X = X.drop(columns=RUN_COLUMN)
         if groups is None:
             groups = run_col.to_numpy()
-    if groups is None:
-        index = getattr(X, "index", None)
-        names = getattr(index, "names", None)
-        if names is not None and RUN_COLUMN in names:
+        else:
+            _warn_other_runs(groups, run_col.to_numpy(), "column")
+    index = getattr(X, "index", None)
+    names = getattr(index, "names", None)
+    if names is not None and RUN_COLUMN in names:
+        if groups is None:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
+        elif given is not None:
+            _warn_other_runs(
+                groups, index.get_level_values(RUN_COLUMN).to_numpy(), "index level"
+            )
     if groups is not None:
         n_rows = getattr(X, "shape", (len(X),))[0]
         shape = np.shape(groups)
@@ -312,6 +319,29 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         check = check_finite_target if finite else check_target_rows
         check(y, X, groups, given_index=given_index)
     return X, groups
+
+
+def _warn_other_runs(groups, labels, where):
+    """Warn when ``groups`` cut the rows into other runs than the ``run``
+    ``labels`` of X (its ``where``: column or index level); ``groups`` win.
+    Labels that differ only in name (codes for the same runs) agree."""
+    import pandas as pd
+
+    if np.shape(groups) != np.shape(labels):
+        return  # the length check that follows names the problem
+    codes = pd.factorize(pd.Series(np.asarray(groups, dtype=object)))[0]
+    other = pd.factorize(pd.Series(np.asarray(labels, dtype=object)))[0]
+    if np.array_equal(codes, other):
+        return
+    k = int(np.flatnonzero(codes != other)[0])
+    warnings.warn(
+        f"groups cut the rows into {codes.max() + 1} run(s), X's {RUN_COLUMN!r} "
+        f"{where} into {other.max() + 1}, and they first disagree at row {k} "
+        f"(groups {plain(np.asarray(groups)[k])!r}, X {plain(labels[k])!r}); "
+        "groups are used. Give one of them, or the same runs in both.",
+        UserWarning,
+        stacklevel=4,
+    )
 
 
 def _check_feature_columns(X, columns, y):
@@ -1311,6 +1341,24 @@ def driver_positions(drivers, names, n_features):
                 f"drivers: {d!r} is not a column of X ({n_features} feature(s){known})."
             )
     return np.array(sorted(set(out)), dtype=int)
+
+
+def warn_unnamed_drivers(name, drivers, names, stacklevel=3):
+    """Warn when ``drivers="auto"`` cannot find the drivers because ``X``
+    has no column names (``names`` None: a numpy array, or a scikit-learn
+    step in front that outputs numpy), so that every column is taken as a
+    temperature."""
+    if not (isinstance(drivers, str) and names is None):
+        return
+    warnings.warn(
+        f"{name}.fit: drivers='auto' finds the drivers ({', '.join(POWER_DRIVERS)}) "
+        "by column name, and X has no column names: every column is taken as a "
+        "temperature. Keep the names (set_output(transform='pandas') on the "
+        "steps in front) or give the drivers by position (drivers=[...]; "
+        "drivers=None when there are none).",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
 
 
 def check_positive_numbers(
