@@ -52,6 +52,18 @@ def percent(share):
     return f"{round(share * 100)}%"
 
 
+def removes(share):
+    """``removes 52% of`` for a share of a gap taken away, ``adds 8% to``
+    for one made larger (a negative share), for report sentences.
+
+    >>> removes(0.516), removes(-0.08), removes(-0.004)
+    ('removes 52% of', 'adds 8% to', 'removes 0% of')
+    """
+    if np.isfinite(float(share)) and round(float(share) * 100) < 0:
+        return f"adds {percent(-float(share))} to"
+    return f"removes {percent(share)} of"
+
+
 def qualified_name(obj):
     """``module.qualname`` of a function or of an object's class: the same in
     every process (a default repr holds a memory address)."""

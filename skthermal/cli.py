@@ -27,6 +27,7 @@ warnings print one line each, ``skthermal COMMAND: warning: ...``.
 
 import argparse
 import importlib
+import os
 import shutil
 import sys
 import textwrap
@@ -566,6 +567,11 @@ def _add_gap(sub):
         action="store_true",
         help="print the candidate effects and exit",
     )
+    p.add_argument(
+        "--n-jobs",
+        type=int,
+        help="calibrations in parallel (joblib; default 1, -1 every core)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func="_gap:cmd_gap")
 
@@ -663,6 +669,13 @@ def main(argv=None):
     try:
         with warning_lines(args.command):
             return command(args)
+    except BrokenPipeError:
+        # The reader of the output went away (skthermal gap | head): not an
+        # error of the command. Python's recipe: send the rest of the output
+        # to devnull so that flushing it at exit does not fail again.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141  # as a shell reports a pipe closed early (128 + SIGPIPE)
     except (UserError, ValueError, OSError) as exc:
         # OSError: a file that cannot be read or written (missing, a folder,
         # no permission, a parent that is a file).

@@ -1227,3 +1227,20 @@ def test_evaluate_names_the_run_and_time_of_a_non_finite_prediction(
             err,
         ), err
         assert "Warning" not in err
+
+
+def test_a_reader_that_closes_the_pipe_is_not_an_error():
+    # skthermal gap-check --list-effects | head -1: the reader goes away.
+    code = (
+        "import sys; from skthermal.cli import main; "
+        "sys.exit(main(['gap-check', '--list-effects']))"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    proc.stdout.close()  # closed before anything is written
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=60)
+    proc.stderr.close()
+    assert proc.returncode == 141
+    assert "Broken pipe" not in err and "Traceback" not in err

@@ -37,6 +37,19 @@ def test_gap_simulated_names_the_effect(tables, capsys):
     assert "share_of_explainable" in text and "lr_p_value" in text
 
 
+def test_gap_n_jobs_gives_the_same_report(tables, capsys):
+    sim, meas = tables
+    argv = ["gap", "--simulated", str(sim), "--runs", str(meas), "--quiet"]
+    argv += ["--candidates", "tool_growth,sensor_drift"]
+    outputs = []
+    for n_jobs in ("1", "2"):
+        assert main([*argv, "--n-jobs", n_jobs]) == 0
+        outputs.append(capsys.readouterr().out)
+    assert outputs[0] == outputs[1] and "'tool_growth' explains the gap" in outputs[0]
+    assert main([*argv, "--n-jobs", "0"]) == 2
+    assert "--n-jobs must be 1 or more" in capsys.readouterr().err
+
+
 def test_gap_simulated_errors_are_one_line(tables, tmp_path, capsys):
     sim, meas = tables
     missing = tmp_path / "nope.csv"

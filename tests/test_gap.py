@@ -259,6 +259,12 @@ def test_where_tables(tool_report):
     assert calibrated.loc["disp_z_um", "rmse"] > calibrated.loc["disp_x_um", "rmse"]
     bands = where["bands"]
     assert bands.groupby("model")["share"].sum().round(6).eq(1.0).all()
+    # The bands split each run's squared gap about each channel's mean
+    # (per-channel spectra, summed): at most the squared gap, with the
+    # channels' means (their bias) the rest.
+    power = bands.groupby("model")["power"].sum()
+    squared = (where["runs"].set_index("model")["gap"] ** 2).groupby("model").sum()
+    assert (power > 0).all() and (power <= squared * (1 + 1e-9)).all()
 
 
 def test_timeline_and_overlay_plots(tool_report):
@@ -288,6 +294,12 @@ def test_report_files_and_formats(tool_report, tmp_path):
     assert data["ranking"][0]["effect"] == "tool_growth"
     md = tool_report.to_markdown()
     assert md.startswith("# Sim-to-real gap report") and "| effect |" in md
+    # 80 channels per model: each model's 10 largest, and where the rest are.
+    n = len(tool_report.where["channels"])
+    assert f"20 of {n} rows; all in `where_channels.csv`" in md
+    section = md.split("## Where: channels")[1].split("##")[0]
+    assert section.count("| as given |") == 10
+    assert section.count("| base calibrated |") == 10
     assert "<table" in tool_report.to_html()
     taken = tmp_path / "taken.csv"
     taken.write_text("x\n")

@@ -286,6 +286,14 @@ def test_a_small_machine_from_a_dict_simulates():
             r"^roles: exposed .* lists the enclosure 'air'",
         ),
         (
+            # A unit typo in a link is named by the link's nodes.
+            lambda d: d["links"][0].update(
+                conductance_W_per_m_K=d["links"][0].pop("conductance_W_per_K")
+            ),
+            r"^link 'spindle-housing': unknown field 'conductance_W_per_m_K' "
+            r"\(did you mean 'conductance_W_per_K'\?\)",
+        ),
+        (
             lambda d: d.update(params={"q.bearng_W": 3.0}),
             r"Unknown parameter\(s\) 'q.bearng_W' \(did you mean 'q.bearing_W'\?\)",
         ),
@@ -311,7 +319,7 @@ def test_bad_specs_name_the_entry(edit, message):
 def test_bad_toml_file_names_the_file(tmp_path):
     path = tmp_path / "bad.toml"
     path.write_text('name = "x"\n[nodes.a]\ncapacity_J_per_K = 1.0\n[[links]]\n')
-    with pytest.raises(ValueError, match=r"bad.toml: link 0: 'between'"):
+    with pytest.raises(ValueError, match=r"bad.toml: link 1: 'between'"):
         ThermalMachine.from_spec(path)
     path.write_text("name = ")
     with pytest.raises(ValueError, match=r"bad.toml: not a valid TOML"):
@@ -587,6 +595,26 @@ def test_an_effect_that_cannot_act_is_off_by_default_and_warns_when_asked():
         ThermalMachine.from_spec(rig.to_spec())
 
 
+def test_an_axis_without_coefficients_or_a_machine_without_heat_warns():
+    data = _small()
+    data["axes"] = ["z", "w"]  # no [displacement.w]
+    with pytest.warns(
+        UserWarning,
+        match=r"axis 'w' has no thermo-elastic coefficient .* disp_w_um would be "
+        "sensor noise alone",
+    ):
+        ThermalMachine.from_spec(data)
+    data = _small()
+    del data["heat"]
+    with pytest.warns(UserWarning, match=r"no heat source has any power"):
+        ThermalMachine.from_spec(data)
+    # A custom source is heat too.
+    data["heat"] = {"custom": {"cabinet": {"node": "air", "W_constant": 50.0}}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ThermalMachine.from_spec(data)
+
+
 def test_unknown_parameter_names_are_rejected_on_every_path():
     machine = ThermalMachine.from_spec(_small(), effects=["sensor_lag"])
     runs = machine.simulate(DutyCycle([(600, 1000)]), noise=False)
@@ -816,7 +844,7 @@ def test_link_parameter_names_cannot_collide():
         ),
         (
             lambda d: d["links"][0].__setitem__("between", [["spindle"], "housing"]),
-            r"link 0: 'between' must list two node names, got \[\['spindle'\], "
+            r"link 1: 'between' must list two node names, got \[\['spindle'\], "
             r"'housing'\]",
         ),
         (

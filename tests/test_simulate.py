@@ -620,6 +620,26 @@ def test_calibration_flags_parameters_the_channels_do_not_see():
         )
 
 
+def test_calibration_warns_when_a_parameter_ends_on_its_bound():
+    """A speed logged in krpm drives a tenth of the heat: the bearing loss
+    runs to ten times its sketch, the top of its default range, and the
+    warning names it with the likely causes; a good fit says nothing."""
+    machine = ThermalMachine.from_preset("spindle-rig")
+    runs = machine.simulate(DutyCycle([(3600, 3000), (1800, 0)]), noise=False)
+    slipped = runs.assign(spindle_rpm=runs["spindle_rpm"] / 1000.0)
+    high = 10 * machine.params["q.bearing_W"]
+    with pytest.warns(
+        UserWarning,
+        match=rf"q.bearing_W = {high:.4g} \(high bound\) ended on the bound .*"
+        r"speed in rpm",
+    ):
+        _, result = machine.calibrate(slipped, ["q.bearing_W"], channels=["T2_C"])
+    assert result.params["q.bearing_W"] == pytest.approx(high)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        machine.calibrate(runs, ["q.bearing_W"], channels=["T2_C"])
+
+
 # --- bad input ------------------------------------------------------------------
 
 

@@ -168,14 +168,24 @@ def _options(args):
         pd.notna(args.block_hours) and 0 < args.block_hours < float("inf")
     ):
         raise UserError(f"--block-hours must be positive, got {args.block_hours}.")
+    _check_n_jobs(args.n_jobs)
     given = {
         "channels": parse_channels(args.channels),
         "mapping": parse_mapping(args.mapping),
         "max_samples": args.max_samples,
         "block_hours": args.block_hours,
+        "n_jobs": args.n_jobs,
     }
     # Only the options given: the library's defaults stay its own.
     return {k: v for k, v in given.items() if v is not None}
+
+
+def _check_n_jobs(n_jobs):
+    if n_jobs == 0:
+        raise UserError(
+            "--n-jobs must be 1 or more (or -1 for all cores, -2 for all but "
+            "one, ...), got 0."
+        )
 
 
 def _used_columns(kwargs):
@@ -346,11 +356,7 @@ def cmd_gap_check(args):
     log_progress(args.quiet)
     if args.seeds < 1:
         raise UserError(f"--seeds must be at least 1, got {args.seeds}.")
-    if args.n_jobs == 0:
-        raise UserError(
-            "--n-jobs must be 1 or more (or -1 for all cores, -2 for all but "
-            "one, ...), got 0."
-        )
+    _check_n_jobs(args.n_jobs)
     check_out_path(args.report, "--report", folder=True)
     effects = parse_effects(args.effects)
     print(

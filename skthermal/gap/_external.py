@@ -20,7 +20,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
-from skthermal._naming import percent
+from skthermal._naming import percent, removes
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -528,7 +528,7 @@ class ExternalGapReport(GapReport):
         if self.best_effect is None:
             return (
                 "No candidate effect explains the gap beyond noise (best "
-                f"candidate {row['effect']!r} removes {percent(row['shrink'])} of the "
+                f"candidate {row['effect']!r} {removes(row['shrink'])} the "
                 f"excess held-out gap: {evidence})."
             ) + self._ruled_out_text(row)
         text = (

@@ -9,8 +9,38 @@ import numpy as np
 import pandas as pd
 
 from skthermal._markdown import markdown_table
-from skthermal._naming import percent
+from skthermal._naming import percent, removes
 from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
+
+
+def _first_rows(frame, table, file, order="", limit=20):
+    """The markdown ``table`` of ``frame``'s first ``limit`` rows, with a note
+    of the rows left out and the ``file`` that holds them all."""
+    out = [table(frame.head(limit))]
+    if len(frame) > limit:
+        out.append(
+            f"\n({limit} of {len(frame)} rows{', ' + order if order else ''}; "
+            f"all in `{file}`.)"
+        )
+    return out
+
+
+def _largest_per_model(channels, table, file, limit=10):
+    """The markdown ``table`` of each model's ``limit`` channels of largest
+    error, the models in their order, with a note of the rows left out."""
+    ordered = channels.sort_values("rmse", ascending=False, kind="stable")
+    models = list(dict.fromkeys(channels["model"]))
+    shown = pd.concat(
+        [ordered[ordered["model"] == m].head(limit) for m in models],
+        ignore_index=True,
+    )
+    out = [table(shown)]
+    if len(shown) < len(channels):
+        out.append(
+            f"\n(The {limit} channels of largest error per model, "
+            f"{len(shown)} of {len(channels)} rows; all in `{file}`.)"
+        )
+    return out
 
 
 def _units(problem, R):
@@ -45,12 +75,20 @@ def _where_tables(problem, Rs, regimes, label):
             )
         e = np.sum(R * R, axis=1)
         regs.append(pd.DataFrame({"regime": lab["regime"].to_numpy(), "e": e}))
-        # Frequency bands of the combined residual, from its spectrum.
+        # Frequency bands of the residual, from its spectrum: each channel's
+        # power, summed (a sum of the signed residuals would let channels
+        # of opposite sign cancel). Per sample, the power of all bands
+        # sums to the squared gap about each channel's mean (Parseval).
         r = R.sum(axis=1)
         t = run.time_s[run.rows]
         if r.size > 4:
             dt_h = float(np.median(np.diff(t))) / 3600.0
-            spec = np.abs(np.fft.rfft(r - r.mean())) ** 2
+            F = np.fft.rfft(R - R.mean(axis=0), axis=0)
+            weight = np.full(F.shape[0], 2.0)  # one-sided: both halves
+            weight[0] = 1.0
+            if r.size % 2 == 0:
+                weight[-1] = 1.0
+            spec = weight * np.sum(np.abs(F) ** 2, axis=1) / r.size**2
             freq = np.fft.rfftfreq(r.size, d=dt_h)
             period = np.divide(
                 1.0, freq, out=np.full_like(freq, np.inf), where=freq > 0
@@ -344,7 +382,7 @@ class GapReport:
         if self.best_effect is None:
             text = (
                 "No candidate effect explains the gap beyond noise (best "
-                f"candidate {fine['effect']!r} removes {percent(fine['shrink'])} of "
+                f"candidate {fine['effect']!r} {removes(fine['shrink'])} "
                 f"the excess held-out gap {how}: {evidence})."
             )
             return text + self._ruled_out_text(fine)
@@ -460,13 +498,13 @@ class GapReport:
             table(where["regimes"]),
             "",
             "## Where: channels",
-            table(where["channels"].sort_values("rmse", ascending=False).head(20)),
+            *_largest_per_model(where["channels"], table, "where_channels.csv"),
             "",
             "## Where: frequency bands",
             table(where["bands"]),
             "",
             "## Where: jumps",
-            table(where["jumps"].head(20)),
+            *_first_rows(where["jumps"], table, "where_jumps.csv"),
         ]
         if self.explainable:
             parts += [

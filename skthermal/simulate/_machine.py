@@ -37,6 +37,7 @@ from skthermal.simulate._effects import (
 from skthermal.simulate._presets import PRESETS
 from skthermal.simulate._solver import ModalSystem
 from skthermal.simulate._spec import (
+    HEAT_FIELDS,
     NUMBER_DEFAULTS,
     ROOM,
     MachineSpec,
@@ -146,6 +147,47 @@ def _weights_matrix(spec, names_index, items):
         for node, w in weights.items():
             W[i, names_index[node]] += w
     return W
+
+
+def _warn_idle_parts(spec, params):
+    """Warn when the description has a displacement axis without any
+    thermo-elastic coefficient (its channel would be noise alone) or no heat
+    source at all (nothing the drivers do would warm the machine)."""
+    flat = [
+        a
+        for a in spec.axes
+        if not any(params.get(f"k.{a}.{n}", 0.0) for n in spec.nodes)
+    ]
+    powers = [
+        name
+        for table in HEAT_FIELDS.values()
+        for name, unit in table.values()
+        if unit != "1"
+    ]
+    custom = [
+        k
+        for k in params
+        if k.startswith("q.") and k.count(".") == 2 and not k.endswith(".alpha")
+    ]
+    problems = []
+    if flat:
+        problems.append(
+            f"axis {flat[0]!r} has no thermo-elastic coefficient (no "
+            f"[displacement.{flat[0]}] table, or all zero): its channel "
+            f"disp_{flat[0]}_um would be sensor noise alone"
+            + (f" (so has {flat[1:]})" if len(flat) > 1 else "")
+        )
+    if not any(params.get(k, 0.0) for k in [*powers, *custom]):
+        problems.append(
+            "no heat source has any power ([heat] is missing or all zero): "
+            "only the air moves the temperatures"
+        )
+    if problems:
+        warnings.warn(
+            f"Machine {spec.name!r}: " + "; ".join(problems) + ".",
+            UserWarning,
+            stacklevel=4,
+        )
 
 
 def _warn_inactive(spec, effects):
@@ -276,6 +318,7 @@ class ThermalMachine:
         merged.update(spec.params)
         if params:
             merged.update(params)
+        _warn_idle_parts(spec, merged)
         return cls(spec, merged, effects)
 
     def to_spec(self):
@@ -2170,7 +2213,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
                 f"calibrate: the runs have no column {absent}, which the machine "
                 f"predicts; fitting {channels} only (name channels= to choose).",
                 UserWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
     else:
         channels = [channels] if isinstance(channels, str) else list(channels)
@@ -2341,7 +2384,25 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             f"channels {channels}; they are not determined by them (std_error "
             "inf). Fit channels they move, or leave them out.",
             UserWarning,
-            stacklevel=3,
+            stacklevel=4,
+        )
+    # A parameter the fit left on its bound wanted to go further: often a
+    # unit slip (speed in krpm, displacements in mm) or a structure that
+    # does not fit the runs, seldom a value just beyond the default range.
+    tol = 1e-6 * np.maximum(np.abs(hi - lo), 1e-300)
+    ends = [
+        f"{k} = {v:.4g} ({'low' if v - a <= t else 'high'} bound)"
+        for k, v, a, b, t, d in zip(params, x, lo, hi, tol, dead, strict=True)
+        if not d and (v - a <= t or b - v <= t)
+    ]
+    if ends:
+        warnings.warn(
+            f"calibrate: {', '.join(ends)} ended on the bound of its range: the "
+            "fit wanted it further. Check the units of the runs (speed in rpm, "
+            "displacements in µm, temperatures in °C) and the sketch's "
+            "structure; if the value is plausible, widen bounds=.",
+            UserWarning,
+            stacklevel=4,
         )
     result = CalibrationResult(
         params=pd.Series(x, index=params),

@@ -988,18 +988,21 @@ class MachineSpec:
                 f"got {type(links).__name__}."
             )
         for i, link in enumerate(links):
-            _check_fields(f"link {i}", link, ("between", "conductance_W_per_K"))
-            pair = link.get("between")
-            if (
-                not isinstance(pair, list | tuple)
-                or len(pair) != 2
-                or not all(isinstance(x, str) for x in pair)
-            ):
+            pair = link.get("between") if isinstance(link, dict) else None
+            well_formed = (
+                isinstance(pair, list | tuple)
+                and len(pair) == 2
+                and all(isinstance(x, str) for x in pair)
+            )
+            # Named by its nodes when it has them; else by its position
+            # among the [[links]] tables, counted from 1 as in the file.
+            label = f"link '{pair[0]}-{pair[1]}'" if well_formed else f"link {i + 1}"
+            _check_fields(label, link, ("between", "conductance_W_per_K"))
+            if not well_formed:
                 raise ValueError(
-                    f"link {i}: 'between' must list two node names, got {pair!r}."
+                    f"{label}: 'between' must list two node names, got {pair!r}."
                 )
             a, b = pair
-            label = f"link '{a}-{b}'"
             if "conductance_W_per_K" not in link:
                 raise ValueError(f"{label}: conductance_W_per_K is required.")
             edges.append((a, b))
