@@ -302,7 +302,7 @@ def _add_fit(sub):
         "taken as changes since the start of each run; the model predicts the "
         "change of the displacement since the run started. Inputs: --sensors "
         "(names or a file from 'skthermal select'), a --selector, or every "
-        "sensor. A .skops model file (skthermal.io, needs skops) loads without "
+        "sensor. A .skops model file (skthermal.io) loads without "
         "running code from the file; any other name is a joblib pickle: load "
         "only joblib files you trust.",
         "  skthermal fit --runs runs.csv --model anfis-fcm --sensors sensors.json\n"
