@@ -451,16 +451,18 @@ def test_cv_schemes_and_the_one_standard_error_rule():
         "alphas": alphas,
         "cv": "blocks",
         "dt": 1.0,
+        "drivers": None,
     }
-    best = LagRidgeCV(**kw).fit(T, y)
-    simple = LagRidgeCV(**kw, selection="1se").fit(T, y)
+    one_run = np.zeros(n)  # the rows are one run, said as such
+    best = LagRidgeCV(**kw).fit(T, y, groups=one_run)
+    simple = LagRidgeCV(**kw, selection="1se").fit(T, y, groups=one_run)
     # within one standard error of the best: a penalty at least as large
     assert simple.alpha_ >= best.alpha_
     mse = simple.cv_results_["sse"].min() / n
     assert simple.best_score_ >= mse - 1e-12
     # several runs: changes and absolute readings are both tried
     groups = np.repeat([0, 1, 2, 3], n // 4)
-    m = LagRidgeCV(time_constant_sets=[(5.0,)], alphas=[1.0], dt=1.0).fit(
+    m = LagRidgeCV(time_constant_sets=[(5.0,)], alphas=[1.0], dt=1.0, drivers=None).fit(
         T, y, groups=groups
     )
     assert set(m.cv_results_["relative"]) == {True, False}
