@@ -51,7 +51,17 @@ def test_numeric_boolean_and_numeric_object_columns_pass():
     )
     X, groups = extract_runs(df)
     assert list(X.columns) == ["a", "b", "c"] and groups.tolist() == ["r", "r"]
-    check_numeric_columns(np.array([["x"]], dtype=object))  # arrays: left to numpy
+    # Plain arrays: numbers held as text pass; text is named with its row
+    # and column (a run table's values with its run labels, say), and other
+    # objects are left to numpy.
+    check_numeric_columns(np.array([["1.5", 2.0]], dtype=object))
+    with pytest.raises(
+        ValueError,
+        match=r"plain array holding text: column 1, row "
+        r"0 holds 'x'.*run labels go in groups=",
+    ):
+        check_numeric_columns(np.array([[1.0, "x"]], dtype=object))
+    check_numeric_columns(np.array([[{"a": 1}]], dtype=object))
 
 
 @pytest.mark.parametrize(

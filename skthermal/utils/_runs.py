@@ -1443,6 +1443,32 @@ def is_clock_dtype(dtype):
     )
 
 
+def _check_text_in_array(X):
+    """Raise a ValueError naming the first entry of a plain 2-D array of
+    text or objects that is not a number (numpy's message names neither
+    its row nor its column): typically a run table's ``run`` column passed
+    as values."""
+    import pandas as pd
+
+    if not isinstance(X, np.ndarray) or X.ndim != 2 or X.dtype.kind not in "OUS":
+        return
+    flat = pd.Series(X.ravel(order="F"), dtype=object)
+    text = flat.map(lambda v: isinstance(v, str)).to_numpy(dtype=bool)
+    if not text.any():
+        return  # other objects: numpy and scikit-learn say what they are
+    bad = text & pd.to_numeric(flat.where(text), errors="coerce").isna().to_numpy()
+    if not bad.any():
+        return
+    k = int(np.flatnonzero(bad)[0])
+    row, col = k % X.shape[0], k // X.shape[0]
+    raise ValueError(
+        f"X is a plain array holding text: column {col}, row {row} holds "
+        f"{plain(X[row, col])!r}. Every feature must be a number; run labels go "
+        "in groups= (or pass the run table as a DataFrame, whose 'run' and "
+        "'time_s' columns are taken as the run and its time)."
+    )
+
+
 def check_numeric_columns(X, groups=None):
     """Raise a ValueError naming the first non-numeric column of a DataFrame.
 
@@ -1454,10 +1480,11 @@ def check_numeric_columns(X, groups=None):
     """
     columns = getattr(X, "columns", None)
     dtypes = getattr(X, "dtypes", None)
-    if columns is None or dtypes is None:
-        return
     import pandas as pd
 
+    if columns is None or dtypes is None:
+        _check_text_in_array(X)
+        return
     for name, dtype in zip(columns, dtypes, strict=True):
         if pd.api.types.is_bool_dtype(dtype) or pd.api.types.is_numeric_dtype(dtype):
             continue
