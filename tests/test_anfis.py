@@ -893,3 +893,37 @@ def test_a_step_far_beyond_an_inputs_span_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         ANFISRegressor(epochs=2, random_state=0).fit(X, y)
+
+
+def test_a_collapsed_membership_function_is_reported():
+    """A premise step that collapses a width onto its floor leaves no
+    gradient: training says so, and keeps the best epoch's parameters."""
+    from sklearn.exceptions import ConvergenceWarning
+
+    rng = np.random.default_rng(1)
+    X = rng.uniform(-1, 1, (200, 2))
+    y = np.sin(3 * X[:, 0]) * X[:, 1] + rng.normal(0, 0.05, 200)
+    model = ANFISRegressor(n_clusters=2, epochs=20, random_state=0)
+    with pytest.warns(
+        ConvergenceWarning, match=r"premise training stopped after epoch 3 of 20"
+    ):
+        model.fit(X, y)
+    rmse = model.history_["train_rmse"]
+    assert np.all(rmse[3:] == rmse[2])  # the epochs after the collapse repeat
+    assert model.best_epoch_ == 2 and rmse[1] < rmse[2]
+    # With a smaller step the widths survive, and nothing is said.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        model.set_params(step_size=0.1).fit(X, y)
+
+
+def test_inputs_of_very_different_spans_warn():
+    rng = np.random.default_rng(0)
+    X = np.c_[rng.uniform(0, 5000, 200), rng.uniform(20, 23, 200)]
+    y = X[:, 1] + X[:, 0] / 1000
+    model = ANFISRegressor(n_clusters=2, epochs=3, random_state=0)
+    with pytest.warns(UserWarning, match=r"spans differ by a factor of 1.\d+e\+03"):
+        model.fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.fit(X / [1000.0, 1.0], y)  # speed in krpm: comparable spans

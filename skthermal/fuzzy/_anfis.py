@@ -175,6 +175,34 @@ def _warn_step_beyond_inputs(step_size, X, names):
     )
 
 
+# Inputs whose spans differ by more than this factor are trained unevenly:
+# the premise step and the consequents' ridge are in the inputs' units.
+_MIXED_SCALES = 100.0
+
+
+def _warn_mixed_scales(X, names):
+    """Warn when the inputs' spans differ by more than :data:`_MIXED_SCALES`
+    (spindle speed in rpm beside temperatures in °C)."""
+    span = np.ptp(X, axis=0) if X.shape[0] else np.zeros(X.shape[1])
+    moving = np.flatnonzero(span > 0)
+    if moving.size < 2:
+        return
+    lo = moving[np.argmin(span[moving])]
+    hi = moving[np.argmax(span[moving])]
+    if span[hi] <= _MIXED_SCALES * span[lo]:
+        return
+    warnings.warn(
+        f"ANFISRegressor: the inputs' spans differ by a factor of "
+        f"{span[hi] / span[lo]:.3g} ({names[hi]!r} spans {span[hi]:.3g}, "
+        f"{names[lo]!r} {span[lo]:.3g}). The premise step and the consequents' "
+        "ridge act in the inputs' units, so such inputs are trained and shrunk "
+        "unevenly (a speed in rpm instead of krpm changes the model). "
+        "Standardise the inputs (a StandardScaler in front).",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
 class ANFISRegressor(RegressorMixin, BaseEstimator):
     """Adaptive neuro-fuzzy inference system (first-order Takagi-Sugeno).
 
@@ -230,8 +258,12 @@ default="fcm"
         of the training error.
     ridge : float or "auto", default=1e-8
         Ridge regularisation of the consequents' least-squares solve,
-        relative to the mean diagonal of the normal equations (scale free);
-        0 uses the SVD-based minimum-norm least-squares solution. With
+        relative to the mean diagonal of the normal equations: the same for
+        any unit of the target, but not for the inputs' units (a column of
+        large readings weighs in that mean; an input in rpm beside others in
+        °C is shrunk unlike them, and fit warns): standardise the inputs
+        for the ridge to act evenly. 0 uses the SVD-based minimum-norm
+        least-squares solution. With
         ``penalize_intercepts=True`` it shrinks the consequents towards zero
         at inputs of zero: inputs far from zero (kelvin, absolute readings)
         then need centring or standardising first (a ``StandardScaler``), or
@@ -546,6 +578,7 @@ default="fcm"
         mf_params, rules = self._initial_rule_base(X_train, rng)
         _warn_large_problem(rules.shape[0], X_train.shape[1], X_train.shape[0])
         _warn_step_beyond_inputs(self.step_size, X_train, self._feature_names())
+        _warn_mixed_scales(X_train, self._feature_names())
 
         ridge, result = self.ridge, None
         self.ridge_scores_ = {}
@@ -584,6 +617,20 @@ default="fcm"
         self.history_ = result["history"]
         self.best_epoch_ = int(result["best_epoch"])
         self.n_iter_ = len(self.history_["epoch"])
+        stalled = result.get("stalled_epoch")
+        if stalled is not None and stalled < self.n_iter_:
+            warnings.warn(
+                f"ANFISRegressor: premise training stopped after epoch {stalled} "
+                f"of {self.n_iter_}: a gradient step collapsed a membership "
+                "function (its width onto the floor, so it is zero on every "
+                "sample) and the premise gradient vanished; the later epochs "
+                "repeat that error. The parameters of the best epoch "
+                f"({self.best_epoch_}) are kept. A smaller step_size (step_size="
+                f"{self.step_size:g} now; the step is in the units of the inputs) "
+                "avoids the collapse.",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
         if self.learning == "backprop" and self.best_epoch_ == 1 and self.n_iter_ > 1:
             # The first epoch is the initial model (constant rules at the
             # target mean): gradient descent never improved on it.
@@ -596,7 +643,7 @@ default="fcm"
                 f"inputs (step_size={self.step_size:g}): standardise the "
                 "inputs (StandardScaler) or lower step_size.",
                 ConvergenceWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
         self._input_range = np.c_[X_train.min(axis=0), X_train.max(axis=0)]
         # Grey-ANFIS is a sequence model: what continuing a labelled run in

@@ -660,6 +660,7 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         # every parameter set returned.
         consequents_c = _shift_constants(consequents, centre, 1.0)
     rule = StepSizeRule(step_size, step_increase, step_decrease)
+    stalled = None  # the epoch after which the premise gradient vanished
 
     history = {"epoch": [], "train_rmse": [], "step_size": []}
     if checking is not None:
@@ -734,6 +735,11 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             norm = np.sqrt(np.vdot(grad, grad))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
+            elif stalled is None:
+                # No premise gradient: a step collapsed a membership function
+                # (its width onto the floor, zero on every sample); the later
+                # epochs repeat this one. Recorded for the estimator to say.
+                stalled = epoch
         else:
             # dE / d consequent (a, r) = sum_n x~_a wbar_r err (x~ centred)
             XE = (X1cT[:, None, :] * err[None]).reshape(-1, n)
@@ -751,4 +757,5 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         "consequents": best[2],
         "history": {k: np.asarray(v) for k, v in history.items()},
         "best_epoch": best[3],
+        "stalled_epoch": stalled,
     }

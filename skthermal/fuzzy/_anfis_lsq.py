@@ -31,8 +31,8 @@ def solve_consequents(A, Y, ridge, free=None):
     """Least-squares consequents for the design matrix ``A`` and targets ``Y``.
 
     ``ridge > 0`` solves the ridge problem by Cholesky with
-    ``lam = ridge * mean(diag(A^T A))`` (a scale-free ridge that keeps rules
-    that hardly fire, and collinear inputs, well posed): from the normal
+    ``lam = ridge * mean(diag(A^T A))`` (free of the target's unit; it keeps
+    rules that hardly fire, and collinear inputs, well posed): from the normal
     equations ``(A^T A + lam I) theta = A^T Y`` when ``A`` has more rows than
     columns, else from the dual ``(A A^T + lam I) alpha = Y``,
     ``theta = A^T alpha`` (the same solution, and a grid of many rules on few
