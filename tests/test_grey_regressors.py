@@ -782,3 +782,20 @@ def test_coefficients_beyond_the_float_range_are_an_error(est):
         model = clone(est).fit(X * 1e-210, y, groups=groups)
         with pytest.raises(ValueError, match=r"prediction is beyond the float range"):
             model.predict(X * 4e97, groups=groups + 1)
+
+
+@pytest.mark.parametrize("model", [GreyPSORegressor(), GNNMCIRegressor(epochs=3)])
+def test_a_target_far_from_zero_at_the_run_starts_warns(model):
+    """The models predict changes since the run start: scored against a
+    target that starts at 53 (a CO2 level), score measures the offset."""
+    rng = np.random.default_rng(0)
+    n = 60
+    X = np.cumsum(rng.normal(size=(2 * n, 2)), axis=0)
+    change = X @ [0.5, 0.2]
+    change -= np.repeat(change[[0, n]], n)  # 0 at each run's start
+    groups = np.repeat([0, 1], n)
+    with pytest.warns(UserWarning, match=r"far from 0 there \(root mean square 53 "):
+        model.fit(X, 53.0 + change, groups=groups)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.fit(X, change, groups=groups)

@@ -40,6 +40,7 @@ from skthermal.utils._runs import (
     run_memory,
     run_slices,
     run_times,
+    warn_absolute_target,
     warn_row_gaps,
     warn_unlabelled_runs,
 )
@@ -106,6 +107,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, None, groups, X.shape[0], X=frame, stacklevel=5
         )
+        warn_absolute_target(type(self).__name__, y, slices, stacklevel=5)
         return X, y, slices, run_memory(X, slices, labels, frame)
 
     def _runs_for_predict(self, X, groups):

@@ -1059,9 +1059,13 @@ def run_search(
     given_X = X
     X = with_run_index(X, groups)
     cv = _resolve_cv(cv, groups)
-    splits = list(
-        cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
-    )
+    with warnings.catch_warnings():
+        # The run labels go to every splitter; one that does not use them
+        # (TimeSeriesSplit) need not say so to a user who gave none.
+        warnings.filterwarnings("ignore", message="The groups parameter is ignored")
+        splits = list(
+            cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
+        )
     scorer = get_scorer(scoring)
     setup = _search_setup(estimator, space, scoring, given_X, y, groups, cv, splits)
 

@@ -1343,6 +1343,32 @@ def driver_positions(drivers, names, n_features):
     return np.array(sorted(set(out)), dtype=int)
 
 
+def warn_absolute_target(name, y, slices, stacklevel=3):
+    """Warn when a model that predicts the change of the target since each
+    run's start is fitted on a target far from zero at the runs' starts:
+    its predictions are then compared with ``y`` as given by ``score`` and
+    by scorers, which measure that offset rather than the model's error."""
+    Y = np.asarray(y, dtype=float).reshape(len(y), -1)
+    if not slices or not np.all(np.isfinite(Y)):
+        return
+    first = np.array([Y[sl.start] for sl in slices])
+    change = np.concatenate([Y[sl] - Y[sl.start] for sl in slices])
+    offset = float(np.sqrt(np.mean(first**2)))
+    spread = float(np.sqrt(np.mean(change**2)))
+    if offset <= max(spread, 1e-12):
+        return
+    warnings.warn(
+        f"{name} predicts the change of the target since each run's start "
+        f"(0 at its first row), and y is far from 0 there (root mean square "
+        f"{offset:.4g} at the runs' first rows, against changes of {spread:.4g} "
+        "within them): score(X, y) and scorers compare the predictions with y "
+        "as given and measure that offset. Fit and score on the changes "
+        "(skthermal.datasets.changes_since_start) to compare like with like.",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
+
+
 def warn_unnamed_drivers(name, drivers, names, stacklevel=3):
     """Warn when ``drivers="auto"`` cannot find the drivers because ``X``
     has no column names (``names`` None: a numpy array, or a scikit-learn
