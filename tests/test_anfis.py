@@ -927,3 +927,15 @@ def test_inputs_of_very_different_spans_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         model.fit(X / [1000.0, 1.0], y)  # speed in krpm: comparable spans
+
+
+def test_a_step_far_too_small_for_the_inputs_warns():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (200, 2))
+    y = np.sin(X[:, 0])
+    model = ANFISRegressor(n_clusters=2, epochs=3, random_state=0)
+    with pytest.warns(UserWarning, match=r"the membership functions will barely move"):
+        model.fit(X * 1e6, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.fit(X * 1e3, y)  # a step of 0.5 in units of 1e3: still moves

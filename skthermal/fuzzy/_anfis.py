@@ -150,7 +150,9 @@ def _warn_large_problem(n_rules, n_features, n_samples):
 
 # A premise step longer than this many times an input's span moves its
 # membership functions far outside the data (train R^2 0.99 -> 0.79 on
-# temperatures given in units 1e5 times too large).
+# temperatures given in units 1e5 times too large); one shorter than the
+# span over its square barely moves them (inputs given 1e6 times too
+# large: 30 epochs end where the first did).
 _STEP_SPAN_RATIO = 1000.0
 
 
@@ -162,6 +164,17 @@ def _warn_step_beyond_inputs(step_size, X, names):
     if not moving.size:
         return
     j = moving[np.argmin(span[moving])]
+    if step_size < span[j] / _STEP_SPAN_RATIO**2 and step_size > 0:
+        warnings.warn(
+            f"ANFISRegressor: step_size={step_size:g} is the length of each "
+            f"premise step in the inputs' units, and the inputs span "
+            f"{span[j]:.3g} or more: the membership functions will barely move "
+            "in training. Scale the inputs (a StandardScaler in front) or give "
+            f"a step_size of about {0.01 * span[j]:.2g}.",
+            UserWarning,
+            stacklevel=4,
+        )
+        return
     if step_size <= _STEP_SPAN_RATIO * span[j]:
         return
     warnings.warn(
