@@ -906,15 +906,19 @@ def test_a_collapsed_membership_function_is_reported():
     model = ANFISRegressor(n_clusters=2, epochs=20, random_state=0)
     with pytest.warns(
         ConvergenceWarning, match=r"premise training stopped after epoch 3 of 20"
-    ):
+    ) as record:
         model.fit(X, y)
+    assert record[0].filename == __file__  # the user's line
     rmse = model.history_["train_rmse"]
     assert np.all(rmse[3:] == rmse[2])  # the epochs after the collapse repeat
     assert model.best_epoch_ == 2 and rmse[1] < rmse[2]
-    # With a smaller step the widths survive, and nothing is said.
+    # With a smaller step the widths survive, and nothing is said; nor with
+    # one rule, whose premise has no gradient at all.
     with warnings.catch_warnings():
         warnings.simplefilter("error", ConvergenceWarning)
         model.set_params(step_size=0.1).fit(X, y)
+        ANFISRegressor(n_clusters=1, epochs=5).fit(X, y)
+        ANFISRegressor(init="grid", n_mfs=1, epochs=5).fit(X, y)
 
 
 def test_inputs_of_very_different_spans_warn():

@@ -794,8 +794,11 @@ def test_a_target_far_from_zero_at_the_run_starts_warns(model):
     change = X @ [0.5, 0.2]
     change -= np.repeat(change[[0, n]], n)  # 0 at each run's start
     groups = np.repeat([0, 1], n)
-    with pytest.warns(UserWarning, match=r"far from 0 there \(root mean square 53 "):
+    with pytest.warns(
+        UserWarning, match=r"far from 0 there \(root mean square 53 "
+    ) as record:
         model.fit(X, 53.0 + change, groups=groups)
+    assert record[0].filename == __file__
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         model.fit(X, change, groups=groups)

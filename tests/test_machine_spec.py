@@ -580,10 +580,11 @@ def test_an_effect_that_cannot_act_is_off_by_default_and_warns_when_asked():
     assert rig.effect_status()["sensor_lag"]
     with pytest.warns(
         UserWarning,
-        match="'feed_heating' is switched on but does "
-        "nothing: the machine has no ball screw",
-    ):
+        match="'feed_heating' is switched on but does nothing: the machine has "
+        "no ball screw",
+    ) as record:
         ThermalMachine.from_preset("spindle-rig", effects=["feed_heating"])
+    assert record[0].filename == __file__  # the user's line
     with pytest.warns(UserWarning, match="'feed_heating'.*no ball screw"):
         on = rig.with_effects(add=["feed_heating"])
     assert "feed_heating" in on.effects
@@ -606,8 +607,9 @@ def test_an_axis_without_coefficients_or_a_machine_without_heat_warns():
         ThermalMachine.from_spec(data)
     data = _small()
     del data["heat"]
-    with pytest.warns(UserWarning, match=r"no heat source has any power"):
+    with pytest.warns(UserWarning, match=r"no heat source has any power") as record:
         ThermalMachine.from_spec(data)
+    assert record[0].filename == __file__
     # A custom source is heat too.
     data["heat"] = {"custom": {"cabinet": {"node": "air", "W_constant": 50.0}}}
     with warnings.catch_warnings():

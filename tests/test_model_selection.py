@@ -274,6 +274,23 @@ def test_more_folds_than_runs_is_refused_naming_both(runs_data):
         )
 
 
+def test_a_splitter_that_ignores_runs_is_not_told_about_them(runs_data):
+    from sklearn.model_selection import TimeSeriesSplit
+
+    X, y, _ = runs_data  # the run labels are in X's index, not given
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            n_trials=1,
+            cv=TimeSeriesSplit(2),
+            refit=False,
+        )
+
+
 def test_run_search_groups_from_index_and_scorer_names(runs_data):
     X, y, _ = runs_data
     for scoring in ("nse", "r2"):

@@ -338,6 +338,7 @@ def test_rows_without_run_labels_warn_with_the_fix(model):
     # the drivers' names are lost, and fit says both.
     with pytest.warns(UserWarning) as record:
         model.set_params(dt=30.0).fit(X.to_numpy(), y)
+    assert {w.filename for w in record} == {__file__}  # the user's line
     messages = sorted(str(w.message) for w in record)
     assert len(messages) == 2
     assert re.search(r"\.fit got 10 rows .* ONE run", messages[0])

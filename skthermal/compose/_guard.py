@@ -732,7 +732,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """The inputs' allowed ranges: the training ranges widened by
         ``span``, not below what an input can physically read (0 rpm, say)."""
         lo, hi = _limits(self.input_min_, self.input_max_, self.span)
-        return np.maximum(lo, physical_lows(self._sensor_names())), hi
+        floor = physical_lows(self._sensor_names())
+        # Only for inputs whose training values respect it: a speed given as
+        # its change since the run start may be negative.
+        floor = np.where(self.input_min_ >= floor, floor, -np.inf)
+        return np.maximum(lo, floor), hi
 
     def _sensor_names(self):
         names = getattr(self, "feature_names_in_", None)

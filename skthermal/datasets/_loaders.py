@@ -153,19 +153,9 @@ def _check_complete(path, data):
     line_no = body.count(b"\n") + 1
     last = body[body.rfind(b"\n") + 1 :].decode("utf-8", errors="replace")
     n_header, n_last = len(_csv_fields(header)), len(_csv_fields(last))
-    no_end = not data.endswith(b"\n")
-    # Cut right after a separator: every field is there, the last one empty
-    # where the line before has it, and the line has no end.
-    start = body.rfind(b"\n")
-    before = body[body.rfind(b"\n", 0, start) + 1 : start].rstrip(b"\r")
-    after_separator = (
-        no_end and last.rstrip("\r").endswith(",") and not before.endswith(b",")
-    )
-    if not last.strip() or (n_last >= n_header and not after_separator):
+    if not last.strip() or n_last >= n_header:
         return
-    if after_separator and n_last >= n_header:
-        n_last -= 1  # the empty field after the cut
-    newline = "" if not no_end else " and no line end"
+    newline = "" if data.endswith(b"\n") else " and no line end"
     shown = last if len(last) <= 60 else last[:57] + "..."
     raise ValueError(
         f"{path}: the file is cut off: its last line (line {line_no}) has "

@@ -38,6 +38,7 @@ from skthermal.utils._runs import (
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
+from skthermal.utils._warnings import user_stacklevel
 
 # --------------------------------------------------------------------------
 # The estimator
@@ -151,8 +152,8 @@ def _warn_large_problem(n_rules, n_features, n_samples):
 # A premise step longer than this many times an input's span moves its
 # membership functions far outside the data (train R^2 0.99 -> 0.79 on
 # temperatures given in units 1e5 times too large); one shorter than the
-# span over its square barely moves them (inputs given 1e6 times too
-# large: 30 epochs end where the first did).
+# span divided by this ratio squared barely moves them (inputs given 1e6
+# times too large: 30 epochs end where the first did).
 _STEP_SPAN_RATIO = 1000.0
 
 
@@ -638,11 +639,11 @@ default="fcm"
                 "function (its width onto the floor, so it is zero on every "
                 "sample) and the premise gradient vanished; the later epochs "
                 "repeat that error. The parameters of the best epoch "
-                f"({self.best_epoch_}) are kept. A smaller step_size (step_size="
-                f"{self.step_size:g} now; the step is in the units of the inputs) "
-                "avoids the collapse.",
+                f"({self.best_epoch_}) are kept. A smaller step_size (now "
+                f"{self.step_size:g}, in the units of the inputs) makes a "
+                "collapse less likely, and training slower.",
                 ConvergenceWarning,
-                stacklevel=3,
+                stacklevel=user_stacklevel(),
             )
         if self.learning == "backprop" and self.best_epoch_ == 1 and self.n_iter_ > 1:
             # The first epoch is the initial model (constant rules at the

@@ -661,6 +661,7 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         consequents_c = _shift_constants(consequents, centre, 1.0)
     rule = StepSizeRule(step_size, step_increase, step_decrease)
     stalled = None  # the epoch after which the premise gradient vanished
+    stepped = False  # whether a premise step was taken
 
     history = {"epoch": [], "train_rmse": [], "step_size": []}
     if checking is not None:
@@ -735,10 +736,12 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             norm = np.sqrt(np.vdot(grad, grad))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
-            elif stalled is None:
-                # No premise gradient: a step collapsed a membership function
-                # (its width onto the floor, zero on every sample); the later
-                # epochs repeat this one. Recorded for the estimator to say.
+                stepped = True
+            elif stepped and stalled is None:
+                # The gradient vanished after steps were taken (one rule has
+                # none from the start): a step collapsed a membership function
+                # (its width onto the floor, zero on every sample), and the
+                # later epochs repeat this one. Recorded for the estimator.
                 stalled = epoch
         else:
             # dE / d consequent (a, r) = sum_n x~_a wbar_r err (x~ centred)

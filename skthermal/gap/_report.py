@@ -13,15 +13,12 @@ from skthermal._naming import percent, removes
 from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
 
 
-def _first_rows(frame, table, file, order="", limit=20):
+def _first_rows(frame, table, file, limit=20):
     """The markdown ``table`` of ``frame``'s first ``limit`` rows, with a note
     of the rows left out and the ``file`` that holds them all."""
     out = [table(frame.head(limit))]
     if len(frame) > limit:
-        out.append(
-            f"\n({limit} of {len(frame)} rows{', ' + order if order else ''}; "
-            f"all in `{file}`.)"
-        )
+        out.append(f"\n({limit} of {len(frame)} rows; all in `{file}`.)")
     return out
 
 

@@ -107,7 +107,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         warn_unlabelled_runs(
             type(self).__name__, None, groups, X.shape[0], X=frame, stacklevel=5
         )
-        warn_absolute_target(type(self).__name__, y, slices, stacklevel=5)
+        warn_absolute_target(type(self).__name__, y, slices)
         return X, y, slices, run_memory(X, slices, labels, frame)
 
     def _runs_for_predict(self, X, groups):

@@ -212,7 +212,12 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     # times leaves deviations of 1e-17, a correlation of 0 or 1e-16).
     constant = (np.ptp(y_true, axis=0) == 0) | (np.ptp(y_pred, axis=0) == 0)
     if constant.any():
-        which = "y_true" if (np.ptp(y_true, axis=0) == 0).any() else "y_pred"
+        sides = [
+            name
+            for name, values in (("y_true", y_true), ("y_pred", y_pred))
+            if (np.ptp(values, axis=0) == 0).any()
+        ]
+        which = " or ".join(sides)
         warnings.warn(
             f"Pearson's R is undefined where {which} is constant (or a single "
             f"sample): NaN for {int(constant.sum())} of {constant.size} output(s).",

@@ -1055,14 +1055,17 @@ def run_search(
         )
     space = _resolve_space(space, estimator)
     _check_space_values(space, estimator)
+    said = groups is not None  # run labels the user gave explicitly
     groups = _run_groups(X, groups)
     given_X = X
     X = with_run_index(X, groups)
     cv = _resolve_cv(cv, groups)
     with warnings.catch_warnings():
-        # The run labels go to every splitter; one that does not use them
-        # (TimeSeriesSplit) need not say so to a user who gave none.
-        warnings.filterwarnings("ignore", message="The groups parameter is ignored")
+        # The run labels (from X's index) go to every splitter; one that does
+        # not use them (TimeSeriesSplit) need not say so to a user who gave
+        # none.
+        if not said:
+            warnings.filterwarnings("ignore", message="The groups parameter is ignored")
         splits = list(
             cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
         )

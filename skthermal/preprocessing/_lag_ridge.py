@@ -207,8 +207,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     >>> t = np.arange(400) * 60.0
     >>> T = 20 + 5 * (1 - np.exp(-t / 3600))
     >>> y = 10 * (1 - np.exp(-t / 7200))
-    >>> model = LagRidgeCV(dt=60.0).fit(T[:, None], y)
-    >>> model.predict(T[:, None]).shape
+    >>> run = np.zeros(400)  # the rows are one run
+    >>> model = LagRidgeCV(dt=60.0).fit(T[:, None], y, groups=run)
+    >>> model.predict(T[:, None], groups=run).shape
     (400,)
     """
 
@@ -314,10 +315,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             )
         _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
         name = type(self).__name__
-        # Level 4: the caller of fit, which _fit_context wraps.
-        warn_unlabelled_runs(name, None, groups, len(y), X=X_raw, stacklevel=4)
+        warn_unlabelled_runs(name, None, groups, len(y), X=X_raw, stacklevel=None)
         names = getattr(self, "feature_names_in_", None)
-        warn_unnamed_drivers(name, self.drivers, names, stacklevel=4)
+        warn_unnamed_drivers(name, self.drivers, names, groups)
         # Without times, warn once here (not once per candidate), then give
         # the candidates one second per row explicitly.
         warn_no_time(
@@ -347,6 +347,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             # Said above, in this estimator's name.
             warnings.filterwarnings("ignore", message=r"LagFeatures\.fit got")
             warnings.filterwarnings("ignore", message=r"LagFeatures\.fit: drivers=")
+            # groups against X's run labels: said once, by extract_runs above.
+            warnings.filterwarnings("ignore", message=r"groups cut the rows into")
             return self._fit(X_raw, y, groups, slices, labels, sets, alphas, dt)
 
     def _check_grids(self):
@@ -522,6 +524,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             # Said above, in this estimator's name.
             warnings.filterwarnings("ignore", message=r"LagFeatures\.fit got")
             warnings.filterwarnings("ignore", message=r"LagFeatures\.fit: drivers=")
+            # groups against X's run labels: said once, by extract_runs above.
+            warnings.filterwarnings("ignore", message=r"groups cut the rows into")
             warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")

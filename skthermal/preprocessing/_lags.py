@@ -383,7 +383,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     >>> import numpy as np
     >>> from skthermal.preprocessing import LagFeatures
     >>> X = np.c_[np.linspace(20, 25, 6), np.linspace(21, 22, 6)]
-    >>> LagFeatures(time_constants=[60.0], dt=30.0).fit_transform(X).shape
+    >>> run = np.zeros(6)  # the rows are one run
+    >>> LagFeatures(time_constants=[60.0], dt=30.0).fit_transform(X, groups=run).shape
     (6, 4)
     """
 
@@ -461,10 +462,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         slices, labels = run_slices(groups, X_arr.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
         name = type(self).__name__
-        # Level 4: the caller of fit, which _fit_context wraps.
-        warn_unlabelled_runs(name, None, groups, X_arr.shape[0], X=X_raw, stacklevel=4)
+        warn_unlabelled_runs(
+            name, None, groups, X_arr.shape[0], X=X_raw, stacklevel=None
+        )
         names = getattr(self, "feature_names_in_", None)
-        warn_unnamed_drivers(name, self.drivers, names, stacklevel=4)
+        warn_unnamed_drivers(name, self.drivers, names, groups)
         warn_no_time(type(self).__name__, X_raw, self.dt, taus)
         # From the times (runs of one row take the others' period), else dt
         # (one second when None): not a period kept from an earlier fit.

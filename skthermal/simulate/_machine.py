@@ -58,6 +58,7 @@ from skthermal.utils._threads import (
     single_threaded_blas,
     with_single_threaded_blas,
 )
+from skthermal.utils._warnings import user_stacklevel
 
 
 @dataclass
@@ -186,13 +187,13 @@ def _warn_idle_parts(spec, params):
         warnings.warn(
             f"Machine {spec.name!r}: " + "; ".join(problems) + ".",
             UserWarning,
-            stacklevel=4,
+            stacklevel=user_stacklevel(),
         )
 
 
 def _warn_inactive(spec, effects):
     """Warn, naming each, when effects switched on cannot act on ``spec``."""
-    lacking = {e: EFFECTS[e].missing(spec) for e in effects}
+    lacking = {e: EFFECTS[e].missing(spec) for e in EFFECTS if e in set(effects)}
     lacking = {e: why for e, why in lacking.items() if why is not None}
     if lacking:
         warnings.warn(
@@ -203,7 +204,7 @@ def _warn_inactive(spec, effects):
             )
             + ".",
             UserWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
 
 

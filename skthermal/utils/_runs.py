@@ -17,6 +17,7 @@ import numpy as np
 from sklearn.utils._param_validation import InvalidParameterError
 
 from skthermal._naming import plain, shown
+from skthermal.utils._warnings import user_stacklevel
 
 RUN_COLUMN = "run"
 TIME_COLUMN = "time_s"
@@ -340,7 +341,7 @@ def _warn_other_runs(groups, labels, where):
         f"(groups {plain(np.asarray(groups)[k])!r}, X {plain(labels[k])!r}); "
         "groups are used. Give one of them, or the same runs in both.",
         UserWarning,
-        stacklevel=4,
+        stacklevel=user_stacklevel(),
     )
 
 
@@ -1032,10 +1033,13 @@ def warn_unlabelled_runs(
         ``time_s`` (a plain array) are taken as one run. Rows with a
         ``time_s`` but no run labels are one run (several runs would restart
         their times, an error).
-    stacklevel : int, default=3
+    stacklevel : int or None, default=3
         Of the warning: 3 points at the caller of the method that calls this
-        function.
+        function; None, at the first frame outside skthermal and
+        scikit-learn (the user's line, however deep the call).
     """
+    if stacklevel is None:
+        stacklevel = user_stacklevel()
     if groups is not None:
         return
     if X is not None:
@@ -1343,9 +1347,10 @@ def driver_positions(drivers, names, n_features):
     return np.array(sorted(set(out)), dtype=int)
 
 
-def warn_absolute_target(name, y, slices, stacklevel=3):
+def warn_absolute_target(name, y, slices):
     """Warn when a model that predicts the change of the target since each
-    run's start is fitted on a target far from zero at the runs' starts:
+    run's start is fitted on a target far from zero at the runs' starts (ten
+    times its changes within them, root mean squares):
     its predictions are then compared with ``y`` as given by ``score`` and
     by scorers, which measure that offset rather than the model's error."""
     Y = np.asarray(y, dtype=float).reshape(len(y), -1)
@@ -1355,7 +1360,9 @@ def warn_absolute_target(name, y, slices, stacklevel=3):
     change = np.concatenate([Y[sl] - Y[sl.start] for sl in slices])
     offset = float(np.sqrt(np.mean(first**2)))
     spread = float(np.sqrt(np.mean(change**2)))
-    if offset <= max(spread, 1e-12):
+    # An order of magnitude: a target measured from an arbitrary zero but
+    # scored as changes (a short window of a run, say) is not worth a word.
+    if offset <= 10.0 * max(spread, 1e-12):
         return
     warnings.warn(
         f"{name} predicts the change of the target since each run's start "
@@ -1365,16 +1372,17 @@ def warn_absolute_target(name, y, slices, stacklevel=3):
         "as given and measure that offset. Fit and score on the changes "
         "(skthermal.datasets.changes_since_start) to compare like with like.",
         UserWarning,
-        stacklevel=stacklevel,
+        stacklevel=user_stacklevel(),
     )
 
 
-def warn_unnamed_drivers(name, drivers, names, stacklevel=3):
+def warn_unnamed_drivers(name, drivers, names, groups):
     """Warn when ``drivers="auto"`` cannot find the drivers because ``X``
-    has no column names (``names`` None: a numpy array, or a scikit-learn
-    step in front that outputs numpy), so that every column is taken as a
-    temperature."""
-    if not (isinstance(drivers, str) and names is None):
+    has lost its column names and its run labels (``names`` and ``groups``
+    None: a scikit-learn step in front that outputs numpy), so that every
+    column is taken as a temperature. Plain arrays given with their run
+    labels are taken as meant."""
+    if not (isinstance(drivers, str) and names is None and groups is None):
         return
     warnings.warn(
         f"{name}.fit: drivers='auto' finds the drivers ({', '.join(POWER_DRIVERS)}) "
@@ -1383,7 +1391,7 @@ def warn_unnamed_drivers(name, drivers, names, stacklevel=3):
         "steps in front) or give the drivers by position (drivers=[...]; "
         "drivers=None when there are none).",
         UserWarning,
-        stacklevel=stacklevel,
+        stacklevel=user_stacklevel(),
     )
 
 
@@ -1482,7 +1490,11 @@ def _check_text_in_array(X):
     text = flat.map(lambda v: isinstance(v, str)).to_numpy(dtype=bool)
     if not text.any():
         return  # other objects: numpy and scikit-learn say what they are
-    bad = text & pd.to_numeric(flat.where(text), errors="coerce").isna().to_numpy()
+    # "nan" and "inf" are numbers to numpy (missing values are named later).
+    named = flat.where(text).str.strip().str.lower().str.lstrip("+-")
+    numeric = named.isin(["nan", "inf", "infinity"]).to_numpy(dtype=bool)
+    coerced = pd.to_numeric(flat.where(text), errors="coerce").isna().to_numpy()
+    bad = text & coerced & ~numeric
     if not bad.any():
         return
     k = int(np.flatnonzero(bad)[0])

@@ -1,0 +1,39 @@
+"""Where a warning points: the user's line, not the library's."""
+
+import os
+import sys
+from pathlib import Path
+
+import sklearn
+
+# Frames in these folders are the library's or scikit-learn's (a Pipeline,
+# a fit context), not the user's call.
+_INSIDE = tuple(
+    str(Path(module.__file__).parent) + os.sep
+    for module in (sys.modules["skthermal"], sklearn)
+)
+
+
+def user_stacklevel():
+    """The ``stacklevel`` that makes a ``warnings.warn`` in the calling
+    function point at the first frame outside skthermal and scikit-learn:
+    the line of the user's code that led there, however deep the call
+    (``fit``, ``fit_transform``, a Pipeline, a fit context) and from any
+    of the library's paths.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from skthermal.utils._warnings import user_stacklevel
+    >>> def check():
+    ...     warnings.warn("said where check() was called", stacklevel=user_stacklevel())
+    """
+    frame = sys._getframe(1)  # the function that calls warnings.warn
+    level = 1
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if not name.startswith(_INSIDE):
+            return level
+        frame = frame.f_back
+        level += 1
+    return level
