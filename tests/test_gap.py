@@ -1172,3 +1172,32 @@ def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
     assert kept.settings["initial"] == "measured"
     with pytest.raises(ValueError, match="'initial' parameter of diagnose"):
         diagnose(rig, runs, initial="warm", **kw)
+
+
+def test_where_finds_jumps_of_opposite_sign_in_two_channels():
+    """Two channels jump by +1 and -1 at the same sample: summed, they would
+    cancel; channel by channel, the jump is found and its channel named."""
+    from types import SimpleNamespace
+
+    from skthermal.gap._report import _where_tables
+
+    n = 200
+    rng = np.random.default_rng(0)
+    R = rng.normal(0, 0.01, (n, 2))
+    R[120:, 0] += 1.0
+    R[120:, 1] -= 1.0
+    run = SimpleNamespace(name="r1", time_s=np.arange(n) * 60.0, rows=np.arange(n))
+    problem = SimpleNamespace(
+        runs=[run],
+        channels=["disp_x_um", "disp_y_um"],
+        weight=np.ones(2),
+        scale=np.ones(2),
+        noise=np.full(2, 0.01),
+    )
+    regimes = [pd.DataFrame({"regime": ["heating"] * n})]
+    jumps = _where_tables(problem, [R], regimes, "base")["jumps"]
+    assert len(jumps) == 1
+    row = jumps.iloc[0]
+    assert row["time_s"] == 120 * 60.0 and row["jump"] == pytest.approx(
+        1.0 if row["channel"] == "disp_x_um" else -1.0, abs=0.05
+    )

@@ -76,35 +76,40 @@ def _where_tables(problem, Rs, regimes, label):
         # power, summed (a sum of the signed residuals would let channels
         # of opposite sign cancel). Per sample, the power of all bands
         # sums to the squared gap about each channel's mean (Parseval).
-        r = R.sum(axis=1)
+        m = R.shape[0]
         t = run.time_s[run.rows]
-        if r.size > 4:
+        if m > 4:
             dt_h = float(np.median(np.diff(t))) / 3600.0
             F = np.fft.rfft(R - R.mean(axis=0), axis=0)
             weight = np.full(F.shape[0], 2.0)  # one-sided: both halves
             weight[0] = 1.0
-            if r.size % 2 == 0:
+            if m % 2 == 0:
                 weight[-1] = 1.0
-            spec = weight * np.sum(np.abs(F) ** 2, axis=1) / r.size**2
-            freq = np.fft.rfftfreq(r.size, d=dt_h)
+            spec = weight * np.sum(np.abs(F) ** 2, axis=1) / m**2
+            freq = np.fft.rfftfreq(m, d=dt_h)
             period = np.divide(
                 1.0, freq, out=np.full_like(freq, np.inf), where=freq > 0
             )
             for name, lo, hi in BANDS_H:
                 sel = (period > lo) & (period <= hi) & (freq > 0)
                 bands.append({"band": name, "power": float(spec[sel].sum())})
-        # Where the gap jumps: outliers of the residual's first difference.
-        dr = np.diff(r)
-        if dr.size > 2:
-            mad = np.median(np.abs(dr - np.median(dr))) / 0.6745
-            big = np.flatnonzero(np.abs(dr) > 6 * max(mad, 1e-12))
+        # Where the gap jumps: outliers of each channel's first difference
+        # (channel by channel: a sum over channels would let jumps of
+        # opposite sign cancel), the channel that jumps most at each time.
+        D = np.diff(R, axis=0)
+        if D.shape[0] > 2:
+            mad = np.median(np.abs(D - np.median(D, axis=0)), axis=0) / 0.6745
+            ratio = np.abs(D) / np.maximum(mad, 1e-12)
+            big = np.flatnonzero(ratio.max(axis=1) > 6)
             for k in big[:10]:
+                j = int(np.argmax(ratio[k]))
                 jumps.append(
                     {
                         "model": label,
                         "run": run.name,
                         "time_s": float(t[k + 1]),
-                        "jump": float(dr[k]),
+                        "channel": problem.channels[j],
+                        "jump": float(D[k, j]),
                     }
                 )
     reg = pd.concat(regs, ignore_index=True)
@@ -137,7 +142,9 @@ def _where_tables(problem, Rs, regimes, label):
         "channels": chan_all,
         "channels_by_run": pd.DataFrame(chans),
         "bands": band_table,
-        "jumps": pd.DataFrame(jumps, columns=["model", "run", "time_s", "jump"]),
+        "jumps": pd.DataFrame(
+            jumps, columns=["model", "run", "time_s", "channel", "jump"]
+        ),
     }
 
 
