@@ -1201,3 +1201,29 @@ def test_where_finds_jumps_of_opposite_sign_in_two_channels():
     assert row["time_s"] == 120 * 60.0 and row["jump"] == pytest.approx(
         1.0 if row["channel"] == "disp_x_um" else -1.0, abs=0.05
     )
+
+
+def test_where_bands_split_the_squared_gap_about_each_channels_mean():
+    """Parseval: the bands' power adds up to the mean over samples of the
+    squared residual about each channel's mean, channels summed (so
+    channels of opposite sign do not cancel)."""
+    from types import SimpleNamespace
+
+    from skthermal.gap._report import _where_tables
+
+    n = 301  # odd and even lengths weigh the last frequency differently
+    for m in (n, n - 1):
+        t = np.arange(m) * 60.0
+        R = np.c_[np.sin(t / 3000.0), -np.sin(t / 3000.0) + 0.3]
+        run = SimpleNamespace(name="r1", time_s=t, rows=np.arange(m))
+        problem = SimpleNamespace(
+            runs=[run],
+            channels=["disp_x_um", "disp_y_um"],
+            weight=np.ones(2),
+            scale=np.ones(2),
+            noise=np.full(2, 0.01),
+        )
+        regimes = [pd.DataFrame({"regime": ["heating"] * m})]
+        bands = _where_tables(problem, [R], regimes, "base")["bands"]
+        expected = np.mean(np.sum((R - R.mean(axis=0)) ** 2, axis=1))
+        assert bands["power"].sum() == pytest.approx(expected, rel=1e-12)
