@@ -16,6 +16,7 @@ from numbers import Integral, Real
 import numpy as np
 import pandas as pd
 from sklearn.base import RegressorMixin, _fit_context, clone
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import LinearRegression
 from sklearn.utils import Bunch
 from sklearn.utils._param_validation import Interval
@@ -43,6 +44,7 @@ from skthermal.utils._runs import (
     run_times,
     warn_unlabelled_runs,
 )
+from skthermal.utils._warnings import user_stacklevel
 
 
 class ModularRegressor(RegressorMixin, _BaseComposition):
@@ -395,6 +397,16 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                     parts[k] = new
                 if len(fitted) == 1 or change <= self.tol * scale:
                     break
+            else:
+                warnings.warn(
+                    f"ModularRegressor: backfitting did not converge in "
+                    f"max_iter={self.max_iter} sweeps (the modules' fitted values "
+                    f"still moved by {change / scale:.2g} target standard "
+                    f"deviations in the last, tol={self.tol:g}); raise max_iter "
+                    "or tol.",
+                    ConvergenceWarning,
+                    stacklevel=user_stacklevel(),
+                )
             self.n_iter_ = it
         self.estimators_ = fitted
         self.named_estimators_ = Bunch(**dict(zip(names, fitted, strict=True)))
