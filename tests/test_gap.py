@@ -1174,19 +1174,14 @@ def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
         diagnose(rig, runs, initial="warm", **kw)
 
 
-def test_where_finds_jumps_of_opposite_sign_in_two_channels():
-    """Two channels jump by +1 and -1 at the same sample: summed, they would
-    cancel; channel by channel, the jump is found and its channel named."""
+def _where_of(R, t):
+    """The "where" tables of one run of two displacement channels with
+    residuals ``R`` at times ``t`` (a bare problem: unit weights)."""
     from types import SimpleNamespace
 
     from skthermal.gap._report import _where_tables
 
-    n = 200
-    rng = np.random.default_rng(0)
-    R = rng.normal(0, 0.01, (n, 2))
-    R[120:, 0] += 1.0
-    R[120:, 1] -= 1.0
-    run = SimpleNamespace(name="r1", time_s=np.arange(n) * 60.0, rows=np.arange(n))
+    run = SimpleNamespace(name="r1", time_s=t, rows=np.arange(t.size))
     problem = SimpleNamespace(
         runs=[run],
         channels=["disp_x_um", "disp_y_um"],
@@ -1194,8 +1189,19 @@ def test_where_finds_jumps_of_opposite_sign_in_two_channels():
         scale=np.ones(2),
         noise=np.full(2, 0.01),
     )
-    regimes = [pd.DataFrame({"regime": ["heating"] * n})]
-    jumps = _where_tables(problem, [R], regimes, "base")["jumps"]
+    regimes = [pd.DataFrame({"regime": ["heating"] * t.size})]
+    return _where_tables(problem, [R], regimes, "base")
+
+
+def test_where_finds_jumps_of_opposite_sign_in_two_channels():
+    """Two channels jump by +1 and -1 at the same sample: summed, they would
+    cancel; channel by channel, the jump is found and its channel named."""
+    n = 200
+    rng = np.random.default_rng(0)
+    R = rng.normal(0, 0.01, (n, 2))
+    R[120:, 0] += 1.0
+    R[120:, 1] -= 1.0
+    jumps = _where_of(R, np.arange(n) * 60.0)["jumps"]
     assert len(jumps) == 1
     row = jumps.iloc[0]
     assert row["time_s"] == 120 * 60.0 and row["jump"] == pytest.approx(
@@ -1207,23 +1213,10 @@ def test_where_bands_split_the_squared_gap_about_each_channels_mean():
     """Parseval: the bands' power adds up to the mean over samples of the
     squared residual about each channel's mean, channels summed (so
     channels of opposite sign do not cancel)."""
-    from types import SimpleNamespace
-
-    from skthermal.gap._report import _where_tables
-
     n = 301  # odd and even lengths weigh the last frequency differently
     for m in (n, n - 1):
         t = np.arange(m) * 60.0
         R = np.c_[np.sin(t / 3000.0), -np.sin(t / 3000.0) + 0.3]
-        run = SimpleNamespace(name="r1", time_s=t, rows=np.arange(m))
-        problem = SimpleNamespace(
-            runs=[run],
-            channels=["disp_x_um", "disp_y_um"],
-            weight=np.ones(2),
-            scale=np.ones(2),
-            noise=np.full(2, 0.01),
-        )
-        regimes = [pd.DataFrame({"regime": ["heating"] * m})]
-        bands = _where_tables(problem, [R], regimes, "base")["bands"]
+        bands = _where_of(R, t)["bands"]
         expected = np.mean(np.sum((R - R.mean(axis=0)) ** 2, axis=1))
         assert bands["power"].sum() == pytest.approx(expected, rel=1e-12)

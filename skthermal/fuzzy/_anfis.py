@@ -157,15 +157,23 @@ def _warn_large_problem(n_rules, n_features, n_samples):
 _STEP_SPAN_RATIO = 1000.0
 
 
-def _warn_step_beyond_inputs(step_size, X, names):
+# Inputs whose spans differ by more than this factor are trained unevenly:
+# the premise step and the consequents' ridge are in the inputs' units.
+_MIXED_SCALES = 100.0
+
+
+def _warn_input_scales(step_size, X, names):
     """Warn when the premise step (in the inputs' units) dwarfs an input's
-    span: the gradient steps then throw its functions off the data."""
+    span (the gradient steps throw its functions off the data) or is far
+    too short for the inputs' spans (they barely move), and when the
+    inputs' spans differ by more than :data:`_MIXED_SCALES` (spindle speed
+    in rpm beside temperatures in °C)."""
     span = np.ptp(X, axis=0) if X.shape[0] else np.zeros(X.shape[1])
     moving = np.flatnonzero(span > 0)
     if not moving.size:
         return
     j = moving[np.argmin(span[moving])]
-    if step_size < span[j] / _STEP_SPAN_RATIO**2 and step_size > 0:
+    if 0 < step_size < span[j] / _STEP_SPAN_RATIO**2:
         warnings.warn(
             f"ANFISRegressor: step_size={step_size:g} is the length of each "
             f"premise step in the inputs' units, and the inputs span "
@@ -175,46 +183,28 @@ def _warn_step_beyond_inputs(step_size, X, names):
             UserWarning,
             stacklevel=4,
         )
-        return
-    if step_size <= _STEP_SPAN_RATIO * span[j]:
-        return
-    warnings.warn(
-        f"ANFISRegressor: step_size={step_size:g} is the length of each "
-        f"premise step in the inputs' units, and input {names[j]!r} spans only "
-        f"{span[j]:.3g}: the membership functions would jump far beyond the "
-        "data. Scale the inputs (a StandardScaler in front) or give a "
-        f"step_size of about {0.01 * span[j]:.2g}.",
-        UserWarning,
-        stacklevel=4,
-    )
-
-
-# Inputs whose spans differ by more than this factor are trained unevenly:
-# the premise step and the consequents' ridge are in the inputs' units.
-_MIXED_SCALES = 100.0
-
-
-def _warn_mixed_scales(X, names):
-    """Warn when the inputs' spans differ by more than :data:`_MIXED_SCALES`
-    (spindle speed in rpm beside temperatures in °C)."""
-    span = np.ptp(X, axis=0) if X.shape[0] else np.zeros(X.shape[1])
-    moving = np.flatnonzero(span > 0)
-    if moving.size < 2:
-        return
-    lo = moving[np.argmin(span[moving])]
+    elif step_size > _STEP_SPAN_RATIO * span[j]:
+        warnings.warn(
+            f"ANFISRegressor: step_size={step_size:g} is the length of each "
+            f"premise step in the inputs' units, and input {names[j]!r} spans "
+            f"only {span[j]:.3g}: the membership functions would jump far "
+            "beyond the data. Scale the inputs (a StandardScaler in front) or "
+            f"give a step_size of about {0.01 * span[j]:.2g}.",
+            UserWarning,
+            stacklevel=4,
+        )
     hi = moving[np.argmax(span[moving])]
-    if span[hi] <= _MIXED_SCALES * span[lo]:
-        return
-    warnings.warn(
-        f"ANFISRegressor: the inputs' spans differ by a factor of "
-        f"{span[hi] / span[lo]:.3g} ({names[hi]!r} spans {span[hi]:.3g}, "
-        f"{names[lo]!r} {span[lo]:.3g}). The premise step and the consequents' "
-        "ridge act in the inputs' units, so such inputs are trained and shrunk "
-        "unevenly (a speed in rpm instead of krpm changes the model). "
-        "Standardise the inputs (a StandardScaler in front).",
-        UserWarning,
-        stacklevel=4,
-    )
+    if span[hi] > _MIXED_SCALES * span[j]:
+        warnings.warn(
+            f"ANFISRegressor: the inputs' spans differ by a factor of "
+            f"{span[hi] / span[j]:.3g} ({names[hi]!r} spans {span[hi]:.3g}, "
+            f"{names[j]!r} {span[j]:.3g}). The premise step and the consequents' "
+            "ridge act in the inputs' units, so such inputs are trained and "
+            "shrunk unevenly (a speed in rpm instead of krpm changes the "
+            "model). Standardise the inputs (a StandardScaler in front).",
+            UserWarning,
+            stacklevel=4,
+        )
 
 
 class ANFISRegressor(RegressorMixin, BaseEstimator):
@@ -591,8 +581,7 @@ default="fcm"
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
         _warn_large_problem(rules.shape[0], X_train.shape[1], X_train.shape[0])
-        _warn_step_beyond_inputs(self.step_size, X_train, self._feature_names())
-        _warn_mixed_scales(X_train, self._feature_names())
+        _warn_input_scales(self.step_size, X_train, self._feature_names())
 
         ridge, result = self.ridge, None
         self.ridge_scores_ = {}

@@ -112,6 +112,23 @@ def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
     return sse if per_fold else sse.sum(0)
 
 
+# What the inner LagFeatures (its candidates in fit, the chosen one in
+# predict) would say that LagRidgeCV has already said in its own name:
+# gaps, rows without run labels, driver names, groups against X's runs.
+_SAID_BY_LAG_RIDGE = (
+    r"LagFeatures: .* gap\(s\)",
+    r"LagFeatures\.fit got",
+    r"LagFeatures\.fit: drivers=",
+    r"groups cut the rows into",
+)
+
+
+def _quiet_inner_lag_features():
+    """Inside ``warnings.catch_warnings()``: silence :data:`_SAID_BY_LAG_RIDGE`."""
+    for message in _SAID_BY_LAG_RIDGE:
+        warnings.filterwarnings("ignore", message=message)
+
+
 class LagRidgeCV(RegressorMixin, BaseEstimator):
     """Standardised ridge regression on :class:`LagFeatures`, tuned by time CV.
 
@@ -343,12 +360,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         # threads waiting for each other (0.5 s against 8-19 s on
         # FL_THERMAL's 6,669 training rows).
         with warnings.catch_warnings(), single_threaded_blas():
-            warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
-            # Said above, in this estimator's name.
-            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit got")
-            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit: drivers=")
-            # groups against X's run labels: said once, by extract_runs above.
-            warnings.filterwarnings("ignore", message=r"groups cut the rows into")
+            _quiet_inner_lag_features()
             return self._fit(X_raw, y, groups, slices, labels, sets, alphas, dt)
 
     def _check_grids(self):
@@ -520,12 +532,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             # LagFeatures names itself; the user called LagRidgeCV, and was
             # just warned about rows without run labels, a late start or a
             # pause.
-            warnings.filterwarnings("ignore", message=r"LagFeatures: .* gap\(s\)")
-            # Said above, in this estimator's name.
-            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit got")
-            warnings.filterwarnings("ignore", message=r"LagFeatures\.fit: drivers=")
-            # groups against X's run labels: said once, by extract_runs above.
-            warnings.filterwarnings("ignore", message=r"groups cut the rows into")
+            _quiet_inner_lag_features()
             warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")

@@ -193,7 +193,8 @@ def _warn_idle_parts(spec, params):
 
 def _warn_inactive(spec, effects):
     """Warn, naming each, when effects switched on cannot act on ``spec``."""
-    lacking = {e: EFFECTS[e].missing(spec) for e in EFFECTS if e in set(effects)}
+    chosen = set(effects)
+    lacking = {e: EFFECTS[e].missing(spec) for e in EFFECTS if e in chosen}
     lacking = {e: why for e, why in lacking.items() if why is not None}
     if lacking:
         warnings.warn(

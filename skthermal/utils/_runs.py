@@ -1491,9 +1491,10 @@ def _check_text_in_array(X):
     if not text.any():
         return  # other objects: numpy and scikit-learn say what they are
     # "nan" and "inf" are numbers to numpy (missing values are named later).
-    named = flat.where(text).str.strip().str.lower().str.lstrip("+-")
+    texts = flat.where(text)
+    named = texts.str.strip().str.lower().str.lstrip("+-")
     numeric = named.isin(["nan", "inf", "infinity"]).to_numpy(dtype=bool)
-    coerced = pd.to_numeric(flat.where(text), errors="coerce").isna().to_numpy()
+    coerced = pd.to_numeric(texts, errors="coerce").isna().to_numpy()
     bad = text & coerced & ~numeric
     if not bad.any():
         return
