@@ -166,6 +166,14 @@ def test_gap_table_needs_drivers_and_numbers(tables, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "'spindle_rpm' holds text" in err and "'fast'" in err
     assert len(err.strip().splitlines()) == 1
+    # Per-run files joined with their headers: a header line inside.
+    lines = open(meas).read().splitlines()
+    joined = tmp_path / "joined.csv"
+    joined.write_text("\n".join([*lines[:40], lines[0], *lines[40:]]) + "\n")
+    assert main(["gap", "--simulated", str(sim), "--runs", str(joined)]) == 2
+    err = capsys.readouterr().err
+    assert "repeats the header line" in err
+    assert len(err.strip().splitlines()) == 1
 
 
 class _FakeReport:

@@ -363,6 +363,25 @@ def test_mapping_typos_and_uncompared_channels(pair):
     with pytest.warns(UserWarning, match=r"\['T3_C'\] are not compared"):
         report = diagnose_runs(sim, meas.assign(T3_C=meas["T1_C"]), greedy=False)
     assert "T3_C" not in report.settings["channels"]
+    # The same slip in the simulated table (another tool's export) leaves
+    # the channel out: the warning names the near miss.
+    with pytest.warns(
+        UserWarning, match=r"for 'disp_z_um' the simulated table has 'disp_z_mm'"
+    ) as record:
+        diagnose_runs(
+            sim.rename(columns={"disp_z_um": "disp_z_mm"}), meas, greedy=False
+        )
+    assert record[0].filename == __file__
+
+
+def test_repeated_columns_are_named(pair):
+    sim, meas = pair
+    for side, column in (("simulated", "T1_C"), ("simulated", "spindle_rpm")):
+        twice = pd.concat([sim, sim[[column]]], axis=1)
+        with pytest.raises(ValueError, match=rf"{side} run table has .*'{column}'"):
+            diagnose_runs(twice, meas)
+    with pytest.raises(ValueError, match=r"measured run table has .*'T1_C'"):
+        diagnose_runs(sim, pd.concat([meas, meas[["T1_C"]]], axis=1))
 
 
 def test_another_tools_column_names_give_the_same_diagnosis(rng):
@@ -420,6 +439,13 @@ def test_share_of_the_explainable_gap_is_not_clipped(pair):
     text = report.verdict()
     assert "makes the held-out gap worse (excess above noise 25% larger)" in text
     assert "drivers removes" not in text
+    # A term that removes more than the flexible model: said so.
+    report.how_far_evidence["shrink"] = 0.6
+    report.explainable["share"] = 0.2
+    text = report.verdict()
+    assert "removes 20%, less than 'tool_growth': the gap explainable at" in text
+    report.explainable["share"] = 0.7
+    assert "less than" not in report.verdict()
 
 
 # --- audit 2 fixes ------------------------------------------------------------

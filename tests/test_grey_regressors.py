@@ -549,7 +549,7 @@ def test_later_part_of_a_training_run_continues_it(est, rng, tmp_path):
     np.testing.assert_allclose(
         model.predict(X[180:], groups=groups), whole[180:], rtol=1e-9, atol=1e-9
     )
-    with pytest.raises(ValueError, match="neither at the start"):
+    with pytest.raises(ValueError, match="inside the span"):
         model.predict(df.iloc[100:])
     new = df.iloc[180:].rename(index={"r": "other"}, level="run")
     with pytest.warns(UserWarning, match="not 0"):

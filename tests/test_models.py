@@ -186,3 +186,23 @@ def test_every_cli_model_loads_back_with_skthermal_io_in_a_fresh_process(
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["skthermal.models._run_start", "180", "True"]
+
+
+def test_wrappers_take_several_targets_when_their_models_do():
+    from sklearn.linear_model import LinearRegression
+    from sklearn.utils import get_tags
+
+    from skthermal import GreyPSORegressor, ModularRegressor
+    from skthermal.models import RunStartRegressor
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(40, 3)).cumsum(axis=0)
+    Y = np.c_[X @ [1.0, 2.0, 0.0], X @ [0.0, -1.0, 3.0]]
+    groups = np.repeat(["a", "b"], 20)
+    model = RunStartRegressor(LinearRegression()).fit(X, Y, groups=groups)
+    assert model.predict(X, groups=groups).shape == (40, 2)
+    assert get_tags(model).target_tags.multi_output
+    assert not get_tags(RunStartRegressor(GreyPSORegressor())).target_tags.multi_output
+    grey = ModularRegressor([("grey", GreyPSORegressor(), None)])
+    assert not get_tags(grey).target_tags.multi_output
+    assert get_tags(ModularRegressor()).target_tags.multi_output

@@ -80,6 +80,32 @@ def test_lag_feature_names_follow_scikit_learns_rule():
             lf.get_feature_names_out(names)
 
 
+def test_run_tables_keep_their_runs_through_lag_features():
+    # As the selectors: a run table (runs as index levels or as columns) comes
+    # out indexed by run and time_s, whatever the output config, so that a
+    # sequence model after the step still sees the runs.
+    X = _frame()
+    as_columns = X.reset_index()
+    for given in (X, as_columns):
+        for output in ("default", "pandas"):
+            lf = LagFeatures(time_constants=[60.0]).set_output(transform=output)
+            F = lf.fit_transform(given)
+            assert list(F.index.names) == ["run", "time_s"]
+            assert F.index.equals(X.index)
+            assert list(F.columns) == list(lf.get_feature_names_out())
+    plain = LagFeatures(time_constants=[60.0]).fit_transform(
+        X.to_numpy(), groups=X.index.get_level_values("run")
+    )
+    assert isinstance(plain, np.ndarray)
+
+
+def test_lag_feature_names_tell_close_time_constants_apart():
+    lf = LagFeatures(time_constants=[100000.0, 100000.4, 60.0]).fit(_frame())
+    names = list(lf.get_feature_names_out())
+    assert len(set(names)) == len(names)
+    assert "d_T1_C_lp100000.4" in names and "d_T1_C_lp60" in names
+
+
 def test_runs_restart_and_names_and_pandas_output():
     X = _frame()
     lf = LagFeatures(time_constants=[60.0]).set_output(transform="pandas")
@@ -201,7 +227,7 @@ def test_the_later_rows_of_a_training_run_continue_it(model):
     # The training rows again: predicted from the run's start.
     np.testing.assert_allclose(use(table.iloc[:cut]), whole[:cut])
     # Starting inside the training span is neither reading: an error.
-    with pytest.raises(ValueError, match="neither at the start"):
+    with pytest.raises(ValueError, match="inside the span"):
         use(table.iloc[20:])
     # A run not seen in fit that does not start at 0 is a run of its own,
     # with a warning.
@@ -283,10 +309,10 @@ def test_lag_features_bridge_missing_samples():
     )
     X = pd.DataFrame({"T1_C": T}, index=index)
     lf = LagFeatures(time_constants=[600.0])
-    full = lf.fit_transform(X)
+    full = np.asarray(lf.fit_transform(X))
     keep = np.r_[0:100, 200:400]
     with pytest.warns(UserWarning, match=r"1 gap\(s\).*run 'a'.*lasts 3030 s"):
-        holed = lf.transform(X.iloc[keep])
+        holed = np.asarray(lf.transform(X.iloc[keep]))
     # Across the gap the filters see the time pass: the features after it
     # are close to those of the complete record (the input taken to ramp
     # across the gap), unlike a gap read as one sampling period.
@@ -295,7 +321,7 @@ def test_lag_features_bridge_missing_samples():
     contiguous.index = pd.MultiIndex.from_arrays(
         [np.full(300, "a"), np.arange(300) * 30.0], names=["run", "time_s"]
     )
-    assert np.abs(lf.transform(contiguous)[100:] - full[200:]).max() > 0.5
+    assert np.abs(np.asarray(lf.transform(contiguous))[100:] - full[200:]).max() > 0.5
 
 
 def test_lag_ridge_names_a_repeated_time():
@@ -576,7 +602,7 @@ def test_one_row_runs_do_not_pull_the_fitted_sampling_period():
     data = pd.concat([X, ones])
     lf = LagFeatures(time_constants=[60.0], driver_initial="rest").fit(data)
     assert lf.sample_period_s_ == 30.0
-    F = lf.transform(data)
+    F = np.asarray(lf.transform(data))
     # A one-row run: its first row filtered from rest over one 30 s period.
     a = np.exp(-30.0 / 60.0)
     pow1_lp60 = list(lf.get_feature_names_out()).index("spindle_rpm_pow1_lp60")

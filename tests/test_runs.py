@@ -115,14 +115,16 @@ def test_seen_label_continues_unless_it_restarts():
     assert memory_and_plan(fit, table([45.0, 60.0], ["a"] * 2)) == ["a"]
     assert memory_and_plan(fit, table([0.0, 15.0], ["a"] * 2)) == [None]
     with pytest.raises(
-        ValueError, match=r"Run .a. starts at time_s=15, neither at the start"
+        ValueError, match=r"Run .a. starts at time_s=15, inside the span 0-30"
     ):
         memory_and_plan(fit, table([15.0, 30.0], ["a"] * 2))
 
 
 def test_seen_label_starting_before_its_training_span_is_an_error():
     fit = table([100.0, 115.0, 130.0], ["a"] * 3)
-    with pytest.raises(ValueError, match=r"time_s=50, neither at the start"):
+    with pytest.raises(
+        ValueError, match=r"time_s=50, before the span 100-130.*GroupKFold"
+    ):
         memory_and_plan(fit, table([50.0, 65.0], ["a"] * 2))
 
 
@@ -190,7 +192,7 @@ def test_sequence_models_continue_a_training_run(name):
         warnings.simplefilter("error")
         tail = model.predict(table.iloc[cut:])
     np.testing.assert_allclose(tail, whole[cut:], rtol=1e-9, atol=1e-9)
-    with pytest.raises(ValueError, match="neither at the start"):
+    with pytest.raises(ValueError, match="inside the span"):
         model.predict(table.iloc[10:])
     with pytest.warns(UserWarning, match="not 0"):
         model.predict(table.iloc[cut:].assign(run="new"))
@@ -773,3 +775,53 @@ def test_groups_that_cut_other_runs_than_the_index_warn():
     frame = X.reset_index(level="run")  # the labels as a column
     with pytest.warns(UserWarning, match=r"X's 'run' column into 2"):
         extract_runs(frame, np.repeat([0, 1, 2, 3], 2))
+
+
+class _ForeignFrame:
+    """A data frame of another library (as polars): columns, no index, and a
+    ``to_pandas()`` that converts it."""
+
+    def __init__(self, frame):
+        self._frame = frame.reset_index(drop=True)
+        self.columns = list(self._frame.columns)
+        self.shape = self._frame.shape
+
+    def __len__(self):
+        return len(self._frame)
+
+    def __array__(self, dtype=None, copy=None):
+        return self._frame.to_numpy(dtype=dtype)
+
+    def to_pandas(self):
+        return self._frame.copy()
+
+
+@pytest.mark.parametrize("name", [*_sequence_models(), "GuardedRegressor"])
+def test_frames_of_other_libraries_are_read_by_their_run_columns(name):
+    # A polars run table has its run and time_s as columns (no index): read
+    # like a pandas table with those columns, not as inputs.
+    from sklearn.base import clone
+    from sklearn.linear_model import LinearRegression
+
+    from skthermal.compose import GuardedRegressor
+
+    model = (
+        GuardedRegressor(LinearRegression())
+        if name == "GuardedRegressor"
+        else _sequence_models()[name]
+    )
+    table, y, cut = _split_record()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = clone(model).fit(table, y).predict(table)
+        got = clone(model).fit(_ForeignFrame(table), y).predict(_ForeignFrame(table))
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9)
+
+
+def test_run_table_functions_name_the_conversion_of_other_frames():
+    from skthermal.datasets import split_runs, validate_runs
+
+    table, _, _ = _split_record()
+    for call in (validate_runs, split_runs):
+        with pytest.raises(ValueError, match=r"convert it with \.to_pandas\(\)"):
+            call(_ForeignFrame(table))

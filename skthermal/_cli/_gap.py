@@ -114,10 +114,16 @@ def read_gap_table(path, what, *, numeric=()):
             bad = values.isna() & df[col].notna()
             if bad.any():
                 row = int(bad.to_numpy().argmax())
+                header = (
+                    "; that row repeats the header line (files joined with "
+                    "their headers?): keep one header"
+                    if str(df[col].iloc[row]).strip() == str(col)
+                    else ""
+                )
                 raise UserError(
                     f"{what} {path}: column {col!r} holds text "
                     f"({df[col].iloc[row]!r} in run {df['run'].iloc[row]!r}, "
-                    f"row {row}); it must hold numbers."
+                    f"row {row}); it must hold numbers{header}."
                 )
     return df
 

@@ -10,6 +10,7 @@ import pandas as pd
 from skthermal._naming import plain
 from skthermal.datasets._loaders import _meta_records
 from skthermal.datasets._runtable import RUN, validate_runs
+from skthermal.utils._runs import check_frame
 
 
 def _check_frames(frames):
@@ -21,10 +22,7 @@ def _check_frames(frames):
     if not frames:
         raise ValueError("concat_runs needs at least one run table, got none.")
     for i, frame in enumerate(frames):
-        if not isinstance(frame, pd.DataFrame):
-            raise ValueError(
-                f"Run table {i} must be a pandas DataFrame, got {type(frame).__name__}."
-            )
+        check_frame(frame, f"Run table {i}")
         if RUN not in frame.columns:
             raise ValueError(
                 f"Run table {i} has no 'run' column; every table needs the run "

@@ -32,6 +32,7 @@ from skthermal.datasets._runtable import (
     check_run_table,
     validate_runs,
 )
+from skthermal.utils._runs import check_frame
 
 _PARQUET_SUFFIXES = (".parquet", ".pq")
 FL_THERMAL_FILE = "fl_thermal_spindle.csv.gz"
@@ -655,10 +656,8 @@ def write_runs(df, path, *, metadata=None, validate=True):
     """
     if validate:
         check_run_table(df, missing_hint=SKIP_VALIDATION)
-    elif not isinstance(df, pd.DataFrame):
-        raise ValueError(
-            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
-        )
+    else:
+        check_frame(df)
     path = Path(path)
     check_table_name(path)
     # Check the metadata and the labels before touching any file.

@@ -21,7 +21,7 @@ from skthermal._naming import (
     plain,
 )
 from skthermal._run_changes import changes_since_first_row
-from skthermal.utils._runs import MAX_MAGNITUDE, check_labels, unreadable
+from skthermal.utils._runs import MAX_MAGNITUDE, check_frame, check_labels, unreadable
 
 RUN = "run"
 TIME = "time_s"
@@ -431,10 +431,7 @@ def check_run_table(
 ):
     """:func:`validate_runs`, the way out of missing sensor values worded for
     the caller (``missing_hint``)."""
-    if not isinstance(df, pd.DataFrame):
-        raise ValueError(
-            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
-        )
+    check_frame(df)
     duplicated = df.columns[df.columns.duplicated()].unique().tolist()
     if duplicated:
         raise ValueError(f"The run table has duplicated columns: {duplicated}.")
@@ -617,10 +614,8 @@ def split_runs(df, *, sensors=None, targets=None, validate=True):
     """
     if validate:
         validate_runs(df, require_targets=True, allow_missing_sensors=True)
-    elif not isinstance(df, pd.DataFrame):
-        raise ValueError(
-            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
-        )
+    else:
+        check_frame(df)
     for name in (RUN, TIME):
         if name not in df.columns:
             raise _missing_column(name, "required to split the table", [])
@@ -706,10 +701,7 @@ def changes_since_start(df, columns=None):
     2   b     0.0   0.0        0.0
     3   b    60.0   1.9        5.0
     """
-    if not isinstance(df, pd.DataFrame):
-        raise ValueError(
-            f"A run table must be a pandas DataFrame, got {type(df).__name__}."
-        )
+    check_frame(df)
     if RUN not in df.columns:
         raise _missing_column(RUN, "needed to find the start of every run", [])
     if columns is None:

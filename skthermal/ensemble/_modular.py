@@ -18,7 +18,7 @@ import pandas as pd
 from sklearn.base import RegressorMixin, _fit_context, clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import LinearRegression
-from sklearn.utils import Bunch
+from sklearn.utils import Bunch, get_tags
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.metaestimators import _BaseComposition
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -182,7 +182,18 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
-        tags.target_tags.multi_output = True
+        # Several targets when every module takes them (the default linear
+        # module does).
+        inner = [
+            module[1]
+            for module in (self.modules or ())
+            if isinstance(module, tuple) and len(module) > 1
+        ]
+        tags.target_tags.multi_output = all(
+            get_tags(est).target_tags.multi_output
+            for est in inner
+            if hasattr(est, "fit")
+        )
         tags.target_tags.single_output = True
         return tags
 
@@ -322,7 +333,12 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         """
         X_raw, groups = extract_runs(X, groups, y=y)
         X, y = validate_data(
-            self, X_raw, y, multi_output=True, y_numeric=True, dtype=np.float64
+            self,
+            X_raw,
+            y,
+            multi_output=get_tags(self).target_tags.multi_output,
+            y_numeric=True,
+            dtype=np.float64,
         )
         modules = self._resolve_modules()
         if self.relative:

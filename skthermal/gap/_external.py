@@ -74,6 +74,7 @@ from skthermal.gap._terms import (
 )
 from skthermal.utils._runs import check_labels, warn_short_runs
 from skthermal.utils._threads import with_single_threaded_blas
+from skthermal.utils._warnings import user_stacklevel
 
 logger = logging.getLogger("skthermal.gap")
 
@@ -85,6 +86,12 @@ def _check_table(df, label):
         raise TypeError(f"The {label} runs must be a DataFrame, got {type(df)}.")
     if df.shape[0] == 0:
         raise ValueError(f"The {label} run table is empty (no rows).")
+    repeated = list(dict.fromkeys(df.columns[df.columns.duplicated()]))
+    if repeated:
+        raise ValueError(
+            f"The {label} run table has the column(s) {repeated} more than "
+            "once; give every column once."
+        )
     missing = [c for c in ("run", *DRIVERS) if c not in df.columns]
     if missing:
         raise ValueError(
@@ -136,7 +143,10 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
         )
     if not explicit:
         warn_uncompared(
-            measured.columns, channels, "the simulated table has no column for"
+            measured.columns,
+            channels,
+            "the simulated table has no column for",
+            simulated.columns,
         )
     sim_cols = [mapping.get(c, c) for c in channels]
     check_one_to_one(channels, sim_cols)
@@ -167,7 +177,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
             f"Run(s) {extra} of the simulated table are not in the measured "
             "table and are not compared.",
             UserWarning,
-            stacklevel=4,
+            stacklevel=user_stacklevel(),
         )
     out = []
     for name, meas in meas_runs:
@@ -190,10 +200,10 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
             if ts.size < 2 or ts[0] > t[0] + tol or ts[-1] < t[-1] - tol:
                 raise ValueError(
                     f"Run {name!r}: the simulated table covers time_s "
-                    f"{ts[0]:g}-{ts[-1]:g} s, the measured one {t[0]:g}-"
-                    f"{t[-1]:g} s. A simulation at other times than the "
-                    "measurement's is interpolated onto them, so it must cover "
-                    "the measured span."
+                    f"{ts[0]:.10g}-{ts[-1]:.10g} s, the measured one "
+                    f"{t[0]:.10g}-{t[-1]:.10g} s. A simulation at other times "
+                    "than the measurement's is interpolated onto them, so it "
+                    "must cover the measured span (both in seconds)."
                 )
         # Where the simulation was computed: its rows, and the measured
         # driver in force at each (zero-order hold).
@@ -300,7 +310,7 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
             f"Channel(s) {both} are constant in both tables on every run and "
             "are left out: there is nothing to diagnose on them.",
             UserWarning,
-            stacklevel=5,
+            stacklevel=user_stacklevel(),
         )
     # A measured channel constant on every run (a dead probe) whatever the
     # simulation does: the same rule as above, on the channels left.
@@ -320,7 +330,7 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
             "simulation predicts no change there, so the base gain is 0 and the "
             "whole measured change of those channels counts as gap.",
             UserWarning,
-            stacklevel=5,
+            stacklevel=user_stacklevel(),
         )
     elif only_sim:
         # The simulation does not model them: any term built from the drivers
@@ -339,7 +349,7 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
             "compare them anyway; their whole measured change then counts as "
             "gap).",
             UserWarning,
-            stacklevel=5,
+            stacklevel=user_stacklevel(),
         )
         keep = keep & ~unmodelled
     return keep
@@ -519,6 +529,13 @@ class ExternalGapReport(GapReport):
             )
         else:
             flexible = f"a flexible model of the drivers removes {percent(share)}"
+            if np.isfinite(share) and row["shrink"] > share:
+                # The flexible model is an estimate, fitted on few runs:
+                # here it falls short of a term, so it bounds nothing.
+                flexible += (
+                    f", less than {row['effect']!r}: the gap explainable at "
+                    "all is at least what the term removes"
+                )
         evidence = (
             f"held-out gap {row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
             f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "

@@ -10,6 +10,7 @@ half each. The noise floor of every channel is
 estimated from second differences of its measurement.
 """
 
+import difflib
 import warnings
 from dataclasses import dataclass, field, replace
 
@@ -22,6 +23,7 @@ from skthermal._naming import shown, suggest
 from skthermal.datasets._runtable import check_column_names
 from skthermal.simulate import EFFECTS
 from skthermal.utils._runs import check_labels, is_clock_dtype, warn_short_runs
+from skthermal.utils._warnings import user_stacklevel
 
 
 # Base calibration. The network's time scales are set by three multipliers
@@ -359,17 +361,25 @@ def check_measured_names(columns, mapping, channels, table):
     check_column_names(columns, table=table, exempt={*mapping, *(channels or ())})
 
 
-def warn_uncompared(measured_columns, channels, why):
+def warn_uncompared(measured_columns, channels, why, candidates=()):
     """Warn (UserWarning) about the measured channel columns left out of the
-    comparison ``channels`` (when they were not chosen explicitly)."""
+    comparison ``channels`` (when they were not chosen explicitly), naming
+    the closest of ``candidates`` (the other side's unused columns) to each:
+    a unit or spelling typo there drops a channel otherwise."""
     left = [c for c in measured_columns if is_channel(c) and c not in channels]
+    unused = [str(c) for c in candidates if c not in channels and c not in NOT_CHANNELS]
+    close = "".join(
+        f"; for {c!r} the simulated table has {near[0]!r} (a unit or spelling typo?)"
+        for c in left
+        if (near := difflib.get_close_matches(str(c), unused, n=1))
+    )
     if left:
         warnings.warn(
             f"Measured channel(s) {_listing(left)} are not compared: {why} "
-            "them. Map them with mapping={'measured': 'simulated'}, or pass "
+            f"them{close}. Map them with mapping={{'measured': 'simulated'}}, or pass "
             "channels= to choose the compared channels (and silence this).",
             UserWarning,
-            stacklevel=5,
+            stacklevel=user_stacklevel(),
         )
 
 
@@ -526,7 +536,7 @@ def _first_readings(machine, frames, mapping, dead=()):
             "or unplugged probe?) and are left out of the runs' initial "
             "states.",
             UserWarning,
-            stacklevel=5,
+            stacklevel=user_stacklevel(),
         )
     columns = {s: c for s, c in columns.items() if c not in stuck}
     return {

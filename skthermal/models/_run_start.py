@@ -5,6 +5,7 @@ import warnings
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
+from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
@@ -130,6 +131,14 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         # Integer column labels when unnamed: the inner model records no names.
         return pd.DataFrame(changes, index=index, columns=columns)
 
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        inner = get_tags(self.estimator)
+        tags.target_tags.multi_output = inner.target_tags.multi_output
+        tags.target_tags.single_output = inner.target_tags.single_output
+        tags.non_deterministic = inner.non_deterministic
+        return tags
+
     @_fit_context(prefer_skip_nested_validation=False)
     def fit(self, X, y, *, groups=None):
         """Fit the estimator on changes since the start of each run.
@@ -138,8 +147,8 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         ----------
         X : {array-like, DataFrame} of shape (n_samples, n_features)
             Inputs; a ``run`` column or index level holds run labels.
-        y : array-like of shape (n_samples,)
-            Target.
+        y : array-like of shape (n_samples,) or (n_samples, n_targets)
+            Target; several targets when the wrapped model takes them.
         groups : array-like of shape (n_samples,), optional
             Run labels (runs contiguous); override a ``run`` column.
 
@@ -149,7 +158,10 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         """
         X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
-        A, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
+        multi = get_tags(self.estimator).target_tags.multi_output
+        A, y = validate_data(
+            self, X, y, y_numeric=True, multi_output=multi, dtype=np.float64
+        )
         # Changes since the start of the run need the runs.
         warn_unlabelled_runs(
             type(self).__name__, None, groups, A.shape[0], X=X, stacklevel=4
@@ -184,7 +196,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
 
         Returns
         -------
-        ndarray of shape (n_samples,)
+        ndarray of shape (n_samples,) or (n_samples, n_targets)
             Zero on the first row of every run.
         """
         check_is_fitted(self, "estimator_")

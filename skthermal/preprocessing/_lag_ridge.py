@@ -272,13 +272,14 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.dt = dt
 
     def _features(self, taus, relative, dt=None):
+        # Arrays inside, whatever scikit-learn's global transform_output.
         return LagFeatures(
             time_constants=tuple(taus),
             relative=relative,
             drivers=self.drivers,
             driver_initial=self.driver_initial,
             dt=dt,
-        )
+        ).set_output(transform="default")
 
     def _select(self, fold_sse, folds, n_feat, alphas):
         """Candidate and alpha chosen from the per-fold errors.
@@ -453,7 +454,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
                 if "would produce no features" not in str(exc):
                     raise
                 continue
-            F = lf.transform(X_raw, groups=groups)
+            F = np.asarray(lf.transform(X_raw, groups=groups))
             # A candidate without the drivers keeps the temperatures'
             # features only (the driver columns left out, not temperatures).
             n_temp = lf.n_temperature_features_
@@ -487,12 +488,12 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.time_constants_ = taus
         self.relative_ = rel
         self.lag_features_ = self._features(taus, rel, dt).fit(X_raw, groups=groups)
-        F = self.lag_features_.transform(X_raw, groups=groups)
+        F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         n_temp = self.lag_features_.n_temperature_features_
         self.n_lag_features_ = F.shape[1] if use else n_temp
         self.use_drivers_ = self.n_lag_features_ > n_temp
         F = F[:, : self.n_lag_features_]
-        self.scaler_ = StandardScaler().fit(F)
+        self.scaler_ = StandardScaler().set_output(transform="default").fit(F)
         self.ridge_ = Ridge(alpha=self.alpha_).fit(self.scaler_.transform(F), y)
         return self
 
@@ -536,7 +537,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")
-            F = self.lag_features_.transform(X_raw, groups=groups)
+            F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         F = F[:, : self.n_lag_features_]
         return self.ridge_.predict(self.scaler_.transform(F))

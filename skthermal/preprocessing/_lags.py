@@ -33,6 +33,7 @@ from skthermal.utils._runs import (
     gap_periods,
     gap_steps,
     row_times,
+    run_frame_index,
     run_memory,
     run_sample_periods,
     run_slices,
@@ -287,6 +288,17 @@ def _varying_lowpass(u, decay, z0, gap, u_prev=None):
         z[a:b] = (prev + np.cumsum(E * c[a:b], axis=0)) / E
         prev = z[b - 1]
     return z
+
+
+def _distinct_labels(values):
+    """``values`` printed short (``%g``), with more digits where that would
+    print two different values alike (100000 and 100000.4)."""
+    values = [float(v) for v in values]
+    for digits in range(6, 18):
+        labels = [f"{v:.{digits}g}" for v in values]
+        if len(set(labels)) == len(set(values)):
+            return labels
+    return [repr(v) for v in values]
 
 
 class LagFeatures(TransformerMixin, BaseEstimator):
@@ -587,9 +599,15 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        F : ndarray of shape (n_samples, n_features_out)
+        F : ndarray or DataFrame of shape (n_samples, n_features_out)
+            A DataFrame indexed by ``run`` (and ``time_s``) when ``X`` is a
+            run table (a ``run`` or ``time_s`` column, or such index levels),
+            as the selectors return: a sequence model after this step in a
+            Pipeline then still sees where every run starts and each row's
+            time. Otherwise an array (or what ``set_output`` asks for).
         """
         check_is_fitted(self, "driver_indices_")
+        original = X
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64, reset=False)
         warn_unlabelled_runs(
@@ -623,7 +641,13 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         times = row_times(X_raw)
         periods = gap_periods(dts, cont, self.sample_period_s_)
         dts = continued_steps(dts, slices, times, cont, memory)
-        return self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
+        F = self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
+        index = run_frame_index(original, X_raw, groups)
+        if index is None:
+            return F
+        import pandas as pd
+
+        return pd.DataFrame(F, index=index, columns=self.get_feature_names_out())
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).
@@ -637,7 +661,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        F : ndarray of shape (n_samples, n_features_out)
+        F : ndarray or DataFrame of shape (n_samples, n_features_out)
+            As :meth:`transform` returns.
         """
         return self.fit(X, y, groups=groups).transform(X, groups=groups)
 
@@ -661,16 +686,16 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         if self.relative:
             tnames = [f"d_{c}" for c in tnames]
         out = list(tnames) if self.include_changes else []
-        taus = self._taus()
+        taus = _distinct_labels(self._taus())
+        powers = _distinct_labels(self._powers())
         for tau in taus:
-            out += [f"{c}_lp{tau:g}" for c in tnames]
-        for p in self._powers():
+            out += [f"{c}_lp{tau}" for c in tnames]
+        for p in powers:
             for tau in taus:
                 out += [
-                    f"{input_features[i]}_pow{p:g}_lp{tau:g}"
-                    for i in self.driver_indices_
+                    f"{input_features[i]}_pow{p}_lp{tau}" for i in self.driver_indices_
                 ]
         if self.include_changes:
-            for p in self._powers():
-                out += [f"{input_features[i]}_pow{p:g}" for i in self.driver_indices_]
+            for p in powers:
+                out += [f"{input_features[i]}_pow{p}" for i in self.driver_indices_]
         return np.asarray(out, dtype=object)

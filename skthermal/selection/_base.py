@@ -23,9 +23,8 @@ from skthermal.utils._runs import (
     describe_row,
     describe_unreadable,
     extract_runs,
-    row_times,
+    run_frame_index,
     run_slices,
-    run_table_index,
     target_names,
     unreadable,
     warn_unlabelled_runs,
@@ -35,16 +34,6 @@ from skthermal.utils._runs import (
 def _feature_label(estimator, j):
     names = getattr(estimator, "feature_names_in_", None)
     return f"sensor {names[j]!r}" if names is not None else f"feature {j}"
-
-
-def _run_index(original, X, groups):
-    """The ``(run[, time_s])`` index of a run table's rows, or None when
-    ``original`` is not a DataFrame carrying runs or times (``X`` and
-    ``groups`` as :func:`~skthermal.utils._runs.extract_runs` returns them)."""
-    times = row_times(X)
-    if not hasattr(original, "columns") or (groups is None and times is None):
-        return None
-    return run_table_index(groups, times)
 
 
 class RunAwareSelector(SelectorMixin, BaseEstimator):
@@ -189,7 +178,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             hint = "Impute or drop those samples first."
             self._check_finite("X", A, X, groups, hint, support)
         kept = A[:, support]
-        index = _run_index(original, X, groups)
+        index = run_frame_index(original, X, groups)
         if index is None:
             return kept
         import pandas as pd

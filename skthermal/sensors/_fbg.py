@@ -24,6 +24,7 @@ from skthermal._naming import STRAIN_PATTERN, TEMPERATURE_PATTERN
 from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import (
     check_finite_columns,
+    check_frame,
     check_numeric_columns,
     check_table_times,
     frame_run_labels,
@@ -390,8 +391,7 @@ def correct_strain_channels(
     >>> correct_strain_channels(runs, {"Sram_ue": "T1_C"})["Sram_ue"].round(2).tolist()
     [0.0, 11.36, 0.0, 22.72]
     """
-    if not isinstance(runs, pd.DataFrame):
-        raise ValueError("runs must be a pandas DataFrame (a run table).")
+    check_frame(runs, "runs (a run table)")
     done = list(runs.attrs.get("fbg_corrected", []))
     if colocated is None:
         recorded = runs.attrs.get("fbg_gauges", {})

@@ -214,6 +214,40 @@ def frame_run_labels(frame):
     return labels
 
 
+def as_pandas(data):
+    """A polars (or other) DataFrame or Series as a pandas one, else ``data``.
+
+    Run tables are read through pandas' columns and index; a frame of another
+    library that converts itself (``to_pandas()``, as polars and pyarrow do)
+    is converted, so its ``run`` and ``time_s`` columns are found like a
+    pandas frame's. Such frames have no index: the run labels and times
+    travel as columns.
+    """
+    module = type(data).__module__.partition(".")[0]
+    if module in ("pandas", "numpy", "builtins") or not hasattr(data, "to_pandas"):
+        return data
+    return data.to_pandas()
+
+
+def check_frame(df, what="A run table"):
+    """Raise a ValueError unless ``df`` is a pandas DataFrame; a frame of
+    another library (polars, pyarrow) is named with the conversion."""
+    import pandas as pd
+
+    if isinstance(df, pd.DataFrame):
+        return
+    kind = type(df).__name__
+    module = type(df).__module__.partition(".")[0]
+    if module not in ("builtins", "numpy", "pandas"):
+        kind = f"{module} {kind}"
+    hint = (
+        "; convert it with .to_pandas()"
+        if callable(getattr(df, "to_pandas", None))
+        else ""
+    )
+    raise ValueError(f"{what} must be a pandas DataFrame, got {kind}{hint}.")
+
+
 def extract_runs(X, groups=None, *, finite=True, y=None):
     """Separate run labels (and times) from the features of ``X``.
 
@@ -268,6 +302,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     ``y``) is not an error: it asks for the labels. With a ``time_s`` or a
     ``y`` it is a model's input without features, an error.
     """
+    X, y = as_pandas(X), as_pandas(y)
     columns = getattr(X, "columns", None)
     given_index = getattr(X, "index", None)
     if columns is not None and not columns.is_unique:
@@ -434,6 +469,19 @@ def accepts_groups(method):
     return var_keyword and bool(get_config().get("enable_metadata_routing"))
 
 
+def run_frame_index(original, X, groups):
+    """The ``(run[, time_s])`` index of a run table's rows, or None when
+    ``original`` (a transformer's input) is not a DataFrame carrying runs or
+    times (``X`` and ``groups`` as :func:`extract_runs` returns them). The
+    run-aware transformers return their output indexed by it, so that a
+    sequence model after them in a Pipeline still sees every run's start and
+    each row's time."""
+    times = row_times(X)
+    if not hasattr(original, "columns") or (groups is None and times is None):
+        return None
+    return run_table_index(groups, times)
+
+
 def with_run_index(X, groups=None):
     """``X`` with its runs (and times) in the index, for a model that reads
     them from its input rather than from a ``groups`` argument: a Pipeline,
@@ -443,6 +491,9 @@ def with_run_index(X, groups=None):
     ``run`` level (with the times as ``time_s``)."""
     import pandas as pd
 
+    columns = list(getattr(X, "columns", []))
+    if groups is not None or RUN_COLUMN in columns or TIME_COLUMN in columns:
+        X = as_pandas(X)  # a polars frame's run and times: into an index
     if isinstance(X, pd.DataFrame):
         moved = [c for c in (RUN_COLUMN, TIME_COLUMN) if c in X.columns]
         if moved:
@@ -1718,13 +1769,23 @@ def continued_runs(
                     out.append(None)
                     continue
                 if t0 <= state["t_last"]:
+                    span = f"{state['t_first']:g}-{state['t_last']:g}"
+                    where = (
+                        f"before the span {span} of it seen in fit: fit had a "
+                        "later part of this run, and this call an earlier one"
+                        if t0 < state["t_first"]
+                        else f"inside the span {span} of it seen in fit"
+                    )
                     raise ValueError(
-                        f"Run {lab!r} starts at time_s={t0:g}, neither at the "
-                        f"start of the span {state['t_first']:g}-"
-                        f"{state['t_last']:g} seen in fit nor after it. "
-                        f"{who} takes a run either from its start or "
-                        "after the end of its training rows: pass the run from "
-                        "its start, or only its rows after the training ones."
+                        f"Run {lab!r} starts at time_s={t0:g}, {where}. {who} "
+                        "takes a run either from its start or after the end of "
+                        "its training rows: pass the run from its start, or "
+                        "only its rows after the training ones. A splitter "
+                        "that cuts runs into pieces (KFold, ShuffleSplit, "
+                        "train_test_split on rows) puts parts of one run in "
+                        "both training and test; split by run (GroupKFold "
+                        "with the run labels as groups) or in time order "
+                        "(TimeSeriesSplit)."
                     )
                 out.append(lab)
                 continue
