@@ -714,3 +714,30 @@ def test_two_targets_are_refused_naming_them_and_the_way_out():
         r"MultiOutputRegressor",
     ):
         make_lag_pipeline().fit(X, Y)
+
+
+def test_lag_ridge_takes_readings_as_they_are_for_a_run_cut_from_a_record():
+    # One run from its start: changes since the start. One run cut from a
+    # longer record (time_s starting after 0): no particular start state,
+    # so the readings as they are.
+    X = _frame().loc[["a"]]
+    y = np.linspace(0.0, 3.0, len(X))
+    model = LagRidgeCV(time_constant_sets=[(60.0,)], alphas=[1.0])
+    assert model.fit(X, y).relative_ is True
+    later = X.set_axis(
+        X.index.set_levels(X.index.levels[1] + 600.0, level="time_s"), axis=0
+    )
+    assert model.fit(later, y).relative_ is False
+
+
+def test_auto_drivers_found_nowhere_warn():
+    X = _frame()
+    with pytest.warns(UserWarning, match=r"found none of the drivers") as record:
+        LagFeatures(time_constants=[60.0]).fit(X.drop(columns="spindle_rpm"))
+    assert record[0].filename == __file__
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LagFeatures(time_constants=[60.0], drivers=None).fit(
+            X.drop(columns="spindle_rpm")
+        )
+        LagFeatures(time_constants=[60.0]).fit(X)

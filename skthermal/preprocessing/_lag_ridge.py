@@ -160,7 +160,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         (False). ``"auto"``: with several runs, chosen by the CV; with one
         run, changes (both fit a single run alike, as they differ by a
         constant; changes keep a new run that starts warmer or colder from
-        an offset).
+        an offset), unless its ``time_s`` starts after 0: a part cut from a
+        longer record starts at no particular state, so its readings are
+        taken as they are.
     driver_initial : {"steady", "rest"}, default="steady"
         State of the drivers' filters before each run, see
         :class:`LagFeatures`.
@@ -433,8 +435,13 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             # Within one run both give the same fit (they differ by a
             # constant); only between runs can the data tell them apart.
             # With one run, changes: a new run starting warmer or colder is
-            # then not predicted with an offset.
-            relatives = (True, False) if len(slices) > 1 else (True,)
+            # then not predicted with an offset. But a run whose rows start
+            # after its time_s = 0 (cut from a longer record) starts at no
+            # particular state: its changes mean nothing elsewhere, and the
+            # readings as they are carry over.
+            times = run_times(X_raw, slices)
+            cut = times is not None and float(times[0, 0]) > 0
+            relatives = (True, False) if len(slices) > 1 else ((not cut),)
         else:
             relatives = (bool(self.relative),)
         cands = []

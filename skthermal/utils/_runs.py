@@ -1428,12 +1428,29 @@ def warn_absolute_target(name, y, slices):
 
 
 def warn_unnamed_drivers(name, drivers, names, groups):
-    """Warn when ``drivers="auto"`` cannot find the drivers because ``X``
-    has lost its column names and its run labels (``names`` and ``groups``
-    None: a scikit-learn step in front that outputs numpy), so that every
-    column is taken as a temperature. Plain arrays given with their run
-    labels are taken as meant."""
-    if not (isinstance(drivers, str) and names is None and groups is None):
+    """Warn when ``drivers="auto"`` finds no driver: ``X``'s column
+    ``names`` hold none (the sensor columns alone, as ``split_runs`` gives
+    them), or ``X`` has lost its column names and its run labels (``names``
+    and ``groups`` None: a scikit-learn step in front that outputs numpy),
+    so that every column is taken as a temperature. Plain arrays given with
+    their run labels are taken as meant."""
+    if not isinstance(drivers, str):
+        return
+    if names is not None:
+        if not any(str(c) in POWER_DRIVERS for c in names):
+            warnings.warn(
+                f"{name}.fit: drivers='auto' found none of the drivers "
+                f"({', '.join(POWER_DRIVERS)}) among the columns of X, so the "
+                "features hold temperatures only, no heat input. split_runs "
+                "keeps the sensor columns alone unless told: "
+                "split_runs(runs, sensors=[*sensor_columns(runs), "
+                "'spindle_rpm']). drivers=None says there are none (and "
+                "silences this).",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+        return
+    if groups is not None:
         return
     warnings.warn(
         f"{name}.fit: drivers='auto' finds the drivers ({', '.join(POWER_DRIVERS)}) "
