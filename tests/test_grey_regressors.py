@@ -784,7 +784,21 @@ def test_coefficients_beyond_the_float_range_are_an_error(est):
             model.predict(X * 4e97, groups=groups + 1)
 
 
-@pytest.mark.parametrize("model", [GreyPSORegressor(), GNNMCIRegressor(epochs=3)])
+def _change_models():
+    from sklearn.linear_model import LinearRegression
+
+    from skthermal import ModularRegressor
+    from skthermal.models import RunStartRegressor
+
+    return [
+        GreyPSORegressor(),
+        GNNMCIRegressor(epochs=3),
+        ModularRegressor(),
+        RunStartRegressor(LinearRegression()),
+    ]
+
+
+@pytest.mark.parametrize("model", _change_models(), ids=lambda m: type(m).__name__)
 def test_a_target_far_from_zero_at_the_run_starts_warns(model):
     """The models predict changes since the run start: scored against a
     target that starts at 53 (a CO2 level), score measures the offset."""

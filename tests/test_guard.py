@@ -711,3 +711,42 @@ def test_skthermal_io_loads_a_guard_in_a_fresh_interpreter(tmp_path, train):
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["GuardedRegressor", "4"]
+
+
+def test_wrappers_route_metadata_to_their_model():
+    # With metadata routing on, what the wrapped model requested reaches it
+    # through a Pipeline and cross_validate, as through scikit-learn's own
+    # meta-estimators; with it off, fit passes its keyword arguments on.
+    import sklearn
+    from sklearn.linear_model import LinearRegression
+    from sklearn.model_selection import GroupKFold, cross_validate
+    from sklearn.pipeline import make_pipeline
+
+    from skthermal.models import RunStartRegressor
+
+    rng = np.random.default_rng(0)
+    X = pd.DataFrame(rng.normal(size=(60, 3)), columns=["T1_C", "T2_C", "T3_C"])
+    y = X.to_numpy() @ [1.0, -2.0, 0.5] + rng.normal(size=60)
+    w = rng.uniform(0.1, 3.0, size=60)
+    groups = np.repeat(["a", "b", "c"], 20)
+    weighted = LinearRegression().fit(X, y, sample_weight=w)
+    unrouted = GuardedRegressor(LinearRegression()).fit(X, y, sample_weight=w)
+    np.testing.assert_allclose(unrouted.estimator_.coef_, weighted.coef_)
+    with sklearn.config_context(enable_metadata_routing=True):
+        inner = LinearRegression().set_fit_request(sample_weight=True)
+        for wrapper in (GuardedRegressor(inner), RunStartRegressor(inner)):
+            pipe = make_pipeline(wrapper.set_fit_request(groups=True))
+            pipe.fit(X, y, sample_weight=w, groups=groups)
+            fitted = pipe[-1].estimator_
+            reference = clone(wrapper).fit(X, y, groups=groups, sample_weight=w)
+            np.testing.assert_allclose(fitted.coef_, reference.estimator_.coef_)
+            if isinstance(wrapper, GuardedRegressor):
+                np.testing.assert_allclose(fitted.coef_, weighted.coef_)
+            scores = cross_validate(
+                clone(wrapper).set_score_request(sample_weight=False),
+                X,
+                y,
+                cv=GroupKFold(3),
+                params={"sample_weight": w, "groups": groups},
+            )
+            assert np.all(np.isfinite(scores["test_score"]))

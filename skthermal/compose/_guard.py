@@ -38,10 +38,12 @@ from skthermal.utils._runs import (
     extract_runs,
     has_time_index,
     pass_runs,
+    routed_runs,
     run_first_rows,
     run_slices,
     target_names,
     unreadable,
+    wrapper_router,
 )
 
 
@@ -390,6 +392,23 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     # --- fit ----------------------------------------------------------------
 
+    def get_metadata_routing(self):
+        """The metadata routing of the guard and its wrapped model.
+
+        With ``sklearn.set_config(enable_metadata_routing=True)``, what the
+        wrapped model requests (``set_fit_request(sample_weight=True)``) is
+        passed on to its ``fit`` and ``partial_fit`` by a Pipeline, a search
+        or ``cross_validate``.
+
+        Returns
+        -------
+        routing : MetadataRouter
+        """
+        methods = ["fit"]
+        if hasattr(self.estimator, "partial_fit"):
+            methods.append("partial_fit")
+        return wrapper_router(self, methods)
+
     @_fit_context(prefer_skip_nested_validation=False)
     def fit(self, X, y, *, groups=None, **fit_params):
         """Fit the wrapped regressor and record the training ranges.
@@ -418,7 +437,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         self.checked_inputs_ = self._resolve_inputs()
         self.estimator_ = clone(self.estimator)
-        X_inner, fit_params = pass_runs(self.estimator_.fit, X, groups, fit_params)
+        X_inner, fit_params = routed_runs(
+            self, "fit", self.estimator_.fit, X, groups, fit_params
+        )
         self.estimator_.fit(X_inner, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
         self._output_names = target_names(y)
@@ -518,8 +539,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             self._output_names = target_names(y)
         else:
             self._refuse_faulty_update(A, features, runs)
-        kwargs = {}
-        X_inner, kwargs = pass_runs(self.estimator_.partial_fit, X, groups, kwargs)
+        X_inner, kwargs = routed_runs(
+            self, "partial_fit", self.estimator_.partial_fit, X, groups, {}
+        )
         self.estimator_.partial_fit(X_inner, y, **kwargs)
         Y = np.asarray(Y, dtype=float).reshape(A.shape[0], -1)
         if not first and Y.shape[1] != self.output_min_.size:

@@ -42,6 +42,7 @@ from skthermal.utils._runs import (
     run_slices,
     run_table_index,
     run_times,
+    warn_absolute_target,
     warn_unlabelled_runs,
 )
 from skthermal.utils._warnings import user_stacklevel
@@ -348,6 +349,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 type(self).__name__, None, groups, X.shape[0], X=X_raw, stacklevel=4
             )
         slices, labels = run_slices(groups, X.shape[0])
+        if self.relative:
+            warn_absolute_target(type(self).__name__, y, slices)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = len(slices) if self.relative and groups is not None else None
         # With relative=True, a labelled run continues in predict from its

@@ -4,9 +4,11 @@ import warnings
 
 import numpy as np
 import pandas as pd
+import sklearn
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
 from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, StrOptions
+from sklearn.utils.metadata_routing import process_routing
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
@@ -22,7 +24,9 @@ from skthermal.utils._runs import (
     run_memory,
     run_slices,
     run_times,
+    warn_absolute_target,
     warn_unlabelled_runs,
+    wrapper_router,
 )
 
 
@@ -133,14 +137,29 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
+        if not hasattr(self.estimator, "fit"):  # refused by fit's validation
+            return tags
         inner = get_tags(self.estimator)
         tags.target_tags.multi_output = inner.target_tags.multi_output
         tags.target_tags.single_output = inner.target_tags.single_output
         tags.non_deterministic = inner.non_deterministic
         return tags
 
+    def get_metadata_routing(self):
+        """The metadata routing of this wrapper and its model.
+
+        With ``sklearn.set_config(enable_metadata_routing=True)``, what the
+        model requests for ``fit`` (``set_fit_request(sample_weight=True)``)
+        is passed on by a Pipeline, a search or ``cross_validate``.
+
+        Returns
+        -------
+        routing : MetadataRouter
+        """
+        return wrapper_router(self, ["fit"])
+
     @_fit_context(prefer_skip_nested_validation=False)
-    def fit(self, X, y, *, groups=None):
+    def fit(self, X, y, *, groups=None, **fit_params):
         """Fit the estimator on changes since the start of each run.
 
         Parameters
@@ -151,6 +170,9 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
             Target; several targets when the wrapped model takes them.
         groups : array-like of shape (n_samples,), optional
             Run labels (runs contiguous); override a ``run`` column.
+        **fit_params : dict
+            Further arguments of the model's ``fit`` (``sample_weight``,
+            one per row); under metadata routing, what the model requested.
 
         Returns
         -------
@@ -167,9 +189,13 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
             type(self).__name__, None, groups, A.shape[0], X=X, stacklevel=4
         )
         slices, labels = run_slices(groups, A.shape[0])
+        warn_absolute_target(type(self).__name__, y, slices)
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
         changes = self._changes(A, groups, X)
-        self.estimator_ = clone(self.estimator).fit(changes, dy)
+        if sklearn.get_config().get("enable_metadata_routing", False):
+            # The runs reach the model in the index of the changes.
+            fit_params = process_routing(self, "fit", **fit_params).estimator.fit
+        self.estimator_ = clone(self.estimator).fit(changes, dy, **fit_params)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = None if groups is None else len(slices)
         # What continuing a labelled run in predict needs: its first row and
