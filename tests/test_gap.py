@@ -913,6 +913,14 @@ def test_block_labels_are_unique_at_any_length():
         assert labels[0] == first
         assert len(set(labels)) == len(labels) == round(3 / hours)
     assert block_spans(t, "r1", None) == [(0, t.size, "r1")]
+    # A block ends where the next begins, in as many decimals as its length
+    # needs (the ends of the blocks' last samples read r1[0-0 h] before).
+    t = np.arange(0, 2 * 3600, 60.0)
+    labels = [label for _, _, label in block_spans(t, "r1", 0.25)]
+    assert labels[:3] == ["r1[0-0.25 h]", "r1[0.25-0.5 h]", "r1[0.5-0.75 h]"]
+    t = np.arange(0, 6 * 3600, 60.0)
+    labels = [label for _, _, label in block_spans(t, "r1", 1.5)]
+    assert labels == ["r1[0-1.5 h]", "r1[1.5-3 h]", "r1[3-4.5 h]", "r1[4.5-6 h]"]
 
 
 def test_one_run_error_hints_at_block_hours(rig_runs):
@@ -1207,6 +1215,27 @@ def test_where_finds_jumps_of_opposite_sign_in_two_channels():
     assert row["time_s"] == 120 * 60.0 and row["jump"] == pytest.approx(
         1.0 if row["channel"] == "disp_x_um" else -1.0, abs=0.05
     )
+
+
+def test_quantised_readings_do_not_jump_at_every_step():
+    """Quantised readings mostly do not change: the median deviation of
+    their differences is 0, and every reading step counted as a jump (the
+    first 10 of each run filled the table). One step is noise; a real jump
+    of many steps is found, and at most the 10 largest of a run are kept."""
+    n = 400
+    rng = np.random.default_rng(1)
+    q = 0.01
+    drift = np.cumsum(rng.normal(0, 0.003, (n, 2)), axis=0)
+    R = np.round(drift / q) * q
+    R[250:, 1] += 0.5
+    jumps = _where_of(R, np.arange(n) * 60.0)["jumps"]
+    assert list(jumps["time_s"]) == [250 * 60.0]
+    R = rng.normal(0, 0.01, (n, 2))
+    R[::20, 0] += np.linspace(1, 2, 20)  # 20 spikes, of growing size
+    jumps = _where_of(R, np.arange(n) * 60.0)["jumps"]
+    assert len(jumps) == 10
+    assert np.all(np.diff(jumps["time_s"]) > 0)
+    assert jumps["jump"].abs().min() > 1.4
 
 
 def test_where_bands_split_the_squared_gap_about_each_channels_mean():

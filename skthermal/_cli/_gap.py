@@ -379,7 +379,7 @@ def cmd_gap_check(args):
     )
     for key, value in result.rates.items():
         print(
-            f"  {key}: {value:.2f}" if isinstance(value, float) else f"  {key}: {value}"
+            f"  {key}: {value:.3f}" if isinstance(value, float) else f"  {key}: {value}"
         )
     for key, met in result.targets.items():
         print(f"  target {key}: {'met' if met else 'NOT met'}")

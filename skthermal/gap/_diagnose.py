@@ -453,7 +453,8 @@ def diagnose(
        regime's share of the squared error against its share of time, and the
        times where the gap jumps.
     2. **Which** (screening): the base parameters (one multiplier for all
-       heat capacities, one for all convection coefficients, and per-channel
+       heat capacities, one for all convection coefficients, one for the
+       enclosure air's exchange with the workshop, and per-channel
        gains of the parts driven by the air, the bearings, the drive and the
        feed) are calibrated on training runs so that an offset is not
        mistaken for missing physics. Then every candidate effect is added,

@@ -550,25 +550,30 @@ def block_spans(t, name, block_hours):
     each, as ``(first row, end row, label)``; one block, labelled ``name``,
     when ``block_hours`` is None or the run is shorter than 1.5 blocks.
 
-    Labels give each block's span since the run's start in hours, with as
-    many decimals as the blocks need to be told apart (``r1[0-0.5 h]``,
-    ``r1[0.5-1 h]``), else in seconds.
+    Labels give each block's span since the run's start in hours, from its
+    first sample to the next block's first sample (the run's last one for
+    the last block), with as many decimals as the boundaries need to stay
+    in increasing order and within a tenth of ``block_hours`` of the times
+    (``r1[0-0.5 h]``, ``r1[0.5-1 h]``), else in seconds.
     """
     if block_hours is None or t[-1] - t[0] <= 1.5 * block_hours * 3600.0:
         return [(0, t.size, name)]
     n_blocks = int(round((t[-1] - t[0]) / (block_hours * 3600.0)))
     edges = np.linspace(0, t.size, n_blocks + 1).astype(int)
     pairs = list(zip(edges[:-1], edges[1:], strict=True))
+    bounds = [t[a] - t[0] for a, _ in pairs] + [t[-1] - t[0]]
+    unit = "h"
     for decimals in range(4):
-        labels = [
-            f"{name}[{_hours(t[a] - t[0], decimals)}-"
-            f"{_hours(t[b - 1] - t[0], decimals)} h]"
-            for a, b in pairs
-        ]
-        if len(set(labels)) == len(labels):
+        shown = [_hours(b, decimals) for b in bounds]
+        close = all(
+            abs(float(x) - b / 3600.0) <= 0.1 * block_hours
+            for x, b in zip(shown, bounds)
+        )
+        if close and all(float(x) < float(y) for x, y in zip(shown, shown[1:])):
             break
     else:
-        labels = [f"{name}[{t[a] - t[0]:g}-{t[b - 1] - t[0]:g} s]" for a, b in pairs]
+        shown, unit = [f"{b:g}" for b in bounds], "s"
+    labels = [f"{name}[{shown[k]}-{shown[k + 1]} {unit}]" for k in range(len(pairs))]
     if len(set(labels)) != len(labels):
         raise AssertionError(f"Duplicate block labels: {labels}")
     return [(a, b, label) for (a, b), label in zip(pairs, labels, strict=True)]

@@ -98,10 +98,18 @@ def _where_tables(problem, Rs, regimes, label):
         # opposite sign cancel), the channel that jumps most at each time.
         D = np.diff(R, axis=0)
         if D.shape[0] > 2:
-            mad = np.median(np.abs(D - np.median(D, axis=0)), axis=0) / 0.6745
+            dev = np.abs(D - np.median(D, axis=0))
+            mad = np.median(dev, axis=0) / 0.6745
+            # Quantised readings change in steps, mostly not at all: their
+            # median deviation is 0, and a single reading step must not count
+            # as a jump. The smallest step taken is the floor of the spread.
+            steps = np.where(dev > 1e-12, dev, np.inf).min(axis=0)
+            mad = np.maximum(mad, np.where(np.isfinite(steps), steps, 0.0))
             ratio = np.abs(D) / np.maximum(mad, 1e-12)
             big = np.flatnonzero(ratio.max(axis=1) > 6)
-            for k in big[:10]:
+            # The 10 largest of a run, in time order.
+            big = np.sort(big[np.argsort(-ratio[big].max(axis=1))[:10]])
+            for k in big:
                 j = int(np.argmax(ratio[k]))
                 jumps.append(
                     {

@@ -259,7 +259,7 @@ class ValidationReport:
 
         lines = ["# Gap diagnosis validation", ""]
         for k, v in self.rates.items():
-            lines.append(f"- {k}: {v:.2f}" if isinstance(v, float) else f"- {k}: {v}")
+            lines.append(f"- {k}: {v:.3f}" if isinstance(v, float) else f"- {k}: {v}")
         lines += ["", "## Targets", ""]
         lines += [
             f"- {k}: {'met' if v else 'NOT met'}" for k, v in self.targets.items()
