@@ -374,6 +374,23 @@ def test_mapping_typos_and_uncompared_channels(pair):
     assert record[0].filename == __file__
 
 
+def test_a_jittering_logger_clock_is_accepted(pair):
+    # Measured times a few seconds off the simulation's grid (a logger's
+    # clock): a speed step may fall on either side of a simulated row, and
+    # the last sample may end beyond the simulation; a real shift is not.
+    sim, meas = pair
+    rng = np.random.default_rng(0)
+    step = float(np.median(np.diff(meas["time_s"])))
+    jitter = rng.uniform(-0.05, 0.05, len(meas)) * step
+    jitter[meas.groupby("run").cumcount().to_numpy() == 0] = 0.0
+    jittered = meas.assign(time_s=meas["time_s"] + jitter)
+    report = diagnose_runs(sim, jittered, candidates=["sensor_lag"], greedy=False)
+    assert np.isfinite(report.ranking["shrink"]).all()
+    shifted = sim.assign(spindle_rpm=sim.groupby("run")["spindle_rpm"].shift(3).bfill())
+    with pytest.raises(ValueError, match="The drivers differ: spindle_rpm"):
+        diagnose_runs(shifted, jittered, candidates=["sensor_lag"])
+
+
 def test_repeated_columns_are_named(pair):
     sim, meas = pair
     for side, column in (("simulated", "T1_C"), ("simulated", "spindle_rpm")):

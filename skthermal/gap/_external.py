@@ -197,7 +197,10 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
         # at its own time step) interpolated linearly onto them.
         same = ts.size == t.size and not np.any(np.abs(t - ts) > tol)
         if not same:
-            if ts.size < 2 or ts[0] > t[0] + tol or ts[-1] < t[-1] - tol:
+            # A logger's jitter may put the first or last sample up to half
+            # a sampling period beyond the simulated span: held there.
+            slack = tol + (0.5 * float(np.median(np.diff(t))) if t.size > 1 else 0.0)
+            if ts.size < 2 or ts[0] > t[0] + slack or ts[-1] < t[-1] - slack:
                 raise ValueError(
                     f"Run {name!r}: the simulated table covers time_s "
                     f"{ts[0]:.10g}-{ts[-1]:.10g} s, the measured one "
@@ -234,7 +237,17 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
             # Only where both tables have the run: simulated rows before the
             # first or after the last measured sample (a simulation covering
             # more than the measurement) are not compared.
-            off = np.flatnonzero((np.abs(m[at] - sim_d) > tol_d) & inside)
+            wrong = np.abs(m[at] - sim_d) > tol_d
+            if not same and t.size > 1:
+                # A logger's clock jitters: a step of a driver may fall on
+                # either side of a simulated row within half a sampling
+                # period. The value of the measured sample that close (the
+                # one before or after) is as good.
+                half = 0.5 * float(np.median(np.diff(t)))
+                for near in (np.maximum(at - 1, 0), np.minimum(at + 1, t.size - 1)):
+                    close = np.abs(t[near] - ts) <= half
+                    wrong &= ~(close & (np.abs(m[near] - sim_d) <= tol_d))
+            off = np.flatnonzero(wrong & inside)
             if off.size:
                 k = int(off[0])
                 where = "" if in_m and in_s else " (absent from one table: 0)"
