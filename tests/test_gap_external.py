@@ -463,6 +463,13 @@ def test_share_of_the_explainable_gap_is_not_clipped(pair):
     assert "removes 20%, less than 'tool_growth': the gap explainable at" in text
     report.explainable["share"] = 0.7
     assert "less than" not in report.verdict()
+    # The simulation as given, on the same rows, beside a worse base.
+    given = report.how_far_evidence["gap_as_given"]
+    assert np.isfinite(given) and given > 0
+    report.how_far_evidence["gap_before"] = given * 1.5
+    assert f"(the simulation as given: {given:.3g}, less than" in report.verdict()
+    report.how_far_evidence["gap_before"] = given * 0.5
+    assert "as given" not in report.verdict()
 
 
 # --- audit 2 fixes ------------------------------------------------------------
