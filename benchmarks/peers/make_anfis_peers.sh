@@ -14,6 +14,12 @@ venv="${1:-/tmp/anfis-peers}"
 python3 -m venv "$venv"
 "$venv/bin/python" -m pip install --quiet --upgrade pip
 "$venv/bin/python" -m pip install --quiet numpy
+# PyTorch first, as TORCH_SPEC says (default: whatever torchanfis pulls in).
+# A CPU build is enough: e.g. TORCH_SPEC=torch==2.13.0 where a CPU wheel of
+# that version is at hand, instead of PyPI's CUDA build of several GB.
+if [ -n "${TORCH_SPEC:-}" ]; then
+    "$venv/bin/python" -m pip install --quiet "$TORCH_SPEC" || echo "  could not install $TORCH_SPEC"
+fi
 grep -v '^\s*#' "$here/requirements-anfis.txt" | grep -v '^\s*$' | while read -r req; do
     echo "installing $req"
     if ! timeout "${PEER_INSTALL_TIMEOUT:-1200}" "$venv/bin/python" -m pip install --quiet "$req"; then
