@@ -1132,3 +1132,36 @@ def test_validate_runs_names_absurd_readings(column):
         validate_runs(df)
     df.loc[1, column] = 1e100  # the bound itself is accepted
     validate_runs(df)
+
+
+def test_changes_since_start_refuses_runs_out_of_time_order_and_repeated_columns():
+    from skthermal.datasets import changes_since_start
+
+    df = pd.DataFrame(
+        {
+            "run": ["a", "b", "a", "b"],
+            "time_s": [120.0, 0.0, 0.0, 60.0],
+            "T1_C": [23.0, 20.0, 20.0, 21.0],
+        }
+    )
+    with pytest.raises(ValueError, match=r"in run 'a', row 2 has time_s 0.0"):
+        changes_since_start(df)
+    # Interleaved runs in time order are fine.
+    ok = changes_since_start(df.assign(time_s=[0.0, 0.0, 120.0, 60.0]))
+    assert ok["T1_C"].tolist() == [0.0, 0.0, -3.0, 1.0]
+    with pytest.raises(ValueError, match=r"duplicated columns: \['T1_C'\]"):
+        changes_since_start(pd.concat([df, df[["T1_C"]]], axis=1))
+
+
+def test_run_files_name_stray_carriage_returns_and_unwritable_labels(tmp_path):
+    from skthermal.datasets import read_runs, write_runs
+
+    path = tmp_path / "cr.csv"
+    path.write_bytes(b"run,time_s,T1_C\na\r,0,20\n")
+    with pytest.raises(ValueError, match=r"cr\.csv: a CSV line cannot be read"):
+        read_runs(path)
+    df = pd.DataFrame(
+        {"run": [(1, "a")] * 2, "time_s": [0.0, 60.0], "T1_C": [20.0, 21.0]}
+    )
+    with pytest.raises(ValueError, match=r"cannot be written to Parquet"):
+        write_runs(df, tmp_path / "t.parquet", validate=False)

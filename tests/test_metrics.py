@@ -291,3 +291,20 @@ def test_output_weights_are_checked(weights, message):
     with pytest.raises(ValueError, match=message):
         rmse(y, y + 1, multioutput=weights)
     assert rmse(y, y + 1, multioutput=[0, 1]) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("scale", [1e160, 1e-170])
+def test_metrics_do_not_overflow_or_underflow(scale):
+    import warnings
+
+    from skthermal.metrics import nash_sutcliffe, pearson_r, rmse
+
+    y = np.array([1.0, 2.0, 3.0, 4.5])
+    p = np.array([1.2, 1.9, 3.4, 4.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert rmse(y * scale, p * scale) == pytest.approx(rmse(y, p) * scale)
+        assert nash_sutcliffe(y * scale, p * scale) == pytest.approx(
+            nash_sutcliffe(y, p)
+        )
+        assert pearson_r(y * scale, p * scale) == pytest.approx(pearson_r(y, p))

@@ -741,3 +741,21 @@ def test_auto_drivers_found_nowhere_warn():
             X.drop(columns="spindle_rpm")
         )
         LagFeatures(time_constants=[60.0]).fit(X)
+
+
+def test_exponential_filter_names_bad_rows_slices_state_and_periods():
+    from skthermal.preprocessing import exponential_filter
+
+    U = np.r_[0.0, 1.0, 1.0, 1.0]
+    with pytest.raises(ValueError, match="missing or infinite value at row 1"):
+        exponential_filter(np.r_[0.0, np.nan, 1.0, 1.0], 5.0, 1.0)
+    assert exponential_filter(np.zeros((0, 2)), 5.0, 1.0).shape == (0, 2)
+    with pytest.raises(ValueError, match="slice\\(start, stop\\) objects"):
+        exponential_filter(U, 5.0, 1.0, slices=[(0, 2), (2, 4)])
+    with pytest.raises(ValueError, match="slice\\(start, stop\\) objects"):
+        exponential_filter(U, 5.0, 1.0, slices=[slice(0, 40)])
+    with pytest.raises(ValueError, match="state must be a list"):
+        exponential_filter(U, 5.0, 1.0, state=5.0)
+    for periods in ([0.0], [-1.0], [1.0, 1.0]):
+        with pytest.raises(ValueError, match="periods must hold one"):
+            exponential_filter(U, 5.0, 1.0, times=[0, 1, 2, 3], periods=periods)

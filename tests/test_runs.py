@@ -825,3 +825,14 @@ def test_run_table_functions_name_the_conversion_of_other_frames():
     for call in (validate_runs, split_runs):
         with pytest.raises(ValueError, match=r"convert it with \.to_pandas\(\)"):
             call(_ForeignFrame(table))
+
+
+def test_multiindex_columns_are_named():
+    from skthermal.utils._runs import extract_runs
+
+    X = pd.DataFrame(
+        np.ones((3, 2)),
+        columns=pd.MultiIndex.from_tuples([("a", "T1_C"), ("a", "T2_C")]),
+    )
+    with pytest.raises(ValueError, match="columns of 2 levels"):
+        extract_runs(X)

@@ -405,3 +405,25 @@ def test_unreadable_values_name_the_time_as_the_estimators_do(value):
     fitted = GRASelector().fit(X, y)
     with pytest.raises(ValueError, match=where):
         fitted.transform(bad)
+
+
+def test_fcm_picker_groups_readings_of_any_scale():
+    # Standardising readings of 1e-300 underflowed their spread to 0 and
+    # the clustering refused its own NaN.
+    rng = np.random.default_rng(0)
+    t = np.arange(20) * 60.0
+    X = pd.DataFrame(
+        {
+            "run": "r0",
+            "time_s": t,
+            "T1_C": 1 - np.exp(-t / 300),
+            "T2_C": 2 * (1 - np.exp(-t / 900)),
+            "T3_C": rng.normal(size=20),
+        }
+    )
+    y = 1 - np.exp(-t / 600)
+    sensors = ["T1_C", "T2_C", "T3_C"]
+    ref = FCMClusterPicker(n_clusters=2, random_state=0).fit(X, y)
+    tiny = X.assign(**{c: X[c] * 1e-300 for c in sensors})
+    got = FCMClusterPicker(n_clusters=2, random_state=0).fit(tiny, y * 1e-300)
+    np.testing.assert_array_equal(got.get_support(), ref.get_support())

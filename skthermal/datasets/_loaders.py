@@ -136,8 +136,15 @@ def _raw_bytes(path):
         ) from exc
 
 
-def _csv_fields(line):
-    return next(csv.reader([line]), [])
+def _csv_fields(line, path):
+    try:
+        return next(csv.reader([line]), [])
+    except csv.Error as exc:
+        raise ValueError(
+            f"{path}: a CSV line cannot be read ({exc}): a line break or a stray "
+            "carriage return inside a field; the line starts "
+            f"{line[:60]!r}."
+        ) from None
 
 
 def _check_complete(path, data):
@@ -153,7 +160,7 @@ def _check_complete(path, data):
     header = body[:first_end].decode("utf-8", errors="replace").lstrip("\ufeff")
     line_no = body.count(b"\n") + 1
     last = body[body.rfind(b"\n") + 1 :].decode("utf-8", errors="replace")
-    n_header, n_last = len(_csv_fields(header)), len(_csv_fields(last))
+    n_header, n_last = len(_csv_fields(header, path)), len(_csv_fields(last, path))
     if not last.strip() or n_last >= n_header:
         return
     newline = "" if data.endswith(b"\n") else " and no line end"
@@ -190,7 +197,7 @@ def _check_header(path, data):
     separator (a ';'-separated spreadsheet export), or repeated names (which
     pandas would rename silently to ``name.1``). Returns the header fields."""
     header = _first_line(data)
-    fields = _csv_fields(header)
+    fields = _csv_fields(header, path)
     if len(fields) == 1:
         for sep, name in _OTHER_SEPARATORS.items():
             if sep in fields[0]:
@@ -667,6 +674,15 @@ def write_runs(df, path, *, metadata=None, validate=True):
     if not _is_parquet(path) and RUN in df.columns and _check_csv_labels(df[RUN]):
         document = {_LABELS_FIELD: "str"} | (document or {"runs": []})
     if _is_parquet(path):
+        if RUN in df.columns:
+            for value in pd.unique(df[RUN].to_numpy(dtype=object)):
+                if not isinstance(value, str | Integral) or isinstance(value, bool):
+                    raise ValueError(
+                        f"Run label {plain(value)!r} ({type(value).__name__}) "
+                        "cannot be written to Parquet: run labels are strings or "
+                        "integers (DATA_FORMAT). Convert them, e.g. "
+                        "df['run'] = df['run'].astype(str)."
+                    )
         try:
             df.to_parquet(path, index=False)
         except ImportError as exc:

@@ -335,6 +335,25 @@ def _check_time(df, codes):
         )
 
 
+def _check_time_within_runs(df):
+    """``time_s`` strictly increasing within each run in table order, the
+    runs contiguous or not (the first row of a run is its start)."""
+    _check_numeric(df, [TIME])
+    time = _as_float(df, [TIME])[:, 0]
+    codes = pd.factorize(df[RUN], use_na_sentinel=False)[0]
+    order = np.argsort(codes, kind="stable")
+    c, t = codes[order], time[order]
+    bad = np.flatnonzero((c[1:] == c[:-1]) & ~(t[1:] > t[:-1]))
+    if bad.size:
+        i, j = int(order[bad[0]]), int(order[bad[0] + 1])
+        raise ValueError(
+            f"Column 'time_s' must be strictly increasing within a run: in run "
+            f"{plain(df[RUN].iloc[j])!r}, row {j} has time_s {time[j]} after "
+            f"time_s {time[i]} at row {i}; the first row of a run is its start, "
+            "so sort the table by run and time first."
+        )
+
+
 def validate_runs(
     df, *, require_targets=False, require_drivers=False, allow_missing_sensors=False
 ):
@@ -702,8 +721,13 @@ def changes_since_start(df, columns=None):
     3   b    60.0   1.9        5.0
     """
     check_frame(df)
+    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
+    if duplicated:
+        raise ValueError(f"The run table has duplicated columns: {duplicated}.")
     if RUN not in df.columns:
         raise _missing_column(RUN, "needed to find the start of every run", [])
+    if TIME in df.columns:
+        _check_time_within_runs(df)
     if columns is None:
         columns = sensor_columns(df) + target_columns(df)
     columns = _as_list(columns)

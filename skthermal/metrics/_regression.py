@@ -144,8 +144,19 @@ def rmse(y_true, y_pred, *, multioutput="uniform_average"):
     array([1.        , 2.12132034])
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
-    values = np.sqrt(np.mean((y_true - y_pred) ** 2, axis=0))
+    e, scale = _unit_columns(y_true - y_pred)
+    values = scale * np.sqrt(np.mean(e**2, axis=0))
     return _aggregate(values, weights)
+
+
+def _unit_columns(a, scale=None):
+    """``a`` divided by each column's largest magnitude (or ``scale``), and
+    that scale: squares of errors of 1e160 or 1e-170 neither overflow nor
+    underflow, and the sums of squares keep their ratios."""
+    if scale is None:
+        scale = np.max(np.abs(a), axis=0, initial=0.0)
+        scale = np.where(scale > 0, scale, 1.0)
+    return a / scale, scale
 
 
 def nash_sutcliffe(y_true, y_pred, *, multioutput="uniform_average", force_finite=True):
@@ -176,8 +187,12 @@ def nash_sutcliffe(y_true, y_pred, *, multioutput="uniform_average", force_finit
     -1.0
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
-    sse = np.sum((y_true - y_pred) ** 2, axis=0)
-    sst = np.sum((y_true - y_true.mean(axis=0)) ** 2, axis=0)
+    e = y_true - y_pred
+    d = y_true - y_true.mean(axis=0)
+    # One scale for both sums per output: their ratio is unchanged.
+    _, scale = _unit_columns(np.vstack([e, d]))
+    sse = np.sum(_unit_columns(e, scale)[0] ** 2, axis=0)
+    sst = np.sum(_unit_columns(d, scale)[0] ** 2, axis=0)
     return _aggregate(_ratio_score(sse, sst, force_finite), weights)
 
 
@@ -205,8 +220,10 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     0.5
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
-    dt = y_true - y_true.mean(axis=0)
-    dp = y_pred - y_pred.mean(axis=0)
+    # Deviations in units of their largest: R does not depend on the scale,
+    # and products of 1e-170s or 1e160s neither underflow nor overflow.
+    dt = _unit_columns(y_true - y_true.mean(axis=0))[0]
+    dp = _unit_columns(y_pred - y_pred.mean(axis=0))[0]
     den = np.sqrt(np.sum(dt**2, axis=0) * np.sum(dp**2, axis=0))
     # Constant by its values, not by the rounding of its mean (0.1 three
     # times leaves deviations of 1e-17, a correlation of 0 or 1e-16).

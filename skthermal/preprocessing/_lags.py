@@ -134,6 +134,15 @@ def exponential_filter(
         raise ValueError(f"initial must be 'steady' or 'rest', got {initial!r}.")
     if U.ndim == 0:
         raise ValueError("U must hold one row per sample, got a single number.")
+    if U.shape[0] == 0:
+        return U.copy()
+    if not np.all(np.isfinite(U)):
+        row = int(np.flatnonzero(~np.isfinite(U.reshape(U.shape[0], -1)).any(1))[0])
+        raise ValueError(
+            f"U holds a missing or infinite value at row {row}: the filter would "
+            "carry it through the rest of the run. Impute or drop those rows "
+            "first."
+        )
     U2 = U.reshape(U.shape[0], -1)
     taus = np.asarray(time_constant, dtype=float)
     if taus.ndim > 1 or (taus.ndim == 1 and taus.size != U2.shape[1]):
@@ -148,6 +157,18 @@ def exponential_filter(
     if slices is None:
         slices = [slice(0, U.shape[0])]
     slices = list(slices)
+    if not all(
+        isinstance(sl, slice)
+        and sl.step in (None, 1)
+        and sl.start is not None
+        and sl.stop is not None
+        and 0 <= sl.start <= sl.stop <= U.shape[0]
+        for sl in slices
+    ):
+        raise ValueError(
+            f"slices must be slice(start, stop) objects within the {U.shape[0]} "
+            "rows of U, as run_slices gives them."
+        )
     covered = np.zeros(U.shape[0], dtype=int)
     for sl in slices:
         covered[sl] += 1
@@ -167,6 +188,11 @@ def exponential_filter(
     dts = np.broadcast_to(dts, (len(slices),))
     if state is None:
         state = [None] * len(slices)
+    if np.ndim(state) == 0:
+        raise ValueError(
+            f"state must be a list with one entry per run ({len(slices)}), each "
+            f"None or one value per column of U, got {type(state).__name__}."
+        )
     if len(state) != len(slices):
         raise ValueError(
             f"state must hold one entry per run ({len(slices)}), got {len(state)}."
@@ -203,6 +229,13 @@ def exponential_filter(
                     "times must increase strictly within each run (slice "
                     f"{sl.start}:{sl.stop})."
                 )
+    if periods is not None:
+        periods = np.asarray(periods, dtype=float).ravel()
+        if periods.size != len(slices) or np.any(periods <= 0):
+            raise ValueError(
+                f"periods must hold one sampling period > 0 per run "
+                f"({len(slices)}), got {periods.tolist()}."
+            )
     Z = np.empty_like(U2)
     for r, (sl, step) in enumerate(zip(slices, dts, strict=True)):
         if sl.stop <= sl.start:

@@ -193,7 +193,11 @@ class FCMClusterPicker(RunAwareSelector):
         if self.features == "series":
             Z = changes_since_start(X, slices)
             Z -= Z.mean(axis=0)
-            Z /= Z.std(axis=0)  # no zero: constant sensors were rejected
+            # In units of each sensor's largest deviation first, so that the
+            # spread of readings of 1e-300 does not underflow to 0 (no zero
+            # otherwise: constant sensors were rejected).
+            Z /= np.max(np.abs(Z), axis=0)
+            Z /= Z.std(axis=0)
             points = Z.T
         else:
             top = np.max(np.abs(scores))

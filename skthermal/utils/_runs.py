@@ -304,6 +304,13 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     """
     X, y = as_pandas(X), as_pandas(y)
     columns = getattr(X, "columns", None)
+    if getattr(columns, "nlevels", 1) > 1:
+        raise ValueError(
+            f"X has columns of {columns.nlevels} levels (a MultiIndex, e.g. "
+            f"{columns[0]!r}); a run table has one name per column. Flatten "
+            "them first, e.g. X.columns = ['_'.join(map(str, c)) for c in "
+            "X.columns]."
+        )
     given_index = getattr(X, "index", None)
     if columns is not None and not columns.is_unique:
         duplicated = list(dict.fromkeys(columns[columns.duplicated()]))
