@@ -49,6 +49,7 @@ from skthermal.gap._problem import (
     pooled_noise,
     too_few_runs,
     warn_uncompared,
+    without_attrs,
 )
 from skthermal.gap._regimes import label_regimes
 from skthermal.gap._report import GapReport
@@ -105,6 +106,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
     """Runs of both tables, checked against each other, as RunSignals."""
     _check_table(simulated, "simulated")
     _check_table(measured, "measured")
+    simulated, measured = without_attrs(simulated), without_attrs(measured)
     mapping = dict(mapping or {})
     # The measured table is a run table; the simulated one may be another
     # tool's export, its columns matched by name or through the mapping.

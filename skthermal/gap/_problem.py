@@ -223,6 +223,15 @@ def check_length(n, run, table=""):
         )
 
 
+def without_attrs(frame):
+    """``frame`` (a shallow copy) without ``attrs``: pandas deep-copies them
+    into every column and slice taken, and a table joined from many
+    simulated runs carries one metadata record per run."""
+    frame = frame.copy(deep=False)
+    frame.attrs = {}
+    return frame
+
+
 def channel_values(frame, columns, t, run, table=""):
     """The channels ``columns`` of one run as floats, ``(n, len(columns))``.
 
@@ -417,6 +426,7 @@ def build_problem(
         )
     # Rows without a run label would be dropped by the grouping.
     check_labels(runs["run"].to_numpy())
+    runs = without_attrs(runs)
     frames = list(runs.groupby("run", sort=False))
     for name, frame in frames:
         for col in DRIVER_COLUMNS:

@@ -6,6 +6,7 @@ adds them one at a time to explain where a simulation and a measurement
 disagree, so the names and meanings are part of the public API.
 """
 
+import functools
 import math
 import zlib
 from typing import NamedTuple
@@ -370,13 +371,19 @@ def sensor_draws(machine, what):
     """One standard normal number per sensor of ``machine``, fixed by the
     machine's and the sensor's names and ``what`` (a property of the sensor
     such as its calibration offset: the same in every run)."""
-    return np.array(
-        [
-            np.random.RandomState(
-                zlib.crc32(f"{machine.name}/{s.name}{what}".encode())
-            ).standard_normal()
-            for s in machine.spec.sensors
-        ]
+    names = tuple(s.name for s in machine.spec.sensors)
+    return np.array(_draws(machine.name, names, what))
+
+
+@functools.lru_cache(maxsize=256)
+def _draws(machine, sensors, what):
+    # Seeding a generator per sensor costs more than simulating a short run:
+    # the draws of a machine are made once.
+    return tuple(
+        np.random.RandomState(
+            zlib.crc32(f"{machine}/{s}{what}".encode())
+        ).standard_normal()
+        for s in sensors
     )
 
 
