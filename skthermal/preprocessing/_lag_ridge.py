@@ -91,7 +91,8 @@ def _group_folds(slices, n_splits, labels=None):
 
 
 def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
-    """Squared validation error for every alpha (one SVD per fold).
+    """Squared validation error for every alpha (one eigendecomposition of
+    the standardised Gram matrix per fold).
 
     The total over the folds, shape (n_alphas,), or with ``per_fold`` one row
     per fold, shape (n_folds, n_alphas).
@@ -104,10 +105,20 @@ def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
         A = (A - mu) / sd
         B = (B - mu) / sd
         ym = y[tr].mean()
-        U, s, Vt = np.linalg.svd(A, full_matrices=False)
-        uty = U.T @ (y[tr] - ym)
-        d = s / (s**2 + alphas[:, None])  # (n_alpha, r)
-        pred = (B @ Vt.T) @ (d * uty).T + ym  # (n_val, n_alpha)
+        # The ridge path from A^T A = V diag(w) V^T (p x p, a fraction of
+        # the cost of an SVD of the n x p A): the coefficients are
+        # V diag(1 / (w + alpha)) V^T A^T y. The penalties (>= 1e-2 on
+        # standardised columns) keep the small eigenvalues' rounding
+        # harmless.
+        w, V = np.linalg.eigh(A.T @ A)
+        if alphas.min() >= 1e-10 * max(float(w.max()), 1.0):
+            c = V.T @ (A.T @ (y[tr] - ym))
+            d = c / (np.maximum(w, 0.0) + alphas[:, None])  # (n_alpha, p)
+            pred = (B @ V) @ d.T + ym  # (n_val, n_alpha)
+        else:  # penalties too small for the Gram's rounding: the SVD
+            U, sv, Vt = np.linalg.svd(A, full_matrices=False)
+            d = sv / (sv**2 + alphas[:, None]) * (U.T @ (y[tr] - ym))
+            pred = (B @ Vt.T) @ d.T + ym
         sse[k] = ((pred - y[va][:, None]) ** 2).sum(0)
     return sse if per_fold else sse.sum(0)
 
