@@ -19,11 +19,18 @@ STRAIN_PATTERN = re.compile(rf"S{NAME}_ue")
 TARGET_PATTERN = re.compile(rf"disp_{NAME}_um")
 
 
+def closest(name, choices):
+    """The one of ``choices`` closest to a mistyped ``name`` (as text), or
+    None when none is close."""
+    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    return close[0] if close else None
+
+
 def suggest(name, choices):
     """`` (did you mean 'x'?)`` for the closest of ``choices`` to a mistyped
     ``name``, or an empty string when none is close."""
-    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    near = closest(name, choices)
+    return f" (did you mean {near!r}?)" if near is not None else ""
 
 
 def plain(value):

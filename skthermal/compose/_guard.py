@@ -22,7 +22,6 @@ from sklearn.base import (
     _fit_context,
     clone,
 )
-from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, Interval, StrOptions
 from sklearn.utils.metaestimators import available_if
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -43,8 +42,8 @@ from skthermal.utils._runs import (
     run_slices,
     target_names,
     unreadable,
-    wrapper_router,
 )
+from skthermal.utils._wrappers import wrapped_tags, wrapper_router
 
 
 class GuardWarning(UserWarning):
@@ -382,12 +381,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
-        inner = get_tags(self.estimator)
-        tags.target_tags.multi_output = inner.target_tags.multi_output
-        tags.target_tags.single_output = inner.target_tags.single_output
+        inner = wrapped_tags(tags, self.estimator)
         if tags.regressor_tags is not None and inner.regressor_tags is not None:
             tags.regressor_tags.poor_score = inner.regressor_tags.poor_score
-        tags.non_deterministic = inner.non_deterministic
         return tags
 
     # --- fit ----------------------------------------------------------------

@@ -17,7 +17,7 @@ import re
 import warnings
 import zipfile
 import zlib
-from numbers import Integral
+from numbers import Integral, Real
 from pathlib import Path
 
 import numpy as np
@@ -423,20 +423,30 @@ def _sidecar_document(meta, df):
     return document
 
 
+def _check_label_types(labels, kinds, where, hint=""):
+    """Raise unless every run label is an instance of ``kinds`` (and not a
+    bool); return the distinct labels. ``where`` and ``hint`` word the
+    message for the file format."""
+    unique = pd.unique(labels.to_numpy(dtype=object))
+    for value in unique:
+        if isinstance(value, bool | np.bool_) or not isinstance(value, kinds):
+            raise ValueError(
+                f"Run label {plain(value)!r} ({type(value).__name__}) cannot be "
+                f"written {where}: run labels are strings or integers "
+                "(DATA_FORMAT). Convert them, e.g. "
+                f"df['run'] = df['run'].astype(str){hint}."
+            )
+    return unique
+
+
 def _check_csv_labels(labels):
     """Raise unless the run labels read back from CSV as written; return True
     when they are strings that would read back as integers (all whole
     numbers), which the sidecar must then record."""
-    values = labels.to_numpy(dtype=object)
-    unique = pd.unique(values)
+    unique = _check_label_types(
+        labels, str | Integral, "to CSV and read back as it is", ", or write Parquet"
+    )
     for value in unique:
-        if isinstance(value, bool | np.bool_) or not isinstance(value, str | Integral):
-            raise ValueError(
-                f"Run label {plain(value)!r} ({type(value).__name__}) cannot be "
-                "written to CSV and read back as it is: run labels are strings "
-                "or integers (DATA_FORMAT). Convert them, e.g. "
-                "df['run'] = df['run'].astype(str), or write Parquet."
-            )
         if isinstance(value, str) and value == "":
             raise ValueError(
                 "Run label '' (an empty string) cannot be written to CSV: an "
@@ -674,15 +684,8 @@ def write_runs(df, path, *, metadata=None, validate=True):
     if not _is_parquet(path) and RUN in df.columns and _check_csv_labels(df[RUN]):
         document = {_LABELS_FIELD: "str"} | (document or {"runs": []})
     if _is_parquet(path):
-        if RUN in df.columns:
-            for value in pd.unique(df[RUN].to_numpy(dtype=object)):
-                if not isinstance(value, str | Integral) or isinstance(value, bool):
-                    raise ValueError(
-                        f"Run label {plain(value)!r} ({type(value).__name__}) "
-                        "cannot be written to Parquet: run labels are strings or "
-                        "integers (DATA_FORMAT). Convert them, e.g. "
-                        "df['run'] = df['run'].astype(str)."
-                    )
+        if RUN in df.columns:  # numbers and text; not tuples (pyarrow's error)
+            _check_label_types(df[RUN], str | Real, "to Parquet")
         try:
             df.to_parquet(path, index=False)
         except ImportError as exc:

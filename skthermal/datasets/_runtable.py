@@ -316,6 +316,9 @@ def _check_runs(df):
 
 
 def _check_time(df, codes):
+    """``time_s`` finite and strictly increasing within each run (``codes``:
+    one per row) in table order, the runs contiguous or not (the first row
+    of a run is its start)."""
     time = _as_float(df, [TIME])[:, 0]
     bad = np.flatnonzero(~np.isfinite(time))
     if bad.size:
@@ -323,24 +326,6 @@ def _check_time(df, codes):
             f"Column 'time_s' has {bad.size} missing or infinite value(s), the "
             f"first at {_where(df, bad[0])}."
         )
-    same_run = codes[1:] == codes[:-1]
-    bad = np.flatnonzero(same_run & ~(time[1:] > time[:-1]))
-    if bad.size:
-        i = bad[0] + 1
-        run = plain(df[RUN].iloc[i])
-        raise ValueError(
-            f"Column 'time_s' must be strictly increasing within a run: in run "
-            f"{run!r}, row {i} has time_s {time[i]} after time_s {time[i - 1]} "
-            f"at row {i - 1}."
-        )
-
-
-def _check_time_within_runs(df):
-    """``time_s`` strictly increasing within each run in table order, the
-    runs contiguous or not (the first row of a run is its start)."""
-    _check_numeric(df, [TIME])
-    time = _as_float(df, [TIME])[:, 0]
-    codes = pd.factorize(df[RUN], use_na_sentinel=False)[0]
     order = np.argsort(codes, kind="stable")
     c, t = codes[order], time[order]
     bad = np.flatnonzero((c[1:] == c[:-1]) & ~(t[1:] > t[:-1]))
@@ -349,9 +334,15 @@ def _check_time_within_runs(df):
         raise ValueError(
             f"Column 'time_s' must be strictly increasing within a run: in run "
             f"{plain(df[RUN].iloc[j])!r}, row {j} has time_s {time[j]} after "
-            f"time_s {time[i]} at row {i}; the first row of a run is its start, "
-            "so sort the table by run and time first."
+            f"time_s {time[i]} at row {i}."
         )
+
+
+def check_unique_columns(df, what="The run table"):
+    """Raise a ValueError naming the columns ``df`` holds more than once."""
+    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
+    if duplicated:
+        raise ValueError(f"{what} has duplicated columns: {duplicated}.")
 
 
 def validate_runs(
@@ -451,9 +442,7 @@ def check_run_table(
     """:func:`validate_runs`, the way out of missing sensor values worded for
     the caller (``missing_hint``)."""
     check_frame(df)
-    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
-    if duplicated:
-        raise ValueError(f"The run table has duplicated columns: {duplicated}.")
+    check_unique_columns(df)
     names = [c for c in df.columns if isinstance(c, str)]
     if RUN not in df.columns:
         candidates = [c for c in names if c.strip().lower().startswith(("run", "test"))]
@@ -721,13 +710,12 @@ def changes_since_start(df, columns=None):
     3   b    60.0   1.9        5.0
     """
     check_frame(df)
-    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
-    if duplicated:
-        raise ValueError(f"The run table has duplicated columns: {duplicated}.")
+    check_unique_columns(df)
     if RUN not in df.columns:
         raise _missing_column(RUN, "needed to find the start of every run", [])
     if TIME in df.columns:
-        _check_time_within_runs(df)
+        _check_numeric(df, [TIME])
+        _check_time(df, pd.factorize(df[RUN], use_na_sentinel=False)[0])
     if columns is None:
         columns = sensor_columns(df) + target_columns(df)
     columns = _as_list(columns)

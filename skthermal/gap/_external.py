@@ -21,6 +21,7 @@ from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
 from skthermal._naming import percent, removes
+from skthermal.datasets._runtable import check_unique_columns
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -87,12 +88,7 @@ def _check_table(df, label):
         raise TypeError(f"The {label} runs must be a DataFrame, got {type(df)}.")
     if df.shape[0] == 0:
         raise ValueError(f"The {label} run table is empty (no rows).")
-    repeated = list(dict.fromkeys(df.columns[df.columns.duplicated()]))
-    if repeated:
-        raise ValueError(
-            f"The {label} run table has the column(s) {repeated} more than "
-            "once; give every column once."
-        )
+    check_unique_columns(df, f"The {label} run table")
     missing = [c for c in ("run", *DRIVERS) if c not in df.columns]
     if missing:
         raise ValueError(

@@ -10,7 +10,6 @@ half each. The noise floor of every channel is
 estimated from second differences of its measurement.
 """
 
-import difflib
 import warnings
 from dataclasses import dataclass, field, replace
 
@@ -19,7 +18,7 @@ import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares
 
-from skthermal._naming import shown, suggest
+from skthermal._naming import closest, shown, suggest
 from skthermal.datasets._runtable import check_column_names
 from skthermal.simulate import EFFECTS
 from skthermal.utils._runs import check_labels, is_clock_dtype, warn_short_runs
@@ -376,11 +375,11 @@ def warn_uncompared(measured_columns, channels, why, candidates=()):
     the closest of ``candidates`` (the other side's unused columns) to each:
     a unit or spelling typo there drops a channel otherwise."""
     left = [c for c in measured_columns if is_channel(c) and c not in channels]
-    unused = [str(c) for c in candidates if c not in channels and c not in NOT_CHANNELS]
+    unused = [c for c in candidates if c not in channels and c not in NOT_CHANNELS]
     close = "".join(
-        f"; for {c!r} the simulated table has {near[0]!r} (a unit or spelling typo?)"
+        f"; for {c!r} the simulated table has {near!r} (a unit or spelling typo?)"
         for c in left
-        if (near := difflib.get_close_matches(str(c), unused, n=1))
+        if (near := closest(c, unused)) is not None
     )
     if left:
         warnings.warn(

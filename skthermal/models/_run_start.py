@@ -4,11 +4,9 @@ import warnings
 
 import numpy as np
 import pandas as pd
-import sklearn
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context, clone
 from sklearn.utils import get_tags
 from sklearn.utils._param_validation import HasMethods, StrOptions
-from sklearn.utils.metadata_routing import process_routing
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
@@ -26,8 +24,8 @@ from skthermal.utils._runs import (
     run_times,
     warn_absolute_target,
     warn_unlabelled_runs,
-    wrapper_router,
 )
+from skthermal.utils._wrappers import routed_params, wrapped_tags, wrapper_router
 
 
 class RunStartRegressor(RegressorMixin, BaseEstimator):
@@ -137,12 +135,8 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
-        if not hasattr(self.estimator, "fit"):  # refused by fit's validation
-            return tags
-        inner = get_tags(self.estimator)
-        tags.target_tags.multi_output = inner.target_tags.multi_output
-        tags.target_tags.single_output = inner.target_tags.single_output
-        tags.non_deterministic = inner.non_deterministic
+        if hasattr(self.estimator, "fit"):  # else refused by fit's validation
+            wrapped_tags(tags, self.estimator)
         return tags
 
     def get_metadata_routing(self):
@@ -180,7 +174,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         """
         X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
-        multi = get_tags(self.estimator).target_tags.multi_output
+        multi = get_tags(self).target_tags.multi_output
         A, y = validate_data(
             self, X, y, y_numeric=True, multi_output=multi, dtype=np.float64
         )
@@ -192,9 +186,8 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         warn_absolute_target(type(self).__name__, y, slices)
         dy = changes_since_start(np.asarray(y, dtype=float), slices)
         changes = self._changes(A, groups, X)
-        if sklearn.get_config().get("enable_metadata_routing", False):
-            # The runs reach the model in the index of the changes.
-            fit_params = process_routing(self, "fit", **fit_params).estimator.fit
+        # The runs reach the model in the index of the changes.
+        fit_params = routed_params(self, "fit", fit_params)
         self.estimator_ = clone(self.estimator).fit(changes, dy, **fit_params)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = None if groups is None else len(slices)

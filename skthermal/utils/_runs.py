@@ -18,6 +18,7 @@ from sklearn.utils._param_validation import InvalidParameterError
 
 from skthermal._naming import plain, shown
 from skthermal.utils._warnings import user_stacklevel
+from skthermal.utils._wrappers import routed_params, routing_enabled
 
 RUN_COLUMN = "run"
 TIME_COLUMN = "time_s"
@@ -540,37 +541,17 @@ def routed_runs(owner, method, inner_method, X, groups, params):
     (``inner_method``), under scikit-learn's metadata routing when it is
     enabled: the wrapped model then gets what it requested
     (``set_fit_request``), ``groups`` included; runs it does not take as
-    ``groups=`` travel in ``X``'s index. See :func:`wrapper_router`."""
-    import sklearn
-
-    if not sklearn.get_config().get("enable_metadata_routing", False):
+    ``groups=`` travel in ``X``'s index. See
+    :func:`~skthermal.utils._wrappers.wrapper_router`."""
+    if not routing_enabled():
         return pass_runs(inner_method, X, groups, params)
-    from sklearn.utils.metadata_routing import process_routing
-
     given = dict(params)
     if groups is not None:
         given["groups"] = groups
-    routed = dict(getattr(process_routing(owner, method, **given).estimator, method))
+    routed = routed_params(owner, method, given)
     if "groups" in routed:
         return with_run_index(X), routed
     return with_run_index(X, groups), routed
-
-
-def wrapper_router(owner, methods):
-    """The metadata router of a wrapper ``owner`` of ``owner.estimator``: its
-    own requests (``groups``) and the wrapped model's, each of ``methods``
-    routed to the same method. A Pipeline, ``cross_validate`` or a search
-    then passes on what the wrapped model requested (``sample_weight``)."""
-    from sklearn.utils.metadata_routing import MetadataRouter, MethodMapping
-
-    mapping = MethodMapping()
-    for method in methods:
-        mapping.add(caller=method, callee=method)
-    return (
-        MetadataRouter(owner=owner)
-        .add_self_request(owner)
-        .add(estimator=owner.estimator, method_mapping=mapping)
-    )
 
 
 def describe_row(row, X, groups):
