@@ -152,6 +152,41 @@ def test_tool_growth_term_recovers_its_time_constant(rng):
     assert term.cost_ < 1e-4 * float(np.sum(y**2))
 
 
+def test_term_fits_share_grid_statistics_without_changing_them(rng):
+    """The folds' fits share each run's statistics at the grid's points
+    (``cache``): the fitted parameters and gains are those of separate
+    fits, and the cost from the statistics is the sum of squared errors."""
+    runs = []
+    for r in range(4):
+        t = np.arange(0, 4 * 3600, 60.0)
+        rpm = np.where((t // 1800) % 2 == r % 2, 3000.0 + 500 * r, 0.0)
+        sim = np.column_stack(
+            [_lowpass(rpm / 1000, 1800.0), _lowpass(rpm / 1000, 600.0)]
+        )
+        y = sim + 0.3 * (_lowpass(sim, 700.0) - sim)
+        y = y + 0.005 * rng.standard_normal(y.shape)
+        rows = np.arange(0, t.size, 2)
+        y = y[rows] - y[rows][:5].mean(axis=0)
+        runs.append(RunSignals(r, t, rpm, np.full(t.size, 20.0), 0 * t, sim, rows, y))
+    signals = Signals(runs, np.array([True, True]), np.array([1.0, 2.0]))
+    cache = {}
+    folds = [[0, 1, 2], [1, 2, 3], [0, 2, 3]]
+    for train in folds:
+        shared = TERMS["sensor_lag"]().fit(signals, train, cache)
+        alone = TERMS["sensor_lag"]().fit(signals, train)
+        assert shared.theta_ == alone.theta_
+        np.testing.assert_array_equal(shared.gains_, alone.gains_)
+        pred = shared.apply(signals, train)
+        sse = sum(
+            np.sum(((p - signals.runs[i].y) * signals.w) ** 2)
+            for p, i in zip(pred, train)
+        )
+        assert shared.cost_ == pytest.approx(sse, rel=1e-9)
+    assert shared.theta_["tau_s"] == pytest.approx(700.0, rel=0.1)
+    # The grid's points of every run, once each.
+    assert len(cache) == 4 * TERMS["sensor_lag"].grid
+
+
 # --- diagnosis --------------------------------------------------------------
 
 

@@ -15,6 +15,7 @@ from skthermal.preprocessing import (
     exponential_filter,
     make_lag_pipeline,
 )
+from skthermal.preprocessing._lags import lowpass_steps, run_steps
 
 DATA = Path(__file__).parents[1].parent / "shared" / "data"
 
@@ -199,6 +200,27 @@ def _long_run(n=80, run="r"):
             "spindle_rpm": rpm,
         }
     )
+
+
+@pytest.mark.parametrize("kind", ["even", "uneven", "gap"])
+def test_run_steps_and_lowpass_steps_filter_as_exponential_filter(kind, rng):
+    """The kernel with a run's steps worked out once gives the filter of
+    exponential_filter given the run's times."""
+    t = np.arange(200) * 10.0
+    if kind == "uneven":
+        t = t + rng.uniform(-2.0, 2.0, t.size)
+    elif kind == "gap":
+        t[120:] += 300.0
+    U = np.cumsum(rng.standard_normal((t.size, 3)), axis=0)
+    plan = run_steps(t)
+    assert (plan[1] is None) == (kind == "even")
+    for tau in (5.0, 60.0, 3600.0):
+        np.testing.assert_allclose(
+            lowpass_steps(U, tau, *plan),
+            exponential_filter(U, tau, float(np.median(np.diff(t))), times=t),
+            rtol=1e-12,
+            atol=1e-12,
+        )
 
 
 def test_exponential_filter_continues_from_a_state():

@@ -410,13 +410,14 @@ def _residuals(signals, preds, idx):
     return [(p - signals.runs[i].y) * signals.w for p, i in zip(preds, idx)]
 
 
-def _heldout(signals, folds, make):
+def _heldout(signals, folds, make, cache=None):
     """Held-out residuals of every run and the fold models: ``make()``
-    returns an unfitted model (term with its ``with_terms``)."""
+    returns an unfitted model (term with its ``with_terms``); ``cache`` is
+    shared by the folds' fits (see ``DiscrepancyTerm.fit``)."""
     out = [None] * len(signals.runs)
     models = []
     for train, test in folds:
-        model = make(train).fit(signals, train)
+        model = make(train).fit(signals, train, cache)
         models.append(model)
         for i, R in zip(test, _residuals(signals, model.apply(signals, test), test)):
             out[i] = R
@@ -426,16 +427,21 @@ def _heldout(signals, folds, make):
 def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
     """Held-out score and in-sample evidence of adding term ``name``."""
     regimes, floor2, min_shrink, alpha, all_idx, before_regimes = ctx
+    # The folds and the fit on all runs search the same grid on
+    # overlapping runs: each run's statistics at a grid point are worked out
+    # once.
+    cache = {}
     after_R, models = _heldout(
         signals,
         folds,
         lambda train: TERMS[name]([t[train_key(train)] for t in with_terms]),
+        cache,
     )
     gap_b, ms_b = gap_of(before_R)
     gap_a, ms_a = gap_of(after_R)
     shrink = excess_shrink(gap_b, gap_a, floor2)
     p = block_test(before_R, after_R)
-    full = TERMS[name]([t["all"] for t in with_terms]).fit(signals, all_idx)
+    full = TERMS[name]([t["all"] for t in with_terms]).fit(signals, all_idx, cache)
     after_in = _residuals(signals, full.apply(signals, all_idx), all_idx)
     # Per channel (each with its own noise), effective samples corrected for
     # the residual's autocorrelation.

@@ -25,7 +25,7 @@ from scipy.optimize import minimize_scalar
 
 from skthermal.gap._evidence import ridge_heldout
 from skthermal.gap._problem import START_SAMPLES
-from skthermal.preprocessing import exponential_filter
+from skthermal.preprocessing._lags import lowpass_steps, run_steps
 
 
 @dataclass
@@ -55,7 +55,9 @@ class RunSignals:
     y: np.ndarray
 
     def __post_init__(self):
-        self.dt = float(np.median(np.diff(self.time_s)))  # sample period (s)
+        # The run's steps (sampling period, uneven steps and gaps), worked
+        # out once: the terms filter each run many times.
+        self.plan = run_steps(self.time_s)
 
     def compared(self, X):
         """``X`` (full rate, ``(n, ...)``) at ``rows``, change since start."""
@@ -85,20 +87,31 @@ def lowpass(x, tau, run):
     x = np.asarray(x, dtype=float)
     if tau <= 0:
         return x
-    return exponential_filter(x, float(tau), run.dt, times=run.time_s)
+    z = lowpass_steps(x.reshape(x.shape[0], -1), float(tau), *run.plan)
+    return z.reshape(x.shape)
 
 
-def _solve_gains(design, targets, idx, sign=None):
-    """Per-channel least-squares gains of ``design[i]`` (n, c, k) for the
-    ``targets[i]`` (n, c) of runs ``idx``; a tiny ridge keeps channels on
-    which a feature is zero well posed. Returns (c, k).
+def _run_stats(design, y):
+    """One run's least-squares statistics per channel: the Gram matrix of
+    its design ``(n, c, k)`` (shape ``(c, k, k)``), the design's products
+    with the targets ``y`` ``(n, c)`` (``(c, k)``) and the targets' sums of
+    squares (``(c,)``)."""
+    D = np.ascontiguousarray(design.transpose(1, 2, 0))  # (c, k, n)
+    G = D @ D.transpose(0, 2, 1)
+    b = (D @ y.T[:, :, None])[..., 0]
+    return G, b, np.einsum("nc,nc->c", y, y)
+
+
+def _solve_gains(G, b, sign=None):
+    """Per-channel least-squares gains from the summed Gram matrices ``G``
+    ``(c, k, k)`` and products ``b`` ``(c, k)`` of the runs fitted; a tiny
+    ridge keeps channels on which a feature is zero well posed. Returns
+    (c, k).
 
     ``sign`` (shape (c,), entries -1, 0 or +1) constrains the sign of the
     last feature's gain per channel: where the unconstrained gain has the
     wrong sign, the constrained optimum of this convex problem has that gain
     at zero, so those channels are solved again without the feature."""
-    G = sum(np.einsum("nck,ncl->ckl", design[i], design[i]) for i in idx)
-    b = sum(np.einsum("nck,nc->ck", design[i], targets[i]) for i in idx)
     diag = np.einsum("ckk->ck", G)
     k = G.shape[-1]
     A = G + (1e-8 * diag + 1e-12)[:, :, None] * np.eye(k)
@@ -228,19 +241,43 @@ class DiscrepancyTerm:
         own = self.features(signals, signals.runs[i], theta)
         return np.concatenate([fixed, own], axis=2)
 
-    def _cost(self, signals, idx, theta, fixed=None):
-        design = {i: self._design(signals, i, theta, fixed) for i in idx}
-        targets = {i: signals.runs[i].y for i in idx}
-        gains = _solve_gains(design, targets, idx, self._signs(signals))
-        sse = sum(
-            np.sum(((_predict(design[i], gains) - targets[i]) * signals.w) ** 2)
-            for i in idx
-        )
-        return float(sse), gains
+    def _stats(self, signals, i, theta, fixed=None, cache=None):
+        """:func:`_run_stats` of run ``i`` under ``theta``, from ``cache``
+        when it holds them (the folds of a screening search the same grid
+        on overlapping runs)."""
+        key = None
+        if cache is not None:
+            earlier = tuple((t.name, *t.theta_.values()) for t in self.with_terms)
+            key = (self.name, earlier, i, *theta.values())
+            if key in cache:
+                return cache[key]
+        out = _run_stats(self._design(signals, i, theta, fixed), signals.runs[i].y)
+        if key is not None:
+            cache[key] = out
+        return out
 
-    def fit(self, signals, idx):
+    def _cost(self, signals, idx, theta, fixed=None, cache=None):
+        """Weighted sum of squared errors on runs ``idx`` and the gains,
+        from the runs' least-squares statistics."""
+        stats = [self._stats(signals, i, theta, fixed, cache) for i in idx]
+        G = sum(st[0] for st in stats)
+        b = sum(st[1] for st in stats)
+        yy = sum(st[2] for st in stats)
+        gains = _solve_gains(G, b, self._signs(signals))
+        sse = (
+            yy
+            - 2.0 * np.einsum("ck,ck->c", gains, b)
+            + np.einsum("ck,ckl,cl->c", gains, G, gains)
+        )
+        return float(np.sum(np.maximum(sse, 0.0) * signals.w**2)), gains
+
+    def fit(self, signals, idx, cache=None):
         """Search the nonlinear parameters and solve the gains on runs
-        ``idx`` (the terms in ``with_terms`` keep their fitted parameters)."""
+        ``idx`` (the terms in ``with_terms`` keep their fitted parameters).
+
+        ``cache`` (a dict) keeps every run's least-squares statistics at the
+        grid's points, for the fits of the same term on other folds of the
+        same runs; it holds one term's entries at a time best (memory)."""
         idx = list(idx)
         names = list(self.bounds)
         fixed = {i: self._fixed(signals, i) for i in idx}
@@ -259,7 +296,7 @@ class DiscrepancyTerm:
             theta = dict(zip(names, combo, strict=True))
             if not self._valid(theta):
                 continue
-            cost, _ = self._cost(signals, idx, theta, fixed)
+            cost, _ = self._cost(signals, idx, theta, fixed, cache)
             if best is None or cost < best[0]:
                 best = (cost, theta)
         cost, theta = best

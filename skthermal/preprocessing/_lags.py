@@ -269,14 +269,74 @@ def exponential_filter(
             z0 = u[0] if initial == "steady" else np.zeros(u.shape[1])
             if state[r] is not None and np.all(np.isfinite(state[r][cols])):
                 z0 = state[r][cols]
-            if steps is not None:
-                prev_u = None if u_prev is None else u_prev[cols]
-                Z[sl, cols] = _varying_lowpass(u, steps / tau, z0, gap, prev_u)
-                continue
-            a = float(np.exp(-step / tau))
-            zi = a * z0[None, :]
-            Z[sl, cols] = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
+            prev_u = None if u_prev is None else u_prev[cols]
+            Z[sl, cols] = lowpass_steps(u, tau, step, steps, gap, z0, prev_u)
     return Z.reshape(U.shape)
+
+
+def run_steps(times, period=None):
+    """One run's time steps, worked out once for repeated filtering with
+    :func:`lowpass_steps` (as :func:`exponential_filter` does for a run
+    given ``times``, without a state or a previous row).
+
+    Parameters
+    ----------
+    times : ndarray of shape (n_samples,)
+        Strictly increasing times of the run's rows (seconds).
+    period : float, optional
+        The run's sampling period, against which a step is a gap (longer
+        than ``GAP_STEPS`` periods); default: the median step.
+
+    Returns
+    -------
+    step : float
+        The sampling period (the step before the first row).
+    steps, gap : ndarray of shape (n_samples,) or None
+        Every row's step and whether it is a gap; None when every step
+        equals ``step`` (the filter is then one ``lfilter`` call).
+    """
+    d = np.diff(np.asarray(times, dtype=float))
+    if not d.size:
+        return (1.0 if period is None else float(period)), None, None
+    step = float(np.median(d)) if period is None else float(period)
+    inner = d > GAP_STEPS * step
+    if not inner.any() and not np.any(np.abs(d - step) > 1e-9 * step):
+        return step, None, None
+    return step, np.concatenate(([step], d)), np.concatenate(([False], inner))
+
+
+def lowpass_steps(u, time_constant, step, steps=None, gap=None, z0=None, u_prev=None):
+    """The first-order filter of one run's rows, without input checks (the
+    kernel of :func:`exponential_filter`, for callers that filter the same
+    checked run many times).
+
+    Parameters
+    ----------
+    u : ndarray of shape (n_samples, n_features)
+        Finite inputs, rows in time order.
+    time_constant : float
+        > 0, in the unit of the steps.
+    step : float
+        The step before every row when ``steps`` is None.
+    steps, gap : ndarray of shape (n_samples,), optional
+        Every row's step and whether it is a gap (the input then changes
+        linearly over it), as :func:`run_steps` gives them.
+    z0 : ndarray of shape (n_features,), optional
+        The output before the first row; default: steady state at ``u[0]``.
+    u_prev : ndarray of shape (n_features,), optional
+        The input before the first row, for a gap before it.
+
+    Returns
+    -------
+    ndarray of shape (n_samples, n_features)
+    """
+    if z0 is None:
+        z0 = u[0]
+    if steps is not None:
+        return _varying_lowpass(u, steps / time_constant, z0, gap, u_prev)
+    a = float(np.exp(-step / time_constant))
+    zi = a * np.asarray(z0, dtype=float)[None, :]
+    return lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)[0]
 
 
 # Largest decay (step / time constant) of one step, and of one block of
