@@ -303,9 +303,14 @@ def test_a_small_machine_from_a_dict_simulates():
         ),
         (
             lambda d: d["displacement"]["z"].update(screw=1.0),
-            r"'k.z.screw' \(the ball screw's growth counts only on a machine "
-            r"with a ball screw \(\[heat.feed\] screw = \[...\]\), which this "
-            "machine has not",
+            r"^displacement 'z': screw: the ball screw's growth counts only on a "
+            r"machine with a ball screw \(\[heat.feed\] screw = \[...\]\), "
+            "which this machine has not",
+        ),
+        (
+            # Without a ball screw, 'screw' is not offered among the nodes.
+            lambda d: d["displacement"]["z"].update(scerw=1.0),
+            r"unknown node 'scerw'; known: \['air', 'housing', 'spindle'\]\.$",
         ),
     ],
 )

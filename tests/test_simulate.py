@@ -592,6 +592,65 @@ def test_first_readings_and_their_estimate_name_bad_input():
             rig.initial_from_readings({"T1_C": odd}, 20.0)
 
 
+def test_duty_segments_between_samples_heat_for_their_own_length():
+    """A segment that starts between two samples heats for its own length,
+    not until the next sample: sampled every 60 s, 90 s on / 90 s off gives
+    the node temperatures of the same cycle sampled every 10 s."""
+    machine = ThermalMachine.from_preset("spindle-rig", effects=[])
+    duty = DutyCycle([(90, 6000), (90, 0)] * 20)
+    fine, fine_T = machine.simulate(
+        duty, 20.0, sample_period_s=10.0, noise=False, return_states=True
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        coarse, coarse_T = machine.simulate(
+            duty, 20.0, sample_period_s=60.0, noise=False, return_states=True
+        )
+    np.testing.assert_allclose(coarse_T.to_numpy(), fine_T.to_numpy()[::6], atol=1e-9)
+    disp = [c for c in coarse.columns if c.startswith("disp_")]
+    np.testing.assert_allclose(
+        coarse[disp].to_numpy(), fine[disp].to_numpy()[::6], atol=1e-9
+    )
+    # The table logs the speed in force at each sample time.
+    np.testing.assert_array_equal(
+        coarse["spindle_rpm"].to_numpy(), duty.sample(coarse["time_s"].to_numpy())[0]
+    )
+    # Segments on the samples: one step per sample, as before.
+    aligned = DutyCycle([(120, 6000), (60, 0)] * 10)
+    a = machine.simulate(aligned, 20.0, sample_period_s=60.0, noise=False)
+    b = machine.simulate_drivers(
+        a["time_s"], a["spindle_rpm"], a["ambient_C"], noise=False
+    )
+    np.testing.assert_array_equal(a.to_numpy(), b.to_numpy())
+
+
+def test_duty_segment_starts_anywhere_between_samples():
+    """A start at any time between samples (90.5 s, or 1e-4 s after a
+    sample) is integrated from there: the same node temperatures as a
+    sampling that holds it, and a continuous response to the shift."""
+    machine = ThermalMachine.from_preset("vmc-b", effects=["speed_convection"])
+    duty = DutyCycle([(90.5, 6000, 2000), (3000, 3000), (1500, 0)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, coarse = machine.simulate(
+            duty, 20.0, sample_period_s=60.0, noise=False, return_states=True
+        )
+    _, fine = machine.simulate(
+        duty, 20.0, sample_period_s=0.5, noise=False, return_states=True
+    )
+    fine = fine.to_numpy()[::120]
+    np.testing.assert_allclose(coarse.to_numpy()[: len(fine)], fine, atol=1e-9)
+    shifted = DutyCycle([(60 + 1e-4, 6000, 2000), (3000, 3000), (1500, 0)])
+    on_sample = DutyCycle([(60, 6000, 2000), (3000, 3000), (1500, 0)])
+    a, b = (
+        machine.simulate(d, 20.0, sample_period_s=60.0, noise=False)
+        for d in (shifted, on_sample)
+    )
+    disp = [c for c in a.columns if c.startswith("disp_")]
+    gap = np.abs(a[disp].to_numpy() - b[disp].to_numpy()).max()
+    assert 0 < gap < 1e-3
+
+
 def test_read_checks_the_sample_period():
     machine = ThermalMachine.from_preset("vmc-b", effects=["sensor_lag"])
     T = np.full((5, len(machine.spec.nodes)), 20.5)

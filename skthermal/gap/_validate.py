@@ -61,7 +61,10 @@ def _perturbed(machine, rng, low, high):
     return machine.with_params(new)
 
 
-def _random_duty(rng, hours, with_feed):
+def _random_duty(rng, hours, with_feed, sample_period_s):
+    """Alternating random speed steps and rests of 0.5-1.75 h, each
+    starting on a sample (the logged speeds are the speeds in force, so the
+    simulation's only mismatch is the one drawn)."""
     steps, t = [], 0.0
     on = bool(rng.randint(2))
     while t < hours - 1e-9:
@@ -75,7 +78,12 @@ def _random_duty(rng, hours, with_feed):
         steps.append((length, rpm, feed))
         t += length
         on = not on
-    return DutyCycle.from_hours(steps)
+    ends = np.cumsum([length for length, _, _ in steps]) * 3600.0 / sample_period_s
+    ends = np.ceil(ends - 1e-9) * sample_period_s
+    lengths = np.diff(ends, prepend=0.0)
+    return DutyCycle(
+        [(d, rpm, feed) for d, (_, rpm, feed) in zip(lengths, steps, strict=True)]
+    )
 
 
 def make_gap_campaign(
@@ -192,7 +200,7 @@ def make_gap_campaign(
             door_events=events,
             noise_C=0.05,
         )
-        duty = _random_duty(rng, hours, with_feed)
+        duty = _random_duty(rng, hours, with_feed, sample_period_s)
         first = first or (duty, air)
         frames.append(
             truth.simulate(

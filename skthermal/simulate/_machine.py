@@ -1426,17 +1426,56 @@ class ThermalMachine:
         check_run_label(run)
         t, rpm, air, feed = self._drivers(time_s, spindle_rpm, ambient_C, feed_mm_min)
         self._check_drivers(t, rpm, air, feed, run)
+        return self._sampled_run(
+            t,
+            rpm,
+            air,
+            feed,
+            None,
+            run=run,
+            initial=initial,
+            noise=noise,
+            random_state=random_state,
+            return_states=return_states,
+            strain_gauges=strain_gauges,
+        )
+
+    def _sampled_run(
+        self,
+        t,
+        rpm,
+        air,
+        feed,
+        fine,
+        *,
+        run,
+        initial,
+        noise,
+        random_state,
+        return_states,
+        strain_gauges,
+    ):
+        """The run table of checked drivers sampled at ``t``. ``fine``:
+        None (the speed and feed held over every sample), or ``(times, rpm,
+        feed)``: integration times that hold the samples' (and where the
+        drivers change between samples), with the speed and feed in force
+        from each (the air linear between the samples); the network is
+        then read at the samples."""
         rng = check_random_state(random_state)
         dt = float(t[1] - t[0])
+        T0 = self._initial_state(initial, rpm[0], feed[0], air[0], run)
         with single_threaded_blas():
-            T = self._integrate(
-                rpm,
-                feed,
-                air,
-                dt,
-                self._initial_state(initial, rpm[0], feed[0], air[0], run),
-                run=run,
-            )
+            if fine is None:
+                T = self._integrate(rpm, feed, air, dt, T0, run=run)
+            else:
+                times, rpm_f, feed_f = fine
+                air_f = np.interp(times, t, air)
+                # Whole sample periods exactly dt (one stretch, one set of
+                # gains), not differences of times rounded apart.
+                steps = np.diff(times)
+                steps[np.abs(steps - dt) <= 1e-9 * dt] = dt
+                T = self._integrate(rpm_f, feed_f, air_f, steps, T0, run=run)
+                T = T[np.searchsorted(times, t)]
             readings = self._read_sensors(T, air, t, dt, noise, rng)
             disp = (T - T[0]) @ self._displacement_array().T
         p = self._params
@@ -1493,6 +1532,12 @@ class ThermalMachine:
         ambient : AmbientProfile, float or None
             Workshop air; a float is a constant; None is 20 °C.
         sample_period_s : float, default=30.0
+            Period of the table's samples. The heat follows the duty cycle's
+            segments exactly, whatever their lengths: a segment that starts
+            between two samples starts there (the network is integrated to
+            that time, then on), and the network is read at the samples.
+            The table's ``spindle_rpm`` and ``feed_mm_min`` are the values in
+            force at each sample time, as a logger records them.
         run, initial, noise, random_state, return_states, strain_gauges
             As in :meth:`simulate_drivers`.
 
@@ -1516,11 +1561,23 @@ class ThermalMachine:
         t = np.arange(n + 1) * dt
         rpm, feed = duty.sample(t)
         air = ambient.sample(t, random_state=rng)
-        return self.simulate_drivers(
+        check_run_label(run)
+        self._check_drivers(t, rpm, air, feed, run)
+        fine = None
+        between = _starts_between(duty, dt, n)
+        if between.size:
+            # Integrate from every sample and every segment start between
+            # two; each step's speed and feed are those in force at its
+            # middle.
+            times = np.union1d(t, between)
+            rpm_f, feed_f = duty.sample(times + 0.5 * np.diff(times, append=times[-1]))
+            fine = (times, rpm_f, feed_f)
+        return self._sampled_run(
             t,
             rpm,
             air,
             feed,
+            fine,
             run=run,
             initial=initial,
             noise=noise,
@@ -1614,8 +1671,9 @@ class ThermalMachine:
         shape (n, k, n_nodes): ``parts`` holds ``(sources, air, T0)`` of each
         (the heat sources of :meth:`_heat`, the driving air and the initial
         state); they advance together, one recursion per stretch of
-        :meth:`_segments`."""
+        :meth:`_segments`. ``dt``: the step length, or one per step."""
         n_steps = rpm.shape[0] - 1
+        steps = np.broadcast_to(np.asarray(dt, dtype=float), (n_steps,))
         heats = [
             self._checked_heat(rpm[:-1], feed[:-1], sources, run)
             for sources, _, _ in parts
@@ -1630,9 +1688,9 @@ class ThermalMachine:
         T[0] = np.stack([T0 for _, _, T0 in parts])
         try:
             with np.errstate(over="raise", invalid="raise"):
-                for a, b, (modal, to_room) in self._segments(rpm[:-1]):
+                for a, b, (modal, to_room) in self._segments(rpm[:-1], steps):
                     T[a : b + 1] = modal.step(
-                        T[a], Q[:, a:b], to_room, air[:, a : b + 1], dt, nodes
+                        T[a], Q[:, a:b], to_room, air[:, a : b + 1], steps[a], nodes
                     )
         except (FloatingPointError, _StiffNetwork):
             T[:] = np.nan
@@ -1640,18 +1698,22 @@ class ThermalMachine:
             raise ValueError(self._stiff_message(rpm[:-1], run))
         return T
 
-    def _segments(self, rpm):
+    def _segments(self, rpm, steps):
         """``(start, stop, modal system)`` of the stretches of steps over
         which the network stays the same (it changes with the speed only
-        when an effect makes the convection follow it), none longer than
+        when an effect makes the convection follow it) and the steps
+        (``steps``, their lengths) are equal, none longer than
         ``SEGMENT_STEPS``."""
         if rpm.shape[0] == 0:
             return []
-        change = np.flatnonzero(np.diff(rpm) != 0) + 1
+        change = np.flatnonzero((np.diff(rpm) != 0) | (np.diff(steps) != 0)) + 1
         starts = np.concatenate(([0], change))
         systems = [self._modal(rpm[a]) for a in starts]
         keep = [0] + [
-            k for k in range(1, len(starts)) if systems[k] is not systems[k - 1]
+            k
+            for k in range(1, len(starts))
+            if systems[k] is not systems[k - 1]
+            or steps[starts[k]] != steps[starts[k - 1]]
         ]
         stops = [*starts[keep[1:]], rpm.shape[0]]
         # Long stretches go in pieces that stay in the processor's cache
@@ -1834,6 +1896,15 @@ class ThermalMachine:
 # calibrate scales a channel by no less than this share of the root mean
 # square spread of the channels of its kind.
 CHANNEL_SCALE_FLOOR = 0.25
+
+
+def _starts_between(duty, dt, n):
+    """Times (s) at which a segment of ``duty`` starts between two of the
+    ``n + 1`` samples ``0, dt, ...`` (a start within 1e-9 of a sample's
+    time is on it)."""
+    starts = np.cumsum([seg.duration_s for seg in duty.segments])[:-1]
+    off = np.abs(starts / dt - np.round(starts / dt)) > 1e-9
+    return starts[off & (starts > 0) & (starts < n * dt)]
 
 
 def _as_slice(index):

@@ -22,6 +22,9 @@ import numpy as np
 from scipy import linalg
 from scipy.signal import lfilter
 
+# ModalSystem keeps the step gains of this many step lengths.
+GAIN_CACHE_SIZE = 64
+
 
 def _scan(lam, y):
     """In-place inclusive scan ``y[t] += lam y[t-1]`` along axis -2 (doubling)."""
@@ -156,12 +159,18 @@ class ModalSystem:
         )
 
     def _gains(self, dt):
-        """Per-mode decay and hold gains for a step ``dt``, cached."""
+        """Per-mode decay and hold gains for a step ``dt``, cached for the
+        first ``GAIN_CACHE_SIZE`` step lengths (the sample periods; the odd
+        steps to segment starts between samples would grow it without
+        end)."""
         cache = self.__dict__.setdefault("_gain_cache", {})
-        if dt not in cache:
-            phi0, phi1 = _hold_gains(self.rates, dt)
-            cache[dt] = (np.exp(-self.rates * dt), phi0, phi1)
-        return cache[dt]
+        if dt in cache:
+            return cache[dt]
+        phi0, phi1 = _hold_gains(self.rates, dt)
+        gains = (np.exp(-self.rates * dt), phi0, phi1)
+        if len(cache) < GAIN_CACHE_SIZE:
+            cache[dt] = gains
+        return gains
 
     @property
     def time_constants(self):

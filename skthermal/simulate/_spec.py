@@ -1164,9 +1164,9 @@ class MachineSpec:
         for axis in axes:
             p.update({f"k.{axis}.{n}": 0.0 for n in nodes})
             coefficients = disp.get(axis, {})
-            # Keys are nodes (and the ball screw, checked with the feed
-            # drive below): a misspelt one is an unknown node.
-            known = [*nodes, "screw"]
+            # Keys are nodes (and the ball screw on a machine with one): a
+            # misspelt one is an unknown node.
+            known = [*nodes, *(["screw"] if feed is not None else [])]
             if not isinstance(coefficients, dict):
                 _check_fields(f"displacement {axis!r}", coefficients, known)
             for node in coefficients:
@@ -1176,6 +1176,12 @@ class MachineSpec:
                         "[displacement] itself (the noise of every displacement "
                         "channel, µm), not of an axis; write it beside the "
                         "axes' tables."
+                    )
+                if node == "screw" and feed is None:
+                    raise ValueError(
+                        f"displacement {axis!r}: screw: the ball screw's growth "
+                        "counts only on a machine with a ball screw ([heat.feed] "
+                        "screw = [...]), which this machine has not."
                     )
                 if node not in known:
                     raise _unknown(f"displacement {axis!r}", node, known)
