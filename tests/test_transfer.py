@@ -8,9 +8,16 @@ import pytest
 
 from skthermal.linear_model import TransferFunctionRegressor, first_order_lags
 from skthermal.linear_model._transfer import (
+    _direct_changes,
+    _fit_lags,
+    _grid_moments,
+    _orthonormal_basis,
     _ridge_column_changes,
-    _ridge_with_intercept,
+    _ridge_residual,
+    _standardise,
+    _triangular_factor,
 )
+from skthermal.preprocessing import exponential_filter
 
 
 def _heating_runs(taus=(300.0, 1200.0), gains=(2.0, -0.5), speed_gain=0.003):
@@ -259,14 +266,10 @@ def test_second_order_needs_room_for_two_time_constants():
         TransferFunctionRegressor(order=2, tau_bounds=(100.0, 150.0)).fit(X, y)
 
 
-@pytest.mark.parametrize("alpha", [0.0, 0.5])
-def test_column_changes_match_a_direct_solve(alpha):
-    # The Jacobian's ridge with one or two lag columns replaced, from one
-    # factorisation of the whole design, against a solve from scratch. Five
-    # inputs of four lags each are nearly dependent columns, as many sensors
-    # give: without penalty their Gram matrix has a condition of 4e8, and
-    # the reference is then an orthogonal factorisation of each design (the
-    # direct Cholesky solve is itself off by 5e-5 there).
+def _dependent_lags():
+    """Five inputs of four lags each, nearly dependent rows as many sensors
+    give (without penalty their Gram matrix has a condition of 4e8), in
+    two runs: the inputs, lags, time constants and a target."""
     rng = np.random.default_rng(0)
     slices = [slice(0, 150), slice(150, 300)]
     dt = np.array([10.0, 10.0])
@@ -274,39 +277,136 @@ def test_column_changes_match_a_direct_solve(alpha):
     taus = np.tile(np.geomspace(30.0, 3000.0, 4), 5) * rng.uniform(0.8, 1.2, 20)
     Phi = first_order_lags(U, taus, dt, slices)
     y = Phi @ rng.normal(size=20) + 0.01 * rng.normal(size=300)
+    return U, taus, dt, slices, Phi, y
 
-    def orthogonal(Phi):
-        A = (Phi - Phi.mean(axis=0)) / Phi.std(axis=0)
-        Q = np.linalg.qr(A)[0]
-        return y - y.mean() - Q @ (Q.T @ (y - y.mean()))
+
+@pytest.mark.parametrize("alpha", [0.0, 0.5])
+def test_column_changes_match_a_direct_solve(alpha):
+    # The Jacobian's ridge with one or two lags replaced, from one
+    # factorisation of the whole design, against a solve from scratch. On
+    # the nearly dependent lags without penalty, the reference is an
+    # orthogonal factorisation of each design (the direct Cholesky solve
+    # is itself off by 5e-5 there).
+    U, taus, dt, slices, Phi, y = _dependent_lags()
+    A = Phi.T.copy()
+    _standardise(A)
+    yc = y - y.mean()
+    gram, w, r0 = _ridge_residual(A, yc, alpha)
+
+    def orthogonal(A):
+        Q = np.linalg.qr(A.T)[0]
+        return yc - Q @ (Q.T @ yc)
 
     groups = [np.array([0]), np.array([9]), np.array([18, 19]), np.array([], int)]
     h = 1e-3
     new = first_order_lags(
         U[:, [0, 9, 18, 19]], taus[[0, 9, 18, 19]] * np.exp(h), dt, slices
+    ).T.copy()
+    _standardise(new)
+    changes = (
+        np.hstack(_ridge_column_changes(A, yc, alpha, gram, groups, new.copy())) / h
     )
-    changes = _ridge_column_changes(Phi, y, alpha, groups, new) / h
-    np.testing.assert_array_equal(changes[:, 3], 0.0)
-    r0 = _ridge_with_intercept(Phi, y, alpha)[2]
+    np.testing.assert_array_equal(changes[3], 0.0)
     start = 0
-    for cols, fast in zip(groups[:3], changes.T, strict=False):
-        trial = Phi.copy()
-        trial[:, cols] = new[:, start : start + cols.size]
+    for cols, fast in zip(groups[:3], changes, strict=False):
+        trial = A.copy()
+        trial[cols] = new[start : start + cols.size]
         start += cols.size
         if alpha > 0:
-            ref = (_ridge_with_intercept(trial, y, alpha)[2] - r0) / h
+            ref = (_ridge_residual(trial, yc, alpha)[2] - r0) / h
         else:
-            ref = (orthogonal(trial) - orthogonal(Phi)) / h
+            ref = (orthogonal(trial) - orthogonal(A)) / h
             np.testing.assert_array_equal(fast[y.size :], 0.0)
             fast = fast[: y.size]
         np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
-    # A singular design (a sensor that never changes, no penalty), or a
-    # singular replacement: solved directly.
-    if alpha == 0:
-        still = np.c_[Phi, np.zeros(300)]
-        assert _ridge_column_changes(still, y, alpha, groups[:1], new[:, :1]) is None
-        again = _ridge_column_changes(Phi, y, alpha, [np.array([1])], Phi[:, [0]])
-        assert np.isnan(again).all()
+    if alpha > 0:
+        # The direct solves (for singular designs) agree where both apply.
+        direct = np.hstack(_direct_changes(A, yc, alpha, gram, w, groups, new)) / h
+        np.testing.assert_allclose(
+            direct, changes, rtol=0, atol=1e-6 * np.abs(changes).max()
+        )
+    else:
+        # A singular design (a sensor that never changes, no penalty), or a
+        # singular replacement: solved directly.
+        still = np.vstack([A, np.zeros(300)])
+        assert (
+            _ridge_column_changes(
+                still, yc, 0.0, still @ still.T, groups[:1], new[:1].copy()
+            )
+            is None
+        )
+        again = _ridge_column_changes(A, yc, 0.0, gram, [np.array([1])], A[[0]])
+        assert all(np.isnan(part).all() for part in again)
+        # A replacement that changes nothing changes the direct solve by
+        # exactly nothing (the refinement then sees a Jacobian of exact
+        # rank, as refitting from scratch gave it).
+        gram, w, _ = _ridge_residual(still, yc, 0.0)
+        direct = _direct_changes(still, yc, 0.0, gram, w, [np.array([20])], still[[20]])
+        assert all(np.all(part == 0.0) for part in direct)
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.5])
+@pytest.mark.parametrize("condition", ["dependent", "degenerate"])
+def test_orthonormal_basis(alpha, condition):
+    # Cholesky QR twice, or (a design too ill-conditioned for it)
+    # Householder QR: an orthonormal Q and Q R the design, to rounding.
+    Phi = _dependent_lags()[4]
+    A = Phi.T.copy()
+    _standardise(A)
+    if condition == "degenerate":  # a condition number of some 1e10
+        A[1] = A[0] + 1e-10 * A[1]
+    gram = A @ A.T + alpha * np.eye(20)
+    Qn, Qp, R = _orthonormal_basis(A, alpha, gram)
+    Q = np.hstack([Qn, Qp])
+    np.testing.assert_allclose(Q @ Q.T, np.eye(20), rtol=0, atol=1e-13)
+    design = np.hstack([A, np.sqrt(alpha) * np.eye(20)])
+    np.testing.assert_allclose(R.T @ Q, design, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(R, np.triu(R))
+
+
+def test_triangular_factor():
+    # R'R is the Gram matrix of the rows, from a Cholesky factorisation, or
+    # (a row of zeros: singular) a blocked QR factorisation.
+    rng = np.random.default_rng(1)
+    Kn, Kp = rng.normal(size=(6, 5000)), rng.normal(size=(6, 4))
+    for zero in (False, True):
+        if zero:
+            Kn[3], Kp[3] = 0.0, 0.0
+        R = _triangular_factor(Kn, Kp)
+        np.testing.assert_allclose(
+            R.T @ R, Kn @ Kn.T + Kp @ Kp.T, rtol=0, atol=1e-9 * 5000
+        )
+        np.testing.assert_array_equal(R, np.triu(R))
+        assert np.all(np.diag(R) >= 0)
+    # The first row alone on the first axis: the residual's coordinates.
+    np.testing.assert_allclose(R[0, 0], np.sqrt(Kn[0] @ Kn[0] + Kp[0] @ Kp[0]))
+
+
+def test_fit_lags_and_grid_moments_match_the_filter(monkeypatch):
+    # The lags of the refinement, one row each, are those of
+    # first_order_lags; the grid search's Gram matrix, formed a block of
+    # rows at a time (here blocks smaller than a run, and spanning runs),
+    # is that of all the lags at once.
+    rng = np.random.default_rng(2)
+    slices = [slice(0, 130), slice(130, 131), slice(131, 300)]
+    dts = np.array([10.0, 10.0, 4.0])
+    U = np.cumsum(rng.normal(size=(300, 3)), axis=0)
+    Y = rng.normal(size=(300, 2))
+    taus = np.array([30.0, 300.0, 50.0, 400.0, 20.0, 900.0])
+    Z = _fit_lags(np.ascontiguousarray(U.T), taus, np.arange(6) // 2, dts, slices)
+    ref = first_order_lags(np.repeat(U, 2, axis=1), taus, dts, slices)
+    np.testing.assert_array_equal(Z.T, ref)
+    grid = np.geomspace(5.0, 3000.0, 4)
+    monkeypatch.setattr("skthermal.linear_model._transfer._GRID_BLOCK", 12 * 50)
+    gram, cross = _grid_moments(np.ascontiguousarray(U.T), Y, dts, slices, grid)
+    lags = np.stack(
+        [exponential_filter(U, t, dts, slices, initial="rest") for t in grid], axis=2
+    ).reshape(300, 12)
+    lags -= lags.mean(axis=0)
+    np.testing.assert_allclose(gram, lags.T @ lags, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        cross, lags.T @ (Y - Y.mean(axis=0)), rtol=1e-12, atol=1e-9
+    )
 
 
 @pytest.mark.parametrize("order", [1, 2])

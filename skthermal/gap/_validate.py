@@ -81,8 +81,13 @@ def _random_duty(rng, hours, with_feed, sample_period_s):
     ends = np.cumsum([length for length, _, _ in steps]) * 3600.0 / sample_period_s
     ends = np.ceil(ends - 1e-9) * sample_period_s
     lengths = np.diff(ends, prepend=0.0)
+    # (A last step shorter than a sample ends on the run's last sample.)
     return DutyCycle(
-        [(d, rpm, feed) for d, (_, rpm, feed) in zip(lengths, steps, strict=True)]
+        [
+            (d, rpm, feed)
+            for d, (_, rpm, feed) in zip(lengths, steps, strict=True)
+            if d > 0
+        ]
     )
 
 

@@ -13,6 +13,7 @@ from numbers import Integral, Real
 import numpy as np
 from scipy import linalg
 from scipy.optimize import least_squares
+from scipy.signal import lfilter
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -51,6 +52,13 @@ _DT_RTOL = 0.01
 # two lags is such a sum (partial fractions), and one of two nearly equal
 # lags is matched closely by a pair this far apart.
 MIN_TAU_RATIO = 2.0
+# Values held at once by the grid search's lags (a block of rows of all of
+# them, see _grid_moments): 32 MB.
+_GRID_BLOCK = 2**22
+# Rows per block of the blocked QR factorisation of the Jacobian (see
+# _triangular_factor): small enough to stay in cache, large enough that the
+# stacked factors are few.
+_QR_BLOCK = 2048
 
 
 def _pair_log_tau(x, lo, hi, order):
@@ -156,101 +164,288 @@ def _solve_normal(gram, b):
         return np.linalg.lstsq(gram, b, rcond=1e-12)[0]
 
 
-def _ridge_with_intercept(Phi, y, alpha):
-    """Gains and intercept of ``y ~ Phi``, ridge on standardised columns."""
-    mean = Phi.mean(axis=0)
-    scale = Phi.std(axis=0)
-    scale[scale < 1e-12] = 1.0
-    A = (Phi - mean) / scale
-    y_mean = y.mean()
-    yc = y - y_mean
-    # The normal equations of the (small) standardised problem: a few times
-    # faster than a least-squares solve of the tall matrix, and this runs for
-    # every trial of the time constants.
-    gram = A.T @ A
-    gram[np.diag_indices_from(gram)] += alpha
-    w = _solve_normal(gram, A.T @ yc)
-    resid = yc - A @ w
-    coef = w / scale
-    intercept = y_mean - mean @ coef
-    return coef, intercept, np.concatenate([resid, np.sqrt(alpha) * w])
+def _fit_lags(Ut, tau, inputs, dts, slices, out=None):
+    """The lags of :func:`first_order_lags` as ``fit`` needs them: one row
+    per lag.
 
-
-def _ridge_column_changes(Phi, y, alpha, groups, new):
-    """Changes of the residual vector of :func:`_ridge_with_intercept` when
-    groups of columns of ``Phi`` are replaced, one group at a time.
-
-    The finite-difference Jacobian replaces the one or two lag columns of
-    one time constant at a time. A full solve for each costs a Gram matrix
-    and a Cholesky factorisation of all the lags, so the Jacobian grew with
-    the cube of the number of lags; and it is only as accurate as the
-    normal equations, off by several per cent with hundreds of nearly
-    dependent lags. Here one QR factorisation of the design (augmented for
-    the ridge) serves all the replacements: products with all the new
-    columns at once, then per group a few vectors of the length of a row of
-    the design and a solve of the group's size.
+    From rest with a constant step per run: the filter calls of
+    :func:`skthermal.preprocessing.exponential_filter`, but every lag its
+    own (in the refinement no two lags share a time constant) and a
+    contiguous row, which spares the copies in and out of the columns of a
+    design and the inputs repeated per lag.
 
     Parameters
     ----------
-    Phi : ndarray of shape (n_samples, n_columns)
-        Design.
-    y : ndarray of shape (n_samples,)
-        Target.
-    alpha : float
-        Ridge penalty, as in :func:`_ridge_with_intercept`.
-    groups : list of ndarray of int
-        The columns that each change replaces.
-    new : ndarray of shape (n_samples, n_new)
-        Their new columns, group after group.
+    Ut : ndarray of shape (n_inputs, n_samples)
+        Inputs, one row per input.
+    tau : ndarray of shape (n_lags,)
+        Time constant of every lag.
+    inputs : ndarray of int of shape (n_lags,)
+        Input (row of ``Ut``) of every lag.
+    dts : ndarray of shape (n_runs,)
+        Sampling interval of every run.
+    slices : list of slice
+        Runs.
+    out : ndarray of shape (n_lags, n_samples), optional
+        Where to put the lags.
 
     Returns
     -------
-    changes : ndarray of shape (n_samples + n_columns, len(groups)) or None
-        Per group, the residual vector of :func:`_ridge_with_intercept` with
-        the group's columns replaced, less that of ``Phi``. NaN where the
-        new design is (nearly) singular, and None when ``Phi``'s is: there
-        the normal equations of a direct solve fall back to a least-norm
-        solution, which is left to them.
+    Z : ndarray of shape (n_lags, n_samples)
     """
-    mean = Phi.mean(axis=0)
-    scale = Phi.std(axis=0)
+    Z = np.empty((tau.size, Ut.shape[1])) if out is None else out
+    for sl, dt in zip(slices, dts, strict=True):
+        if sl.stop <= sl.start:
+            continue
+        a = np.exp(-dt / tau)
+        for j, (aj, i) in enumerate(zip(a, inputs, strict=True)):
+            Z[j, sl] = lfilter([1.0 - aj], [1.0, -aj], Ut[i, sl])
+    return Z
+
+
+def _grid_moments(Ut, Y, dts, slices, grid):
+    """Centred Gram matrix of the lags of every input at every grid time
+    constant, and their products with the centred targets.
+
+    The lags are formed and reduced a block of rows at a time (each block's
+    filters continued from the last row of the one before): the Gram matrix
+    is small, but all the lags at once held ``n_samples * n_inputs *
+    n_grid`` values (1 GB at 1e5 rows, 80 inputs and 15 grid points, and as
+    much again while stacking them). The column means, needed before the
+    first block, come in closed form: from rest, the lag of time constant
+    ``tau`` summed over a run of ``N`` rows is ``sum_i u[i] (1 - a^(N - i))``
+    with ``a = exp(-dt / tau)``.
+
+    Parameters
+    ----------
+    Ut : ndarray of shape (n_inputs, n_samples)
+        Inputs, one row per input.
+    Y : ndarray of shape (n_samples, n_outputs)
+        Targets.
+    dts, slices
+        Sampling interval and rows of every run.
+    grid : ndarray of shape (n_grid,)
+        Time constants.
+
+    Returns
+    -------
+    gram : ndarray of shape (n_inputs * n_grid, n_inputs * n_grid)
+        Columns ordered (input, grid point): column ``i * n_grid + g``.
+    cross : ndarray of shape (n_inputs * n_grid, n_outputs)
+    """
+    n_in, n = Ut.shape
+    n_lags = n_in * grid.size
+    sums = np.zeros((n_in, grid.size))
+    for sl, dt in zip(slices, dts, strict=True):
+        left = np.arange(sl.stop - sl.start, 0, -1)[:, None]  # N - i
+        sums -= Ut[:, sl] @ np.expm1(-left * dt / grid)
+    mean = sums.reshape(n_lags) / n
+    Yc = Y - Y.mean(axis=0)
+    rows = max(1, min(n, _GRID_BLOCK // n_lags))
+    block = np.empty((n_in, grid.size, rows))
+
+    def blocks():
+        # Fill the block with the lags of consecutive rows, run after run.
+        fill, pieces = 0, []
+        state = np.empty((n_in, grid.size))
+        for sl, dt in zip(slices, dts, strict=True):
+            a = np.exp(-dt / grid)
+            state[:] = 0.0
+            start = sl.start
+            while start < sl.stop:
+                take = min(sl.stop - start, rows - fill)
+                u = Ut[:, start : start + take]
+                for g, ag in enumerate(a):
+                    z = lfilter(
+                        [1.0 - ag], [1.0, -ag], u, axis=1, zi=ag * state[:, g, None]
+                    )[0]
+                    block[:, g, fill : fill + take] = z
+                    state[:, g] = z[:, -1]
+                pieces.append(slice(start, start + take))
+                fill += take
+                start += take
+                if fill == rows:
+                    yield fill, pieces
+                    fill, pieces = 0, []
+        if fill:
+            yield fill, pieces
+
+    gram = np.zeros((n_lags, n_lags))
+    cross = np.zeros((n_lags, Y.shape[1]))
+    for fill, pieces in blocks():
+        lags = block.reshape(n_lags, rows)[:, :fill]
+        lags -= mean[:, None]
+        gram += lags @ lags.T
+        cross += lags @ np.concatenate([Yc[sl] for sl in pieces])
+    return gram, cross
+
+
+def _standardise(Z):
+    """Centre the rows of ``Z`` and scale them to a mean square of one (a
+    constant row left at zero), in place; return the means and scales."""
+    mean = Z.mean(axis=1)
+    Z -= mean[:, None]
+    scale = np.sqrt(np.einsum("ij,ij->i", Z, Z) / Z.shape[1])
     scale[scale < 1e-12] = 1.0
-    A = (Phi - mean) / scale
-    yc = y - y.mean()
-    n, p = A.shape
-    if alpha > 0:  # the ridge as least squares with sqrt(alpha) I below
-        A = np.vstack([A, np.sqrt(alpha) * np.eye(p)])
-        yc = np.concatenate([yc, np.zeros(p)])
-    Q, R = np.linalg.qr(A)
+    Z /= scale[:, None]
+    return mean, scale
+
+
+def _ridge_residual(A, yc, alpha):
+    """Normal equations, gains and residual vector of the ridge of ``yc``
+    (centred target) on the standardised lags ``A`` (one row each).
+
+    The normal equations of the (small) standardised problem: a few times
+    faster than a least-squares solve of the tall matrix, and this runs for
+    every trial of the time constants. Returns the Gram matrix with the
+    penalty on its diagonal, the gains ``w`` and the residual vector ``[yc -
+    A'w, sqrt(alpha) w]`` whose sum of squares the refinement minimises.
+    """
+    gram = A @ A.T
+    gram[np.diag_indices_from(gram)] += alpha
+    w = _solve_normal(gram, A @ yc)
+    return gram, w, np.concatenate([yc - w @ A, np.sqrt(alpha) * w])
+
+
+def _orthonormal_basis(A, alpha, gram, out=None):
+    """QR factorisation ``[A'; sqrt(alpha) I] = Q R`` of the ridge's design.
+
+    Cholesky QR twice (``R1`` the Cholesky factor of the Gram matrix, ``Q1 =
+    [A'; sqrt(alpha) I] R1^-1``, and again on ``Q1``): products and
+    triangular solves of the tall matrix, which run at the speed of a
+    matrix product, where Householder QR (and the forming of its ``Q``)
+    took ten times longer. The first pass loses orthogonality as the square
+    of the design's condition number; the second restores it to rounding
+    when the first left ``Q1' Q1`` near the identity (a condition number up
+    to some 1e7). Else, and when the Gram matrix is singular to rounding,
+    Householder QR. ``out``, of the shape of ``A``, takes ``Qn``.
+
+    Returns
+    -------
+    Qn : ndarray of shape (n_lags, n_samples)
+        The rows of ``Q`` for the samples, transposed.
+    Qp : ndarray of shape (n_lags, n_lags)
+        Those for the penalty, transposed.
+    R : ndarray of shape (n_lags, n_lags)
+    """
+    p, n = A.shape
+    try:
+        R1 = linalg.cholesky(gram, check_finite=False)
+        # Qn' <- Qn' R1^-1, in place through the transposes' Fortran order.
+        Qn = np.empty_like(A) if out is None else out
+        Qn[:] = A
+        _solve_right(Qn, R1)
+        Qp = np.sqrt(alpha) * linalg.solve_triangular(
+            R1, np.eye(p), trans="T", check_finite=False
+        )
+        G2 = Qn @ Qn.T + Qp @ Qp.T
+        if not np.max(np.abs(G2 - np.eye(p))) < 0.1:
+            raise linalg.LinAlgError("the first pass lost orthogonality")
+        R2 = linalg.cholesky(G2, check_finite=False)
+        _solve_right(Qn, R2)
+        Qp = linalg.solve_triangular(R2, Qp, trans="T", check_finite=False)
+        return Qn, Qp, R2 @ R1
+    except linalg.LinAlgError:
+        Q, R = np.linalg.qr(np.vstack([A.T, np.sqrt(alpha) * np.eye(p)]))
+        return np.ascontiguousarray(Q[:n].T), np.ascontiguousarray(Q[n:].T), R
+
+
+def _solve_right(C, R):
+    """``C <- R^-T C`` in place (``R`` upper-triangular, ``C`` wide and
+    C-ordered), through the transpose's Fortran order: ``C' <- C' R^-1``."""
+    out = linalg.blas.dtrsm(1.0, R, C.T, side=1, overwrite_b=True)
+    if not np.shares_memory(out, C):  # BLAS wrote to a copy
+        C[...] = out.T
+
+
+def _accumulate(C, A, B, alpha=1.0):
+    """``C += alpha A @ B`` in place, ``B`` and ``C`` wide and C-ordered:
+    through the transposes' Fortran order, without a temporary of ``C``'s
+    size."""
+    out = linalg.blas.dgemm(alpha, B.T, A.T, beta=1.0, c=C.T, overwrite_c=True)
+    if not np.shares_memory(out, C):  # BLAS wrote to a copy
+        C[...] = out.T
+
+
+def _ridge_column_changes(A, yc, alpha, gram, groups, new, out=None, basis=None):
+    """Changes of the residual vector of :func:`_ridge_residual` when groups
+    of lags are replaced, one group at a time.
+
+    The finite-difference Jacobian replaces the one or two lags of one time
+    constant at a time. A full solve for each costs a Gram matrix and a
+    Cholesky factorisation of all the lags, so the Jacobian grew with the
+    cube of the number of lags; and it is only as accurate as the normal
+    equations, off by several per cent with hundreds of nearly dependent
+    lags. Here one QR factorisation of the design (augmented for the ridge,
+    :func:`_orthonormal_basis`) serves all the replacements: products with
+    all the new lags at once, then per group a few vectors of the length of
+    a lag and a solve of the group's size.
+
+    Parameters
+    ----------
+    A : ndarray of shape (n_lags, n_samples)
+        Standardised lags (:func:`_standardise`), one row each.
+    yc : ndarray of shape (n_samples,)
+        Centred target.
+    alpha : float
+        Ridge penalty, as in :func:`_ridge_residual`.
+    gram : ndarray of shape (n_lags, n_lags)
+        ``A A' + alpha I``.
+    groups : list of ndarray of int
+        The lags that each change replaces.
+    new : ndarray of shape (n_new, n_samples)
+        Their new standardised lags, group after group; overwritten.
+    out : tuple of ndarray, optional
+        Where to put the changes (C-ordered), as returned.
+    basis : ndarray of the shape of ``A``, optional
+        Work space (see :func:`_orthonormal_basis`).
+
+    Returns
+    -------
+    changes : tuple of ndarray or None
+        Per group, the residual vector of :func:`_ridge_residual` with the
+        group's lags replaced, less that of ``A``: its entries for the
+        samples, of shape (len(groups), n_samples), and for the penalty, of
+        shape (len(groups), n_lags). NaN where the new design is (nearly)
+        singular, and None when ``A``'s is: there the normal equations of a
+        direct solve fall back to a least-norm solution, which is left to
+        them (:func:`_direct_changes`).
+    """
+    p, n = A.shape
+    Qn, Qp, R = _orthonormal_basis(A, alpha, gram, basis)
     # The squares of R's diagonal are the pivots of a Cholesky factorisation
     # of the Gram matrix R'R: below the rounding of the largest, it fails.
     tiny = 1e-16 * np.max(np.diag(R) ** 2)
     if not np.min(np.diag(R) ** 2) > tiny:
         return None
-    z = Q.T @ yc
-    base = yc - Q @ z
+    z = Qn @ yc
+    base_n, base_p = yc - z @ Qn, -(z @ Qp)
     R_inv = linalg.solve_triangular(R, np.eye(p), check_finite=False)
-    mean = new.mean(axis=0)
-    scale = new.std(axis=0)
-    scale[scale < 1e-12] = 1.0
     cols = np.concatenate(groups)
-    delta = np.zeros((A.shape[0], new.shape[1]))
-    delta[:n] = (new - mean) / scale - A[:n, cols]
-    # The new columns within Q's span (coordinates t) and orthogonal to it
-    # (o), projected twice: once loses digits to nearly dependent columns.
-    inside = Q.T @ delta
-    outside = delta - Q @ inside
-    again = Q.T @ outside
-    outside -= Q @ again
+    for row, col in enumerate(cols):  # the changes of the lags, in place
+        new[row] -= A[col]
+    # The new lags within Q's span (coordinates t) and orthogonal to it
+    # (outside), projected twice: once loses digits to nearly dependent
+    # lags. (The changes are zero in the penalty's rows.)
+    inside = Qn @ new.T
+    out_n, out_p = new, -(inside.T @ Qp)
+    _accumulate(out_n, inside.T, Qn, -1.0)
+    again = Qn @ out_n.T + Qp @ out_p.T
+    _accumulate(out_n, again.T, Qn, -1.0)
+    out_p -= again.T @ Qp
     t = R[:, cols] + inside + again
-    o_base = outside.T @ base
-    # In Q's coordinates the kept columns span the orthogonal complement of
-    # N, a basis of the replaced columns' rows of R^-1 (each orthogonal to
-    # R's other columns). Off the kept columns, y is Q N N'z + base and the
-    # new columns Q N N't + o, whose least squares give their gains beta
-    # and the new residual Q N (N'z - N't beta) + base - o beta.
+    o_base = out_n @ base_n + out_p @ base_p
+    # In Q's coordinates the kept lags span the orthogonal complement of N,
+    # a basis of the replaced lags' rows of R^-1 (each orthogonal to R's
+    # other columns). Off the kept lags, y is Q N N'z + base and the new
+    # lags Q N N't + o, whose least squares give their gains beta and the
+    # new residual Q N (N'z - N't beta) + base - o beta.
     within = np.zeros((p, len(groups)))
-    changes = np.zeros((A.shape[0], len(groups)))
+    if out is None:
+        out = np.empty((len(groups), n)), np.empty((len(groups), p))
+    changes_n, changes_p = out
+    changes_n[:] = 0.0
+    changes_p[:] = 0.0
     bad = np.zeros(len(groups), dtype=bool)
     end = 0
     for g, group in enumerate(groups):
@@ -268,22 +463,87 @@ def _ridge_column_changes(Phi, y, alpha, groups, new):
             N[:, i] /= np.linalg.norm(N[:, i])
         Nz = N.T @ z
         Nt = N.T @ t[:, block]
-        o = outside[:, block]
-        # The new columns' Gram off the kept ones: the last pivots of a
+        o_n, o_p = out_n[block], out_p[block]
+        # The new lags' Gram off the kept ones: the last pivots of a
         # Cholesky factorisation with them last.
-        gram = Nt.T @ Nt + o.T @ o
-        if not np.linalg.eigvalsh(gram)[0] > tiny:
+        gram_g = Nt.T @ Nt + o_n @ o_n.T + o_p @ o_p.T
+        if not np.linalg.eigvalsh(gram_g)[0] > tiny:
             bad[g] = True
             continue
-        beta = np.linalg.solve(gram, Nt.T @ Nz + o_base[block])
+        beta = np.linalg.solve(gram_g, Nt.T @ Nz + o_base[block])
         within[:, g] = N @ (Nz - Nt @ beta)
-        changes[:, g] = -(o @ beta)
-    changes += Q @ within
+        changes_n[g] = -(beta @ o_n)
+        changes_p[g] = -(beta @ o_p)
+    _accumulate(changes_n, within.T, Qn)
+    changes_p += within.T @ Qp
     # The augmented rows hold -sqrt(alpha) w, the residual vector +.
-    tail = -changes[n:] if alpha > 0 else np.zeros((p, len(groups)))
-    changes = np.vstack([changes[:n], tail])
-    changes[:, bad] = np.nan
-    return changes
+    changes_p *= -1.0 if alpha > 0 else 0.0
+    changes_n[bad] = np.nan
+    changes_p[bad] = np.nan
+    return changes_n, changes_p
+
+
+def _direct_changes(A, yc, alpha, gram, w, groups, new):
+    """What :func:`_ridge_column_changes` gives, by the normal equations of
+    each new design (a least-norm solution where singular), as
+    :func:`_ridge_residual` solves them (``gram`` and ``w`` its Gram matrix
+    and gains for ``A``): the Gram matrix with the group's rows and columns
+    replaced, products with all the new lags at once. The changes of the
+    residual are formed from those of the gains, so a replacement that
+    changes nothing (an input at rest) changes it by exactly zero, as
+    refitting from scratch did."""
+    p, n = A.shape
+    cross = A @ new.T
+    b, b_new = A @ yc, new @ yc
+    dW = np.empty((len(groups), p))
+    end = 0
+    for g, group in enumerate(groups):
+        block = slice(end, end + group.size)
+        end += group.size
+        G = gram.copy()
+        G[group] = cross[:, block].T
+        G[:, group] = cross[:, block]
+        G[np.ix_(group, group)] = new[block] @ new[block].T
+        G[group, group] += alpha
+        rhs = b.copy()
+        rhs[group] = b_new[block]
+        dW[g] = _solve_normal(G, rhs) - w
+    changes_n = -(dW @ A)
+    end = 0
+    for g, group in enumerate(groups):
+        block = slice(end, end + group.size)
+        end += group.size
+        changes_n[g] -= (w[group] + dW[g, group]) @ (new[block] - A[group])
+    return changes_n, np.sqrt(alpha) * dW
+
+
+def _triangular_factor(Kn, Kp):
+    """Upper-triangular ``R`` with ``R'R = Kn Kn' + Kp Kp'`` and a
+    nonnegative diagonal: the ``R`` of the QR factorisation of ``[Kn';
+    Kp']``.
+
+    The Cholesky factor of the Gram matrix, one product of the tall matrix
+    with itself, a fifth of the time of Householder QR: backward stable, so
+    ``R'R`` is the Gram matrix to rounding, which keeps the directions of
+    the rows down to ``1e-8`` of the strongest (those of a finite-difference
+    Jacobian are exact to ``1e-3``). When the Gram matrix is singular to
+    rounding (a row of zeros: a step that moves no lag), Householder QR by
+    blocks of ``_QR_BLOCK`` columns of ``Kn`` whose factors are then
+    factorised together (the blocks stay in cache).
+    """
+    k = Kn.shape[0]
+    try:
+        return linalg.cholesky(Kn @ Kn.T + Kp @ Kp.T, check_finite=False)
+    except linalg.LinAlgError:
+        pass
+    geqrf = linalg.lapack.dgeqrf
+    parts = [Kp.T]
+    for start in range(0, Kn.shape[1], _QR_BLOCK):
+        parts.append(np.triu(geqrf(Kn[:, start : start + _QR_BLOCK].T)[0][:k]))
+    top = np.triu(geqrf(np.vstack(parts))[0][:k])
+    R = np.zeros((k, k))
+    R[: top.shape[0]] = top
+    return R * np.where(np.diag(R) < 0, -1.0, 1.0)[:, None]
 
 
 class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
@@ -583,7 +843,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             for k, tau in enumerate(taus)
         ]
 
-    def _grid_search(self, U, Y, dts, slices, grid):
+    def _grid_search(self, Ut, Y, dts, slices, grid):
         """Time constants on the log grid, for every output, from shared lags.
 
         Every input is filtered once per grid time constant; the centred Gram
@@ -592,21 +852,15 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         again: a common time constant (pair, for ``order=2``), then sweeps of
         1-D searches over each lag's own time constant until none improves.
         """
-        n, n_in = U.shape
+        n_in, n = Ut.shape
         n_grid = grid.size
         # Columns ordered (input, grid point): column i * n_grid + g.
-        lags = np.stack(
-            [exponential_filter(U, t, dts, slices, initial="rest") for t in grid],
-            axis=2,
-        ).reshape(n, n_in * n_grid)
-        lags -= lags.mean(axis=0)
-        gram = lags.T @ lags
+        gram, cross = _grid_moments(Ut, Y, dts, slices, grid)
         scale = np.sqrt(np.diag(gram) / n)
         scale[scale < 1e-12] = 1.0
         gram /= np.outer(scale, scale)
-        Yc = Y - Y.mean(axis=0)
-        cross = (lags.T @ Yc) / scale[:, None]
-        yy = np.sum(Yc**2, axis=0)
+        cross /= scale[:, None]
+        yy = np.sum((Y - Y.mean(axis=0)) ** 2, axis=0)
         base = np.repeat(np.arange(n_in) * n_grid, self.order)
         if self.order == 1:
             starts = [np.full(n_in, g) for g in range(n_grid)]
@@ -684,35 +938,69 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             out.append(grid[pick])
         return out
 
-    def _fit_one(self, U, y, dts, slices, bounds, log_tau):
+    def _fit_one(self, Ut, y, dts, slices, bounds, log_tau):
+        """Refine the time constants of one output from the grid search's;
+        return them, the gains, the intercept, the evaluations and every
+        run's last lag outputs."""
         lo, hi = np.log(bounds)
-
-        U_lags = np.repeat(U, self.order, axis=1)
+        n_lags, n = log_tau.size, Ut.shape[1]
+        inputs = np.arange(n_lags) // self.order
+        yc = y - y.mean()
+        # Work space of the refinement, allocated once: arrays of the size
+        # of the design, which every evaluation faulted in afresh (a tenth
+        # of a second each at 1e5 rows and 80 lags). The lags; the basis of
+        # their span; the moved lags of all the steps (one lag per step, or
+        # per input two and one); and the residual and its changes.
+        buffer = np.empty((n_lags, n))
+        if self.max_iter > 0:
+            basis = np.empty((n_lags, n))
+            moved_lags = np.empty((n_lags + (self.order - 1) * Ut.shape[0], n))
+            Kn, Kp = np.empty((n_lags + 1, n)), np.empty((n_lags + 1, n_lags))
 
         def to_log_tau(x):
             return _pair_log_tau(x, lo, hi, self.order)
 
         last = {}
 
-        def features(x):
-            # The Jacobian is taken where the residuals were just evaluated:
+        def evaluate(x):
+            # Standardised lags, Gram matrix, gains and residual vector. The
+            # Jacobian is taken where the residual was just evaluated:
             # filter the lags once for both.
             key = x.tobytes()
             if key not in last:
                 last.clear()
-                last[key] = self._features(U, to_log_tau(x), dts, slices)
+                tau = np.exp(to_log_tau(x))
+                A = _fit_lags(Ut, tau, inputs, dts, slices, buffer)
+                _standardise(A)
+                last[key] = (A, *_ridge_residual(A, yc, self.alpha))
             return last[key]
 
+        # The refinement sees only sums of squares and products of the
+        # residual vector and of the Jacobian's columns (its trust region
+        # comes from an SVD of the Jacobian and the residual's coordinates
+        # on its singular vectors), which are the same in any orthonormal
+        # coordinates of their span. In coordinates whose first axis is the
+        # residual, that is (norm, 0, ..., 0), and the Jacobian the
+        # triangular factor of the QR factorisation of [residual, J]: rows
+        # of the number of time constants plus one, where vectors of
+        # n_samples rows cost it an SVD of the tall Jacobian per step, as
+        # much as all the rest. (Its rank test, singular values against
+        # 2.2e-16 times the number of rows, is then stricter: a Jacobian
+        # whose weakest direction is 1e-14 to 1e-11 of its strongest, at
+        # the rounding of the differences, counts as of full rank.)
         def residual(x):
-            return _ridge_with_intercept(features(x), y, self.alpha)[2]
+            rho = evaluate(x)[-1]
+            out = np.zeros(x.size + 1)
+            out[0] = np.sqrt(rho @ rho)
+            return out
 
-        def jacobian(x):
+        def jacobian(x, *args):
             # Forward differences, refiltering only the lags whose time
-            # constants move (the other columns of the design are unchanged)
+            # constants move (the other rows of the design are unchanged)
             # and solving with them replaced from one factorisation of the
             # whole design (see _ridge_column_changes).
+            A, gram, w, rho = evaluate(x)
             log_tau = to_log_tau(x)
-            Phi = features(x)
             steps, moved = np.empty(x.size), []
             for j, xj in enumerate(x):
                 h = 1e-3 * max(1.0, abs(xj))
@@ -720,33 +1008,48 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 step = x.copy()
                 step[j] += steps[j]
                 moved.append(to_log_tau(step))
-            # The moved lags of all the steps filtered in one call (column by
-            # column as one at a time), sparing a call's overhead per step.
             lags = [np.flatnonzero(m != log_tau) for m in moved]
-            filtered = exponential_filter(
-                U_lags[:, np.concatenate(lags)],
-                np.exp(
-                    np.concatenate([m[c] for m, c in zip(moved, lags, strict=True)])
-                ),
-                dts,
-                slices,
-                initial="rest",
+            cols = np.concatenate(lags)
+            tau = np.exp(
+                np.concatenate([m[c] for m, c in zip(moved, lags, strict=True)])
             )
-            changes = _ridge_column_changes(Phi, y, self.alpha, lags, filtered)
+
+            def new_lags():
+                # The moved lags of all the steps, standardised.
+                Z = moved_lags[: cols.size]
+                _fit_lags(Ut, tau, inputs[cols], dts, slices, Z)
+                _standardise(Z)
+                return Z
+
+            # Rows: the residual, then the changes of every step.
+            Kn[0], Kp[0] = rho[:n], rho[n:]
+            changes = _ridge_column_changes(
+                A, yc, self.alpha, gram, lags, new_lags(), (Kn[1:], Kp[1:]), basis
+            )
             if changes is None:
-                changes = np.full((Phi.shape[0] + Phi.shape[1], x.size), np.nan)
-            J = changes / steps
-            r0 = None
-            ends = np.cumsum([c.size for c in lags])
-            for j in np.flatnonzero(np.isnan(J).any(axis=0)):
+                bad = np.ones(x.size, dtype=bool)
+            else:
+                bad = np.isnan(Kn[1:]).any(axis=1)
+            if bad.any():
                 # (Nearly) singular: the direct solve, as before.
-                if r0 is None:
-                    r0 = _ridge_with_intercept(Phi, y, self.alpha)[2]
-                trial = Phi.copy()
-                trial[:, lags[j]] = filtered[:, ends[j] - lags[j].size : ends[j]]
-                r = _ridge_with_intercept(trial, y, self.alpha)[2]
-                J[:, j] = (r - r0) / steps[j]
-            return J
+                ends = np.cumsum([c.size for c in lags])
+                pick = np.flatnonzero(bad)
+                rows = np.concatenate(
+                    [np.arange(ends[j] - lags[j].size, ends[j]) for j in pick]
+                )
+                direct = _direct_changes(
+                    A,
+                    yc,
+                    self.alpha,
+                    gram,
+                    w,
+                    [lags[j] for j in pick],
+                    new_lags()[rows],
+                )
+                Kn[1 + pick], Kp[1 + pick] = direct
+            Kn[1:] /= steps[:, None]
+            Kp[1:] /= steps[:, None]
+            return _triangular_factor(Kn, Kp)[:, 1:]
 
         x, (x_low, x_high) = _pair_coordinates(log_tau, lo, hi, self.order)
         n_iter = 1  # the grid search
@@ -764,11 +1067,22 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             n_iter += int(sol.nfev)
             if np.sum(sol.fun**2) <= np.sum(residual(x) ** 2):
                 x = sol.x
+        last.clear()
         log_tau = to_log_tau(x)
-        Phi = self._features(U, log_tau, dts, slices)
-        coef, intercept, _ = _ridge_with_intercept(Phi, y, self.alpha)
-        shape = (U.shape[1], self.order)
-        return np.exp(log_tau).reshape(shape), coef.reshape(shape), intercept, n_iter
+        Z = _fit_lags(Ut, np.exp(log_tau), inputs, dts, slices, buffer)
+        states = Z[:, [sl.stop - 1 for sl in slices]].T
+        mean, scale = _standardise(Z)
+        w = _ridge_residual(Z, yc, self.alpha)[1]
+        coef = w / scale
+        intercept = y.mean() - mean @ coef
+        shape = (Ut.shape[0], self.order)
+        return (
+            np.exp(log_tau).reshape(shape),
+            coef.reshape(shape),
+            intercept,
+            n_iter,
+            states,
+        )
 
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y, *, groups=None):
@@ -810,18 +1124,19 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             # A lag much slower than the longest run cannot be told from a
             # ramp by the data, and extrapolates like one.
             bounds = (0.1 * float(dts.min()), float(longest))
-        U = self._inputs(X, slices)
+        # One row per input: every lag a contiguous series (see _fit_lags).
+        Ut = np.ascontiguousarray(self._inputs(X, slices).T)
         Y = y.reshape(X.shape[0], -1)
         grid = np.exp(np.linspace(*np.log(bounds), self.n_grid))
         # One BLAS thread: the search is a loop of small ridge solves and
         # trust-region SVDs, which threads only slow down on shared cores.
         with single_threaded_blas():
-            starts = self._grid_search(U, Y, dts, slices, grid)
+            starts = self._grid_search(Ut, Y, dts, slices, grid)
             fits = [
-                self._fit_one(U, Y[:, k], dts, slices, bounds, np.log(start))
+                self._fit_one(Ut, Y[:, k], dts, slices, bounds, np.log(start))
                 for k, start in enumerate(starts)
             ]
-        taus, coefs, intercepts, n_iter = (
+        taus, coefs, intercepts, n_iter, states = (
             np.array(part) for part in zip(*fits, strict=True)
         )
         self.n_iter_ = int(n_iter.max())
@@ -833,11 +1148,9 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         # What continuing a labelled run in predict needs: its first row and
         # times, and every lag's last output.
         memory = run_memory(X, slices, labels, X_raw)
-        if memory:
-            F = self._lag_states(U, dts, slices)
-            for sl, lab in zip(slices, labels, strict=True):
-                if lab in memory:
-                    memory[lab]["state"] = np.stack([f[sl.stop - 1] for f in F])
+        for r, lab in enumerate(labels):
+            if lab in memory:
+                memory[lab]["state"] = states[:, r]
         self.run_states_ = memory
         return self
 
