@@ -259,7 +259,9 @@ default="fcm"
         training error.
     step_decrease : float, default=0.9
         Factor applied to the step after two consecutive up/down oscillations
-        of the training error.
+        of the training error. As in MATLAB's ``anfis``, each of the two
+        rules waits at least four epochs after it last changed the step
+        before it can change it again.
     ridge : float or "auto", default=1e-8
         Ridge regularisation of the consequents' least-squares solve,
         relative to the mean diagonal of the normal equations: the same for
@@ -362,8 +364,10 @@ default="fcm"
         Number of targets.
     history_ : dict of ndarray
         Per epoch: ``"epoch"`` (1-based), ``"train_rmse"`` (in AGO space when
-        ``grey``), ``"step_size"`` and, with a checking set, ``"val_rmse"``
-        (in the original space). ``pandas.DataFrame(history_)`` tabulates it.
+        ``grey``), ``"step_size"`` (the step after that epoch's error was
+        judged, i.e. the one the next epoch's gradient step takes) and, with
+        a checking set, ``"val_rmse"`` (in the original space).
+        ``pandas.DataFrame(history_)`` tabulates it.
     ridge_ : float
         Ridge used for the consequents (the chosen one with ``ridge="auto"``).
     ridge_scores_ : dict of float to float

@@ -54,7 +54,10 @@ def grey_relational_grade(
         degrees then depend on the units chosen.
     groups : array-like of shape (n_samples,), optional
         Run labels. Zero-initial images restart at every run; the degree is
-        computed per run and averaged, weighted by the run's length.
+        computed per run and averaged, weighted by the run's length. Deng's
+        ``dmin`` and ``dmax`` are taken over all runs' rows together (one
+        scale for every run, as for one series), so his grade over several
+        runs is not the mean of each run's own grade.
 
     Returns
     -------
