@@ -241,25 +241,24 @@ class DiscrepancyTerm:
         own = self.features(signals, signals.runs[i], theta)
         return np.concatenate([fixed, own], axis=2)
 
-    def _stats(self, signals, i, theta, fixed=None, cache=None):
-        """:func:`_run_stats` of run ``i`` under ``theta``, from ``cache``
-        when it holds them (the folds of a screening search the same grid
-        on overlapping runs)."""
+    def _cost(self, signals, idx, theta, fixed=None, cache=None):
+        """Weighted sum of squared errors on runs ``idx`` and the gains,
+        from the runs' least-squares statistics (:func:`_run_stats`), taken
+        from ``cache`` where it holds them (the folds of a screening search
+        the same grid on overlapping runs)."""
         key = None
         if cache is not None:
             earlier = tuple((t.name, *t.theta_.values()) for t in self.with_terms)
-            key = (self.name, earlier, i, *theta.values())
-            if key in cache:
-                return cache[key]
-        out = _run_stats(self._design(signals, i, theta, fixed), signals.runs[i].y)
-        if key is not None:
-            cache[key] = out
-        return out
-
-    def _cost(self, signals, idx, theta, fixed=None, cache=None):
-        """Weighted sum of squared errors on runs ``idx`` and the gains,
-        from the runs' least-squares statistics."""
-        stats = [self._stats(signals, i, theta, fixed, cache) for i in idx]
+            key = (self.name, earlier, *theta.values())
+        stats = []
+        for i in idx:
+            st = None if key is None else cache.get((i, *key))
+            if st is None:
+                design = self._design(signals, i, theta, fixed)
+                st = _run_stats(design, signals.runs[i].y)
+                if key is not None:
+                    cache[(i, *key)] = st
+            stats.append(st)
         G = sum(st[0] for st in stats)
         b = sum(st[1] for st in stats)
         yy = sum(st[2] for st in stats)

@@ -31,7 +31,6 @@ from skthermal.utils._runs import (
     extract_runs,
     fitted_sample_periods,
     gap_periods,
-    gap_steps,
     row_times,
     run_frame_index,
     run_memory,
@@ -245,24 +244,19 @@ def exponential_filter(
         steps = gap = None
         u_prev = None
         if times is not None:
-            d = np.diff(times[sl])
             # A gap is a step longer than GAP_STEPS sampling periods: the
             # run's own period when given (a few rows of a longer run, even
             # one, are judged as in the whole run), else its median step.
-            if periods is not None:
-                ref = float(periods[r])
-                inner = d > GAP_STEPS * ref
-            else:
-                ref = float(np.median(d)) if d.size else np.inf
-                inner = gap_steps(d) if d.size else np.zeros(0, dtype=bool)
             # The step from the row before the run (a continued run's last
             # training row) is a gap as a step within the run would be.
-            first_gap = previous[r] is not None and bool(step > GAP_STEPS * ref)
-            if first_gap or inner.any() or np.any(np.abs(d - step) > 1e-9 * step):
-                steps = np.concatenate(([step], d))
-                gap = np.concatenate(([first_gap], inner))
-                if first_gap:
-                    u_prev = np.asarray(previous[r], dtype=float).reshape(-1)
+            _, steps, gap = run_steps(
+                times[sl],
+                None if periods is None else float(periods[r]),
+                step=step,
+                continued=previous[r] is not None,
+            )
+            if gap is not None and gap[0]:
+                u_prev = np.asarray(previous[r], dtype=float).reshape(-1)
         for j, tau in enumerate(uniq):
             cols = np.flatnonzero(which == j)
             u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
@@ -274,10 +268,10 @@ def exponential_filter(
     return Z.reshape(U.shape)
 
 
-def run_steps(times, period=None):
+def run_steps(times, period=None, *, step=None, continued=False):
     """One run's time steps, worked out once for repeated filtering with
     :func:`lowpass_steps` (as :func:`exponential_filter` does for a run
-    given ``times``, without a state or a previous row).
+    given ``times``).
 
     Parameters
     ----------
@@ -286,23 +280,31 @@ def run_steps(times, period=None):
     period : float, optional
         The run's sampling period, against which a step is a gap (longer
         than ``GAP_STEPS`` periods); default: the median step.
+    step : float, optional
+        The step before the first row; default: ``period``.
+    continued : bool, default=False
+        The run continues earlier rows: a ``step`` before its first row
+        longer than ``GAP_STEPS`` periods is a gap too.
 
     Returns
     -------
     step : float
-        The sampling period (the step before the first row).
+        The step before the first row.
     steps, gap : ndarray of shape (n_samples,) or None
         Every row's step and whether it is a gap; None when every step
-        equals ``step`` (the filter is then one ``lfilter`` call).
+        equals ``step`` and none is a gap (the filter is then one
+        ``lfilter`` call).
     """
     d = np.diff(np.asarray(times, dtype=float))
-    if not d.size:
-        return (1.0 if period is None else float(period)), None, None
-    step = float(np.median(d)) if period is None else float(period)
-    inner = d > GAP_STEPS * step
-    if not inner.any() and not np.any(np.abs(d - step) > 1e-9 * step):
+    if period is None:
+        period = float(np.median(d)) if d.size else np.inf
+    if step is None:
+        step = period if np.isfinite(period) else 1.0
+    inner = d > GAP_STEPS * period
+    first_gap = continued and bool(step > GAP_STEPS * period)
+    if not (first_gap or inner.any() or np.any(np.abs(d - step) > 1e-9 * step)):
         return step, None, None
-    return step, np.concatenate(([step], d)), np.concatenate(([False], inner))
+    return step, np.concatenate(([step], d)), np.concatenate(([first_gap], inner))
 
 
 def lowpass_steps(u, time_constant, step, steps=None, gap=None, z0=None, u_prev=None):
