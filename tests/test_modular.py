@@ -460,3 +460,62 @@ def test_a_numpy_step_in_front_warns_once_that_the_runs_become_one(machine_b_run
     messages = [str(w.message) for w in caught if "no run labels" in str(w.message)]
     assert model.n_iter_ > 1
     assert len(messages) == 1 and messages[0].startswith("GreyPSORegressor.fit")
+
+
+def _weighted_case():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(60, 2))
+    y = X @ [2.0, -1.0] + rng.normal(size=60)
+    return X, y, rng.integers(1, 4, 60)
+
+
+def test_sample_weight_equals_repeated_rows():
+    # Weighted backfitting of linear modules fits the rows repeated by their
+    # integer weights; with source, every module gets its own rows' weights.
+    X, y, w = _weighted_case()
+    modules = [("a", LinearRegression(), [0]), ("b", LinearRegression(), [1])]
+    model = ModularRegressor(modules, relative=False)
+    weighted = clone(model).fit(X, y, sample_weight=w).predict(X)
+    repeated = clone(model).fit(np.repeat(X, w, 0), np.repeat(y, w)).predict(X)
+    np.testing.assert_allclose(weighted, repeated, atol=1e-9)
+    assert not np.allclose(weighted, clone(model).fit(X, y).predict(X))
+    source = np.where(np.arange(60) < 30, "a", "b")
+    by_source = clone(model).fit(X, y, source=source, sample_weight=w).predict(X)
+    rep = clone(model).fit(
+        np.repeat(X, w, 0), np.repeat(y, w), source=np.repeat(source, w)
+    )
+    np.testing.assert_allclose(by_source, rep.predict(X), atol=1e-9)
+
+
+def test_metadata_routing_to_modules():
+    import sklearn
+    from sklearn.exceptions import UnsetMetadataPassedError
+    from sklearn.model_selection import KFold, cross_validate
+
+    X, y, w = _weighted_case()
+    with sklearn.config_context(enable_metadata_routing=True):
+        asked = ModularRegressor(
+            [
+                ("a", LinearRegression().set_fit_request(sample_weight=True), [0]),
+                ("b", LinearRegression().set_fit_request(sample_weight=False), [1]),
+            ],
+            relative=False,
+        )
+        source = np.where(np.arange(60) < 30, "a", "b")
+        routed = clone(asked).fit(X, y, source=source, sample_weight=w)
+        # Only module "a" asked for the weights: its rows' weights.
+        a = LinearRegression().fit(X[:30, :1], y[:30], sample_weight=w[:30])
+        b = LinearRegression().fit(X[30:, 1:], y[30:])
+        np.testing.assert_allclose(routed.named_estimators_["a"].coef_, a.coef_)
+        np.testing.assert_allclose(routed.named_estimators_["b"].coef_, b.coef_)
+        scores = cross_validate(
+            asked.set_score_request(sample_weight=False),
+            X,
+            y,
+            cv=KFold(3),
+            params={"sample_weight": w},
+        )["test_score"]
+        assert np.all(np.isfinite(scores))
+        unset = ModularRegressor([("a", LinearRegression(), [0])], relative=False)
+        with pytest.raises(UnsetMetadataPassedError, match="sample_weight"):
+            unset.fit(X, y, sample_weight=w)

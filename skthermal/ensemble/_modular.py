@@ -18,7 +18,7 @@ import pandas as pd
 from sklearn.base import RegressorMixin, _fit_context, clone
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.linear_model import LinearRegression
-from sklearn.utils import Bunch, get_tags
+from sklearn.utils import Bunch, _safe_indexing, get_tags
 from sklearn.utils._param_validation import Interval
 from sklearn.utils.metaestimators import _BaseComposition
 from sklearn.utils.validation import check_is_fitted, validate_data
@@ -46,6 +46,7 @@ from skthermal.utils._runs import (
     warn_unlabelled_runs,
 )
 from skthermal.utils._warnings import user_stacklevel
+from skthermal.utils._wrappers import routed_by_name, wrapper_router
 
 
 class ModularRegressor(RegressorMixin, _BaseComposition):
@@ -198,14 +199,38 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         tags.target_tags.single_output = True
         return tags
 
+    def get_metadata_routing(self):
+        """The metadata routing of the composition and its modules.
+
+        With ``sklearn.set_config(enable_metadata_routing=True)``, what a
+        module requests for ``fit`` (``set_fit_request(sample_weight=True)``)
+        is passed on to it by a Pipeline, a search or ``cross_validate``; with
+        ``source``, each module gets the rows of its own tests.
+
+        Returns
+        -------
+        routing : MetadataRouter
+        """
+        children = {
+            item[0]: item[1]
+            for item in self._given_modules()
+            if isinstance(item, tuple | list)
+            and len(item) == 3
+            and isinstance(item[0], str)
+            and hasattr(item[1], "fit")
+        }
+        return wrapper_router(self, ["fit"], children)
+
     # --- validation ---------------------------------------------------------
 
+    def _given_modules(self):
+        """``modules``, or the default: one linear module on every column."""
+        if self.modules is None:
+            return [("linear", LinearRegression(), None)]
+        return self.modules
+
     def _resolve_modules(self):
-        modules = (
-            [("linear", LinearRegression(), None)]
-            if self.modules is None
-            else self.modules
-        )
+        modules = self._given_modules()
         if not modules:
             raise ValueError("modules is empty: give at least one module.")
         out, names = [], []
@@ -310,7 +335,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
     # --- fit / predict ------------------------------------------------------
 
     @_fit_context(prefer_skip_nested_validation=False)
-    def fit(self, X, y, *, source=None, groups=None):
+    def fit(self, X, y, *, source=None, groups=None, **fit_params):
         """Train the modules.
 
         Parameters
@@ -327,6 +352,11 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             on all rows together by backfitting.
         groups : array-like of shape (n_samples,), optional
             Run labels (for ``relative=True``); override a ``run`` column.
+        **fit_params : dict
+            Further arguments of the modules' ``fit`` (``sample_weight``):
+            given to every module, or under scikit-learn's metadata routing
+            to the modules that request them. Those with one value per row
+            are cut to each module's rows with ``source``.
 
         Returns
         -------
@@ -342,6 +372,7 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             dtype=np.float64,
         )
         modules = self._resolve_modules()
+        params = routed_by_name(self, "fit", fit_params, [m[0] for m in modules])
         if self.relative:
             check_time_order(X_raw, groups)
             # Changes since the start of the run need the runs.
@@ -363,12 +394,14 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             if self.relative and groups is None:
                 # Said once above, not again by every module.
                 warnings.filterwarnings("ignore", message=UNLABELLED_WARNING)
-            self._fit(X, y, modules, source, index)
+            self._fit(X, y, modules, source, index, params)
         return self
 
-    def _fit(self, X, y, modules, source, index=None):
+    def _fit(self, X, y, modules, source, index=None, params=None):
         """Fit the modules on ``X`` (validated, relative as asked); ``index``:
-        that of their sub-tables (see :meth:`_frame_index`)."""
+        that of their sub-tables (see :meth:`_frame_index`); ``params``: per
+        module name, the further arguments of its ``fit``."""
+        params = params or {}
         names = [m[0] for m in modules]
         fitted = [clone(est) for _, est, _ in modules]
         self.module_columns_ = [cols for _, _, cols in modules]
@@ -392,7 +425,11 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 if not rows.any():
                     raise ValueError(f"Module {name!r} has no training rows in source.")
                 part = None if index is None else index[rows]
-                est.fit(self._module_input(X[rows], cols, part), y[rows])
+                kwargs = {
+                    key: _rows_of(value, rows)
+                    for key, value in params.get(name, {}).items()
+                }
+                est.fit(self._module_input(X[rows], cols, part), y[rows], **kwargs)
             self.n_iter_ = 0
         else:
             parts = np.zeros((len(fitted), *y.shape))
@@ -402,14 +439,16 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             ]
             for it in range(1, self.max_iter + 1):
                 change = 0.0
-                for k, (est, X_k) in enumerate(zip(fitted, inputs, strict=True)):
+                for k, (name, est, X_k) in enumerate(
+                    zip(names, fitted, inputs, strict=True)
+                ):
                     rest = y - (parts.sum(axis=0) - parts[k])
                     with warnings.catch_warnings():
                         if it > 1:  # a module says it in the first sweep
                             warnings.filterwarnings(
                                 "ignore", message=UNLABELLED_WARNING
                             )
-                        est.fit(X_k, rest)
+                        est.fit(X_k, rest, **params.get(name, {}))
                     new = np.asarray(est.predict(X_k), dtype=float)
                     new = new.reshape(y.shape)
                     change = max(change, float(np.max(np.abs(new - parts[k]))))
@@ -572,3 +611,13 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
             each run.
         """
         return self._module_outputs(X, groups).sum(axis=1)
+
+
+def _rows_of(value, rows):
+    """``value`` at the rows ``rows`` (a boolean mask) when it holds one value
+    per row (``sample_weight``), else as it is."""
+    if isinstance(value, str) or not hasattr(value, "__len__"):
+        return value
+    if len(value) != rows.shape[0]:
+        return value
+    return _safe_indexing(value, rows)

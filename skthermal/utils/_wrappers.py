@@ -1,5 +1,6 @@
-"""What a wrapper of one model (``owner.estimator``) takes from it: its
-tags, and the metadata scikit-learn's routing passes to it."""
+"""What a wrapper of models (``owner.estimator``, or the named modules of a
+composition) takes from them: their tags, and the metadata scikit-learn's
+routing passes to them."""
 
 import sklearn
 from sklearn.utils import get_tags
@@ -19,24 +20,36 @@ def routing_enabled():
 def routed_params(owner, method, params):
     """The keyword arguments of the wrapped model's ``method``: under metadata
     routing what it requested of ``params``, else ``params`` as given."""
+    return routed_by_name(owner, method, params, ["estimator"])["estimator"]
+
+
+def routed_by_name(owner, method, params, names):
+    """``{name: keyword arguments of that wrapped model's method}`` for the
+    wrapped models ``names`` of ``owner`` (see :func:`wrapper_router`): under
+    metadata routing what each requested of ``params``, else ``params`` as
+    given to every one."""
     if not routing_enabled():
-        return dict(params)
-    return dict(getattr(process_routing(owner, method, **params).estimator, method))
+        return {name: dict(params) for name in names}
+    bunch = process_routing(owner, method, **params)
+    return {name: dict(getattr(bunch[name], method)) for name in names}
 
 
-def wrapper_router(owner, methods):
-    """The metadata router of a wrapper ``owner`` of ``owner.estimator``: its
-    own requests (``groups``) and the wrapped model's, each of ``methods``
-    routed to the same method. A Pipeline, ``cross_validate`` or a search
-    then passes on what the wrapped model requested (``sample_weight``)."""
-    mapping = MethodMapping()
-    for method in methods:
-        mapping.add(caller=method, callee=method)
-    return (
-        MetadataRouter(owner=owner)
-        .add_self_request(owner)
-        .add(estimator=owner.estimator, method_mapping=mapping)
-    )
+def wrapper_router(owner, methods, children=None):
+    """The metadata router of a wrapper ``owner``: its own requests
+    (``groups``) and those of the wrapped models (``children``, ``{name:
+    estimator}``; default ``owner.estimator`` as ``"estimator"``), each of
+    ``methods`` routed to the same method. A Pipeline, ``cross_validate`` or
+    a search then passes on what a wrapped model requested
+    (``sample_weight``)."""
+    if children is None:
+        children = {"estimator": owner.estimator}
+    router = MetadataRouter(owner=owner).add_self_request(owner)
+    for name, estimator in children.items():
+        mapping = MethodMapping()
+        for method in methods:
+            mapping.add(caller=method, callee=method)
+        router.add(**{name: estimator}, method_mapping=mapping)
+    return router
 
 
 def wrapped_tags(tags, estimator):
