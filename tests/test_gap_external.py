@@ -362,6 +362,21 @@ def test_ridge_is_well_posed_on_a_zero_unpenalised_feature(rng):
     assert all(np.all(np.isfinite(r)) for r in out)
 
 
+def test_ridge_does_not_blow_up_a_feature_the_training_runs_barely_excite(rng):
+    # A driver feature nearly constant on the training runs (a filtered speed
+    # step long past) and large on the held-out run (the step itself): scaled
+    # to its training variation it took a huge weight and the held-out
+    # prediction blew up (a flexible model "worse by 1e12 %").
+    from skthermal.gap._evidence import ridge_heldout
+
+    feats = [rng.standard_normal((200, 1, 3)) for _ in range(4)]
+    for i, f in enumerate(feats):
+        f[:, 0, 2] = 1e-9 * rng.standard_normal(200) if i < 3 else 5.0
+    targets = [f[:, :, 1] + 0.1 * rng.standard_normal((200, 1)) for f in feats]
+    out = ridge_heldout(targets, feats, [([0, 1, 2], [3])])
+    assert np.sqrt(np.mean(out[3] ** 2)) < 0.5
+
+
 def test_negative_speed_names_the_run_and_row(pair):
     sim, meas = pair
     sim, meas = sim.copy(), meas.copy()

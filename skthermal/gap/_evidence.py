@@ -319,6 +319,11 @@ def whiteness(residual):
     }
 
 
+# The least share of a feature's norm over all runs that scales it in a
+# fold (see ridge_heldout).
+EXCITATION = 0.1
+
+
 def _well_posed(Gs, free):
     """The standardised Gram matrices ``Gs`` (c, k, k) with a unit diagonal
     where an unpenalised feature (``free``) is zero on the training runs
@@ -334,9 +339,15 @@ def ridge_heldout(targets, features, folds, *, alphas=None, penalize=None):
     """Held-out residuals of a per-channel ridge regression over runs.
 
     For every fold, each channel's target is regressed on its features over
-    the training runs (features standardised on them; the penalty of each
-    channel chosen by leave-one-run-out over the training runs among
-    ``alphas``), and the held-out runs are predicted.
+    the training runs (the penalty chosen by leave-one-run-out over the
+    training runs among ``alphas``), and the held-out runs are predicted.
+    The features are standardised on the training runs, each scaled by its
+    norm there but by at least ``EXCITATION`` (a tenth) of its norm over all
+    the runs given, held-out ones included (features, never targets): a
+    feature the training runs barely excite (a speed change that happens
+    only in a held-out run) then gets a weight near zero instead of one
+    scaled up to the training runs' tiny variation, which on the held-out
+    run would blow up.
 
     Parameters
     ----------
@@ -365,10 +376,14 @@ def ridge_heldout(targets, features, folds, *, alphas=None, penalize=None):
     cross = [np.einsum("nck,nc->ck", F, y) for F, y in zip(features, targets)]
     out = [None] * n_runs
     free = pen == 0
+    # A feature's scale is its norm on the training runs, but at least a
+    # tenth of its norm over all the runs.
+    floor = EXCITATION * np.sqrt(np.einsum("ckk->ck", sum(gram)))
     for train, test in folds:
         train = list(train)
         G = sum(gram[i] for i in train)
         d = np.sqrt(np.maximum(np.einsum("ckk->ck", G), 1e-300))
+        d = np.maximum(d, floor)
         scale = d[:, :, None] * d[:, None, :]
         Gs = G / scale
         best_alpha = np.full(G.shape[0], alphas[0])
