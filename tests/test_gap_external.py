@@ -377,6 +377,43 @@ def test_ridge_does_not_blow_up_a_feature_the_training_runs_barely_excite(rng):
     assert np.sqrt(np.mean(out[3] ** 2)) < 0.5
 
 
+@pytest.mark.parametrize("name", sorted(TERMS))
+def test_blocks_of_one_run_share_the_signals_of_the_longest(name, rng):
+    # The blocks of one long run hold its first rows up to their ends; a
+    # term's features worked out once on the longest block equal those of
+    # every block on its own.
+    t = np.arange(0, 6 * 3600.0, 60.0)
+    rpm = np.where((t // 3600) % 2 == 0, 6000.0, 0.0)
+    air = 20 + 0.5 * np.sin(t / 5000)
+    feed = np.where((t // 1800) % 3 == 0, 2000.0, 0.0)
+    sim = np.cumsum(rng.standard_normal((t.size, 3)), axis=0) * 0.01
+    runs = []
+    for a, b in [(0, 120), (120, 240), (240, 360)]:
+        rows = np.arange(a, b)
+        runs.append(
+            RunSignals(
+                f"r[{a}]",
+                t[:b],
+                rpm[:b],
+                air[:b],
+                feed[:b],
+                sim[:b],
+                rows,
+                sim[rows] - sim[rows[0]],
+                origin="r",
+                period=60.0,
+            )
+        )
+    signals = Signals(runs, np.array([True, True, False]), np.ones(3))
+    term = TERMS[name]()
+    theta = {k: float(np.sqrt(lo * hi)) for k, (lo, hi) in term.bounds.items()}
+    if name == "ambient_transient":
+        theta = {"tau_fast_s": 300.0, "tau_slow_s": 3000.0}
+    shared = term.features_of(signals, [0, 1, 2], theta)
+    for i, run in enumerate(runs):
+        np.testing.assert_array_equal(shared[i], term.features(signals, run, theta))
+
+
 def test_negative_speed_names_the_run_and_row(pair):
     sim, meas = pair
     sim, meas = sim.copy(), meas.copy()

@@ -272,9 +272,11 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_cols = [c for c, k in zip(sim_cols, keep, strict=True) if k]
     runs = []
-    for (_, t, drivers, y_meas, y_sim), spans in zip(out, blocks, strict=True):
+    for (name, t, drivers, y_meas, y_sim), spans in zip(out, blocks, strict=True):
         # A block (block_hours) keeps its run's signals from the start (the
-        # terms' filters start there), compared over its own span only.
+        # terms' filters start there, gaps judged against the whole run's
+        # sampling period), compared over its own span only.
+        period = float(np.median(np.diff(t))) if t.size > 1 else None
         for a, b, label in spans:
             check_length(b - a, label)
             step = max(1, int(np.ceil((b - a) / max_samples)))
@@ -290,6 +292,8 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
                     y_sim[:b][:, keep],
                     rows,
                     y - y[:START_SAMPLES].mean(axis=0),
+                    origin=None if len(spans) == 1 else name,
+                    period=None if len(spans) == 1 else period,
                 )
             )
     noise = pooled_noise([frame for _, frame in meas_runs], channels)
@@ -497,17 +501,12 @@ def _flexible_heldout(signals, folds, fitted):
     (:func:`flexible_heldout`) on the external simulation, with the signals
     of every candidate term fitted on the fold's training runs (``fitted``:
     per candidate, ``{"folds": [...]}``) among its features."""
-    extra = [
-        [
-            [
-                fit["folds"][k].features(signals, run, fit["folds"][k].theta_)
-                for fit in fitted
-                if fit["folds"][k].n_signals
-            ]
-            for run in signals.runs
-        ]
-        for k in range(len(folds))
-    ]
+    every = range(len(signals.runs))
+    extra = []
+    for k in range(len(folds)):
+        terms = [fit["folds"][k] for fit in fitted if fit["folds"][k].n_signals]
+        feats = [term.features_of(signals, every, term.theta_) for term in terms]
+        extra.append([[f[i] for f in feats] for i in every])
     return flexible_heldout([signals] * len(folds), folds, extra)
 
 

@@ -43,6 +43,14 @@ class RunSignals:
         Samples compared.
     y : ndarray of shape (len(rows), c)
         Measured channels at ``rows``, change since start.
+    origin : object, optional
+        For a block of a longer run (``block_hours``): a key shared by the
+        blocks of that run, whose signals are all its first rows up to the
+        block's end, so a term's signals of the longest block hold every
+        other block's. None: a run of its own.
+    period : float, optional
+        The sampling period against which a step is a gap (the whole run's
+        for a block); default: the median step.
     """
 
     name: object
@@ -53,11 +61,13 @@ class RunSignals:
     sim: np.ndarray
     rows: np.ndarray
     y: np.ndarray
+    origin: object = None
+    period: float = None
 
     def __post_init__(self):
         # The run's steps (sampling period, uneven steps and gaps), worked
         # out once: the terms filter each run many times.
-        self.plan = run_steps(self.time_s)
+        self.plan = run_steps(self.time_s, self.period)
 
     def compared(self, X):
         """``X`` (full rate, ``(n, ...)``) at ``rows``, change since start."""
@@ -171,15 +181,22 @@ class DiscrepancyTerm:
             return ~signals.is_temp
         return np.ones(signals.n_channels, dtype=bool)
 
-    def features(self, signals, run, theta):
-        """The term's features at the compared rows, ``(n_rows, c, k)``,
-        zero on channels the term does not act on."""
+    def _full(self, signals, run, theta):
+        """The term's signals at the full rate, ``(n, c, k)``."""
         s = self._signal(run, theta)
         c = signals.n_channels
         if s.ndim == 2:
             s = np.broadcast_to(s[:, None, :], (s.shape[0], c, s.shape[1]))
-        out = run.compared(s) * self._mask(signals)[None, :, None]
-        return out
+        return s
+
+    def features(self, signals, run, theta, full=None):
+        """The term's features at the compared rows, ``(n_rows, c, k)``,
+        zero on channels the term does not act on. ``full``: the term's
+        signals at the full rate (:meth:`_full`) of ``run`` or of a longer
+        block of the same run, when already at hand."""
+        if full is None:
+            full = self._full(signals, run, theta)
+        return run.compared(full) * self._mask(signals)[None, :, None]
 
     def _signs(self, signals):
         """Sign constraint of the term's gain per channel (None: free)."""
@@ -226,20 +243,50 @@ class DiscrepancyTerm:
 
     # --- fit and apply ---------------------------------------------------------
 
-    def _fixed(self, signals, i):
-        """The base and the earlier terms' features of run ``i``."""
-        run = signals.runs[i]
-        parts = [run.compared(run.sim)[:, :, None]]
-        for term in self.with_terms:
-            parts.append(term.features(signals, run, term.theta_))
-        return np.concatenate(parts, axis=2)
+    def features_of(self, signals, idx, theta):
+        """``{i: features of run i}`` (:meth:`features`) for the runs
+        ``idx``. The blocks of one run (the same ``origin``) share the
+        signals of the longest of them: they are all first rows of that run,
+        and the signals are causal."""
+        longest = {}
+        for i in idx:
+            origin = signals.runs[i].origin
+            if origin is not None:
+                size = signals.runs[i].time_s.size
+                if size > longest.get(origin, (-1, 0))[1]:
+                    longest[origin] = (i, size)
+        full = {
+            origin: self._full(signals, signals.runs[i], theta)
+            for origin, (i, _) in longest.items()
+        }
+        return {
+            i: self.features(
+                signals, signals.runs[i], theta, full.get(signals.runs[i].origin)
+            )
+            for i in idx
+        }
 
-    def _design(self, signals, i, theta, fixed=None):
-        fixed = self._fixed(signals, i) if fixed is None else fixed[i]
+    def _fixed(self, signals, idx):
+        """``{i: the base and the earlier terms' features of run i}`` for
+        the runs ``idx``."""
+        earlier = [
+            term.features_of(signals, idx, term.theta_) for term in self.with_terms
+        ]
+        out = {}
+        for i in idx:
+            run = signals.runs[i]
+            parts = [run.compared(run.sim)[:, :, None], *(f[i] for f in earlier)]
+            out[i] = np.concatenate(parts, axis=2)
+        return out
+
+    def _designs(self, signals, idx, theta, fixed=None):
+        """``{i: design of run i}``: the fixed features (``fixed``, else
+        worked out) and the term's own at ``theta``."""
+        fixed = self._fixed(signals, idx) if fixed is None else fixed
         if not self.n_signals:
-            return fixed
-        own = self.features(signals, signals.runs[i], theta)
-        return np.concatenate([fixed, own], axis=2)
+            return {i: fixed[i] for i in idx}
+        own = self.features_of(signals, idx, theta)
+        return {i: np.concatenate([fixed[i], own[i]], axis=2) for i in idx}
 
     def _cost(self, signals, idx, theta, fixed=None, cache=None):
         """Weighted sum of squared errors on runs ``idx`` and the gains,
@@ -250,15 +297,15 @@ class DiscrepancyTerm:
         if cache is not None:
             earlier = tuple((t.name, *t.theta_.values()) for t in self.with_terms)
             key = (self.name, earlier, *theta.values())
-        stats = []
-        for i in idx:
-            st = None if key is None else cache.get((i, *key))
-            if st is None:
-                design = self._design(signals, i, theta, fixed)
-                st = _run_stats(design, signals.runs[i].y)
+        stats = {} if key is None else {i: cache.get((i, *key)) for i in idx}
+        missing = [i for i in idx if stats.get(i) is None]
+        if missing:
+            designs = self._designs(signals, missing, theta, fixed)
+            for i in missing:
+                stats[i] = _run_stats(designs[i], signals.runs[i].y)
                 if key is not None:
-                    cache[(i, *key)] = st
-            stats.append(st)
+                    cache[(i, *key)] = stats[i]
+        stats = [stats[i] for i in idx]
         G = sum(st[0] for st in stats)
         b = sum(st[1] for st in stats)
         yy = sum(st[2] for st in stats)
@@ -279,7 +326,7 @@ class DiscrepancyTerm:
         same runs; it holds one term's entries at a time best (memory)."""
         idx = list(idx)
         names = list(self.bounds)
-        fixed = {i: self._fixed(signals, i) for i in idx}
+        fixed = self._fixed(signals, idx)
         if not names:
             self.theta_ = {}
             self.cost_, self.gains_ = self._cost(signals, idx, {}, fixed)
@@ -334,9 +381,8 @@ class DiscrepancyTerm:
 
     def apply(self, signals, idx):
         """Predictions (change since start, ``(n_rows, c)``) of runs ``idx``."""
-        return [
-            _predict(self._design(signals, i, self.theta_), self.gains_) for i in idx
-        ]
+        designs = self._designs(signals, idx, self.theta_)
+        return [_predict(designs[i], self.gains_) for i in idx]
 
     def __repr__(self):
         theta = getattr(self, "theta_", None)
@@ -373,10 +419,9 @@ class SensorLag(DiscrepancyTerm):
     n_signals = 1
     temperature_sign = 1  # a sensor can lag, not lead
 
-    def features(self, signals, run, theta):
+    def _full(self, signals, run, theta):
         lagged = lowpass(run.sim, theta["tau_s"], run)
-        out = run.compared(lagged - run.sim)
-        return (out * self._mask(signals)[None, :])[:, :, None]
+        return (lagged - run.sim)[:, :, None]
 
 
 class SpeedConvection(DiscrepancyTerm):
@@ -400,11 +445,10 @@ class SpeedConvection(DiscrepancyTerm):
     temperature_sign = -1  # more convection only cools
     grid = 7
 
-    def features(self, signals, run, theta):
+    def _full(self, signals, run, theta):
         speed = (run.spindle_rpm / 1000.0) ** theta["exponent"]
         rise = run.sim - run.sim[:1]
-        x = lowpass(speed[:, None] * rise, theta["tau_s"], run)
-        return (run.compared(x) * self._mask(signals)[None, :])[:, :, None]
+        return lowpass(speed[:, None] * rise, theta["tau_s"], run)[:, :, None]
 
 
 class ToolGrowth(DiscrepancyTerm):
@@ -422,11 +466,10 @@ class ToolGrowth(DiscrepancyTerm):
     n_signals = 1
     grid = 7
 
-    def features(self, signals, run, theta):
+    def _full(self, signals, run, theta):
         speed = (np.clip(run.spindle_rpm, 0.0, None) / 1000.0) ** theta["exponent"]
         rise = run.sim - run.sim[:1]
-        x = lowpass(speed[:, None] * rise, theta["tau_s"], run)
-        return (run.compared(x) * self._mask(signals)[None, :])[:, :, None]
+        return lowpass(speed[:, None] * rise, theta["tau_s"], run)[:, :, None]
 
 
 class AmbientTransient(DiscrepancyTerm):
