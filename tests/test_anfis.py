@@ -171,6 +171,36 @@ def test_premise_gradient_matches_finite_differences(rng, mf, grid):
     assert_allclose(grad, num, rtol=1e-5, atol=1e-7)
 
 
+@pytest.mark.parametrize("offset", [0.0, 20.0])
+@pytest.mark.parametrize("shared", [False, True])
+def test_gaussian_rule_forms_equal_the_log_memberships(rng, offset, shared):
+    # Fuzzy c-means rule bases train on quadratic forms of the inputs; they
+    # give the firing strengths and premise gradient of the log-membership
+    # path (rules with functions of their own, or sharing some).
+    from skthermal.fuzzy._anfis_core import _GaussianRuleForms, _softmax_gradient
+
+    n, d, n_out = 200, 5, 2
+    X = offset + rng.uniform(-1, 1, size=(n, d)) * rng.uniform(0.5, 3, d)
+    if shared:
+        rules = grid_rules(2, d)[[0, 3, 9, 17, 30]]
+        centres = offset + rng.uniform(-1, 1, size=(d, 2))
+    else:
+        rules = np.tile(np.arange(4)[:, None], (1, d))
+        centres = offset + rng.uniform(-1, 1, size=(d, 4))
+    params = np.stack([rng.uniform(0.4, 2.0, size=centres.shape), centres], -1)
+    cons = rng.normal(size=(rules.shape[0], d + 1, n_out))
+    Y = rng.normal(size=(n, n_out))
+    wbar = _normalised_firing(X, params, rules, "gaussian")
+    forms = _GaussianRuleForms(np.ascontiguousarray(X.T), rules)
+    assert_allclose(forms.firing(params), wbar.T, rtol=1e-10, atol=1e-14)
+    f = _rule_outputs(_with_ones(X), cons)
+    yhat = np.einsum("nr,nro->no", wbar, f)
+    S = _rule_selectors(rules, params.shape[1])
+    expected = _premise_gradient(X, params, "gaussian", S, wbar, f, yhat, yhat - Y)
+    g = _softmax_gradient(wbar.T, f.transpose(1, 2, 0), yhat.T, (yhat - Y).T)
+    assert_allclose(forms.gradient(g, params), expected, rtol=1e-9, atol=1e-10)
+
+
 def test_step_size_rule():
     rule = StepSizeRule(0.5, 1.2, 0.9)
     errors = [5.0, 4.0, 3.0, 2.0]

@@ -309,6 +309,65 @@ def _forward(XT, mf_params, mf, E, grid):
     return z, None, _flush_tiny(_firing_from_log(logmu, E))
 
 
+class _GaussianRuleForms:
+    """Log firing strengths and premise gradient of Gaussian rules that are
+    not a grid (fuzzy c-means rule bases), as quadratic forms of the inputs.
+
+    ``log w_r = -0.5 sum_j (x_j - c_jr)^2 / sigma_jr^2`` (``c_jr``,
+    ``sigma_jr`` of the function rule ``r`` uses on input ``j``) expands to
+    ``-0.5 (a_r . x^2 - 2 (a_r c_r) . x + a_r . c_r^2)`` with ``a = 1 /
+    sigma^2``: two matrix products of the ``(R, d)`` coefficients with the
+    training inputs and their squares, instead of every log-membership
+    ``(d, M, n)`` and its sum over each rule's functions. The premise
+    gradient likewise needs only ``g @ x`` and ``g @ x^2`` (``g = dE / dlog
+    w``, ``(R, n)``). The inputs are centred on their training mean first,
+    so the expanded terms stay of the order of the distances themselves.
+    For the training inputs only: far outside them the squares could
+    overflow, where the log-memberships of :func:`_forward_log` are floored.
+    """
+
+    def __init__(self, XT, rules):
+        self.mean = XT.mean(axis=1)
+        self.Xc = XT - self.mean[:, None]
+        self.Xc2 = self.Xc * self.Xc
+        self.rules = rules
+        self.inputs = np.broadcast_to(np.arange(XT.shape[0]), rules.shape)
+
+    def _coefficients(self, mf_params):
+        """``sigma`` and centred ``c`` of every rule's functions, (R, d)."""
+        sigma = mf_params[self.inputs, self.rules, 0]
+        centre = mf_params[self.inputs, self.rules, 1] - self.mean
+        return sigma, centre
+
+    def firing(self, mf_params):
+        """Normalised firing strengths ``wbar`` (R, n)."""
+        sigma, centre = self._coefficients(mf_params)
+        a = 1.0 / (sigma * sigma)
+        logw = (-0.5 * a) @ self.Xc2
+        logw += (a * centre) @ self.Xc
+        logw -= 0.5 * np.sum(a * centre * centre, axis=1)[:, None]
+        logw -= logw.max(axis=0)
+        w = np.exp(logw, out=logw)
+        w /= w.sum(axis=0)
+        return _flush_tiny(w)
+
+    def gradient(self, g, mf_params):
+        """Premise gradient ``(d, M, 2)`` from ``g = dE / dlog w`` (R, n):
+        ``sum_n g (x - c) / sigma^2`` for the centres and ``sum_n g (x -
+        c)^2 / sigma^3`` for the widths, summed over the rules sharing a
+        function."""
+        sigma, centre = self._coefficients(mf_params)
+        g0 = g.sum(axis=1)[:, None]
+        g1 = g @ self.Xc.T
+        g2 = g @ self.Xc2.T
+        d_centre = (g1 - centre * g0) / (sigma * sigma)
+        d_sigma = (g2 - 2.0 * centre * g1 + centre * centre * g0) / sigma**3
+        grad = np.zeros_like(mf_params)
+        np.add.at(grad[..., 0], (self.inputs, self.rules), d_sigma)
+        np.add.at(grad[..., 1], (self.inputs, self.rules), d_centre)
+        return grad
+
+
 def _grid_firing(nu):
     """Normalised firing strengths (R, n) of the grid rules, first input slowest."""
     w = nu[0]
@@ -651,6 +710,8 @@ penalize_intercepts, tol, n_iter_no_change, verbose
     if learning == "hybrid":
         normal = NormalEquations.plan(X1cT, YT, rules, n_mfs, grid, ridge)
     AT3 = None  # the transposed design matrix, only when it is needed
+    # Gaussian rules that are not a grid: quadratic forms of the inputs.
+    forms = _GaussianRuleForms(XT, rules) if mf == "gaussian" and not grid else None
     width_floor = _WIDTH_FLOOR * _input_scale(X)
     if learning == "backprop":
         if consequents is None:
@@ -672,7 +733,10 @@ penalize_intercepts, tol, n_iter_no_change, verbose
     report_every = max(1, epochs // 10) if verbose == 1 else 1
 
     for epoch in range(1, epochs + 1):
-        z, nu, wT = _forward(XT, mf_params, mf, E, grid)
+        if forms is None:
+            z, nu, wT = _forward(XT, mf_params, mf, E, grid)
+        else:
+            z, nu, wT = None, None, forms.firing(mf_params)
         if learning == "hybrid":
             theta = None if normal is None else normal.solve(wT, nu, ridge, free)
             if theta is None:
@@ -727,11 +791,14 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         if epoch == epochs:
             break
         step = rule.update(history["train_rmse"])
-        if grid:
-            per_mf = _grid_log_mf_gradient(WF, yhat, err, nu, E)
+        if forms is not None:
+            grad = forms.gradient(_softmax_gradient(wT, F, yhat, err), mf_params)
         else:
-            per_mf = E @ _softmax_gradient(wT, F, yhat, err)
-        grad = _mf_gradient(per_mf, XT, mf_params, mf, z)
+            if grid:
+                per_mf = _grid_log_mf_gradient(WF, yhat, err, nu, E)
+            else:
+                per_mf = E @ _softmax_gradient(wT, F, yhat, err)
+            grad = _mf_gradient(per_mf, XT, mf_params, mf, z)
         if learning == "hybrid":
             norm = np.sqrt(np.vdot(grad, grad))
             if norm > 0 and np.isfinite(norm):
