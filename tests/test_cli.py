@@ -381,7 +381,9 @@ def test_select_fit_predict_evaluate_chain(capsys, workdir):
         capsys, "evaluate", "--runs", pred, "--out", workdir / "s.md"
     )
     assert status == 0 and "mean" in text
-    assert (workdir / "s.md").read_text().startswith("| run | n_samples | R |")
+    caption, blank, header, *_ = (workdir / "s.md").read_text().splitlines()
+    assert "mean row: residual is the max over runs" in caption and not blank
+    assert header.startswith("| run | n_samples | R |")
     status, _, _ = _run(
         capsys,
         "evaluate",

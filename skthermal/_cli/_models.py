@@ -536,17 +536,18 @@ def cmd_evaluate(args):
     shown = table.copy()
     for c in METRIC_COLUMNS:
         shown[c] = [f"{v:.2f}" if np.isfinite(v) else "—" for v in table[c]]
-    print(
+    caption = (
         f"{target}: measured vs predicted change since the start of each run "
         "(residual: max |error|; mean row: residual is the max over runs)"
     )
+    print(caption)
     print(shown.to_string(index=False))
     if args.out:
         out = Path(args.out)
         if out.parent and not out.parent.exists():
             out.parent.mkdir(parents=True, exist_ok=True)
         if out.suffix.lower() == ".md":
-            out.write_text(markdown_table(shown) + "\n", encoding="utf-8")
+            out.write_text(f"{caption}\n\n{markdown_table(shown)}\n", encoding="utf-8")
         elif out.suffix.lower() == ".csv":
             table.to_csv(out, index=False)
         else:
