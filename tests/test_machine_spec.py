@@ -91,6 +91,11 @@ def test_a_small_machine_from_a_dict_simulates():
             r"link 'spindle-housng': unknown node 'housng' \(did you mean 'housing'",
         ),
         (
+            lambda d: d["links"][0].update(between=["spindle", "room"]),
+            r"link 'spindle-room': 'room' \(the workshop air\) is not a node.*"
+            r"roles: exposed",
+        ),
+        (
             lambda d: d["nodes"]["housing"].update(capacity_J_per_K=-5.0),
             r"node 'housing': capacity_J_per_K must be positive, got -5",
         ),
@@ -620,6 +625,24 @@ def test_an_axis_without_coefficients_or_a_machine_without_heat_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         ThermalMachine.from_spec(data)
+
+
+def test_a_node_that_fills_in_a_blink_warns_of_a_unit_slip():
+    # A capacity given in kJ/K where J/K is meant (1000 times too small)
+    # simulated without a word; every preset's nodes take a minute or more.
+    data = _small()
+    data["nodes"]["spindle"]["capacity_J_per_K"] = 2.0
+    with pytest.warns(
+        UserWarning,
+        match=r"node 'spindle' takes up heat in 0.36 s \(capacity 2 J/K against "
+        r"5.5 W/K .*J/K, not kJ/K",
+    ):
+        ThermalMachine.from_spec(data, effects=[])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ThermalMachine.from_spec(_small(), effects=[])
+        for preset in ("vmc-b", "vmc-a", "spindle-rig"):
+            ThermalMachine.from_preset(preset)
 
 
 def test_unknown_parameter_names_are_rejected_on_every_path():

@@ -183,12 +183,47 @@ def _warn_idle_parts(spec, params):
             "no heat source has any power ([heat] is missing or all zero): "
             "only the air moves the temperatures"
         )
+    fast = _fast_nodes(spec, params)
+    if fast:
+        node, tau, capacity, conductance = fast[0]
+        problems.append(
+            f"node {node!r} takes up heat in {tau:.2g} s (capacity "
+            f"{capacity:g} J/K against {conductance:g} W/K of links and "
+            "convection), where a lumped body of a machine tool takes minutes: "
+            "check the units of capacity_J_per_K (J/K, not kJ/K) and of its "
+            "conductances (W/K)"
+            + (f" (so does {[f[0] for f in fast[1:]]})" if len(fast) > 1 else "")
+        )
     if problems:
         warnings.warn(
             f"Machine {spec.name!r}: " + "; ".join(problems) + ".",
             UserWarning,
             stacklevel=user_stacklevel(),
         )
+
+
+# A node whose capacity fills through its links and convection faster than
+# this (seconds) is taken for a unit slip (the presets' fastest: 61 s).
+FAST_NODE_S = 1.0
+
+
+def _fast_nodes(spec, params):
+    """``(node, time constant s, capacity, conductance)`` of the nodes
+    (not the enclosure air) whose capacity over the sum of their links' and
+    convection's conductances is below :data:`FAST_NODE_S`, fastest first."""
+    out = []
+    for node in spec.nodes:
+        if node == spec.enclosure:
+            continue
+        conductance = float(params.get(f"hA.{node}", 0.0)) + sum(
+            float(params.get(f"G.{a}-{b}", 0.0))
+            for a, b in spec.edges
+            if node in (a, b)
+        )
+        capacity = float(params.get(f"C.{node}", np.inf))
+        if conductance > 0 and capacity / conductance < FAST_NODE_S:
+            out.append((node, capacity / conductance, capacity, conductance))
+    return sorted(out, key=lambda f: f[1])
 
 
 def _warn_inactive(spec, effects):

@@ -637,6 +637,17 @@ class MachineSpec:
             strings = isinstance(a, str) and isinstance(b, str)
             label = f"link '{a}-{b}'" if strings else f"link {list(edge)!r}"
             for x in (a, b):
+                if x == ROOM and ROOM not in known:
+                    raise ValueError(
+                        f"{label}: 'room' (the workshop air) is not a node, so "
+                        "links cannot reach it; every node convects to the "
+                        f"enclosure air ({self.enclosure!r}, through "
+                        "hA.<node>), which convects to the room. A body outside "
+                        "the enclosure (a tank, a chiller) is then modelled as "
+                        "seeing the enclosure air; to let the workshop air wash "
+                        "it directly, list it under roles: exposed (the "
+                        "ambient_transient effect)."
+                    )
                 _node(label, x, nodes)
             if a == b:
                 raise ValueError(f"{label}: joins a node to itself.")
