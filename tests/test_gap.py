@@ -27,7 +27,13 @@ from skthermal.gap._problem import (
     predict_run,
     residuals,
 )
-from skthermal.gap._scores import gap_of, heldout_folds
+from skthermal.gap._scores import (
+    MAX_SPEED_LEVELS,
+    gap_of,
+    heldout_folds,
+    regime_gaps,
+    speed_bands,
+)
 from skthermal.simulate import ThermalMachine
 
 
@@ -1249,3 +1255,26 @@ def test_where_bands_split_the_squared_gap_about_each_channels_mean():
         bands = _where_of(R, t)["bands"]
         expected = np.mean(np.sum((R - R.mean(axis=0)) ** 2, axis=1))
         assert bands["power"].sum() == pytest.approx(expected, rel=1e-12)
+
+
+def test_many_speed_levels_are_banded_in_the_regime_tables():
+    # Random duty cycles run at dozens of speeds: one regime row each made
+    # how_far 33-48 rows long in an independent check.
+    rng = np.random.default_rng(0)
+    speeds = np.r_[0.0, rng.uniform(500, 9000, 30).round()]
+    regimes, residuals = [], []
+    for _ in range(3):
+        rpm = rng.choice(speeds, 80)
+        regimes.append(label_regimes(np.arange(80) * 60.0, rpm))
+        residuals.append(rng.normal(size=(80, 2)))
+    bands = speed_bands(regimes)
+    assert 1 < len(set(bands.values())) <= MAX_SPEED_LEVELS
+    assert bands[min(bands, key=lambda s: int(s.split()[0]))].startswith("at 0-")
+    gaps = regime_gaps(residuals, regimes)
+    shown = [r for r in gaps.index if r.startswith("at ")]
+    slowest_first = sorted(
+        set(bands.values()), key=lambda r: float(r[3:].split("-")[0])
+    )
+    assert shown == slowest_first
+    few = [label_regimes(np.arange(4) * 60.0, [0, 4000, 8000, 8000])]
+    assert speed_bands(few) == {"4000 rpm": "at 4000 rpm", "8000 rpm": "at 8000 rpm"}

@@ -303,8 +303,39 @@ def block_test(before, after, n_blocks=3):
     return float(stats.ttest_1samp(d, 0.0, alternative="greater").pvalue)
 
 
+# More speed levels than this over the runs (random duty cycles) are
+# grouped into bands of round width in the regime tables.
+MAX_SPEED_LEVELS = 8
+
+
+def speed_bands(regimes):
+    """``{speed label: its regime label}`` over all runs' regimes: ``"at
+    4000 rpm"`` per speed, or, for more than :data:`MAX_SPEED_LEVELS`
+    speeds, ``"at 3000-4000 rpm"`` per band of a round width (100, 200,
+    250, 500, 1000, ... rpm) giving at most that many bands. Standstill
+    (``"0 rpm"``) has none."""
+    labels = sorted(
+        {s for lab in regimes for s in lab["speed"].unique() if s != "0 rpm"},
+        key=lambda s: int(s.split()[0]),
+    )
+    if len(labels) <= MAX_SPEED_LEVELS:
+        return {s: f"at {s}" for s in labels}
+    rpm = np.array([int(s.split()[0]) for s in labels])
+    for w in [m * 10.0**e for e in range(2, 7) for m in (1, 2, 2.5, 5)]:
+        first, last = np.floor(rpm[[0, -1]] / w)
+        if last - first + 1 <= MAX_SPEED_LEVELS:
+            lows = np.floor(rpm / w) * w
+            return {
+                s: f"at {lo:g}-{lo + w:g} rpm"
+                for s, lo in zip(labels, lows, strict=True)
+            }
+    return dict.fromkeys(labels, "at speed")
+
+
 def regime_gaps(Rs, regimes):
-    """Gap per regime label (primary regime, ambient event, feed motion)."""
+    """Gap per regime label (primary regime, ambient event, feed motion,
+    speed level or band, see :func:`speed_bands`)."""
+    bands = speed_bands(regimes)
     rows = []
     for R, lab in zip(Rs, regimes, strict=True):
         e = np.sum(R * R, axis=1)
@@ -322,8 +353,9 @@ def regime_gaps(Rs, regimes):
                     {"regime": "feed motion", "e": e[lab["feed_motion"].to_numpy()]}
                 )
             )
-        for speed, idx in lab.groupby("speed").groups.items():
-            if speed != "0 rpm":
-                rows.append(pd.DataFrame({"regime": f"at {speed}", "e": e[idx]}))
+        groups = lab.groupby("speed").groups
+        for speed, band in bands.items():  # slowest first
+            if speed in groups:
+                rows.append(pd.DataFrame({"regime": band, "e": e[groups[speed]]}))
     frame = pd.concat(rows, ignore_index=True)
     return frame.groupby("regime", sort=False)["e"].mean().pow(0.5)
