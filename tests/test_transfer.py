@@ -427,3 +427,42 @@ def test_fit_matches_the_direct_jacobian(order, monkeypatch):
     np.testing.assert_allclose(
         fast.coef_.sum(axis=1), slow.coef_.sum(axis=1), rtol=1e-6
     )
+
+
+@pytest.mark.parametrize("kind", ["transfer", "lags"])
+def test_a_run_logged_in_milliseconds_warns(kind):
+    # time_s in milliseconds reads as a thousand times slower sampling; the
+    # filters then ran a thousand times too fast, silently (an independent
+    # check: RMSE 0.53 -> 29.5 µm). A faster run is fine.
+    from skthermal.preprocessing import make_lag_pipeline
+
+    X, y = _heating_runs()
+    model = (
+        TransferFunctionRegressor(speed_column="spindle_rpm")
+        if kind == "transfer"
+        else make_lag_pipeline()
+    )
+    model.fit(X, y)
+    new = X.loc[["r1"]]
+    ms = new.set_axis(
+        pd.MultiIndex.from_arrays(
+            [new.index.get_level_values(0), new.index.get_level_values(1) * 1000.0],
+            names=["run", "time_s"],
+        )
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"run 'r1' is sampled every 10000 s, the "
+        r"training runs every 10 s .*not milliseconds",
+    ):
+        model.predict(ms)
+    fast = new.set_axis(
+        pd.MultiIndex.from_arrays(
+            [new.index.get_level_values(0), new.index.get_level_values(1) / 10.0],
+            names=["run", "time_s"],
+        )
+    )
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        model.predict(fast)
+    assert not any("not milliseconds" in str(w.message) for w in record)

@@ -162,12 +162,22 @@ _STEP_SPAN_RATIO = 1000.0
 _MIXED_SCALES = 100.0
 
 
-def _warn_input_scales(step_size, X, names):
+def _warn_input_scales(step_size, X, names, grey=False):
     """Warn when the premise step (in the inputs' units) dwarfs an input's
     span (the gradient steps throw its functions off the data) or is far
     too short for the inputs' spans (they barely move), and when the
     inputs' spans differ by more than :data:`_MIXED_SCALES` (spindle speed
-    in rpm beside temperatures in °C)."""
+    in rpm beside temperatures in °C). ``grey``: ``X`` are the accumulated
+    inputs of ``grey=True``, which a scaler in front must not centre."""
+    if grey:
+        scale = standardise = (
+            "Scale the inputs without centring them (StandardScaler(with_mean="
+            "False) or MaxAbsScaler in front; grey=True accumulates them, and "
+            "centred readings accumulate into drifting sums)"
+        )
+    else:
+        scale = "Scale the inputs (a StandardScaler in front)"
+        standardise = "Standardise the inputs (a StandardScaler in front)"
     span = np.ptp(X, axis=0) if X.shape[0] else np.zeros(X.shape[1])
     moving = np.flatnonzero(span > 0)
     if not moving.size:
@@ -178,8 +188,8 @@ def _warn_input_scales(step_size, X, names):
             f"ANFISRegressor: step_size={step_size:g} is the length of each "
             f"premise step in the inputs' units, and the inputs span "
             f"{span[j]:.3g} or more: the membership functions will barely move "
-            "in training. Scale the inputs (a StandardScaler in front) or give "
-            f"a step_size of about {0.01 * span[j]:.2g}.",
+            f"in training. {scale} or give a step_size of about "
+            f"{0.01 * span[j]:.2g}.",
             UserWarning,
             stacklevel=4,
         )
@@ -188,8 +198,8 @@ def _warn_input_scales(step_size, X, names):
             f"ANFISRegressor: step_size={step_size:g} is the length of each "
             f"premise step in the inputs' units, and input {names[j]!r} spans "
             f"only {span[j]:.3g}: the membership functions would jump far "
-            "beyond the data. Scale the inputs (a StandardScaler in front) or "
-            f"give a step_size of about {0.01 * span[j]:.2g}.",
+            f"beyond the data. {scale} or give a step_size of about "
+            f"{0.01 * span[j]:.2g}.",
             UserWarning,
             stacklevel=4,
         )
@@ -201,7 +211,7 @@ def _warn_input_scales(step_size, X, names):
             f"{names[j]!r} {span[j]:.3g}). The premise step and the consequents' "
             "ridge act in the inputs' units, so such inputs are trained and "
             "shrunk unevenly (a speed in rpm instead of krpm changes the "
-            "model). Standardise the inputs (a StandardScaler in front).",
+            f"model). {standardise}.",
             UserWarning,
             stacklevel=4,
         )
@@ -585,7 +595,9 @@ default="fcm"
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
         _warn_large_problem(rules.shape[0], X_train.shape[1], X_train.shape[0])
-        _warn_input_scales(self.step_size, X_train, self._feature_names())
+        _warn_input_scales(
+            self.step_size, X_train, self._feature_names(), grey=self.grey
+        )
 
         ridge, result = self.ridge, None
         self.ridge_scores_ = {}

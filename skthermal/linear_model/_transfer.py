@@ -36,6 +36,7 @@ from skthermal.utils._runs import (
     run_times,
     warn_no_time,
     warn_pauses,
+    warn_slow_periods,
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
@@ -1191,6 +1192,9 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         if self.dt is None:  # a given dt overrides the times, pauses too
             warn_pauses(
                 type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 3
+            )
+            warn_slow_periods(
+                type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 3
             )
         bases = continued_values(cont, memory, "x_first")
         U = self._inputs(X, slices, bases)

@@ -40,6 +40,7 @@ from skthermal.utils._runs import (
     warn_gaps,
     warn_no_time,
     warn_pauses,
+    warn_slow_periods,
     warn_unlabelled_runs,
     warn_unnamed_drivers,
 )
@@ -717,6 +718,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # Level 4: the caller of transform, which scikit-learn's set_output
         # wraps.
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 4)
+        warn_slow_periods(
+            type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 4
+        )
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
             type(self).__name__,

@@ -1350,6 +1350,38 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
     )
 
 
+# A run sampled this many times more slowly than the training runs is taken
+# for a unit slip of its time_s (milliseconds read as seconds).
+SLOW_PERIOD_FACTOR = 20.0
+
+
+def warn_slow_periods(name, X, slices, labels, period, stacklevel=5):
+    """Warn, naming the run, when a run given to a model whose time
+    constants are in seconds is sampled over :data:`SLOW_PERIOD_FACTOR`
+    times more slowly than its training runs (``period``, s): most likely
+    ``time_s`` logged in milliseconds, which the filters read as a thousand
+    times slower dynamics. A faster run is fine (every row's step is
+    used)."""
+    t = row_times(X)
+    if t is None or period is None or not (np.isfinite(period) and period > 0):
+        return
+    ratio = _median_periods(t, slices) / period
+    ratio[~np.isfinite(ratio)] = 0.0
+    if not (ratio > SLOW_PERIOD_FACTOR).any():
+        return
+    r = int(np.argmax(ratio))
+    where = "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
+    warnings.warn(
+        f"{name}: {where} is sampled every {ratio[r] * period:g} s, the "
+        f"training runs every {period:g} s ({ratio[r]:.3g} times more "
+        "slowly). The time constants are in seconds: is its time_s in "
+        "seconds (not milliseconds)? A run really sampled this slowly is "
+        "filtered as given.",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
+
+
 def warn_row_gaps(name, X, slices, labels, cont=None, memory=None, stacklevel=5):
     """Warnings of a model that counts rows: gaps inside the runs
     (:func:`warn_gaps`), runs sampled at another period than the others
