@@ -1301,6 +1301,16 @@ def _median_periods(t, slices):
     )
 
 
+def _worst_run(score, labels, limit):
+    """``(index, name for messages)`` of the run with the largest ``score``
+    (non-finite scores count as 0), or None when none exceeds ``limit``."""
+    score = np.where(np.isfinite(score), score, 0.0)
+    if not (score > limit).any():
+        return None
+    r = int(np.argmax(score))
+    return r, "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
+
+
 def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
     """Warn when runs are sampled at different periods, for a model that
     counts rows (its dynamics are per sample, so a run logged every 60 s
@@ -1333,12 +1343,10 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
         against = "the period of the training runs"
     if not (np.isfinite(ref) and ref > 0):
         return
-    off = np.abs(periods / ref - 1.0)
-    off[~np.isfinite(off)] = 0.0
-    if not (off > PERIOD_RTOL).any():
+    worst = _worst_run(np.abs(periods / ref - 1.0), labels, PERIOD_RTOL)
+    if worst is None:
         return
-    r = int(np.argmax(off))
-    where = "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
+    r, where = worst
     warnings.warn(
         f"{name}: {where} is sampled every {periods[r]:g} s, {against} is "
         f"{ref:g} s. The model counts rows, not seconds, so its dynamics "
@@ -1366,11 +1374,10 @@ def warn_slow_periods(name, X, slices, labels, period, stacklevel=5):
     if t is None or period is None or not (np.isfinite(period) and period > 0):
         return
     ratio = _median_periods(t, slices) / period
-    ratio[~np.isfinite(ratio)] = 0.0
-    if not (ratio > SLOW_PERIOD_FACTOR).any():
+    worst = _worst_run(ratio, labels, SLOW_PERIOD_FACTOR)
+    if worst is None:
         return
-    r = int(np.argmax(ratio))
-    where = "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
+    r, where = worst
     warnings.warn(
         f"{name}: {where} is sampled every {ratio[r] * period:g} s, the "
         f"training runs every {period:g} s ({ratio[r]:.3g} times more "
