@@ -417,8 +417,10 @@ def _add_search(sub):
         "Search a named model's structure and training settings with Optuna "
         "(skthermal.model_selection.run_search), scored by cross-validation "
         "over whole runs (GroupKFold, up to 5 folds), with the built-in search "
-        "spaces (ANFIS: rules/MFs, MF shape, epochs, step size; grey models: "
-        "PSO settings; MLP: hidden neurons, alpha, activation). A --storage "
+        "spaces (ANFIS: rules/MFs, MF shape, epochs, step size; grey-pso: "
+        "calibration by variable projection or least squares, ridge, delay; "
+        "gnnmci: PSO settings; MLP: hidden neurons, alpha, activation). A "
+        "--storage "
         "keeps the study: run the same command in several processes or "
         "machines to share the trials, or later to resume.",
         "  skthermal search --runs tests.csv --model anfis-fcm --trials 50 \\\n"

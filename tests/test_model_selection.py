@@ -170,6 +170,42 @@ def test_prefixed_and_combined_spaces():
         clash(optuna.create_study().ask())
 
 
+@pytest.mark.parametrize("given", ["dict", "inferred"])
+def test_steps_that_name_a_parameter_alike_draw_it_apart(given):
+    # A space per step (a dict, or inferred for space=None) asked Optuna for
+    # the picker's and ANFIS's "n_clusters" under one name, so both always
+    # got the same value (99 of 99 draws in an independent check).
+    from skthermal.model_selection._search import _resolve_space
+
+    pipe = make_pipeline(FCMClusterPicker(), ANFISRegressor())
+    space = _resolve_space(
+        {"fcmclusterpicker": "fcm_picker", "anfisregressor": "anfis"}
+        if given == "dict"
+        else None,
+        pipe,
+    )
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    pairs = []
+    for _ in range(40):
+        trial = study.ask()
+        params = space(trial)
+        study.tell(trial, 0.0)
+        if "anfisregressor__n_clusters" in params:
+            pairs.append(
+                (
+                    params["fcmclusterpicker__n_clusters"],
+                    params["anfisregressor__n_clusters"],
+                )
+            )
+        assert set(trial.params) == set(params)  # named as the steps
+    assert len(pairs) > 10 and sum(a != b for a, b in pairs) > len(pairs) / 2
+
+
+def test_a_log_range_from_zero_is_refused_early():
+    with pytest.raises(ValueError, match="alpha is searched on a log scale"):
+        search_space("grey_pso", alpha=(0, 100))
+
+
 # ------------------------------------------------- ANFIS epoch callback
 
 
@@ -496,7 +532,7 @@ def test_a_value_the_estimator_refuses_is_named_before_any_trial(runs_data):
     X, y, groups = runs_data
     for space, message in (
         (search_space("anfis", mf=["gausian"], epochs=2), "mf='gausian'"),
-        (search_space("anfis", epochs=(0, 5)), "epochs=0"),
+        (search_space("anfis", init="fcm", n_clusters=(0, 5)), "n_clusters=0"),
         (
             {"anfisregressor": search_space("anfis", init="fcm", step_size=-1.0)},
             "anfisregressor__step_size=-1.0",
@@ -517,6 +553,9 @@ def test_a_value_the_estimator_refuses_is_named_before_any_trial(runs_data):
                 callbacks=[callback],
             )
         assert callback.seen == 0
+    # A log-scaled range from 0 is refused when the space is made.
+    with pytest.raises(ValueError, match="epochs is searched on a log scale"):
+        search_space("anfis", epochs=(0, 5))
 
 
 class _StopAfter:

@@ -166,6 +166,13 @@ def _default_space_name(estimator):
     return None
 
 
+# Parameters the built-in spaces draw on a log scale: a range must start
+# above 0.
+_LOG_SCALED = frozenset(
+    {"epochs", "step_size", "n_particles", "alpha", "velocity_clamp"}
+)
+
+
 def _check_spec(key, spec, default):
     if isinstance(default, list):
         if isinstance(spec, list | tuple) and len(spec) == 0:
@@ -181,6 +188,11 @@ def _check_spec(key, spec, default):
             raise ValueError(f"{key}: a range is a (low, high) tuple, got {spec!r}.")
         if spec[0] > spec[1]:
             raise ValueError(f"{key}: low must not exceed high, got {spec!r}.")
+        if key in _LOG_SCALED and spec[0] <= 0:
+            raise ValueError(
+                f"{key} is searched on a log scale: its range must start above "
+                f"0, got {spec!r}."
+            )
     return spec
 
 
@@ -236,10 +248,14 @@ def search_space(name, *, prefix=None, **ranges):
         ``step_size`` 0.01-1 (log). A grid has ``n_mfs ** n_features``
         rules: with more than about four inputs fix ``init="fcm"``.
         ``"grey_pso"`` (:class:`~skthermal.grey.GreyPSORegressor`):
-        ``calibration`` in {"pso", "ls"}, and with PSO ``n_particles``
-        10-100, ``epochs`` 10-200, ``c1``, ``c2`` 0.5-2.5 and a linearly
-        decreasing ``inertia`` from ``inertia_start`` (0.6-1.0) to
-        ``inertia_end`` (0.1-0.6).
+        ``calibration`` in {"varpro", "ls"}, the ridge ``alpha`` on the
+        driving coefficients 1e-6-100 (log) and the ``delay`` 0-3 samples;
+        with ``calibration="pso"`` among the choices (only when asked for,
+        e.g. ``calibration=["varpro", "pso"]``), also ``init`` in {"ls",
+        "random"}, ``n_particles`` 10-100, ``epochs`` 10-200, ``c1``, ``c2``
+        0.5-2.5 and a linearly decreasing ``inertia`` from
+        ``inertia_start`` (0.6-1.0) to ``inertia_end`` (0.1-0.6): a swarm
+        started at the variable-projection optimum ends there.
         ``"gnnmci"`` (:class:`~skthermal.grey.GNNMCIRegressor`): the PSO
         settings and ``velocity_clamp`` 0.1-3 (log).
         ``"fcm_picker"`` (:class:`~skthermal.selection.FCMClusterPicker`):
@@ -347,17 +363,38 @@ class _CombinedSpace:
         return f"combine_spaces({', '.join(map(describe_space, self.spaces))})"
 
 
+class _PrefixedTrial:
+    """An Optuna trial whose ``suggest_*`` names carry a pipeline step's
+    prefix (``step__n_clusters``): two steps' spaces that name a parameter
+    alike (a picker's and ANFIS's ``n_clusters``) then draw it apart, not
+    as one Optuna parameter. Everything else is the trial's."""
+
+    def __init__(self, trial, prefix):
+        self._trial = trial
+        self._prefix = prefix
+
+    def __getattr__(self, attr):
+        value = getattr(self._trial, attr)
+        if not (attr.startswith("suggest_") and callable(value)):
+            return value
+
+        def suggest(name, *args, **kwargs):
+            return value(f"{self._prefix}{_PREFIX_SEP}{name}", *args, **kwargs)
+
+        return suggest
+
+
 class PrefixedSpace:
-    """A space whose parameters belong to the pipeline step ``prefix``."""
+    """A space whose parameters belong to the pipeline step ``prefix``; its
+    Optuna parameters are named with the prefix too."""
 
     def __init__(self, prefix, space):
         self.prefix = prefix
         self.space = space
 
     def __call__(self, trial):
-        return {
-            f"{self.prefix}{_PREFIX_SEP}{k}": v for k, v in self.space(trial).items()
-        }
+        params = self.space(_PrefixedTrial(trial, self.prefix))
+        return {f"{self.prefix}{_PREFIX_SEP}{k}": v for k, v in params.items()}
 
     def __repr__(self):
         return f"{describe_space(self.space)} for step {self.prefix!r}"

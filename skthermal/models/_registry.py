@@ -218,7 +218,9 @@ def model_search_space(name):
     """The Optuna search space of a named model of :func:`make_model`.
 
     ANFIS: rules or MFs per input, MF shape, epochs and step size (with the
-    model's partition fixed); grey models: the PSO settings; MLP: hidden
+    model's partition fixed); grey-pso: the calibration (variable projection
+    or least squares, not the swarm), the ridge and the delay; gnnmci: the
+    PSO settings; MLP: hidden
     neurons, L2 penalty and activation. Keys are ``set_params`` names of the
     wrapped model (``estimator__...``). ``"ridge"`` and ``"lag-ridge"``
     choose their settings by their own time-ordered CV and have no search
