@@ -946,6 +946,23 @@ def test_a_function_scorer_joins_its_own_study_again(runs_data, tmp_path):
     assert len(stored.trials) == 2
 
 
+def test_storage_options_are_checked(tmp_path):
+    # A negative retry count was accepted, a text heartbeat failed inside
+    # int(), and options the storage ignores were dropped silently.
+    from sklearn.utils._param_validation import InvalidParameterError
+
+    db, log = tmp_path / "s.db", tmp_path / "s.log"
+    with pytest.raises(InvalidParameterError, match="'max_retry' parameter"):
+        make_storage(db, max_retry=-1)
+    with pytest.raises(InvalidParameterError, match="'heartbeat_interval'"):
+        make_storage(db, heartbeat_interval="abc")
+    with pytest.warns(UserWarning, match="max_retry ignored: a journal"):
+        make_storage(log, max_retry=1)
+    with pytest.warns(UserWarning, match="grace_period ignored: heartbeat_int"):
+        make_storage(db, heartbeat_interval=None, grace_period=5)
+    assert make_storage(db, heartbeat_interval=2, grace_period=5, max_retry=1)
+
+
 def test_storage_in_a_missing_folder(runs_data, tmp_path):
     with pytest.raises(ValueError, match="does not exist; create it first"):
         make_storage(tmp_path / "nowhere" / "study.db")

@@ -43,6 +43,7 @@ from skthermal.model_selection._spaces import (
     space_values,
 )
 from skthermal.utils._runs import with_run_index
+from skthermal.utils._warnings import user_stacklevel
 
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 _JOURNAL_SUFFIXES = (".log", ".journal", ".jsonl")
@@ -75,6 +76,19 @@ def _no_experimental_warning():
 # --------------------------------------------------------------------------
 
 
+@validate_params(
+    {
+        "spec": "no_validation",
+        "heartbeat_interval": [
+            Interval(numbers.Integral, 1, None, closed="left"),
+            StrOptions({"auto"}),
+            None,
+        ],
+        "grace_period": [Interval(numbers.Integral, 1, None, closed="left"), None],
+        "max_retry": [Interval(numbers.Integral, 0, None, closed="left"), None],
+    },
+    prefer_skip_nested_validation=True,
+)
 def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retry=None):
     """An Optuna storage from a path or URL.
 
@@ -145,6 +159,9 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
                 "it first (the study file is made in it)."
             )
         if lower.endswith(_JOURNAL_SUFFIXES):
+            _check_no_heartbeat_options(
+                "a journal file has no heartbeats", grace_period, max_retry
+            )
             return _journal_storage(optuna, text)
         if not lower.endswith(_SQLITE_SUFFIXES):
             raise ValueError(
@@ -155,6 +172,23 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
             )
         text = "sqlite:///" + os.path.abspath(text)
     return _rdb_storage(optuna, text, heartbeat_interval, grace_period, max_retry)
+
+
+def _check_no_heartbeat_options(why, grace_period, max_retry):
+    """Warn of heartbeat options a storage ignores, saying ``why``."""
+    given = [
+        name
+        for name, value in (("grace_period", grace_period), ("max_retry", max_retry))
+        if value is not None
+    ]
+    if given:
+        warnings.warn(
+            f"{' and '.join(given)} ignored: {why}. Stale trials are failed "
+            "when a worker starts (fail_stale_trials); for retries use a "
+            "database storage with heartbeat_interval.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
 
 
 def _journal_storage(optuna, path):
@@ -168,6 +202,10 @@ def _journal_storage(optuna, path):
 def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
     if heartbeat_interval == "auto":
         heartbeat_interval = _DEFAULT_HEARTBEAT
+    if heartbeat_interval is None:
+        _check_no_heartbeat_options(
+            "heartbeat_interval=None switches heartbeats off", grace_period, max_retry
+        )
     kwargs = {}
     if heartbeat_interval is not None:
         kwargs["heartbeat_interval"] = int(heartbeat_interval)
