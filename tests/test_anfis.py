@@ -977,6 +977,28 @@ def test_grey_anfis_is_told_to_scale_without_centring():
     assert not any("Standardise" in str(w.message) for w in record)
 
 
+def test_grey_anfis_warns_of_centred_inputs():
+    # Centred (standardised) readings accumulate into running sums that turn
+    # back: an independent check got training R^2 -215 without a word, 1.0
+    # on the same readings as changes since the run start.
+    rng = np.random.default_rng(0)
+    t = np.arange(200.0)
+    T = np.c_[5 * (1 - np.exp(-t / 50)), 3 * (1 - np.exp(-t / 80))]
+    T += rng.normal(0, 0.02, T.shape)
+    y = 3 * T[:, 0] + T[:, 1]
+    centred = (T - T.mean(axis=0)) / T.std(axis=0)
+    model = ANFISRegressor(grey=True, epochs=10, random_state=0)
+    with pytest.warns(
+        UserWarning, match=r"input 'x1' \(and 1 more\) takes values on both"
+    ):
+        model.fit(centred, y)
+    assert model.score(centred, y) < 0  # what the warning is about
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.fit(T, y)  # changes since the run start: no warning
+    assert model.score(T, y) > 0.99
+
+
 def test_a_step_far_too_small_for_the_inputs_warns():
     rng = np.random.default_rng(0)
     X = rng.uniform(-1, 1, (200, 2))

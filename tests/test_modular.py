@@ -147,6 +147,21 @@ def test_fit_modules_from_tables_and_pairs():
         )
     with pytest.raises(ValueError, match="non-empty dict"):
         model.fit_modules({})
+    # Inputs in the tables' order (drivers were put after the temperatures):
+    # a test of the same layout is predicted without its displacements.
+    tables = {
+        k: v.assign(spindle_rpm=0.0)[
+            ["run", "time_s", "spindle_rpm", "T1_C", "T2_C", "disp_y_um"]
+        ]
+        for k, v in tables.items()
+    }
+    model.fit_modules(tables)
+    assert list(model.feature_names_in_) == ["spindle_rpm", "T1_C", "T2_C"]
+    test = tables["axis"].drop(columns="disp_y_um")
+    np.testing.assert_allclose(
+        model.predict(test),
+        model.predict(test.to_numpy()[:, 2:].astype(float), groups=test["run"]),
+    )
 
 
 @pytest.mark.parametrize(

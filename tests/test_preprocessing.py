@@ -781,3 +781,16 @@ def test_exponential_filter_names_bad_rows_slices_state_and_periods():
     for periods in ([0.0], [-1.0], [1.0, 1.0]):
         with pytest.raises(ValueError, match="periods must hold one"):
             exponential_filter(U, 5.0, 1.0, times=[0, 1, 2, 3], periods=periods)
+
+
+def test_lag_ridge_cv_by_runs_on_one_run_says_what_it_does():
+    rng = np.random.default_rng(0)
+    X = 20 + np.cumsum(rng.normal(0, 0.05, (120, 2)), axis=0)
+    y = X[:, 0] - 20
+    model = LagRidgeCV(cv="runs", time_constant_sets=[(5.0,)], dt=1.0)
+    with pytest.warns(UserWarning, match=r"cv='runs'.*one run.*cv='forward'") as rec:
+        model.fit(X, y, groups=np.zeros(120))
+    assert any(w.filename == __file__ for w in rec)
+    forward = LagRidgeCV(cv="forward", time_constant_sets=[(5.0,)], dt=1.0)
+    forward.fit(X, y, groups=np.zeros(120))
+    assert model.alpha_ == forward.alpha_

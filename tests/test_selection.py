@@ -427,3 +427,44 @@ def test_fcm_picker_groups_readings_of_any_scale():
     tiny = X.assign(**{c: X[c] * 1e-300 for c in sensors})
     got = FCMClusterPicker(n_clusters=2, random_state=0).fit(tiny, y * 1e-300)
     np.testing.assert_array_equal(got.get_support(), ref.get_support())
+
+
+@pytest.mark.parametrize(
+    "transformer",
+    [
+        GRASelector(n_features_to_select=2),
+        FCMClusterPicker(n_clusters=2, random_state=0),
+        "lags",
+    ],
+    ids=["GRASelector", "FCMClusterPicker", "LagFeatures"],
+)
+def test_column_transformer_over_run_table_columns_names_its_outputs(transformer):
+    # A ColumnTransformer passing a run table's run and time_s columns (the
+    # documented way to give runs) asked for the output names with all its
+    # columns and got "input_features is not equal to feature_names_in_".
+    from sklearn.compose import ColumnTransformer
+
+    from skthermal import LagFeatures
+
+    if transformer == "lags":
+        transformer = LagFeatures(drivers=None, time_constants=(600.0,))
+    rng = np.random.default_rng(0)
+    table = pd.DataFrame(
+        {
+            "run": np.repeat(["A", "B"], 50),
+            "time_s": np.tile(np.arange(50) * 60.0, 2),
+            "T1_C": 20 + rng.random(100).cumsum() / 10,
+            "T2_C": 20 + rng.random(100).cumsum() / 20,
+            "T3_C": 20 + rng.random(100).cumsum() / 30,
+        }
+    )
+    y = 2 * (table["T1_C"] - 20)
+    columns = ["run", "time_s", "T1_C", "T2_C", "T3_C"]
+    ct = ColumnTransformer([("s", transformer, columns)]).set_output(transform="pandas")
+    out = ct.fit_transform(table, y)
+    step = ct.named_transformers_["s"]
+    names = [f"s__{c}" for c in step.get_feature_names_out()]
+    assert list(out.columns) == names == list(ct.get_feature_names_out())
+    assert not any(c.endswith(("__run", "__time_s")) for c in names)
+    with pytest.raises(ValueError, match="input_features is not equal"):
+        step.get_feature_names_out(["run", "time_s", "T3_C", "T2_C", "T1_C"])

@@ -599,3 +599,15 @@ def test_extractor_run_label_and_strip_spots():
         VirtualSensorExtractor(strips={1: ((2, 2), (2, 3), 5)}).fit(frames)
     strip = VirtualSensorExtractor(strips={1: ((2, 2), (2, 3), 2)}).fit(frames)
     assert len(strip.spots_) == 2
+
+
+def test_fbg_groups_with_a_reference_temperature_warn():
+    # They were ignored without a word.
+    with pytest.warns(UserWarning, match="groups are not used with a reference_C"):
+        out = correct_fbg_strain(
+            [0.0, 10.0, 0.0, 10.0],
+            [20.0, 21.0, 22.0, 23.0],
+            reference_C=20.0,
+            groups=["a", "a", "b", "b"],
+        )
+    np.testing.assert_allclose(out, [0.0, 10.0 - 8.64, -2 * 8.64, 10.0 - 3 * 8.64])

@@ -181,6 +181,24 @@ def test_a_training_run_continued_after_a_hole():
     assert np.abs(tail - whole[400:]).max() < 0.02 * np.ptp(whole)
 
 
+def test_a_gap_inside_predicted_rows_is_bridged_as_a_pause_is():
+    # A pause between fit and predict was bridged (with a warning) while the
+    # same hole inside the predicted rows was an error; both are bridged now.
+    X, y = _heating_runs()
+    model = TransferFunctionRegressor(speed_column="spindle_rpm").fit(X, y)
+    run = X.loc[["r0"]]
+    whole = model.predict(run)
+    holed = run.iloc[np.r_[0:300, 400 : len(run)]]
+    with pytest.warns(UserWarning, match=r"1 gap\(s\) in time_s.*lasts 1010 s"):
+        pred = model.predict(holed)
+    np.testing.assert_allclose(pred[:300], whole[:300], rtol=0, atol=1e-12)
+    assert np.abs(pred[300:] - whole[400:]).max() < 0.02 * np.ptp(whole)
+    with pytest.raises(ValueError, match="constant sampling.*run 'r0'"):
+        TransferFunctionRegressor(speed_column=2, max_iter=0).fit(
+            holed, y.loc[["r0"]].iloc[np.r_[0:300, 400 : len(run)]]
+        )
+
+
 @pytest.mark.parametrize(
     "tau_bounds, message",
     [

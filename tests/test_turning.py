@@ -201,3 +201,25 @@ def test_fit_error_lines_names_text():
         fit_error_lines(["x", 20, 30], [1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match="d_um must hold numbers"):
         fit_error_lines([10.0, 20.0, 30.0], [1.0, "n/a", 3.0])
+
+
+@pytest.mark.parametrize(
+    "args, kwargs, message",
+    [
+        ((40.0,), {"D_omc": 40.002, "D_pp": 40005.0}, r"D_pp of part 0 is 40005 mm"),
+        ((20.0,), {"D_omc": 40.002}, r"D_omc of part 0 .* designed 20 mm.*radii"),
+        ((40000.0,), {"D_omc": 40002.0}, r"D_des reaches 40000 mm.*unit='um'"),
+    ],
+)
+def test_unit_slips_are_refused(args, kwargs, message):
+    # Micrometres typed as mm, or a radius for a diameter, gave errors of
+    # 2000 µm to 4e7 µm without a word.
+    with pytest.raises(ValueError, match=message):
+        decompose_turning_error(*args, **kwargs)
+    ok = decompose_turning_error(40000.0, D_omc=40002.0, unit="um")
+    assert ok["d_agg"].tolist() == [2.0]
+
+
+def test_error_lines_keep_parts_of_two_label_kinds_apart():
+    with pytest.raises(ValueError, match=r"Part labels mix kinds: point 0 has 1"):
+        fit_error_lines([10, 20, 10, 20], [1, 2, 3, 4], groups=[1, 1, "1", "1"])

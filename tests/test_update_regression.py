@@ -478,3 +478,13 @@ def test_cross_batch_rmse_refuses_a_scattered_batch():
         cross_batch_rmse(
             {"ols": LinearRegression()}, X, y, ["b1"] * 3 + ["b2"] * 3 + ["b1"] * 3
         )
+
+
+def test_fit_takes_lists_with_run_labels():
+    # A list of rows with groups raised AttributeError ('list' has no shape).
+    rng = np.random.default_rng(0)
+    X, y = rng.random((20, 3)), rng.random(20)
+    groups = [0] * 10 + [1] * 10
+    from_lists = UpdateRegressor().fit(X.tolist(), y.tolist(), groups=groups)
+    from_arrays = UpdateRegressor().fit(X, y, groups=groups)
+    np.testing.assert_array_equal(from_lists.coef_, from_arrays.coef_)

@@ -511,7 +511,9 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
                 ]
                 if missing:
                     raise ValueError(f"The run table of {name!r} has no {missing}.")
-                features = sensor_columns(item) + driver_columns(item)
+                # In the table's order: the rows to predict are tables too.
+                inputs = set(sensor_columns(item) + driver_columns(item))
+                features = [c for c in item.columns if c in inputs]
                 labels = [c for c in (RUN_COLUMN, TIME_COLUMN) if c in item.columns]
                 X_i, y_i = item[features + labels], item[targets]
             else:

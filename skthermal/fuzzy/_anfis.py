@@ -162,6 +162,40 @@ _STEP_SPAN_RATIO = 1000.0
 _MIXED_SCALES = 100.0
 
 
+# With grey=True, an input whose values fall on both sides of zero by more
+# than this share of its span accumulates into a sum that rises and falls.
+_GREY_SIGN_SHARE = 0.1
+
+
+def _warn_grey_signs(X, names):
+    """Warn when ``grey=True`` gets inputs of both signs, such as centred
+    (standardised) readings. Grey models accumulate non-negative series; a
+    centred input's running sum turns back, so one accumulated value stands
+    for several states of the run, and the restored (differenced)
+    predictions amplify the fit's errors (training R^2 1.0 on changes since
+    the run start, -215 on the same readings standardised)."""
+    if not X.shape[0]:
+        return
+    low, high = X.min(axis=0), X.max(axis=0)
+    margin = _GREY_SIGN_SHARE * (high - low)
+    both = np.flatnonzero((low < -margin) & (high > margin) & (margin > 0))
+    if not both.size:
+        return
+    j = both[0]
+    more = f" (and {both.size - 1} more)" if both.size > 1 else ""
+    warnings.warn(
+        f"ANFISRegressor(grey=True): input {names[j]!r}{more} takes values on "
+        f"both sides of zero ({low[j]:.3g} to {high[j]:.3g}), as centred "
+        "(standardised) readings do. grey=True accumulates every input over "
+        "its run, and such an input's running sum turns back, so the model "
+        "and the restored predictions can be far off. Give readings or "
+        "changes since the run start, scaled without centring "
+        "(StandardScaler(with_mean=False) or MaxAbsScaler).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
 def _warn_input_scales(step_size, X, names, grey=False):
     """Warn when the premise step (in the inputs' units) dwarfs an input's
     span (the gradient steps throw its functions off the data) or is far
@@ -580,6 +614,7 @@ default="fcm"
 
         X_model, Y_model = X, Y
         if self.grey:
+            _warn_grey_signs(X, self._feature_names())
             X_model, Y_model = _ago_by_run(X, groups), _ago_by_run(Y, groups)
 
         checking = None

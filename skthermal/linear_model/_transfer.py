@@ -20,6 +20,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
+    GAP_BRIDGE,
     PAUSE_BRIDGE,
     changes_since_start,
     check_positive_numbers,
@@ -34,6 +35,7 @@ from skthermal.utils._runs import (
     run_sample_periods,
     run_slices,
     run_times,
+    warn_gaps,
     warn_no_time,
     warn_pauses,
     warn_slow_periods,
@@ -593,7 +595,10 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         ``X`` (:func:`skthermal.datasets.split_runs`), one interval per run
         (a run of one row takes that of the others; an error when no run has
         two rows), or 1 (time constants in samples) when ``X`` has no such
-        level. A number overrides the index.
+        level. A number overrides the index. ``fit`` needs each run sampled
+        at a constant interval; ``predict`` follows the times, across gaps
+        too (with a warning; the inputs taken to change linearly over a
+        gap).
     tau_bounds : (float, float) or None, default=None
         Bounds ``(low, high)`` of the time constants, in the unit of ``dt``:
         finite, ``0 < low < high`` (with ``order=2``, ``high >= 2 * low``).
@@ -749,15 +754,18 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
     def _intervals(self, X_raw, groups, slices, labels, period=None):
         """Sampling interval of every run, and the model's period: ``dt``
         when given; in ``fit`` (``period`` None) from the times, a run of one
-        row taking that of the others (:func:`fitted_sample_periods`); in
-        ``predict``, a run without times takes the fitted ``period``."""
+        row taking that of the others (:func:`fitted_sample_periods`), each
+        run sampled at a constant interval (the identification filters at
+        one step per run); in ``predict``, the median step of each run (the
+        filters then follow the times, gaps included), a run without times
+        taking the fitted ``period``."""
         if self.dt is not None:
             return np.full(len(slices), float(self.dt)), float(self.dt)
         name = type(self).__name__
-        kwargs = {"labels": labels, "regular": name, "rtol": _DT_RTOL}
         if period is None:
+            kwargs = {"labels": labels, "regular": name, "rtol": _DT_RTOL}
             return fitted_sample_periods(X_raw, groups, slices, None, name, **kwargs)
-        return run_sample_periods(X_raw, groups, slices, period, **kwargs), period
+        return run_sample_periods(X_raw, groups, slices, period), period
 
     def _check_tau_bounds(self):
         """``tau_bounds`` as (low, high), or None."""
@@ -1196,6 +1204,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             warn_slow_periods(
                 type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 3
             )
+            warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         bases = continued_values(cont, memory, "x_first")
         U = self._inputs(X, slices, bases)
         states = continued_values(cont, memory, "state")

@@ -22,7 +22,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.utils import check_X_y
 from sklearn.utils._param_validation import Interval, validate_params
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
 
 from skthermal.utils._runs import extract_runs, run_slices, target_names
 
@@ -354,7 +354,7 @@ def _features(X, groups=None, y=None):
     checked, then not used; a given target must be finite)."""
     X, groups = extract_runs(X, groups, y=y)
     if groups is not None:
-        run_slices(groups, X.shape[0])
+        run_slices(groups, _num_samples(X))
     return X
 
 

@@ -234,7 +234,7 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         with warnings.catch_warnings():
             # This model has just named the runs' late starts and missing
             # labels; the wrapped one would say it again in its own name.
-            warnings.filterwarnings("ignore", message=r"Run .* given to .* start")
+            warnings.filterwarnings("ignore", message=r"Run .* given to .* (start|has)")
             warnings.filterwarnings("ignore", message=r".* carry no run labels")
             pred = self.estimator_.predict(self._changes(A, groups, X, bases))
         return changes_since_start(

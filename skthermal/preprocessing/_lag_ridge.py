@@ -29,6 +29,7 @@ from skthermal.utils._runs import (
     warn_unnamed_drivers,
 )
 from skthermal.utils._threads import single_threaded_blas
+from skthermal.utils._warnings import user_stacklevel
 
 DEFAULT_TIME_CONSTANT_SETS = (
     (),
@@ -185,7 +186,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         (``"blocks"``) or whole runs left out (``"runs"``; the runs are
         dealt into the folds in the order of their labels, so the chosen
         model does not depend on the order of the runs in the table).
-        ``"auto"``: ``"runs"`` with several runs, else ``"forward"``.
+        ``"auto"``: ``"runs"`` with several runs, else ``"forward"``
+        (as ``"runs"`` on one run, with a warning).
     selection : {"min", "1se"}, default="min"
         The least total validation error, or the one-standard-error rule
         (the largest penalty, then the fewest features, within one standard
@@ -427,6 +429,14 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         cv = self.cv
         if cv == "auto":
             cv = "runs" if len(slices) > 1 else "forward"
+        if cv == "runs" and len(slices) == 1:
+            warnings.warn(
+                f"{type(self).__name__}: cv='runs' leaves whole runs out, and "
+                "the training rows are one run: expanding-window folds in time "
+                "order are used instead (cv='forward').",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
         if cv == "runs" and len(slices) > 1:
             folds = _group_folds(slices, self.n_splits, labels)
         elif cv == "blocks":
@@ -554,7 +564,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             _quiet_inner_lag_features()
             warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
-            warnings.filterwarnings("ignore", message=r".* given to LagFeatures start")
+            warnings.filterwarnings(
+                "ignore", message=r".* given to LagFeatures (start|has)"
+            )
             F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         F = F[:, : self.n_lag_features_]

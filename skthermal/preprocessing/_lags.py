@@ -13,7 +13,6 @@ from scipy.signal import lfilter
 from sklearn.base import BaseEstimator, TransformerMixin, _fit_context
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import (
-    _check_feature_names_in,
     check_is_fitted,
     validate_data,
 )
@@ -32,6 +31,7 @@ from skthermal.utils._runs import (
     fitted_sample_periods,
     gap_periods,
     row_times,
+    run_feature_names_in,
     run_frame_index,
     run_memory,
     run_sample_periods,
@@ -779,7 +779,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         check_is_fitted(self, "driver_indices_")
         # scikit-learn's rule: None gives the names seen in fit (or x0, x1,
         # ...); names given must match those, or their number.
-        input_features = _check_feature_names_in(self, input_features)
+        input_features = run_feature_names_in(self, input_features)
         temp = np.setdiff1d(np.arange(self.n_features_in_), self.driver_indices_)
         tnames = [str(c) for c in input_features[temp]]
         if self.relative:

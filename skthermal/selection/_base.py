@@ -23,12 +23,14 @@ from skthermal.utils._runs import (
     describe_row,
     describe_unreadable,
     extract_runs,
+    run_feature_names_in,
     run_frame_index,
     run_slices,
     target_names,
     unreadable,
     warn_unlabelled_runs,
 )
+from skthermal.utils._warnings import user_stacklevel
 
 
 def _feature_label(estimator, j):
@@ -185,6 +187,24 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
 
         return pd.DataFrame(kept, index=index, columns=self.get_feature_names_out())
 
+    def get_feature_names_out(self, input_features=None):
+        """Names of the kept sensors.
+
+        Parameters
+        ----------
+        input_features : array-like of str, optional
+            The input names: those seen in ``fit``, or the columns of the
+            run table fitted on (with its ``run`` and ``time_s`` columns, as
+            a ``ColumnTransformer`` passes them). None gives the names seen
+            in ``fit`` (``x0``, ``x1``, ... for an array).
+
+        Returns
+        -------
+        ndarray of str
+        """
+        check_is_fitted(self)
+        return run_feature_names_in(self, input_features)[self.get_support()]
+
 
 class ScoreSelector(RunAwareSelector):
     """Base class of selectors that keep the best-scoring sensors.
@@ -251,7 +271,7 @@ class ScoreSelector(RunAwareSelector):
                     f"n_features_to_select={k}, but X has only {n} sensor(s): "
                     "all are kept.",
                     UserWarning,
-                    stacklevel=4,
+                    stacklevel=user_stacklevel(),
                 )
             top = np.zeros(n, dtype=bool)
             top[order[: min(int(k), n)]] = True

@@ -11,6 +11,7 @@ fuzzy-equivalence clustering of their correlation matrix and keeps the sensor
 most correlated with the error in every group.
 """
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -18,6 +19,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 
 from skthermal.selection._base import RunAwareSelector, ScoreSelector
 from skthermal.utils._runs import changes_since_start, run_slices
+from skthermal.utils._warnings import user_stacklevel
 
 
 def _centred(A):
@@ -403,6 +405,15 @@ class FuzzyEquivalenceSelector(RunAwareSelector):
         if self.n_groups is None:
             lam = float(self.threshold)
         else:
+            if self.n_groups >= closure.shape[0]:
+                # As the score selectors (and scikit-learn's SelectKBest).
+                warnings.warn(
+                    f"n_groups={self.n_groups}, but X has only "
+                    f"{closure.shape[0]} sensor(s): every sensor is a group of "
+                    "its own, and all are kept.",
+                    UserWarning,
+                    stacklevel=user_stacklevel(),
+                )
             # The lambda-cuts at the similarities where groups merge, high to
             # low: a cut at lam has n minus (merges at or above lam) groups;
             # the highest one with at most n_groups.

@@ -12,6 +12,7 @@ temperatures (a stated thermo-elastic model, see :class:`FBGGauge`), so that
 fusion of temperatures and strains (001 §5.4) can be tried on simulated runs.
 """
 
+import warnings
 from dataclasses import dataclass, field
 from numbers import Real
 
@@ -69,10 +70,12 @@ def correct_fbg_strain(
         Grating temperature at which the readings are zero. None: the
         temperature at the first sample of every run.
     sensitivity_ue_per_C : float, default=8.64
-        Apparent strain per °C of grating temperature.
+        Apparent strain per °C of grating temperature (of any sign: an
+        athermal package can bring it near zero or below).
     groups : array-like of shape (n_samples,), optional
         Run labels; with ``reference_C=None`` every run is referred to its own
-        first sample.
+        first sample. With a ``reference_C`` they are not needed (a warning
+        says so): every run is referred to that temperature.
 
     Returns
     -------
@@ -119,6 +122,14 @@ def correct_fbg_strain(
             raise ValueError(f"{name} is NaN or infinite at sample {row}.")
     if reference_C is None:
         return raw - k * changes_since_first_row(temp, groups)
+    if groups is not None:
+        warnings.warn(
+            "correct_fbg_strain: groups are not used with a reference_C: every "
+            "run is referred to that temperature. Give reference_C=None to "
+            "refer each run to its own first sample.",
+            UserWarning,
+            stacklevel=2,
+        )
     ref = np.asarray(reference_C, dtype=float)
     if not np.all(np.isfinite(ref)):
         raise ValueError("reference_C must be finite.")

@@ -117,7 +117,9 @@ class VirtualSensorExtractor:
     centres : array-like of shape (n_spots, 2), dict or None, default=None
         Spot centres as ``(row, col)`` pixel coordinates: an array (numbered
         after the grid spots, ``Tspot<k>_C``) or a dict ``{name: (row, col)}``
-        (columns ``T<name>_C``).
+        (columns ``T<name>_C``). A spot is centred on a pixel: fractional
+        coordinates are rounded to the nearest one (halves to the even one,
+        as ``numpy.rint``).
     strips : dict or None, default=None
         ``{name: ((row0, col0), (row1, col1), n_spots)}``: ``n_spots`` spots
         evenly spaced on the line from the first to the second pixel, both

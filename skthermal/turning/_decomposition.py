@@ -19,9 +19,15 @@ from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import plain, shown
-from skthermal.utils._runs import check_labels
+from skthermal.utils._runs import check_labels, label_array
 
 _UNITS = {"mm": 1000.0, "um": 1.0}
+# A measured diameter further than this share from the designed one is not a
+# machining error (µm on mm) but a unit slip, a radius or another part.
+_MAX_RELATIVE_ERROR = 0.05
+# Designed diameters above this (µm) are micrometres given with unit="mm":
+# the largest vertical lathes turn about 10 m.
+_MAX_DIAMETER_UM = 10e6
 
 #: Cutting conditions of the six test cases of 003 Table 1.
 TURNING_TEST_CONDITIONS = pd.DataFrame(
@@ -125,6 +131,15 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
     b = np.broadcast_arrays(*arrays.values())
     a = {k: np.atleast_1d(v) for k, v in zip(arrays, b, strict=True)}
     des = a["D_des"]
+    if des.max() > _MAX_DIAMETER_UM:
+        raise ValueError(
+            f"D_des reaches {des.max() / scale:.6g} {unit}, over "
+            f"{_MAX_DIAMETER_UM / 1e6:g} m: micrometres given with "
+            f"unit={unit!r}? Pass unit='um', or the diameters in mm."
+        )
+    for name in given:
+        if name in a:
+            _check_plausible(a[name], des, name, unit)
     out = {}
     if "D_pp" in a:
         out["d_tot"] = a["D_pp"] - des
@@ -147,6 +162,23 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
             )
         frame.index = index
     return frame
+
+
+def _check_plausible(measured, designed, name, unit):
+    """A ValueError naming the first part whose measured diameter is further
+    than :data:`_MAX_RELATIVE_ERROR` from the designed one."""
+    far = np.abs(measured - designed) > _MAX_RELATIVE_ERROR * designed
+    if not far.any():
+        return
+    k = int(np.flatnonzero(far)[0])
+    scale = _UNITS[unit]
+    raise ValueError(
+        f"{name} of part {k} is {measured[k] / scale:.6g} {unit} against a designed "
+        f"{designed[k] / scale:.6g} {unit} ({int(far.sum())} part(s) differ by more "
+        f"than {_MAX_RELATIVE_ERROR:.0%}): diametral errors are micrometres on "
+        f"a diameter. Give every diameter (D_des too) in unit={unit!r}, as "
+        "diameters, not radii."
+    )
 
 
 def _common_index(values):
@@ -229,7 +261,10 @@ def fit_error_lines(L_mm, d_um, groups=None):
             f"L_mm and d_um must be 1-D of the same length, got {L.shape} and "
             f"{d.shape}."
         )
-    groups = np.zeros(L.shape[0], dtype=int) if groups is None else np.asarray(groups)
+    if groups is None:
+        groups = np.zeros(L.shape[0], dtype=int)
+    else:
+        groups = label_array(groups, item="point", label="part", whole="part")
     if groups.shape != L.shape:
         raise ValueError(f"groups must hold one part label per point ({L.shape[0]}).")
     if L.shape[0] == 0:

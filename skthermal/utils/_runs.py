@@ -62,7 +62,7 @@ def run_slices(groups, n_samples=None):
         if n_samples is None:
             raise ValueError("n_samples is required when groups is None.")
         return [slice(0, int(n_samples))], [None]
-    groups = np.asarray(groups)
+    groups = label_array(groups)
     if groups.ndim != 1:
         raise ValueError(
             f"Run labels (groups) must be one-dimensional, got shape {groups.shape}."
@@ -105,6 +105,21 @@ def run_slices(groups, n_samples=None):
         )
     slices = [slice(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
     return slices, labels
+
+
+def label_array(groups, **kwargs):
+    """Labels as an ndarray, refusing a sequence that mixes kinds.
+
+    ``np.asarray([1, 1, "1", "1"])`` turns every label into text, so two
+    runs (or parts) would merge into one; such a sequence is checked as given
+    (:func:`check_labels`, with ``kwargs``) before it is converted.
+    """
+    arr = np.asarray(groups)
+    if arr.dtype.kind in "US" and not isinstance(groups, np.ndarray):
+        as_given = np.asarray(groups, dtype=object)
+        if as_given.ndim == 1 and as_given.size:
+            check_labels(as_given, **kwargs)
+    return arr
 
 
 def check_labels(groups, *, item="row", label="run", whole="run (test)"):
@@ -303,6 +318,14 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     ``y``) is not an error: it asks for the labels. With a ``time_s`` or a
     ``y`` it is a model's input without features, an error.
     """
+    import scipy.sparse
+
+    if scipy.sparse.issparse(X):
+        # scikit-learn's words, as validate_data says them without groups.
+        raise TypeError(
+            "Sparse data was passed for X, but dense data is required. Use "
+            "'.toarray()' to convert to a dense numpy array."
+        )
     X, y = as_pandas(X), as_pandas(y)
     columns = getattr(X, "columns", None)
     if getattr(columns, "nlevels", 1) > 1:
@@ -352,7 +375,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         X = X.set_axis(run_table_index(groups, times), axis=0)
     _check_feature_columns(X, columns, y)
     if groups is not None:
-        groups = np.asarray(groups)
+        groups = label_array(groups)
     check_numeric_columns(X, groups)
     _check_finite_times(X, groups)
     if finite:
@@ -1698,6 +1721,27 @@ def run_times(X, slices):
     return np.array([[t[sl.start], t[sl.stop - 1]] for sl in slices]).reshape(-1, 2)
 
 
+def run_feature_names_in(estimator, input_features):
+    """The input names for ``get_feature_names_out``: scikit-learn's rule,
+    and also the columns of the run table the estimator was fitted on.
+
+    A run-aware estimator takes a table's ``run`` and ``time_s`` columns as
+    run information, not as inputs, so they are not in ``feature_names_in_``;
+    a ``ColumnTransformer`` that passed them in asks for the output names with
+    all the columns it gave. Those two are dropped when what is left are the
+    names seen in fit.
+    """
+    from sklearn.utils.validation import _check_feature_names_in
+
+    fitted = getattr(estimator, "feature_names_in_", None)
+    if input_features is not None and fitted is not None:
+        names = np.asarray(input_features, dtype=object)
+        inputs = names[~np.isin(names, [RUN_COLUMN, TIME_COLUMN])]
+        if inputs.size < names.size and np.array_equal(inputs, fitted):
+            input_features = inputs
+    return _check_feature_names_in(estimator, input_features)
+
+
 def run_key(label):
     """The key of a run label in a :class:`RunMemory`: one that a model file
     can hold (skops writes the keys of a dict as JSON and rebuilds them from
@@ -1776,15 +1820,46 @@ def run_memory(X, slices, labels, frame):
         if lab is None:
             continue
         t0, t1 = (np.nan, np.nan) if times is None else times[r]
+        run = np.asarray(X[sl], dtype=float)
         memory[lab] = {
             "n": sl.stop - sl.start,
-            "x_first": np.array(X[sl.start], dtype=float),
-            "x_last": np.array(X[sl.stop - 1], dtype=float),
+            "x_first": run[0].copy(),
+            "x_last": run[-1].copy(),
+            "max_step": (
+                np.abs(np.diff(run, axis=0)).max(axis=0)
+                if run.shape[0] > 1
+                else np.zeros(run.shape[1])
+            ),
             "t_first": float(t0),
             "t_last": float(t1),
             "period": float(periods[r]),
         }
     return memory
+
+
+# A run continued by its label alone (no times) whose first row steps from
+# the training run's last row by more than this many times the largest step
+# within that run is most likely a new run under a reused label (the factor
+# of GuardedRegressor's default jump check).
+CONTINUATION_JUMP = 4.0
+
+
+def _far_from_last(X_first, state):
+    """The input (index) whose step from the remembered run's last row is the
+    largest multiple of the run's largest step, and that multiple, when it
+    exceeds :data:`CONTINUATION_JUMP`; else None."""
+    step = state.get("max_step")
+    if step is None:  # a memory kept before steps were
+        return None
+    jump = np.abs(np.asarray(X_first, dtype=float) - state["x_last"])
+    scale = np.where(step > 0, step, np.inf)
+    with np.errstate(invalid="ignore"):
+        ratio = np.where(jump > 0, jump / scale, 0.0)
+    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
+    j = int(np.argmax(ratio)) if ratio.size else 0
+    if not ratio.size or ratio[j] <= CONTINUATION_JUMP:
+        return None
+    return j, float(ratio[j]), float(jump[j]), float(step[j])
 
 
 def memory_period(state):
@@ -1874,6 +1949,22 @@ def continued_runs(
                 continue
             same_start = np.array_equal(X[sl.start], state["x_first"])
             out.append(None if same_start else lab)
+            far = None if same_start else _far_from_last(X[sl.start], state)
+            if far is not None:
+                j, ratio, jump, step = far
+                warnings.warn(
+                    f"Run {lab!r} given to {who} has the label of a training "
+                    "run and no times, so it is taken as that run's "
+                    "continuation, the samples after its last training row. "
+                    f"But its first row steps from that last row by {jump:.4g} "
+                    f"in input {j} ({ratio:.3g} times the largest step within "
+                    f"the training run, {step:.4g}): most likely a new run "
+                    "under a reused label. Give a new run a label not seen in "
+                    "fit (or its time_s, from 0), and a continuation the rows "
+                    "right after the training ones.",
+                    UserWarning,
+                    stacklevel=stacklevel,
+                )
             continue
         out.append(None)
         if t0 is not None and t0 != 0:
