@@ -123,7 +123,9 @@ def test_spike_warns_naming_sensor_run_and_time(train, spiked):
     assert "'T2_C' in run 'r0' at time_s=1800" in msg
     assert "1e+06" in msg and "1 of 4" in msg
     (jump,) = [m for m in _messages(caught, SensorFaultWarning) if "jump" in m]
-    assert "'T2_C' in run 'r0' at time_s=1800" in jump and "2 rows" in jump
+    # The step back to normal is judged from the last good reading, not
+    # from the spike (out of range): the spike's row alone.
+    assert "'T2_C' in run 'r0' at time_s=1800" in jump and "1 row)" in jump
     assert _messages(caught, PredictionRangeWarning)
     # warn mode never changes the predictions
     np.testing.assert_array_equal(pred, guard.estimator_.predict(spiked))
@@ -155,13 +157,14 @@ def test_spike_is_bounded_in_safe_mode(train, spiked, mode):
     assert (pred >= low - 1e-9).all() and (pred <= high + 1e-9).all()
     assert not checked["ok"].iloc[60]
     assert checked["reason"].iloc[60] == "out of range: T2_C; jump: T2_C"
-    assert checked["ok"].drop(checked.index[[60, 61]]).all()
+    assert checked["ok"].drop(checked.index[60]).all()
     if mode == "hold":
         assert checked["action"].iloc[60] == "held"
-        assert pred[60] == pred[59] and pred[61] == pred[59]
-        # the rows after the fault are predicted from the sensor again
-        good = guard.estimator_.predict(spiked.iloc[62:])
-        np.testing.assert_allclose(pred[62:], good)
+        assert pred[60] == pred[59]
+        # the rows after the fault are predicted from the sensor again, the
+        # first one too: its step is judged from the last good reading
+        good = guard.estimator_.predict(spiked.iloc[61:])
+        np.testing.assert_allclose(pred[61:], good)
     else:
         assert checked["action"].iloc[60] == "clipped"
     assert _messages(caught, SensorRangeWarning)
@@ -337,6 +340,29 @@ def test_a_glitch_in_the_first_reading_is_flagged_and_held(train, new_run):
     assert np.abs(unguarded[1:] - good[1:]).min() > 4.0
     # Held at the second reading: one sample's change away.
     assert np.abs(checked["prediction"].to_numpy()[1:] - good[1:]).max() < 1.0
+
+
+@pytest.mark.parametrize("fault", [1e6, np.nan])
+def test_run_so_far_after_a_faulty_first_reading_equals_the_whole_run(
+    train, new_run, fault
+):
+    # A controller passes the run so far. With a first reading out of range
+    # or missing, the second call saw the step back as a jump too, had no
+    # good reading to stand in for the first and clipped a made-up value
+    # (documented: 159 µm against 2.4 µm for the whole run). The step is now
+    # judged from the last good reading, so from the second row on the
+    # streamed compensation is the whole run's.
+    guard, _ = _relative_hold_guard(train, new_run)
+    X_bad = new_run[0].copy()
+    X_bad.iloc[0, 1] = fault
+    whole = _caught(guard.predict_checked, X_bad)[0]
+    assert whole["reason"].iloc[0] in ("out of range: T2_C", "missing: T2_C")
+    assert whole["ok"].iloc[1:].all()
+    streamed = [
+        _caught(guard.predict_checked, X_bad.iloc[:k])[0]["prediction"].iloc[-1]
+        for k in range(2, 8)
+    ]
+    np.testing.assert_allclose(streamed, whole["prediction"].iloc[1:7], rtol=1e-12)
 
 
 def test_a_jump_after_the_first_reading_is_the_second_reading(train, new_run):

@@ -77,12 +77,32 @@ _KINDS = ("missing", "range", "jump", "flat")
 _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
 
 
-def _steps(A, first):
-    """Change of every column since the previous row of the same run (0 at starts)."""
-    d = np.zeros_like(A)
-    d[1:] = A[1:] - A[:-1]
-    d[first] = 0.0
-    return d
+def _steps(A, first, bad=None):
+    """Change of every column since its last earlier reading in the same run
+    that is not ``bad`` (missing or out of range; None: since the previous
+    row), and over how many rows (0 and 1 where the run has no such reading
+    yet).
+
+    A step measured from a faulty reading says nothing of the reading after
+    it: the row after an out-of-range spike, or after a run's faulty first
+    reading, is judged against the last good one (a controller passing the
+    run so far knows it then)."""
+    if bad is None or not bad.any():
+        d = np.zeros_like(A)
+        d[1:] = A[1:] - A[:-1]
+        d[first] = 0.0
+        return d, np.ones(A.shape, dtype=int)
+    n = A.shape[0]
+    rows = np.arange(n)
+    start = np.maximum.accumulate(np.where(first, rows, 0))
+    last = _last_good(bad, start)
+    prev = np.full_like(last, -1)
+    prev[1:] = last[:-1]
+    prev[first] = -1
+    cols = np.arange(A.shape[1])
+    known = prev >= 0
+    d = np.where(known, A - A[np.maximum(prev, 0), cols], 0.0)
+    return d, np.where(known, rows[:, None] - prev, 1)
 
 
 def _odd_first_readings(jump, step, first):
@@ -243,7 +263,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     jump : float or None, default=4.0
         A reading whose change since the previous sample of its run exceeds
         ``jump`` times the largest change of that input in training is a
-        jump. None: no jump check. Assumes the sampling period of training.
+        jump. After readings that are missing or out of range, the change
+        is taken from the last good one (the limit times the samples in
+        between). None: no jump check. Assumes the sampling period of
+        training.
     flat : int, "auto" or None, default="auto"
         Samples of unchanged reading after which a sensor that moved in
         training counts as flat-lined. ``"auto"``: per input, three times
@@ -480,7 +503,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         found = {
             "input_min_": A.min(axis=0),
             "input_max_": A.max(axis=0),
-            "input_max_step_": np.abs(_steps(A, first)).max(axis=0),
+            "input_max_step_": np.abs(_steps(A, first)[0]).max(axis=0),
             "input_max_unchanged_": _unchanged(A, first).max(axis=0) + 1,
             "output_min_": Y.min(axis=0),
             "output_max_": Y.max(axis=0),
@@ -560,7 +583,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         n = A.shape[0]
         first = run_first_rows(runs, n) == np.arange(n)
         with np.errstate(invalid="ignore"):
-            step = np.abs(_steps(A, first))
+            step = np.abs(_steps(A, first)[0])
             typical = (
                 np.nanmedian(step, axis=0)
                 if np.isfinite(step).any()
@@ -787,10 +810,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         with np.errstate(invalid="ignore", over="ignore"):
             flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
             if self.jump is not None:
-                step = np.abs(_steps(A, first))
+                faulty = flags["missing"] | (flags["range"] & self.checked_inputs_)
+                step, rows = _steps(A, first, faulty)
+                step = np.abs(step)
                 limit = np.where(
                     self.input_max_step_ > 0,
-                    self.jump * self.input_max_step_,
+                    self.jump * self.input_max_step_ * rows,
                     np.inf,
                 )
                 flags["jump"] = np.isfinite(step) & (step > limit)
@@ -960,22 +985,37 @@ def _reasons(flags, out_band, sensors, n, late=None):
         "jump": "jump",
         "flat": "flat-line",
     }
-    parts = [] if late is None else [late]
+    reason = np.full(n, "", dtype=object)
+    # Text is built for the rows with a finding only.
+    found = out_band.any(axis=1)
+    if late is not None:
+        found |= late != ""
+    for F in flags.values():
+        found |= F.any(axis=1)
+    rows = np.flatnonzero(found)
+    if not rows.size:
+        return reason
+    parts = [] if late is None else [late[rows]]
     for kind in _KINDS:
         F = flags.get(kind)
-        if F is None or not F.any():
+        if F is None:
             continue
-        names = np.full(n, "", dtype=object)
+        F = F[rows]
+        if not F.any():
+            continue
+        names = np.full(rows.size, "", dtype=object)
         for j in np.flatnonzero(F.any(axis=0)):
             sep = np.where(names == "", "", ", ")
             names = np.where(F[:, j], names + sep + sensors[j], names)
         parts.append(np.where(names == "", "", labels[kind] + ": " + names))
-    if out_band.any():
-        parts.append(np.where(out_band.any(axis=1), "prediction out of band", ""))
-    reason = np.full(n, "", dtype=object)
+    band = out_band[rows].any(axis=1)
+    if band.any():
+        parts.append(np.where(band, "prediction out of band", ""))
+    text = np.full(rows.size, "", dtype=object)
     for part in parts:
-        sep = np.where((reason == "") | (part == ""), "", "; ")
-        reason = reason + sep + part
+        sep = np.where((text == "") | (part == ""), "", "; ")
+        text = text + sep + part
+    reason[rows] = text
     return reason
 
 
