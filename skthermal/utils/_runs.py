@@ -1815,6 +1815,10 @@ def run_memory(X, slices, labels, frame):
     times = run_times(frame, slices)
     t = row_times(frame)
     periods = np.full(len(slices), np.nan) if t is None else _median_periods(t, slices)
+    columns = getattr(frame, "columns", None)
+    names = None
+    if columns is not None and len(columns) == np.shape(X)[1]:
+        names = [str(c) for c in columns]
     memory = RunMemory()
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         if lab is None:
@@ -1834,6 +1838,8 @@ def run_memory(X, slices, labels, frame):
             "t_last": float(t1),
             "period": float(periods[r]),
         }
+        if names is not None:
+            memory[lab]["names"] = names
     return memory
 
 
@@ -1842,6 +1848,12 @@ def run_memory(X, slices, labels, frame):
 # within that run is most likely a new run under a reused label (the factor
 # of GuardedRegressor's default jump check).
 CONTINUATION_JUMP = 4.0
+
+
+def _input_name(state, j):
+    """Input ``j`` of a remembered run, by name when fit had names."""
+    names = state.get("names")
+    return f"input {j}" if names is None else repr(names[j])
 
 
 def _far_from_last(X_first, state):
@@ -1957,7 +1969,8 @@ def continued_runs(
                     "run and no times, so it is taken as that run's "
                     "continuation, the samples after its last training row. "
                     f"But its first row steps from that last row by {jump:.4g} "
-                    f"in input {j} ({ratio:.3g} times the largest step within "
+                    f"in {_input_name(state, j)} ({ratio:.3g} times the largest "
+                    "step within "
                     f"the training run, {step:.4g}): most likely a new run "
                     "under a reused label. Give a new run a label not seen in "
                     "fit (or its time_s, from 0), and a continuation the rows "
