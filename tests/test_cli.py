@@ -382,7 +382,8 @@ def test_select_fit_predict_evaluate_chain(capsys, workdir):
     )
     assert status == 0 and "mean" in text
     caption, blank, header, *_ = (workdir / "s.md").read_text().splitlines()
-    assert "mean row: residual is the max over runs" in caption and not blank
+    assert "its residual the max over runs; all row: every sample" in caption
+    assert not blank
     assert header.startswith("| run | n_samples | R |")
     status, _, _ = _run(
         capsys,
@@ -395,7 +396,19 @@ def test_select_fit_predict_evaluate_chain(capsys, workdir):
         workdir / "s.csv",
     )
     scores = pd.read_csv(workdir / "s.csv").set_index("run")
-    assert status == 0 and list(scores.index) == ["I", "IV", "V", "extra", "mean"]
+    assert status == 0 and list(scores.index) == [
+        "I",
+        "IV",
+        "V",
+        "extra",
+        "mean",
+        "all",
+    ]
+    # every sample pooled: the runs' squared errors weighted by their length
+    runs_only = scores.drop(["mean", "all"])
+    pooled = (runs_only["RMSE_um"] ** 2 * runs_only["n_samples"]).sum()
+    pooled /= runs_only["n_samples"].sum()
+    assert scores.loc["all", "RMSE_um"] == pytest.approx(np.sqrt(pooled), rel=1e-9)
     assert scores.loc["I", "RMSE_um"] < 5.0
     status, _, _ = _run(
         capsys,
@@ -536,6 +549,17 @@ def test_a_guarded_model_holds_a_spike_and_says_so(capsys, workdir):
     assert pred[row] == pred[row - 1]
     others = guarded["guard_ok"].to_numpy() & clean["guard_ok"].to_numpy()
     np.testing.assert_allclose(pred[others], clean["pred_disp_y_um"][others])
+    # A sensor that drops out (empty fields) is held over too: the file was
+    # refused when read, while the guard in Python held the same rows.
+    table.loc[row, "T05_C"] = np.nan
+    table.to_csv(spiked, index=False)
+    argv = ["predict", "--model", model, "--runs", spiked, "--out", outs["spiked"]]
+    status, _, err = _run(capsys, *argv)
+    assert status == 0 and "Sensor reading missing" in err, err
+    dropped = pd.read_csv(outs["spiked"])
+    assert dropped.loc[row, "guard_action"] == "held"
+    assert dropped.loc[row, "guard_reason"] == "missing: T05_C"
+    assert np.isnan(dropped.loc[row, "T05_C"])
 
 
 def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):
@@ -1032,7 +1056,7 @@ def test_evaluate_notes_runs_without_predictions(capsys, tmp_path, predictions):
     argv = ["evaluate", "--runs", runs, "--predictions", part, "--out", out]
     status, text, _ = _run(capsys, *argv)
     assert status == 0 and "Note: run(s) ['V'] of" in text
-    assert pd.read_csv(out)["run"].tolist() == ["I", "IV", "extra", "mean"]
+    assert pd.read_csv(out)["run"].tolist() == ["I", "IV", "extra", "mean", "all"]
 
 
 @pytest.mark.parametrize(
@@ -1246,3 +1270,63 @@ def test_a_reader_that_closes_the_pipe_is_not_an_error():
     proc.stderr.close()
     assert proc.returncode == 141
     assert "Broken pipe" not in err and "Traceback" not in err
+
+
+def test_fit_on_fewer_samples_than_inputs_warns(capsys, workdir, tmp_path):
+    # Three samples of 77 sensors gave "training RMSE 0.00" without a word.
+    table = pd.read_csv(workdir / "tests.csv")
+    few = tmp_path / "few.csv"
+    table[table["run"] == table["run"].iloc[0]].head(3).to_csv(few, index=False)
+    argv = ["fit", "--runs", few, "--model", "ridge", "--out", tmp_path / "m.joblib"]
+    status, _, err = _run(capsys, *argv)
+    assert status == 0 and "3 training sample(s) for 77 input(s)" in err, err
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C")
+    assert status == 0 and "training sample(s)" not in err, err
+
+
+def test_a_sensor_not_used_may_miss_readings(capsys, workdir, tmp_path):
+    # A channel one run lacks was refused even with --sensors leaving it out.
+    table = pd.read_csv(workdir / "tests.csv")
+    table.loc[table["run"] == table["run"].iloc[-1], "T77_C"] = np.nan
+    runs = tmp_path / "gappy.csv"
+    table.to_csv(runs, index=False)
+    model = tmp_path / "m.joblib"
+    argv = ["fit", "--runs", runs, "--model", "ridge", "--out", model]
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C,T12_C")
+    assert status == 0, err
+    argv = ["predict", "--model", model, "--runs", runs, "--out", tmp_path / "p.csv"]
+    status, _, err = _run(capsys, *argv)
+    assert status == 0, err
+    argv = ["fit", "--runs", runs, "--model", "ridge", "--out", model]
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C,T77_C")
+    assert status == 2 and "column 'T77_C' has" in err and "leave the sensor" in err
+
+
+def test_warning_lines_join_lines_and_count_look_alikes(capsys):
+    # A multi-line warning lost its advice after its first line; a search's
+    # trials printed one line per trial for warnings differing in numbers.
+    import warnings
+
+    from skthermal._cli._common import warning_lines
+
+    with warning_lines("search"):
+        warnings.warn("lbfgs failed (status=1):\nSTOP.\n\nIncrease max_iter.")
+        for k in range(5):
+            warnings.warn(f"rule {k} collapsed at epoch {10 * k}")
+        warnings.warn("rule 4 collapsed at epoch 40")  # the same again
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].endswith("lbfgs failed (status=1): STOP. Increase max_iter.")
+    assert lines[1].endswith("rule 0 collapsed at epoch 0")
+    assert lines[2].endswith(
+        "4 more like 'rule 0 collapsed at epoch 0' (other numbers)"
+    )
+    assert len(lines) == 3
+
+
+def test_fit_names_a_stuck_sensor(capsys, workdir, tmp_path):
+    table = pd.read_csv(workdir / "tests.csv").assign(T07_C=21.5)
+    runs = tmp_path / "stuck.csv"
+    table.to_csv(runs, index=False)
+    argv = ["fit", "--runs", runs, "--model", "ridge", "--out", tmp_path / "m.joblib"]
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C,T07_C")
+    assert status == 0 and "Input(s) ['T07_C'] read the same value" in err, err

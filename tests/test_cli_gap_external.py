@@ -68,6 +68,13 @@ def test_gap_simulated_errors_are_one_line(tables, tmp_path, capsys):
     args = ["gap", "--simulated", str(sim), "--runs", str(meas), "--effects", "x"]
     assert main(args) == 2
     assert "--effects is not used with --simulated" in capsys.readouterr().err
+    # Without the air's column: the table's columns summed up, not cut off
+    # before its sensors.
+    frame = pd.read_csv(meas).drop(columns="ambient_C")
+    frame.to_csv(bad, index=False)
+    assert main(["gap", "--simulated", str(sim), "--runs", str(bad), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "no ambient_C column" in err and "temperature column(s) (" in err, err
 
 
 def test_gap_without_candidates_is_one_line(tables, capsys):

@@ -3,6 +3,7 @@
 import gzip
 import json
 import re
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -1165,3 +1166,85 @@ def test_run_files_name_stray_carriage_returns_and_unwritable_labels(tmp_path):
     )
     with pytest.raises(ValueError, match=r"cannot be written to Parquet"):
         write_runs(df, tmp_path / "t.parquet", validate=False)
+
+
+def _minimal_table(times, runs):
+    return pd.DataFrame(
+        {
+            "run": runs,
+            "time_s": times,
+            "T1_C": np.linspace(20.0, 22.0, len(times)),
+            "disp_y_um": np.linspace(0.0, 5.0, len(times)),
+        }
+    )
+
+
+@pytest.mark.parametrize(
+    "scale, unit", [(1000.0, "milliseconds"), (1 / 60.0, "minutes")]
+)
+def test_time_in_another_unit_than_seconds_warns(scale, unit):
+    # A logger's milliseconds or minutes under the time_s header went through
+    # every command: time constants and drift rates off by 1000 or 60.
+    t = np.tile(np.arange(0.0, 10 * 3600.0, 15.0), 2)  # two 10 h runs, 15 s
+    runs = np.repeat(["A", "B"], t.size // 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(_minimal_table(t, runs))
+    with pytest.warns(UserWarning, match=rf"is time_s in {unit}\?"):
+        validate_runs(_minimal_table(t * scale, runs))
+
+
+def test_thousands_separators_are_not_called_decimal_commas():
+    # "1,250" rpm was called a decimal comma: following the advice gave 1.25.
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3)
+    table["spindle_rpm"] = ["1,250", "2,500", "12,500.5"]
+    with pytest.raises(ValueError, match=r"holds '1,250', a number with thousands"):
+        validate_runs(table)
+    table["spindle_rpm"] = ["1,25", "2,5", "3,75"]
+    with pytest.raises(
+        ValueError, match=r"holds '1,25', a number with a decimal comma"
+    ):
+        validate_runs(table)
+
+
+_HEADER = "run,time_s,T1_C,disp_y_um\n"
+_ROWS = "A,0,20.0,0.0\nA,15,20.5,1.0\nA,30,21.0,2.0\n"
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        # a comment line, and a logger's preamble, above the header
+        (
+            "# Logger export, 2024\n" + _HEADER + _ROWS,
+            r"header .* is line 2.*skiprows=1",
+        ),
+        (
+            "Device,XY\nSerial,1\nStart,x\n\n" + _HEADER + _ROWS,
+            r"is line 5.*skiprows=4",
+        ),
+        # a row of units under the header
+        (_HEADER + ",s,degC,um\n" + _ROWS, r"holds 's'.*a row of units\? Delete it"),
+        # every temperature column in Fahrenheit: the rule said once
+        (
+            "run,time_s,T1_F,T2_F,T3_F,disp_y_um\nA,0,68,68,68,0\n",
+            r"'T1_F', 'T2_F', 'T3_F' \(3 columns\) look like temperature sensors",
+        ),
+    ],
+)
+def test_logger_exports_get_a_hint(tmp_path, text, message):
+    path = tmp_path / "runs.csv"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError, match=message):
+        read_runs(path)
+
+
+def test_a_latin1_file_is_told_to_be_saved_as_utf8(tmp_path):
+    path = tmp_path / "runs.csv"
+    path.write_bytes(
+        (_HEADER + "A,0,20.0,0.0\nA,15,20.5,1.0 \u00b0\n").encode("cp1252")
+    )
+    with pytest.raises(
+        ValueError, match=r"not UTF-8: line 3 holds the byte 0xb0 \('°'"
+    ):
+        read_runs(path)

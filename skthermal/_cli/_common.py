@@ -10,6 +10,7 @@ one line with exit status 2.
 import contextlib
 import importlib
 import json
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -38,10 +39,12 @@ def split_list(value, keep=()):
     return out
 
 
-def read_table(path, what="--runs", *, validate=True):
-    """Read (and validate) a run table, naming the option on failure."""
+def read_table(path, what="--runs", *, validate=True, allow_missing_sensors=False):
+    """Read (and validate) a run table, naming the option on failure.
+    ``allow_missing_sensors``: missing sensor readings pass the validation
+    (for a model that holds over them)."""
     from skthermal.datasets import read_runs
-    from skthermal.datasets._runtable import SKIP_VALIDATION
+    from skthermal.datasets._runtable import SKIP_VALIDATION, check_run_table
 
     if path is None:
         raise UserError(f"{what} FILE is required.")
@@ -51,7 +54,13 @@ def read_table(path, what="--runs", *, validate=True):
     if path.is_dir():
         raise UserError(f"{what}: {path} is a folder, not a run table file.")
     try:
-        return read_runs(path, validate=validate)
+        if not (validate and allow_missing_sensors):
+            return read_runs(path, validate=validate)
+        df = read_runs(path, validate=False)
+        try:
+            return check_run_table(df, allow_missing_sensors=True)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from exc
     except UnicodeDecodeError as exc:
         raise UserError(
             f"{what} {path}: not a text CSV run table (binary data; use .csv, "
@@ -67,6 +76,22 @@ def read_table(path, what="--runs", *, validate=True):
         if str(path) not in message:
             message = f"{path}: {message}"
         raise UserError(f"{what}: {message}") from exc
+
+
+def check_used_sensors(df, sensors, path, what="--runs"):
+    """A UserError naming the first missing reading of the ``sensors`` the
+    command uses (a table read with ``allow_missing_sensors``: the others may
+    miss readings)."""
+    from skthermal.datasets._runtable import _check_missing_sensors
+
+    try:
+        _check_missing_sensors(
+            df,
+            [s for s in sensors if s in df.columns],
+            hint="impute them first or drop those rows, or leave the sensor out",
+        )
+    except ValueError as exc:
+        raise UserError(f"{what}: {path}: {exc}") from exc
 
 
 def check_out_table(path, what="--out"):
@@ -98,15 +123,20 @@ def check_out_path(path, option, *, folder=False):
             break
 
 
-def write_table(df, path, *, metadata=None):
+def write_table(df, path, *, metadata=None, allow_missing_sensors=False):
+    """Write a run table (validated; ``allow_missing_sensors`` as in
+    :func:`read_table`)."""
     from skthermal.datasets import write_runs
+    from skthermal.datasets._runtable import check_run_table
 
     check_out_table(path)
     path = Path(path)
     if path.parent and not path.parent.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
     try:
-        write_runs(df, path, metadata=metadata)
+        if allow_missing_sensors:
+            check_run_table(df, allow_missing_sensors=True)
+        write_runs(df, path, metadata=metadata, validate=not allow_missing_sensors)
     except ImportError as exc:  # Parquet without pyarrow
         raise UserError(f"{path}: {exc}") from exc
 
@@ -211,22 +241,44 @@ def check_positive(value, option, *, upper=None):
         raise UserError(f"{option} must be at most {upper}, got {value}.")
 
 
+# Numbers in a warning (a trial's values, a row): masked to tell warnings
+# that differ only in them apart from new ones.
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
 @contextlib.contextmanager
 def warning_lines(command):
     """Show the warnings raised inside as one line each on stderr,
-    ``skthermal CMD: warning: ...`` (the message's first line), each once."""
-    seen = set()
+    ``skthermal CMD: warning: ...`` (the message with its lines joined).
+    A warning that differs from one shown only in its numbers is counted,
+    not shown again; the counts are said at the end."""
+    seen = {}
 
     def show(message, category, filename, lineno, file=None, line=None):
-        text = str(message).strip()
-        first = text.splitlines()[0] if text else ""
-        if first and first not in seen:
-            seen.add(first)
-            print(f"skthermal {command}: warning: {first}", file=sys.stderr)
+        text = " ".join(str(message).split())
+        if not text:
+            return
+        key = _NUMBER.sub("#", text)
+        if key in seen:
+            seen[key].add(text)  # the same one again: not counted
+            return
+        seen[key] = {text}
+        print(f"skthermal {command}: warning: {text}", file=sys.stderr)
 
-    with warnings.catch_warnings():
-        warnings.showwarning = show
-        yield
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = show
+            yield
+    finally:
+        for texts in seen.values():
+            if len(texts) > 1:
+                text = min(texts, key=len)
+                shown = text if len(text) <= 70 else text[:67] + "..."
+                print(
+                    f"skthermal {command}: warning: {len(texts) - 1} more like "
+                    f"{shown!r} (other numbers)",
+                    file=sys.stderr,
+                )
 
 
 def parse_effects(value, option="--effects"):

@@ -101,10 +101,25 @@ def read_gap_table(path, what, *, numeric=()):
     df = read_table(path, what=what, validate=False)
     missing = [c for c in _GAP_DRIVERS if c not in df.columns]
     if missing:
+        from skthermal.datasets import sensor_columns, target_columns
+
+        names = [str(c) for c in df.columns]
+        groups = {"temperature": sensor_columns(df), "displacement": target_columns(df)}
+        listed = [c for c in names if not any(c in g for g in groups.values())]
+        for kind, cols in groups.items():
+            if cols:
+                span = cols[0] if len(cols) == 1 else f"{cols[0]} .. {cols[-1]}"
+                listed.append(f"{len(cols)} {kind} column(s) ({span})")
+        hint = (
+            " (the workshop air's sensor, if one of the temperature columns, "
+            "renamed ambient_C)"
+            if "ambient_C" in missing and groups["temperature"]
+            else ""
+        )
         raise UserError(
             f"{what} {path}: no {', '.join(missing)} column(s); the diagnosis "
             "needs run, time_s, spindle_rpm and ambient_C (and feed_mm_min if "
-            f"the axis moved); the table has {list(map(str, df.columns))[:8]}."
+            f"the axis moved){hint}; the table has {', '.join(listed)}."
         )
     if df.shape[0] == 0:
         raise UserError(f"{what} {path}: the run table has no rows.")

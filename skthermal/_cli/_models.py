@@ -18,6 +18,7 @@ from skthermal._cli._common import (
     UserError,
     check_out_path,
     check_out_table,
+    check_used_sensors,
     features_of,
     pick_target,
     read_sensor_list,
@@ -176,11 +177,13 @@ def cmd_fit(args):
     if args.sensors and args.selector:
         raise UserError("Give either --sensors or --selector, not both.")
     check_out_path(args.out, "--out")
-    df = read_table(args.runs)
+    # With --sensors, other sensors may miss readings (a channel a run lacks).
+    df = read_table(args.runs, allow_missing_sensors=bool(args.sensors))
     target = pick_target(df, args.target, args.runs)
     mask = run_mask(df, args.train_runs)
     if args.sensors:
         sensors = read_sensor_list(args.sensors, df)
+        check_used_sensors(df, sensors, args.runs)
     elif args.selector:
         X, y, _ = split_runs(df, targets=target)
         if not 1 <= args.n_sensors <= X.shape[1]:
@@ -204,6 +207,31 @@ def cmd_fit(args):
                 f"{MODELS[args.model].label} uses the sensors only."
             )
     X, y, groups = split_runs(df, sensors=sensors, targets=target)
+    n_rows = int(mask.sum())
+    values = X[mask].to_numpy(dtype=float)
+    still = [
+        s
+        for s, span in zip(sensors, np.ptp(values, axis=0), strict=True)
+        if n_rows > 1 and span == 0
+    ]
+    if still:
+        warnings.warn(
+            f"Input(s) {still} read the same value in every training row (a "
+            "stuck or disconnected sensor?): the model learns nothing from "
+            "them, and any later change of theirs is an extrapolation. Check "
+            "them, or leave them out (--sensors).",
+            UserWarning,
+            stacklevel=2,
+        )
+    if n_rows <= len(sensors):
+        warnings.warn(
+            f"{n_rows} training sample(s) for {len(sensors)} input(s): the model "
+            "can fit them exactly whatever the inputs mean, so its training RMSE "
+            "says nothing. Train on more samples (longer or more runs), or on "
+            "fewer sensors (--sensors or --selector).",
+            UserWarning,
+            stacklevel=2,
+        )
     params = _resolve_params(model, _parse_params(args.set))
     if params:
         model.set_params(**params)
@@ -362,7 +390,11 @@ def cmd_predict(args):
     check_out_table(args.out)
     check_out_path(args.out, "--out")
     bundle = load_model(args.model)
-    df = read_table(args.runs)
+    # Sensors the model does not read may miss readings; a guard in "hold"
+    # mode holds the compensation over those of its own.
+    df = read_table(args.runs, allow_missing_sensors=True)
+    if getattr(bundle["estimator"], "mode", None) != "hold":
+        check_used_sensors(df, bundle["sensors"], args.runs)
     pred, checked = _predict(
         bundle, df, f"nothing was written to {args.out}", f"--runs {args.runs}"
     )
@@ -376,7 +408,10 @@ def cmd_predict(args):
     except ValueError:
         meta = None
     write_table(
-        out, args.out, metadata=meta if meta is not None and len(meta) else None
+        out,
+        args.out,
+        metadata=meta if meta is not None and len(meta) else None,
+        allow_missing_sensors=True,
     )
     print(
         f"Predicted pred_{bundle['target']} (change since the start of each run) "
@@ -398,9 +433,10 @@ def _prediction_column(df, target, where):
         return target, name
     candidates = [f"pred_{t}" for t in target_columns([c[5:] for c in preds])]
     if not candidates:
+        found = f" (it has {preds})" if preds else ""
         raise UserError(
-            f"{where} has no prediction column pred_disp_<axis>_um; pass "
-            "--predictions FILE or --model FILE."
+            f"{where} has no prediction column pred_disp_<axis>_um{found}; "
+            "name it so (predictions in µm), or pass --model FILE to predict."
         )
     if len(candidates) > 1:
         raise UserError(
@@ -480,6 +516,7 @@ def _join_predictions(df, preds, col, runs_path, preds_path):
 
 def cmd_evaluate(args):
     from skthermal._markdown import markdown_table
+    from skthermal._run_changes import changes_since_first_row
     from skthermal.study import METRIC_COLUMNS, score_runs
 
     if args.model and args.predictions:
@@ -528,17 +565,26 @@ def cmd_evaluate(args):
                 "prediction); every scored row needs one: predict that run again "
                 "or leave it out."
             )
-    table = score_runs(data[target], pred, data["run"].to_numpy())
+    labels = data["run"].to_numpy()
+    table = score_runs(data[target], pred, labels)
     mean = {"run": "mean", "n_samples": int(table["n_samples"].sum())}
     mean.update(table[list(METRIC_COLUMNS)].mean().to_dict())
     mean["residual_um"] = table["residual_um"].max()
-    table = pd.concat([table, pd.DataFrame([mean])], ignore_index=True)
+    # Every sample pooled: a run of a few samples weighs as little as it is
+    # long (in the mean row it counts as much as a whole test).
+    pooled = score_runs(
+        changes_since_first_row(data[target].to_numpy(dtype=float), labels),
+        changes_since_first_row(pred, labels),
+        np.zeros(len(labels)),  # the changes, one series: its first value is 0
+    ).assign(run="all")
+    table = pd.concat([table, pd.DataFrame([mean]), pooled], ignore_index=True)
     shown = table.copy()
     for c in METRIC_COLUMNS:
         shown[c] = [f"{v:.2f}" if np.isfinite(v) else "—" for v in table[c]]
     caption = (
         f"{target}: measured vs predicted change since the start of each run "
-        "(residual: max |error|; mean row: residual is the max over runs)"
+        "(residual: max |error|; mean row: the mean over runs, each counting "
+        "once, its residual the max over runs; all row: every sample pooled)"
     )
     print(caption)
     print(shown.to_string(index=False))

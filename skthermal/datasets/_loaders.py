@@ -28,6 +28,7 @@ from skthermal._optional import import_optional, missing_dependency
 from skthermal.datasets._runtable import (
     RUN,
     SKIP_VALIDATION,
+    TIME,
     check_label_kinds,
     check_run_table,
     validate_runs,
@@ -232,6 +233,36 @@ def _check_header(path, data):
     return fields
 
 
+# Lines searched for a run table's header below a preamble.
+_PREAMBLE_LINES = 50
+
+
+def _check_preamble(path, data, fields):
+    """Raise when the first line is not the header and a later line is (a
+    logger's preamble or a comment above it): pandas would read the
+    preamble as the header and fail on the first row, or worse."""
+    if {RUN, TIME} <= {f.strip() for f in fields}:
+        return
+    text = data[: 1 << 16].decode("utf-8", errors="replace").lstrip("\ufeff")
+    reader = csv.reader(io.StringIO(text, newline=""))
+    for row in reader:
+        if reader.line_num > _PREAMBLE_LINES:
+            return
+        if reader.line_num > 1 and {RUN, TIME} <= {f.strip() for f in row}:
+            k = reader.line_num - 1
+            first = _first_line(data)
+            first = first if len(first) <= 60 else first[:57] + "..."
+            raise ValueError(
+                f"{path}: the run table's header (the line naming 'run' and "
+                f"'time_s') is line {k + 1}; the {k} line(s) above it, from "
+                f"{first!r}, are a preamble or comment, not part of a run table. "
+                "Delete them (keep their information in the run metadata, "
+                f"write_runs(..., metadata=...)), or read the file with "
+                f"pandas.read_csv(path, skiprows={k}) and write it again with "
+                "write_runs."
+            )
+
+
 def _long_line_error(path, data, n_header, warning):
     """The error for rows with more fields than the header (pandas would drop
     the extra fields or shift every column), naming the first such line."""
@@ -292,6 +323,7 @@ def _read_csv(path, labels=None):
     _check_complete(path, data)
     try:
         header = _check_header(path, data)
+        _check_preamble(path, data, header)
         with warnings.catch_warnings():
             # A row with more fields than the header: pandas drops the extra
             # fields (index_col=False) and says so with this warning.
@@ -304,6 +336,21 @@ def _read_csv(path, labels=None):
             df[RUN] = _csv_run_labels(data, labels)
         return df
     except UnicodeDecodeError as exc:
+        if b"\x00" not in data[: 1 << 16]:  # text in another encoding
+            try:
+                data.decode("utf-8")
+                at = exc.start
+            except UnicodeDecodeError as whole:
+                at = whole.start
+            byte = data[at : at + 1]
+            line = data.count(b"\n", 0, at) + 1
+            raise ValueError(
+                f"{path}: a text file, but not UTF-8: line {line} holds the byte "
+                f"0x{byte.hex()} ({byte.decode('cp1252', errors='replace')!r} in "
+                "Windows-1252/Latin-1). Run tables are UTF-8 text: save the file "
+                "as UTF-8 (e.g. pandas.read_csv(path, encoding='cp1252') and "
+                "write_runs)."
+            ) from exc
         raise ValueError(
             f"{path}: not a UTF-8 text CSV run table ({exc}); use .csv, .csv.gz "
             "or .parquet."

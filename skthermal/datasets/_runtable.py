@@ -10,6 +10,7 @@ the column, the run and the row.
 """
 
 import re
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -22,6 +23,7 @@ from skthermal._naming import (
 )
 from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import MAX_MAGNITUDE, check_frame, check_labels, unreadable
+from skthermal.utils._warnings import user_stacklevel
 
 RUN = "run"
 TIME = "time_s"
@@ -197,12 +199,23 @@ def check_column_names(columns, *, table="Run table", exempt=()):
     a sensor, a displacement or a known column while breaking its naming
     rule (``disp_x_mm``, ``T1``, ``Time_s``), with the rule; ``exempt``
     columns (e.g. mapped explicitly by the caller) are not checked."""
-    problems = []
+    # Columns that break one rule alike are named together, the rule once.
+    broken = {}
     for name in columns:
         hit = None if name in exempt else _looks_like(name)
         if hit is not None:
-            kind, expected = hit
-            problems.append(f"{name!r} looks like {kind} but {expected}")
+            broken.setdefault(hit, []).append(name)
+    problems = []
+    for (kind, expected), names in broken.items():
+        if len(names) == 1:
+            problems.append(f"{names[0]!r} looks like {kind} but {expected}")
+            continue
+        shown = ", ".join(repr(n) for n in names[:4])
+        more = f" and {len(names) - 4} more" if len(names) > 4 else ""
+        kinds = kind[2:] + "s" if kind.startswith("a ") else kind
+        problems.append(
+            f"{shown}{more} ({len(names)} columns) look like {kinds} but {expected}"
+        )
     if problems:
         raise ValueError(
             f"{table} columns break the naming rule (rename or drop them): "
@@ -223,6 +236,8 @@ def _missing_column(name, meaning, candidates):
 
 
 _DECIMAL_COMMA = re.compile(r"\s*[-+]?[0-9]*,[0-9]+\s*")
+# 1,250 or 12,500,000.5: digits in groups of three after the first comma.
+_THOUSANDS = re.compile(r"\s*[-+]?[0-9]{1,3}(,[0-9]{3})+(\.[0-9]*)?\s*")
 
 
 def _check_numeric(df, columns):
@@ -237,10 +252,25 @@ def _check_numeric(df, columns):
             if bad.size:
                 value = plain(col.iloc[bad[0]])
                 where = f": {_where(df, bad[0])} holds {value!r}"
-                if isinstance(value, str) and _DECIMAL_COMMA.fullmatch(value):
+                text = col.iloc[bad].astype(str)
+                if isinstance(value, str) and text.str.fullmatch(_THOUSANDS).all():
+                    where += (
+                        ", a number with thousands separators (or decimal "
+                        "commas: 1,250 reads either way); write numbers without "
+                        "separators and with a decimal point, e.g. "
+                        "pandas.read_csv(..., thousands=',') for separators"
+                    )
+                elif isinstance(value, str) and _DECIMAL_COMMA.fullmatch(value):
                     where += (
                         ", a number with a decimal comma; write numbers with a "
                         "decimal point"
+                    )
+                elif bad.size == 1 and bad[0] == 0 and len(df) > 1:
+                    where += (
+                        ", the only text in the column, on the line under the "
+                        "header: a row of units? Delete it; a run table's units "
+                        "are in its column names (time_s, T<name>_C, "
+                        "disp_<axis>_um)"
                     )
         raise ValueError(
             f"Column {name!r} must be numeric but has dtype {col.dtype}{where}."
@@ -336,6 +366,60 @@ def _check_time(df, codes):
             f"{plain(df[RUN].iloc[j])!r}, row {j} has time_s {time[j]} after "
             f"time_s {time[i]} at row {i}."
         )
+    _warn_time_unit(c, t)
+
+
+# Thermal tests last hours and are logged every second to minutes: a run
+# longer than this, or logged more slowly, has time_s in milliseconds ...
+_MAX_RUN_S = 30 * 86400.0
+_MAX_STEP_S = 3600.0
+# ... and runs all shorter than this, logged faster than every second, have
+# it in minutes (or hours).
+_SHORT_RUNS_S = 3600.0
+_FAST_STEP_S = 1.0
+
+
+def _warn_time_unit(codes, times):
+    """Warn when ``time_s`` (sorted by run ``codes``) looks like another unit
+    than seconds: every model reads it as seconds, so the filters' time
+    constants and a drift rate would be off by 60 or 1000 without a word."""
+    starts = np.r_[True, codes[1:] != codes[:-1]]
+    first = times[starts]
+    last = times[np.r_[starts[1:], True]]
+    length = last - first
+    late = first[first > 0]
+    if late.size > 1 and 2 * late.size >= first.size:
+        warnings.warn(
+            f"Column 'time_s' is the time since each run's start, but "
+            f"{late.size} of the {first.size} runs do not start at 0 (they start "
+            f"at {late.min():g} to {late.max():g} s): a clock's time? Subtract "
+            "each run's first time. Models of runs read a run that does not "
+            "start at 0 as the later part of a run and say so when they predict "
+            "it.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
+    steps = np.diff(times)[~starts[1:]]
+    if not steps.size:
+        return
+    step = float(np.median(steps))
+    longest = float(length.max())
+    if longest > _MAX_RUN_S or step > _MAX_STEP_S:
+        unit = "milliseconds"
+    elif longest < _SHORT_RUNS_S and step < _FAST_STEP_S:
+        unit = "minutes"
+    else:
+        return
+    warnings.warn(
+        f"Column 'time_s' is read as seconds since each run's start: the runs "
+        f"last up to {longest:.4g} s ({longest / 3600:.3g} h), logged every "
+        f"{step:.4g} s (median step). Thermal tests last hours and are logged "
+        f"every second to minutes: is time_s in {unit}? Convert it to seconds "
+        "(every time-aware model and the gap diagnosis read it so); if the "
+        "times are right, ignore this warning.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def check_unique_columns(df, what="The run table"):
