@@ -1248,3 +1248,13 @@ def test_a_latin1_file_is_told_to_be_saved_as_utf8(tmp_path):
         ValueError, match=r"not UTF-8: line 3 holds the byte 0xb0 \('°'"
     ):
         read_runs(path)
+
+
+@pytest.mark.parametrize("air, guess", [(80.0, "Fahrenheit"), (293.0, "kelvin")])
+def test_workshop_air_in_another_unit_warns(air, guess):
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3).assign(ambient_C=air)
+    with pytest.warns(UserWarning, match=rf"'ambient_C' reads {air:g}.*in {guess}\?"):
+        validate_runs(table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(table.assign(ambient_C=21.0))

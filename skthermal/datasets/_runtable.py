@@ -592,6 +592,7 @@ def check_run_table(
         "; no sensor reads that: it is a corrupt value, which the models refuse",
     )
     _check_ranges(df, everything, values)
+    _warn_air_unit(df)
     if not allow_missing_sensors:
         _check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
@@ -637,6 +638,40 @@ def _check_ranges(df, columns, values):
                 + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
                 + "."
             )
+
+
+# Workshop air outside this range (°C) is most likely in another unit.
+_AIR_RANGE_C = (-20.0, 50.0)
+
+
+def _warn_air_unit(df):
+    """Warn when ``ambient_C`` lies outside what workshop air reads in °C
+    (Fahrenheit reads 60-90, kelvin about 293): the simulator and the gap
+    diagnosis take it as °C."""
+    if "ambient_C" not in df.columns:
+        return
+    air = _as_float(df, ["ambient_C"])[:, 0]
+    air = air[np.isfinite(air)]
+    if not air.size:
+        return
+    low, high = _AIR_RANGE_C
+    if air.min() >= low and air.max() <= high:
+        return
+    k = int(np.argmax(np.abs(air - np.clip(air, low, high))))
+    guess = (
+        "in kelvin?"
+        if air[k] > 200
+        else "in Fahrenheit?"
+        if air[k] > high
+        else "another unit, or a faulty sensor?"
+    )
+    warnings.warn(
+        f"Column 'ambient_C' reads {air[k]:g} (range {air.min():g} to "
+        f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air: "
+        f"{guess} It is read as °C (simulation, gap diagnosis).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _check_missing_sensors(df, sensors, values=None, hint=ALLOW_MISSING):
