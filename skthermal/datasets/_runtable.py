@@ -366,7 +366,7 @@ def _check_time(df, codes):
             f"{plain(df[RUN].iloc[j])!r}, row {j} has time_s {time[j]} after "
             f"time_s {time[i]} at row {i}."
         )
-    _warn_time_unit(c, t)
+    _warn_odd_times(c, t)
 
 
 # Thermal tests last hours and are logged every second to minutes: a run
@@ -379,9 +379,10 @@ _SHORT_RUNS_S = 3600.0
 _FAST_STEP_S = 1.0
 
 
-def _warn_time_unit(codes, times):
-    """Warn when ``time_s`` (sorted by run ``codes``) looks like another unit
-    than seconds: every model reads it as seconds, so the filters' time
+def _warn_odd_times(codes, times):
+    """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
+    time (most runs start after 0) or like another unit than seconds: every
+    model reads it as seconds since the run's start, so the filters' time
     constants and a drift rate would be off by 60 or 1000 without a word."""
     starts = np.r_[True, codes[1:] != codes[:-1]]
     first = times[starts]
