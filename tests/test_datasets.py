@@ -1258,3 +1258,13 @@ def test_workshop_air_in_another_unit_warns(air, guess):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         validate_runs(table.assign(ambient_C=21.0))
+
+
+def test_a_timestamp_column_gets_the_conversion_to_time_s():
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3).drop(columns="time_s")
+    table["timestamp"] = ["2024-03-04T08:00:00", "2024-03-04T08:00:15", "x"]
+    with pytest.raises(ValueError, match=r"might be it: \['timestamp'\]\. A clock"):
+        validate_runs(table)
+    table["timestamp"] = [0.0, 15.0, 30.0]  # numbers: a rename, no conversion
+    with pytest.raises(ValueError, match=r"might be it: \['timestamp'\]\.$"):
+        validate_runs(table)

@@ -536,9 +536,21 @@ def check_run_table(
         candidates = [
             c
             for c in names
-            if c.strip().lower().startswith(("time", "t_")) or c.strip() == "t"
+            if c.strip().lower().startswith(("time", "t_", "date", "stamp"))
+            or c.strip() == "t"
         ]
-        raise _missing_column(TIME, "time since the start of the run, in s", candidates)
+        error = _missing_column(
+            TIME, "time since the start of the run, in s", candidates
+        )
+        if candidates and not pd.api.types.is_numeric_dtype(df[candidates[0]]):
+            column = candidates[0]
+            error = ValueError(
+                f"{error} A clock time or date column becomes time_s as the "
+                "seconds since each run's first row, e.g. t = "
+                f"pandas.to_datetime(df[{column!r}]); df['time_s'] = (t - "
+                f"t.groupby(df['run']).transform('first')).dt.total_seconds()."
+            )
+        raise error
     check_column_names(df.columns)
     sensors = sensor_columns(df)
     targets = target_columns(df)
