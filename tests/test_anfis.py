@@ -989,14 +989,17 @@ def test_grey_anfis_warns_of_centred_inputs():
     centred = (T - T.mean(axis=0)) / T.std(axis=0)
     model = ANFISRegressor(grey=True, epochs=10, random_state=0)
     with pytest.warns(
-        UserWarning, match=r"input 'x1' \(and 1 more\) takes values on both"
+        UserWarning, match=r"input 'x1' \(and 1 more\) is centred on zero"
     ):
         model.fit(centred, y)
     assert model.score(centred, y) < 0  # what the warning is about
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         model.fit(T, y)  # changes since the run start: no warning
-    assert model.score(T, y) > 0.99
+        assert model.score(T, y) > 0.99
+        # one signed input among others (a feed's direction) is no cause
+        feed = np.where((t // 20) % 2 == 0, 1.0, -1.0)
+        model.fit(np.c_[T, T[:, :1], feed], y)
 
 
 def test_a_step_far_too_small_for_the_inputs_warns():

@@ -560,6 +560,11 @@ def test_a_guarded_model_holds_a_spike_and_says_so(capsys, workdir):
     assert dropped.loc[row, "guard_action"] == "held"
     assert dropped.loc[row, "guard_reason"] == "missing: T05_C"
     assert np.isnan(dropped.loc[row, "T05_C"])
+    # and what predict wrote is scored (evaluate reads no sensor)
+    status, text, err = _run(capsys, "evaluate", "--runs", outs["spiked"])
+    assert status == 0 and " all " in text, err
+    status, _, err = _run(capsys, "evaluate", "--runs", spiked, "--model", model)
+    assert status == 0, err
 
 
 def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):
@@ -1279,7 +1284,7 @@ def test_fit_on_fewer_samples_than_inputs_warns(capsys, workdir, tmp_path):
     table[table["run"] == table["run"].iloc[0]].head(3).to_csv(few, index=False)
     argv = ["fit", "--runs", few, "--model", "ridge", "--out", tmp_path / "m.joblib"]
     status, _, err = _run(capsys, *argv)
-    assert status == 0 and "3 training sample(s) for 77 input(s)" in err, err
+    assert status == 0 and "2 training sample(s) after the runs' first" in err, err
     status, _, err = _run(capsys, *argv, "--sensors", "T05_C")
     assert status == 0 and "training sample(s)" not in err, err
 
@@ -1329,4 +1334,14 @@ def test_fit_names_a_stuck_sensor(capsys, workdir, tmp_path):
     table.to_csv(runs, index=False)
     argv = ["fit", "--runs", runs, "--model", "ridge", "--out", tmp_path / "m.joblib"]
     status, _, err = _run(capsys, *argv, "--sensors", "T05_C,T07_C")
-    assert status == 0 and "Input(s) ['T07_C'] read the same value" in err, err
+    assert status == 0 and "Sensor(s) ['T07_C'] do not change" in err, err
+    # stuck at another value in every run: its changes are all zero as well
+    codes = pd.factorize(table["run"])[0]
+    table.assign(T07_C=20.0 + codes).to_csv(runs, index=False)
+    status, _, err = _run(capsys, *argv, "--sensors", "T05_C,T07_C")
+    assert status == 0 and "Sensor(s) ['T07_C'] do not change" in err, err
+    # a driver at rest (no feed in a spindle test) is not a stuck sensor
+    status, _, err = _run(
+        capsys, *argv[:4], "lag-ridge", *argv[5:], "--sensors", "T05_C"
+    )
+    assert status == 0 and "do not change" not in err, err

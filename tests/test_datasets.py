@@ -1268,3 +1268,31 @@ def test_a_timestamp_column_gets_the_conversion_to_time_s():
     table["timestamp"] = [0.0, 15.0, 30.0]  # numbers: a rename, no conversion
     with pytest.raises(ValueError, match=r"might be it: \['timestamp'\]\.$"):
         validate_runs(table)
+
+
+def test_plausible_times_do_not_warn():
+    # From an independent check of the warnings: runs whose first sample is
+    # one period in, a 30 min test logged every 0.5 s, a 35-day soak logged
+    # every 10 min, an arctic chamber.
+    cases = [
+        (np.tile(np.arange(15.0, 3600.0, 15.0), 3), 3),
+        (np.arange(0.0, 1800.0, 0.5), 1),
+        (np.arange(0.0, 35 * 86400.0, 600.0), 1),
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for t, n_runs in cases:
+            runs = np.repeat([f"r{k}" for k in range(n_runs)], t.size // n_runs)
+            validate_runs(_minimal_table(t, runs))
+        validate_runs(_minimal_table([0.0, 15.0], ["A"] * 2).assign(ambient_C=-30.0))
+
+
+def test_warn_implausible_reads_interleaved_runs():
+    # The gap diagnosis reads its tables without validate_runs; it calls this.
+    from skthermal.datasets._runtable import warn_implausible
+
+    t = np.arange(0.0, 8 * 3600.0, 30.0) * 1000.0  # 8 h in milliseconds
+    table = _minimal_table(np.r_[t, t], np.repeat(["a", "b"], t.size))
+    table = table.iloc[np.argsort(np.r_[t, t], kind="stable")]  # interleaved
+    with pytest.warns(UserWarning, match=r"is time_s in milliseconds\?"):
+        warn_implausible(table)

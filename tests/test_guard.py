@@ -776,3 +776,18 @@ def test_wrappers_route_metadata_to_their_model():
                 params={"sample_weight": w, "groups": groups},
             )
             assert np.all(np.isfinite(scores["test_score"]))
+
+
+@pytest.mark.parametrize("missing", [2, 20])
+def test_a_sensor_back_far_off_after_a_dropout_is_a_jump(train, new_run, missing):
+    # The step is judged from the last good reading; the limit grows with the
+    # samples in between only up to a few, so an offset after a long dropout
+    # is still caught (an independent check: +8 °C after 5 or 20 missing
+    # samples passed as ok).
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    X_bad = new_run[0].copy()
+    X_bad.iloc[40 : 40 + missing, 1] = np.nan
+    X_bad.iloc[40 + missing :, 1] += 20 * guard.input_max_step_[1]
+    checked, _ = _caught(guard.predict_checked, X_bad)
+    assert checked["reason"].iloc[40 + missing] == "jump: T2_C"

@@ -166,6 +166,7 @@ def _target_changes(y, groups):
 
 def cmd_fit(args):
     from skthermal import __version__
+    from skthermal._run_changes import changes_since_first_row
     from skthermal.datasets import sensor_columns, split_runs
     from skthermal.models import MODELS, make_model, make_selector
     from skthermal.study import score_runs
@@ -207,25 +208,30 @@ def cmd_fit(args):
                 f"{MODELS[args.model].label} uses the sensors only."
             )
     X, y, groups = split_runs(df, sensors=sensors, targets=target)
-    n_rows = int(mask.sum())
-    values = X[mask].to_numpy(dtype=float)
+    # The models read changes since each run's start: a run's first row is
+    # its zero, and a sensor whose changes are all zero tells them nothing.
+    changes = changes_since_first_row(X[mask].to_numpy(dtype=float), groups[mask])
+    n_runs = len(pd.unique(groups[mask]))
+    n_rows = int(mask.sum()) - n_runs
+    measured = set(sensor_columns(df))  # drivers may rest (no feed)
     still = [
         s
-        for s, span in zip(sensors, np.ptp(values, axis=0), strict=True)
-        if n_rows > 1 and span == 0
+        for s, moved in zip(sensors, np.abs(changes).max(axis=0) > 0, strict=True)
+        if s in measured and n_rows > 0 and not moved
     ]
     if still:
         warnings.warn(
-            f"Input(s) {still} read the same value in every training row (a "
-            "stuck or disconnected sensor?): the model learns nothing from "
-            "them, and any later change of theirs is an extrapolation. Check "
-            "them, or leave them out (--sensors).",
+            f"Sensor(s) {still} do not change within any training run (stuck "
+            "or disconnected?): the model learns nothing from them, and any "
+            "later change of theirs is an extrapolation. Check them, or leave "
+            "them out (--sensors).",
             UserWarning,
             stacklevel=2,
         )
     if n_rows <= len(sensors):
         warnings.warn(
-            f"{n_rows} training sample(s) for {len(sensors)} input(s): the model "
+            f"{n_rows} training sample(s) after the runs' first rows (the "
+            f"zero of their changes) for {len(sensors)} input(s): the model "
             "can fit them exactly whatever the inputs mean, so its training RMSE "
             "says nothing. Train on more samples (longer or more runs), or on "
             "fewer sensors (--sensors or --selector).",
@@ -524,9 +530,14 @@ def cmd_evaluate(args):
     if args.out and Path(args.out).suffix.lower() not in (".csv", ".md"):
         raise UserError(f"--out {args.out}: write .csv or .md.")
     check_out_path(args.out, "--out")
-    df = read_table(args.runs)
+    # Scoring reads the displacements and predictions, not the sensors: a
+    # sensor missing readings (written so by predict with a hold guard) is
+    # refused only where a model reads it, as in predict.
+    df = read_table(args.runs, allow_missing_sensors=True)
     if args.model:
         bundle = load_model(args.model)
+        if getattr(bundle["estimator"], "mode", None) != "hold":
+            check_used_sensors(df, bundle["sensors"], args.runs)
         target = bundle["target"]
         if args.target and args.target != target:
             raise UserError(

@@ -74,6 +74,11 @@ class RunStartWarning(GuardWarning):
 
 # Fault kinds, in the order they are reported.
 _KINDS = ("missing", "range", "jump", "flat")
+# The jump limit after faulty readings grows with the samples in between up
+# to this many: after a long dropout a sensor that comes back far off (an
+# offset of 8 °C after 20 missing samples in an independent check) is still
+# a jump; a real drift over the dropout costs one held sample.
+_MAX_SPAN = 4
 _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
 
 
@@ -263,10 +268,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     jump : float or None, default=4.0
         A reading whose change since the previous sample of its run exceeds
         ``jump`` times the largest change of that input in training is a
-        jump. After readings that are missing or out of range, the change
-        is taken from the last good one (the limit times the samples in
-        between). None: no jump check. Assumes the sampling period of
-        training.
+        jump. After readings that are missing, or out of range by a jump
+        (a spike), the change is taken from the last good one (the limit
+        times the samples in between, at most 4). None: no jump check.
+        Assumes the sampling period of training.
     flat : int, "auto" or None, default="auto"
         Samples of unchanged reading after which a sensor that moved in
         training counts as flat-lined. ``"auto"``: per input, three times
@@ -358,13 +363,14 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     ...     warnings.simplefilter("always")
     ...     checked = guard.predict_checked(X_new)
     >>> checked["prediction"].round(3).tolist()
-    [10.0, 10.4, 10.4, 10.4]
+    [10.0, 10.4, 10.4, 10.8]
     >>> checked["ok"].tolist(), checked["action"].tolist()
-    ([True, True, False, False], ['', '', 'held', 'held'])
+    ([True, True, False, True], ['', '', 'held', ''])
     >>> checked.loc[2, "reason"]
     'out of range: x0; jump: x0'
-    >>> checked.loc[3, "reason"]
-    'jump: x0'
+
+    The reading after the spike is judged from the one before it (25.2):
+    not a jump, and predicted again.
     >>> any(issubclass(w.category, SensorRangeWarning) for w in caught)
     True
     """
@@ -810,15 +816,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         with np.errstate(invalid="ignore", over="ignore"):
             flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
             if self.jump is not None:
-                faulty = flags["missing"] | (flags["range"] & self.checked_inputs_)
-                step, rows = _steps(A, first, faulty)
-                step = np.abs(step)
-                limit = np.where(
-                    self.input_max_step_ > 0,
-                    self.jump * self.input_max_step_ * rows,
-                    np.inf,
+                flags["jump"], step = self._jumps(
+                    A, first, flags["missing"], flags["range"] & self.checked_inputs_
                 )
-                flags["jump"] = np.isfinite(step) & (step > limit)
                 # An odd first reading is the fault, not the step from it.
                 odd = _odd_first_readings(flags["jump"], step, first)
                 flags["jump"][1:] &= ~odd[:-1]
@@ -889,6 +889,30 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 stacklevel=4,
             )
         return flags
+
+    def _jumps(self, A, first, missing, out):
+        """Jump flags (n, p) and the steps they were judged on.
+
+        A step is taken from the sensor's last reading in the run that is
+        neither missing nor a spike: out of range (``out``) and reached by a
+        jump, or at the run's first row. The reading after such a spike is
+        then judged against the reading before it, so it is not a jump too;
+        readings that drift out of the range stay references, so a slow
+        drift is not cut into jumps."""
+        base = np.where(
+            self.input_max_step_ > 0, self.jump * self.input_max_step_, np.inf
+        )
+
+        def judge(bad):
+            step, rows = _steps(A, first, bad)
+            step = np.abs(step)
+            return np.isfinite(step) & (step > base * np.minimum(rows, _MAX_SPAN)), step
+
+        jump, step = judge(missing)
+        spike = out & (jump | first[:, None])
+        if spike.any():
+            jump, step = judge(missing | spike)
+        return jump, step
 
     def _late_starts(self, runs, where, n):
         """Per row, why its run cannot be predicted by the wrapped sequence

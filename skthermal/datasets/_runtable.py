@@ -369,13 +369,14 @@ def _check_time(df, codes):
     _warn_odd_times(c, t)
 
 
-# Thermal tests last hours and are logged every second to minutes: a run
-# longer than this, or logged more slowly, has time_s in milliseconds ...
-_MAX_RUN_S = 30 * 86400.0
-_MAX_STEP_S = 3600.0
+# Thermal tests last hours to weeks and are logged every second to hours: a
+# run longer than this, or logged more slowly, has time_s in milliseconds
+# (a run of 1.5 h in ms lasts 62 days) ...
+_MAX_RUN_S = 60 * 86400.0
+_MAX_STEP_S = 6 * 3600.0
 # ... and runs all shorter than this, logged faster than every second, have
-# it in minutes (or hours).
-_SHORT_RUNS_S = 3600.0
+# it in minutes (runs of up to 20 h).
+_SHORT_RUNS_S = 1200.0
 _FAST_STEP_S = 1.0
 
 
@@ -388,7 +389,10 @@ def _warn_odd_times(codes, times):
     first = times[starts]
     last = times[np.r_[starts[1:], True]]
     length = last - first
-    late = first[first > 0]
+    steps = np.diff(times)[~starts[1:]]
+    step = float(np.median(steps)) if steps.size else 0.0
+    # A run whose first sample is one period in (at 15 s, not 0) is fine.
+    late = first[first > 2 * step]
     if late.size > 1 and 2 * late.size >= first.size:
         warnings.warn(
             f"Column 'time_s' is the time since each run's start, but "
@@ -400,10 +404,8 @@ def _warn_odd_times(codes, times):
             UserWarning,
             stacklevel=user_stacklevel(),
         )
-    steps = np.diff(times)[~starts[1:]]
     if not steps.size:
         return
-    step = float(np.median(steps))
     longest = float(length.max())
     if longest > _MAX_RUN_S or step > _MAX_STEP_S:
         unit = "milliseconds"
@@ -414,8 +416,8 @@ def _warn_odd_times(codes, times):
     warnings.warn(
         f"Column 'time_s' is read as seconds since each run's start: the runs "
         f"last up to {longest:.4g} s ({longest / 3600:.3g} h), logged every "
-        f"{step:.4g} s (median step). Thermal tests last hours and are logged "
-        f"every second to minutes: is time_s in {unit}? Convert it to seconds "
+        f"{step:.4g} s (median step). Thermal tests last hours to weeks and are "
+        f"logged every second to hours: is time_s in {unit}? Convert it to seconds "
         "(every time-aware model and the gap diagnosis read it so); if the "
         "times are right, ignore this warning.",
         UserWarning,
@@ -653,14 +655,27 @@ def _check_ranges(df, columns, values):
             )
 
 
+def warn_implausible(df):
+    """The plausibility warnings of a run table whose ``time_s`` is checked
+    (finite, increasing within each run), for readers that skip the rest of
+    :func:`validate_runs` (the gap diagnosis reads its own columns): a
+    ``time_s`` like a clock's or in another unit, workshop air in another
+    unit."""
+    codes = pd.factorize(df[RUN])[0]
+    order = np.argsort(codes, kind="stable")
+    times = _as_float(df, [TIME])[:, 0]
+    _warn_odd_times(codes[order], times[order])
+    _warn_air_unit(df)
+
+
 # Workshop air outside this range (°C) is most likely in another unit.
-_AIR_RANGE_C = (-20.0, 50.0)
+_AIR_RANGE_C = (-40.0, 60.0)
 
 
 def _warn_air_unit(df):
-    """Warn when ``ambient_C`` lies outside what workshop air reads in °C
-    (Fahrenheit reads 60-90, kelvin about 293): the simulator and the gap
-    diagnosis take it as °C."""
+    """Warn when ``ambient_C`` lies outside what workshop air (or a climate
+    chamber) reads in °C (Fahrenheit reads 60-90, kelvin about 293): the
+    simulator and the gap diagnosis take it as °C."""
     if "ambient_C" not in df.columns:
         return
     air = _as_float(df, ["ambient_C"])[:, 0]
@@ -680,7 +695,8 @@ def _warn_air_unit(df):
     )
     warnings.warn(
         f"Column 'ambient_C' reads {air[k]:g} (range {air.min():g} to "
-        f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air: "
+        f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air "
+        f"and climate chambers: "
         f"{guess} It is read as °C (simulation, gap diagnosis).",
         UserWarning,
         stacklevel=user_stacklevel(),

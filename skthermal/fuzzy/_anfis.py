@@ -162,34 +162,41 @@ _STEP_SPAN_RATIO = 1000.0
 _MIXED_SCALES = 100.0
 
 
-# With grey=True, an input whose values fall on both sides of zero by more
-# than this share of its span accumulates into a sum that rises and falls.
-_GREY_SIGN_SHARE = 0.1
+# With grey=True, inputs centred on zero (mean within this share of their
+# standard deviation) accumulate into running sums that turn back.
+_CENTRED_SHARE = 0.1
 
 
 def _warn_grey_signs(X, names):
-    """Warn when ``grey=True`` gets inputs of both signs, such as centred
-    (standardised) readings. Grey models accumulate non-negative series; a
-    centred input's running sum turns back, so one accumulated value stands
-    for several states of the run, and the restored (differenced)
-    predictions amplify the fit's errors (training R^2 1.0 on changes since
-    the run start, -215 on the same readings standardised)."""
-    if not X.shape[0]:
+    """Warn when ``grey=True`` gets centred (standardised) inputs: half of
+    them or more with a mean near zero and values of both signs. Grey models
+    accumulate non-negative series; a centred input's running sum turns
+    back, so one accumulated value stands for several states of the run, and
+    the restored (differenced) predictions amplify the fit's errors
+    (training R^2 1.0 on changes since the run start, -215 on the same
+    readings standardised). One signed input among others (a feed's
+    direction, a sensor cooling below its start) is no cause: an independent
+    check found such inputs fitted well."""
+    if X.shape[0] < 2:
         return
-    low, high = X.min(axis=0), X.max(axis=0)
-    margin = _GREY_SIGN_SHARE * (high - low)
-    both = np.flatnonzero((low < -margin) & (high > margin) & (margin > 0))
-    if not both.size:
+    mean, std = X.mean(axis=0), X.std(axis=0)
+    centred = (
+        (std > 0)
+        & (np.abs(mean) < _CENTRED_SHARE * std)
+        & (X.min(axis=0) < 0)
+        & (X.max(axis=0) > 0)
+    )
+    if not centred.any() or 2 * centred.sum() < X.shape[1]:
         return
-    j = both[0]
-    more = f" (and {both.size - 1} more)" if both.size > 1 else ""
+    j = int(np.flatnonzero(centred)[0])
+    more = f" (and {centred.sum() - 1} more)" if centred.sum() > 1 else ""
     warnings.warn(
-        f"ANFISRegressor(grey=True): input {names[j]!r}{more} takes values on "
-        f"both sides of zero ({low[j]:.3g} to {high[j]:.3g}), as centred "
-        "(standardised) readings do. grey=True accumulates every input over "
-        "its run, and such an input's running sum turns back, so the model "
-        "and the restored predictions can be far off. Give readings or "
-        "changes since the run start, scaled without centring "
+        f"ANFISRegressor(grey=True): input {names[j]!r}{more} is centred on zero "
+        f"(mean {mean[j]:.3g}, standard deviation {std[j]:.3g}), as standardised "
+        "readings are. grey=True accumulates every input over its run, and a "
+        "centred input's running sum turns back, so the model and the "
+        "restored predictions can be far off. Give readings or changes since "
+        "the run start, scaled without centring "
         "(StandardScaler(with_mean=False) or MaxAbsScaler).",
         UserWarning,
         stacklevel=user_stacklevel(),

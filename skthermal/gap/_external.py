@@ -21,7 +21,7 @@ from joblib import Parallel, delayed
 from sklearn.utils._param_validation import validate_params
 
 from skthermal._naming import percent, removes
-from skthermal.datasets._runtable import check_unique_columns
+from skthermal.datasets._runtable import check_unique_columns, warn_implausible
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -263,6 +263,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
                 [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
             )
         out.append((name, t, drivers, y_meas, y_sim))
+    warn_implausible(measured)
     warn_short_runs("diagnose_runs", {name: t[-1] - t[0] for name, t, *_ in out}, 5)
     blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
     if sum(len(b) for b in blocks) < 2:

@@ -19,7 +19,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from skthermal._naming import closest, shown, suggest
-from skthermal.datasets._runtable import check_column_names
+from skthermal.datasets._runtable import check_column_names, warn_implausible
 from skthermal.simulate import EFFECTS
 from skthermal.utils._runs import check_labels, is_clock_dtype, warn_short_runs
 from skthermal.utils._warnings import user_stacklevel
@@ -468,6 +468,7 @@ def build_problem(
         check_length(t.size, name)
         check_times(t, name)
         read.append((name, frame, t, channel_values(frame, channels, t, name)))
+    warn_implausible(runs)
     warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)
     dead = [c for c, k in zip(channels, keep, strict=True) if not k]

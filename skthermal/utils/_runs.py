@@ -1829,11 +1829,7 @@ def run_memory(X, slices, labels, frame):
             "n": sl.stop - sl.start,
             "x_first": run[0].copy(),
             "x_last": run[-1].copy(),
-            "max_step": (
-                np.abs(np.diff(run, axis=0)).max(axis=0)
-                if run.shape[0] > 1
-                else np.zeros(run.shape[1])
-            ),
+            "max_step": _smooth_max_step(run),
             "t_first": float(t0),
             "t_last": float(t1),
             "period": float(periods[r]),
@@ -1848,6 +1844,22 @@ def run_memory(X, slices, labels, frame):
 # within that run is most likely a new run under a reused label (the factor
 # of GuardedRegressor's default jump check).
 CONTINUATION_JUMP = 4.0
+
+
+# An input whose largest step is this share of its span or more moves in
+# steps (a spindle speed, a feed): a step at a run's continuation is normal.
+_STEPPED_SHARE = 0.2
+
+
+def _smooth_max_step(run):
+    """Largest step of every input of a run's rows, inf for inputs that move
+    in steps (:data:`_STEPPED_SHARE`) or have fewer than three rows, which
+    the continuation check then leaves alone."""
+    if run.shape[0] < 3:
+        return np.full(run.shape[1], np.inf)
+    step = np.abs(np.diff(run, axis=0)).max(axis=0)
+    stepped = step >= _STEPPED_SHARE * np.ptp(run, axis=0)
+    return np.where(stepped & (step > 0), np.inf, step)
 
 
 def _input_name(state, j):
