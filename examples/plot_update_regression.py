@@ -67,9 +67,20 @@ methods = {
         FuzzyEquivalenceSelector(n_groups=2), UpdateRegressor()
     ),
     "stable + OLS": make_pipeline(StableTSPSelector(), UpdateRegressor(alpha=0.0)),
+    "clustering + OLS": make_pipeline(
+        FuzzyEquivalenceSelector(n_groups=2), UpdateRegressor(alpha=0.0)
+    ),
 }
 levels = cross_batch_rmse(methods, X, y, batches)
 print(levels.per_method.round(2))
+# The same on absolute readings instead of changes since each batch's start:
+absolute = cross_batch_rmse(
+    {"stable + ridge": methods["stable + ridge"]},
+    runs[sensors],
+    runs[target],
+    runs["run"],
+)
+print("stable + ridge on absolute readings:", absolute.per_method.iloc[0, 0].round(2))
 
 # %%
 # Adaptive compensation: the model of B1 compensates B2..B20 (76 h). When the
