@@ -581,6 +581,8 @@ def test_a_window_of_recent_rows_is_not_ok_for_a_sequence_model(
     (msg,) = _messages(caught, RunStartWarning)
     assert "run 'new' at time_s=3000 to time_s=3570" in msg
     assert "a window of recent rows suits only static models" in msg
+    # said once: not again by the wrapped model in its own words
+    assert not [m for m in _messages(caught, UserWarning) if "start(s) at" in m]
     assert _caught(guard.predict, window)[0].shape == (20,)
     # the whole run so far is fine
     whole, caught = _caught(guard.predict_checked, new_run[0].iloc[:70])

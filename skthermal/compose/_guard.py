@@ -735,7 +735,14 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             X_inner = _with_values(X, B)
 
         X_inner, kwargs = pass_runs(self.estimator_.predict, X_inner, groups, {})
-        raw = np.asarray(self.estimator_.predict(X_inner, **kwargs), dtype=float)
+        with warnings.catch_warnings():
+            if (late != "").any():
+                # Said once, as a RunStartWarning naming the rows; the wrapped
+                # sequence model would say it again in its own words.
+                warnings.filterwarnings(
+                    "ignore", message=r"(Run .*|The rows) given to .* start\(s\) at"
+                )
+            raw = np.asarray(self.estimator_.predict(X_inner, **kwargs), dtype=float)
         P = raw.reshape(n, -1)
         olo, ohi = _limits(self.output_min_, self.output_max_, self.output_span)
         out_band = ~((P >= olo) & (P <= ohi))
