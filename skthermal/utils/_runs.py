@@ -1984,9 +1984,11 @@ def continued_runs(
                     f"in {_input_name(state, j)} ({ratio:.3g} times the largest "
                     "step within "
                     f"the training run, {step:.4g}): most likely a new run "
-                    "under a reused label. Give a new run a label not seen in "
-                    "fit (or its time_s, from 0), and a continuation the rows "
-                    "right after the training ones.",
+                    "under a reused label, or rows from inside the training "
+                    "run. Give a new run a label not seen in fit (or its "
+                    "time_s, from 0), a continuation the rows right after the "
+                    "training ones, and rows with their time_s to have them "
+                    "checked against the training span.",
                     UserWarning,
                     stacklevel=stacklevel,
                 )
