@@ -44,7 +44,7 @@ def read_table(path, what="--runs", *, validate=True, allow_missing_sensors=Fals
     ``allow_missing_sensors``: missing sensor readings pass the validation
     (for a model that holds over them)."""
     from skthermal.datasets import read_runs
-    from skthermal.datasets._runtable import SKIP_VALIDATION, check_run_table
+    from skthermal.datasets._runtable import SKIP_VALIDATION
 
     if path is None:
         raise UserError(f"{what} FILE is required.")
@@ -54,13 +54,9 @@ def read_table(path, what="--runs", *, validate=True, allow_missing_sensors=Fals
     if path.is_dir():
         raise UserError(f"{what}: {path} is a folder, not a run table file.")
     try:
-        if not (validate and allow_missing_sensors):
-            return read_runs(path, validate=validate)
-        df = read_runs(path, validate=False)
-        try:
-            return check_run_table(df, allow_missing_sensors=True)
-        except ValueError as exc:
-            raise ValueError(f"{path}: {exc}") from exc
+        return read_runs(
+            path, validate=validate, allow_missing_sensors=allow_missing_sensors
+        )
     except UnicodeDecodeError as exc:
         raise UserError(
             f"{what} {path}: not a text CSV run table (binary data; use .csv, "
@@ -82,10 +78,10 @@ def check_used_sensors(df, sensors, path, what="--runs"):
     """A UserError naming the first missing reading of the ``sensors`` the
     command uses (a table read with ``allow_missing_sensors``: the others may
     miss readings)."""
-    from skthermal.datasets._runtable import _check_missing_sensors
+    from skthermal.datasets._runtable import check_missing_sensors
 
     try:
-        _check_missing_sensors(
+        check_missing_sensors(
             df,
             [s for s in sensors if s in df.columns],
             hint="impute them first or drop those rows, or leave the sensor out",
@@ -127,16 +123,15 @@ def write_table(df, path, *, metadata=None, allow_missing_sensors=False):
     """Write a run table (validated; ``allow_missing_sensors`` as in
     :func:`read_table`)."""
     from skthermal.datasets import write_runs
-    from skthermal.datasets._runtable import check_run_table
 
     check_out_table(path)
     path = Path(path)
     if path.parent and not path.parent.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
     try:
-        if allow_missing_sensors:
-            check_run_table(df, allow_missing_sensors=True)
-        write_runs(df, path, metadata=metadata, validate=not allow_missing_sensors)
+        write_runs(
+            df, path, metadata=metadata, allow_missing_sensors=allow_missing_sensors
+        )
     except ImportError as exc:  # Parquet without pyarrow
         raise UserError(f"{path}: {exc}") from exc
 

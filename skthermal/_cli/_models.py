@@ -390,6 +390,14 @@ def _predict(bundle, df, then, where="The run table"):
     return pred, checked
 
 
+def _check_model_sensors(df, bundle, path):
+    """Refuse missing readings of the sensors the saved model reads (those
+    of the others are fine), unless the model is a guard in ``"hold"``
+    mode, which holds the compensation over them."""
+    if getattr(bundle["estimator"], "mode", None) != "hold":
+        check_used_sensors(df, bundle["sensors"], path)
+
+
 def cmd_predict(args):
     from skthermal.datasets import read_runs
 
@@ -399,8 +407,7 @@ def cmd_predict(args):
     # Sensors the model does not read may miss readings; a guard in "hold"
     # mode holds the compensation over those of its own.
     df = read_table(args.runs, allow_missing_sensors=True)
-    if getattr(bundle["estimator"], "mode", None) != "hold":
-        check_used_sensors(df, bundle["sensors"], args.runs)
+    _check_model_sensors(df, bundle, args.runs)
     pred, checked = _predict(
         bundle, df, f"nothing was written to {args.out}", f"--runs {args.runs}"
     )
@@ -536,8 +543,7 @@ def cmd_evaluate(args):
     df = read_table(args.runs, allow_missing_sensors=True)
     if args.model:
         bundle = load_model(args.model)
-        if getattr(bundle["estimator"], "mode", None) != "hold":
-            check_used_sensors(df, bundle["sensors"], args.runs)
+        _check_model_sensors(df, bundle, args.runs)
         target = bundle["target"]
         if args.target and args.target != target:
             raise UserError(

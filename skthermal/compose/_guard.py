@@ -29,6 +29,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from skthermal._naming import plain
 from skthermal.datasets._runtable import physical_lows
 from skthermal.utils._runs import (
+    LATE_START_WARNING,
     MAX_MAGNITUDE,
     RUN_COLUMN,
     TIME_COLUMN,
@@ -739,9 +740,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             if (late != "").any():
                 # Said once, as a RunStartWarning naming the rows; the wrapped
                 # sequence model would say it again in its own words.
-                warnings.filterwarnings(
-                    "ignore", message=r"(Run .*|The rows) given to .* start\(s\) at"
-                )
+                warnings.filterwarnings("ignore", message=LATE_START_WARNING)
             raw = np.asarray(self.estimator_.predict(X_inner, **kwargs), dtype=float)
         P = raw.reshape(n, -1)
         olo, ohi = _limits(self.output_min_, self.output_max_, self.output_span)

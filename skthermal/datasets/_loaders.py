@@ -570,7 +570,7 @@ def _read_sidecar(path):
     return frame, labels
 
 
-def read_runs(path, *, validate=True, metadata=False):
+def read_runs(path, *, validate=True, metadata=False, allow_missing_sensors=False):
     """Read a run table from CSV, compressed CSV or Parquet.
 
     Parameters
@@ -584,6 +584,10 @@ def read_runs(path, *, validate=True, metadata=False):
         Check the table with :func:`validate_runs` (default options).
     metadata : bool, default=False
         Also return the run metadata from the JSON sidecar.
+    allow_missing_sensors : bool, default=False
+        With ``validate``: sensor columns may have missing values, as in
+        :func:`validate_runs` (e.g. for a model that reads only some of
+        them, or holds over a dropout).
 
     Returns
     -------
@@ -660,7 +664,11 @@ def read_runs(path, *, validate=True, metadata=False):
     df = _read_table(path, labels)
     if validate:
         try:
-            check_run_table(df, missing_hint=SKIP_VALIDATION)
+            check_run_table(
+                df,
+                allow_missing_sensors=allow_missing_sensors,
+                missing_hint=SKIP_VALIDATION,
+            )
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from exc
     if metadata:
@@ -670,7 +678,7 @@ def read_runs(path, *, validate=True, metadata=False):
     return df
 
 
-def write_runs(df, path, *, metadata=None, validate=True):
+def write_runs(df, path, *, metadata=None, validate=True, allow_missing_sensors=False):
     """Write a run table to CSV, compressed CSV or Parquet, with its metadata.
 
     Parameters
@@ -691,6 +699,9 @@ def write_runs(df, path, *, metadata=None, validate=True):
         data.
     validate : bool, default=True
         Check ``df`` with :func:`validate_runs` before writing.
+    allow_missing_sensors : bool, default=False
+        With ``validate``: sensor columns may have missing values (written
+        as empty fields), as in :func:`validate_runs`.
 
     Raises
     ------
@@ -719,7 +730,11 @@ def write_runs(df, path, *, metadata=None, validate=True):
     See :func:`read_runs`.
     """
     if validate:
-        check_run_table(df, missing_hint=SKIP_VALIDATION)
+        check_run_table(
+            df,
+            allow_missing_sensors=allow_missing_sensors,
+            missing_hint=SKIP_VALIDATION,
+        )
     else:
         check_frame(df)
     path = Path(path)

@@ -609,7 +609,7 @@ def check_run_table(
     _check_ranges(df, everything, values)
     _warn_air_unit(df)
     if not allow_missing_sensors:
-        _check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
+        check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
 
 
@@ -703,7 +703,9 @@ def _warn_air_unit(df):
     )
 
 
-def _check_missing_sensors(df, sensors, values=None, hint=ALLOW_MISSING):
+def check_missing_sensors(df, sensors, values=None, hint=ALLOW_MISSING):
+    """Raise naming the first missing value (NaN) of the ``sensors`` columns:
+    the column, run and row, and ``hint``, the way out."""
     if values is None:
         values = _as_float(df, sensors)
     _report_nonfinite(df, sensors, np.isnan(values), "missing", f"; {hint}")
@@ -807,7 +809,7 @@ def split_runs(df, *, sensors=None, targets=None, validate=True):
     if not outputs:
         raise ValueError(f"The run table has no target column: {_RULES['target']}.")
     if validate:
-        _check_missing_sensors(df, features, hint=SKIP_VALIDATION)
+        check_missing_sensors(df, features, hint=SKIP_VALIDATION)
 
     index = pd.MultiIndex.from_arrays([df[RUN], df[TIME]], names=[RUN, TIME])
     X = df.loc[:, features].set_axis(index, axis=0)

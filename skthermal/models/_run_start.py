@@ -10,6 +10,8 @@ from sklearn.utils._param_validation import HasMethods, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.utils._runs import (
+    LATE_START_WARNING,
+    REUSED_LABEL_WARNING,
     RUN_COLUMN,
     TIME_COLUMN,
     changes_since_start,
@@ -234,7 +236,8 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         with warnings.catch_warnings():
             # This model has just named the runs' late starts and missing
             # labels; the wrapped one would say it again in its own name.
-            warnings.filterwarnings("ignore", message=r"Run .* given to .* (start|has)")
+            warnings.filterwarnings("ignore", message=LATE_START_WARNING)
+            warnings.filterwarnings("ignore", message=REUSED_LABEL_WARNING)
             warnings.filterwarnings("ignore", message=r".* carry no run labels")
             pred = self.estimator_.predict(self._changes(A, groups, X, bases))
         return changes_since_start(

@@ -13,7 +13,9 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from skthermal.preprocessing._lags import LagFeatures
 from skthermal.utils._runs import (
     GAP_BRIDGE,
+    LATE_START_WARNING,
     PAUSE_BRIDGE,
+    REUSED_LABEL_WARNING,
     check_positive_numbers,
     check_time_order,
     continued_runs,
@@ -564,9 +566,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             _quiet_inner_lag_features()
             warnings.filterwarnings("ignore", message=r"LagFeatures: run .* continues")
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
-            warnings.filterwarnings(
-                "ignore", message=r".* given to LagFeatures (start|has)"
-            )
+            warnings.filterwarnings("ignore", message=LATE_START_WARNING)
+            warnings.filterwarnings("ignore", message=REUSED_LABEL_WARNING)
             F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         F = F[:, : self.n_lag_features_]

@@ -1876,13 +1876,11 @@ def _far_from_last(X_first, state):
     if step is None:  # a memory kept before steps were
         return None
     jump = np.abs(np.asarray(X_first, dtype=float) - state["x_last"])
-    scale = np.where(step > 0, step, np.inf)
-    with np.errstate(invalid="ignore"):
-        ratio = np.where(jump > 0, jump / scale, 0.0)
-    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
-    j = int(np.argmax(ratio)) if ratio.size else 0
-    if not ratio.size or ratio[j] <= CONTINUATION_JUMP:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(step > 0, jump / step, 0.0)  # inf steps: 0
+    if not ratio.size or ratio.max() <= CONTINUATION_JUMP:
         return None
+    j = int(np.argmax(ratio))
     return j, float(ratio[j]), float(jump[j]), float(step[j])
 
 
@@ -1896,6 +1894,13 @@ def memory_period(state):
     if n < 2 or not (np.isfinite(t0) and np.isfinite(t1)):
         return np.nan
     return (t1 - t0) / (n - 1)
+
+
+# The two warnings of continued_runs, for a model that has said them for
+# its inner models (warnings.filterwarnings(message=...)): a run that starts
+# late, and a run under a training run's label that jumps from its end.
+LATE_START_WARNING = r"(Run .*|The rows) given to .* start\(s\) at"
+REUSED_LABEL_WARNING = r"Run .* given to .* has the label of a training run"
 
 
 def continued_runs(
@@ -1982,8 +1987,7 @@ def continued_runs(
                     "continuation, the samples after its last training row. "
                     f"But its first row steps from that last row by {jump:.4g} "
                     f"in {_input_name(state, j)} ({ratio:.3g} times the largest "
-                    "step within "
-                    f"the training run, {step:.4g}): most likely a new run "
+                    f"step within the training run, {step:.4g}): most likely a new run "
                     "under a reused label, or rows from inside the training "
                     "run. Give a new run a label not seen in fit (or its "
                     "time_s, from 0), a continuation the rows right after the "
