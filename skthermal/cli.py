@@ -553,6 +553,15 @@ def _add_gap(sub):
         "when the runs hold any of the machine's sensors)",
     )
     p.add_argument(
+        "--driver-initial",
+        choices=["rest", "steady"],
+        help="with --simulated: the drivers' heat before every run, for the "
+        "terms that filter the drivers (feed_heating): 'rest' (default: the "
+        "runs start soaked) or 'steady' (as the first row's drivers give it "
+        "in steady state, for runs that start where the machine had been "
+        "working)",
+    )
+    p.add_argument(
         "--max-samples",
         type=int,
         metavar="N",

@@ -324,3 +324,27 @@ def test_cli_words():
     assert "mapping=" not in text and "channels=" not in text
     assert "--mapping MEASURED=SIMULATED" in text and text.count("--channels") == 3
     assert cli_words("give block_hours below 3 h") == "give --block-hours below 3 h"
+
+
+def test_gap_driver_initial_reaches_diagnose_runs(tables, capsys, monkeypatch):
+    import skthermal.gap as gap
+
+    seen = {}
+
+    def fake(simulated, measured, candidates=None, **kwargs):
+        seen.update(kwargs)
+        return _FakeReport()
+
+    monkeypatch.setattr(gap, "diagnose_runs", fake)
+    sim, meas = tables
+    argv = ["gap", "--simulated", str(sim), "--runs", str(meas), "--quiet"]
+    assert main(argv) == 0, capsys.readouterr().err
+    assert "driver_initial" not in seen  # the library's default stays its own
+    assert main([*argv, "--driver-initial", "steady"]) == 0
+    assert seen["driver_initial"] == "steady"
+    # With a machine, the simulator's --initial sets the start instead.
+    argv = ["gap", "--preset", "vmc-b", "--runs", str(meas), "--quiet"]
+    assert main([*argv, "--driver-initial", "rest"]) == 2
+    err = capsys.readouterr().err
+    assert "--driver-initial is used with --simulated" in err
+    assert len(err.strip().splitlines()) == 1

@@ -247,6 +247,28 @@ def pair():
     return _tables(np.random.default_rng(0), "null", n_runs=3, hours=2.0)
 
 
+def test_absurd_values_are_refused_by_name(pair):
+    # One 1e300 reading used to overflow the squares: in the measured table
+    # the verdict changed without a word, in the simulated one an error of
+    # the evidence's internals.
+    sim, meas = pair
+    row = meas.index[10]
+    for table, label in ((meas, "measured"), (sim, "simulated")):
+        broken = table.copy()
+        broken.loc[row, "T2_C"] = 1e300
+        args = (sim, broken) if label == "measured" else (broken, meas)
+        with pytest.raises(
+            ValueError,
+            match=rf"T2_C holds 1e\+300 in run 'r0' of the {label} table at row "
+            r"10 of the run \(time_s 600\)",
+        ):
+            diagnose_runs(*args, candidates=["sensor_lag"])
+    broken = meas.copy()
+    broken.loc[row, "ambient_C"] = -1e200
+    with pytest.raises(ValueError, match=r"ambient_C is absurd \(-1e\+200"):
+        diagnose_runs(sim, broken, candidates=["sensor_lag"])
+
+
 def test_two_measured_columns_onto_one_simulated_are_refused(pair):
     sim, meas = pair
     with pytest.raises(ValueError, match="'T1_C' and 'T2_C' would both be"):
@@ -605,6 +627,95 @@ def test_irregular_sampling_is_filtered_with_each_step():
     moved = sim.assign(spindle_rpm=sim["spindle_rpm"].where(~inside, 9999.0))
     again = diagnose_runs(moved, meas[keep], candidates=["sensor_lag"], max_samples=150)
     assert again.ranking.iloc[0]["shrink"] > 0.8
+
+
+def test_a_logging_gap_from_a_driver_step_is_not_compared():
+    sim, meas = _tables(np.random.default_rng(1), "sensor_lag", n_runs=3, hours=5)
+    # The measurement loses its rows from the first one at which the speed
+    # changes (a dropout at the step, or that one row dropped): the
+    # simulation, complete, has the new speed there.
+    run0 = meas["run"] == "r0"
+    rpm = meas.loc[run0, "spindle_rpm"].to_numpy()
+    step = meas.loc[run0].index[1 + int(np.flatnonzero(np.diff(rpm))[0])]
+    t_step = meas.loc[step, "time_s"]
+    for dropped in (
+        run0 & meas["time_s"].between(t_step, t_step + 600),
+        run0 & (meas["time_s"] == t_step),
+    ):
+        report = diagnose_runs(
+            sim, meas[~dropped], candidates=["sensor_lag"], max_samples=150
+        )
+        assert report.ranking.iloc[0]["shrink"] > 0.8
+    # A driver that differs where both tables have rows is still an error.
+    wrong = sim.assign(spindle_rpm=sim["spindle_rpm"].where(~run0, 1234.0))
+    with pytest.raises(ValueError, match="The drivers differ: spindle_rpm in run 'r0'"):
+        diagnose_runs(wrong, meas, candidates=["sensor_lag"], max_samples=150)
+
+
+def _feed_tables(rng, start="rest", n_runs=4, hours=6.0):
+    """Runs that start cutting at their first row; the measurement has the
+    feed axis's friction heat (a lag of |feed|, from rest or from the steady
+    state of the first row's feed), which the simulation lacks."""
+    sims, meas = [], []
+    for r in range(n_runs):
+        t = np.arange(0, hours * 3600, 60.0)
+        edges = np.cumsum(rng.uniform(1800, 5400, 20))
+        block = np.searchsorted(edges, t)
+        on = block % 2 == 0  # cutting from the first row
+        rpm = np.where(on, rng.choice([2000.0, 4000.0, 6000.0], 20)[block], 0.0)
+        feed = np.where(on, rng.choice([800.0, 1500.0, 2500.0], 20)[block], 0.0)
+        heat = _lowpass((rpm / 1000) ** 1.3, 2400.0)
+        sim = np.column_stack([20 + 0.8 * heat, 20 + 4.0 * heat])
+        u = np.abs(feed) / 1000
+        a = np.exp(-60.0 / 3000.0)
+        z0 = u[:1] if start == "steady" else np.zeros(1)
+        friction = lfilter([1 - a], [1, -a], u, zi=a * z0)[0]
+        y = sim + np.outer(friction, [0.6, 3.0])
+        y += 0.01 * rng.standard_normal(y.shape) * [1, 10]
+        base = {"run": f"r{r}", "time_s": t, "spindle_rpm": rpm, "ambient_C": 20.0}
+        base["feed_mm_min"] = feed
+        cols = ["T1_C", "disp_z_um"]
+        sims.append(pd.DataFrame({**base, **dict(zip(cols, sim.T))}))
+        meas.append(pd.DataFrame({**base, **dict(zip(cols, y.T))}))
+    return pd.concat(sims, ignore_index=True), pd.concat(meas, ignore_index=True)
+
+
+def _prepend_rest(df):
+    """Every run with one row of rest (no speed, no feed) before its first."""
+    parts = []
+    for _, run in df.groupby("run", sort=False):
+        first = run.iloc[[0]].assign(spindle_rpm=0.0, feed_mm_min=0.0, time_s=0.0)
+        parts += [first, run.assign(time_s=run["time_s"] + 60.0)]
+    return pd.concat(parts, ignore_index=True)
+
+
+def test_feed_heating_of_runs_that_start_cutting():
+    # The heat of a run that starts cutting builds up from its first row.
+    # Its filter used to start in steady state at the first row's feed, as if
+    # the axis had been cutting for ever: the term's change since the start
+    # then fell while the heat rose, and the withheld effect made the
+    # held-out gap worse.
+    sim, meas = _feed_tables(np.random.default_rng(3))
+    report = diagnose_runs(sim, meas, candidates=["feed_heating", "sensor_lag"])
+    first = report.ranking.iloc[0]
+    assert first["effect"] == "feed_heating" and first["shrink"] > 0.8
+    assert report.best_effect == "feed_heating"
+    # One row of rest before every run is physically the same campaign.
+    again = diagnose_runs(
+        _prepend_rest(sim), _prepend_rest(meas), candidates=["feed_heating"]
+    )
+    assert abs(again.ranking.iloc[0]["shrink"] - first["shrink"]) < 0.05
+    # Runs that start where the machine had been cutting as at their first
+    # row: driver_initial="steady" says so.
+    sim, meas = _feed_tables(np.random.default_rng(3), start="steady")
+    rest = diagnose_runs(sim, meas, candidates=["feed_heating"])
+    steady = diagnose_runs(
+        sim, meas, candidates=["feed_heating"], driver_initial="steady"
+    )
+    assert steady.ranking.iloc[0]["shrink"] > 0.8
+    assert steady.ranking.iloc[0]["shrink"] > rest.ranking.iloc[0]["shrink"] + 0.1
+    with pytest.raises(ValueError, match="driver_initial"):
+        diagnose_runs(sim, meas, driver_initial="warm")
 
 
 def test_one_long_record_in_blocks():

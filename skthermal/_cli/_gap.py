@@ -283,6 +283,8 @@ def cmd_gap_external(args):
                 "run table given there."
             )
     kwargs = _options(args)
+    if getattr(args, "driver_initial", None):
+        kwargs["driver_initial"] = args.driver_initial
     blocks = _accepts(diagnose_runs, "block_hours")
     if "block_hours" in kwargs and not blocks:
         raise UserError(
@@ -329,6 +331,11 @@ def cmd_gap(args):
         return cmd_gap_external(args)
     log_progress(args.quiet)
     kwargs = _options(args)
+    if getattr(args, "driver_initial", None):
+        raise UserError(
+            "--driver-initial is used with --simulated; with --preset/--machine "
+            "the simulator integrates the drivers from the state --initial gives."
+        )
     if args.initial is not None:
         kwargs["initial"] = args.initial
     check_out_path(args.report, "--report", folder=True)

@@ -18,10 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
-from sklearn.utils._param_validation import validate_params
+from sklearn.utils._param_validation import StrOptions, validate_params
 
 from skthermal._naming import percent, removes
-from skthermal.datasets._runtable import check_unique_columns, warn_implausible
+from skthermal.datasets._runtable import warn_implausible
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -74,7 +74,7 @@ from skthermal.gap._terms import (
     Signals,
     flexible_heldout,
 )
-from skthermal.utils._runs import check_labels, warn_short_runs
+from skthermal.utils._runs import check_labels, check_unique_columns, warn_short_runs
 from skthermal.utils._threads import with_single_threaded_blas
 from skthermal.utils._warnings import user_stacklevel
 
@@ -98,7 +98,15 @@ def _check_table(df, label):
         )
 
 
-def _align(simulated, measured, channels, mapping, max_samples, block_hours=None):
+def _align(
+    simulated,
+    measured,
+    channels,
+    mapping,
+    max_samples,
+    block_hours=None,
+    driver_initial="rest",
+):
     """Runs of both tables, checked against each other, as RunSignals."""
     _check_table(simulated, "simulated")
     _check_table(measured, "measured")
@@ -215,9 +223,13 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
         )
         inside = (ts >= t[0] - tol) & (ts <= t[-1] + tol)
         if not same and t.size > 1:
-            # Inside a logging gap of the measurement its drivers are not
-            # known (the last logged value is only carried across it).
-            inside &= ts - t[at] <= 1.5 * float(np.median(np.diff(t))) + tol
+            # Inside a logging gap of the measurement (a step longer than 1.5
+            # sampling periods: rows missing) its drivers are not known: the
+            # last logged value is only carried across it, and a driver that
+            # changed in the gap (even at its first missing row) differs.
+            step_after = np.r_[np.diff(t), 0.0][at]
+            in_gap = step_after > 1.5 * float(np.median(np.diff(t))) + tol
+            inside &= ~(in_gap & (ts > t[at] + tol))
         drivers = {}
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
@@ -295,6 +307,7 @@ def _align(simulated, measured, channels, mapping, max_samples, block_hours=None
                     y - y[:START_SAMPLES].mean(axis=0),
                     origin=None if len(spans) == 1 else name,
                     period=None if len(spans) == 1 else period,
+                    driver_initial=driver_initial,
                 )
             )
     noise = pooled_noise([frame for _, frame in meas_runs], channels)
@@ -591,6 +604,7 @@ class ExternalGapReport(GapReport):
         "simulated": [pd.DataFrame],
         "measured": [pd.DataFrame],
         **DIAGNOSIS_PARAMS,
+        "driver_initial": [StrOptions({"rest", "steady"})],
     },
     prefer_skip_nested_validation=True,
 )
@@ -608,6 +622,7 @@ def diagnose_runs(
     greedy=True,
     max_samples=600,
     block_hours=None,
+    driver_initial="rest",
     n_jobs=None,
 ):
     """Diagnose the gap between a simulation's run table and measured runs.
@@ -689,6 +704,14 @@ def diagnose_runs(
         of a block are computed from the start of its run (so their filters
         are warm), and compared over the block's own span, re-zeroed at its
         start; blocks are labelled with their span, e.g. ``r1[0-2 h]``.
+    driver_initial : {"rest", "steady"}, default="rest"
+        The drivers' heat before each run, for the terms and features that
+        filter the drivers (``feed_heating``'s |feed|, the flexible model's
+        speed and |feed|): ``"rest"``, none (the runs start soaked, as a
+        simulation started from rest assumes: heat from a run that starts
+        cutting builds up from its first row); ``"steady"``, what the first
+        row's drivers give in steady state (runs that start where the
+        machine had been working as it does at their first row).
     n_jobs : int, optional
         Candidates evaluated in parallel (joblib).
 
@@ -723,7 +746,7 @@ def diagnose_runs(
     """
     candidates = candidate_list(candidates, TERMS)
     runs, channels, sim_cols, noise = _align(
-        simulated, measured, channels, mapping, max_samples, block_hours
+        simulated, measured, channels, mapping, max_samples, block_hours, driver_initial
     )
     problem = _problem(runs, channels, sim_cols, noise)
     problem.meta["source"] = "run table"

@@ -21,7 +21,12 @@ from scipy.optimize import least_squares
 from skthermal._naming import closest, shown, suggest
 from skthermal.datasets._runtable import check_column_names, warn_implausible
 from skthermal.simulate import EFFECTS
-from skthermal.utils._runs import check_labels, is_clock_dtype, warn_short_runs
+from skthermal.utils._runs import (
+    MAX_MAGNITUDE,
+    check_labels,
+    is_clock_dtype,
+    warn_short_runs,
+)
 from skthermal.utils._warnings import user_stacklevel
 
 
@@ -180,16 +185,18 @@ def driver_values(frame, col, run, table=""):
             "hold numbers (time_s: the seconds since the start of the run)."
         )
     values = pd.to_numeric(frame[col], errors="coerce").to_numpy(float)
-    bad = ~np.isfinite(values)
+    absurd = np.abs(values) > MAX_MAGNITUDE
+    bad = ~np.isfinite(values) | absurd
     if col == "spindle_rpm":
         bad |= np.isfinite(values) & (values < 0)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
-        what = (
-            f"is negative ({values[k]:g})"
-            if np.isfinite(values[k])
-            else f"is missing or not finite ({shown(frame[col].iloc[k])})"
-        )
+        if not np.isfinite(values[k]):
+            what = f"is missing or not finite ({shown(frame[col].iloc[k])})"
+        elif absurd[k]:
+            what = f"is absurd ({values[k]:g}, beyond {MAX_MAGNITUDE:g} in magnitude)"
+        else:
+            what = f"is negative ({values[k]:g})"
         raise ValueError(
             f"{col} {what} in {_where(run, table)} at row {k} of the run: the "
             "drivers must "
@@ -235,8 +242,8 @@ def channel_values(frame, columns, t, run, table=""):
     """The channels ``columns`` of one run as floats, ``(n, len(columns))``.
 
     Raises a ValueError naming the column, the run, the row and its time
-    where a value is text (not a number), or missing or not finite
-    (:func:`check_finite_channels`).
+    where a value is text (not a number), missing, not finite or beyond
+    ``MAX_MAGNITUDE`` (:func:`check_finite_channels`).
     """
     out = np.empty((len(frame), len(columns)))
     for c, col in enumerate(columns):
@@ -320,14 +327,23 @@ def measured_varying(Ys, channels, explicit, stacklevel=5):
 
 def check_finite_channels(Y, columns, t, run, table=""):
     """Raise a ValueError naming the column, the run, the first row and its
-    time where the channels ``Y`` (``(n, len(columns))``) are missing or not
-    finite."""
+    time where the channels ``Y`` (``(n, len(columns))``) are missing, not
+    finite or beyond ``MAX_MAGNITUDE`` in magnitude (no sensor reads that:
+    the squares of the least squares would overflow)."""
     bad = ~np.isfinite(Y)
     if bad.any():
         r, c = map(int, np.argwhere(bad)[0])
         raise ValueError(
             f"{columns[c]} is missing or not finite in {_where(run, table)} at "
             f"row {r} of the run (time_s {t[r]:g})."
+        )
+    absurd = np.abs(Y) > MAX_MAGNITUDE
+    if absurd.any():
+        r, c = map(int, np.argwhere(absurd)[0])
+        raise ValueError(
+            f"{columns[c]} holds {Y[r, c]:g} in {_where(run, table)} at row {r} "
+            f"of the run (time_s {t[r]:g}): no sensor reads beyond "
+            f"{MAX_MAGNITUDE:g} in magnitude, a broken sensor or a corrupt file."
         )
 
 

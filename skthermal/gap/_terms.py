@@ -51,6 +51,11 @@ class RunSignals:
     period : float, optional
         The sampling period against which a step is a gap (the whole run's
         for a block); default: the median step.
+    driver_initial : {"rest", "steady"}, default="rest"
+        The drivers' heat before the run's first row, for the filters of
+        the drivers (:meth:`driver_lowpass`): none (the run starts soaked,
+        as a simulation started from rest assumes) or what the first row's
+        drivers give in steady state.
     """
 
     name: object
@@ -63,11 +68,20 @@ class RunSignals:
     y: np.ndarray
     origin: object = None
     period: float = None
+    driver_initial: str = "rest"
 
     def __post_init__(self):
         # The run's steps (sampling period, uneven steps and gaps), worked
         # out once: the terms filter each run many times.
         self.plan = run_steps(self.time_s, self.period)
+
+    def driver_lowpass(self, x, tau):
+        """:func:`lowpass` of a signal of the drivers (a heat input: |feed|,
+        the speed), started as ``driver_initial`` says. A filter started in
+        steady state at the first row reads a run that starts cutting as one
+        that has been cutting for ever: its change since the start would
+        fall while the heat builds up."""
+        return lowpass(x, tau, self, rest=self.driver_initial == "rest")
 
     def compared(self, X):
         """``X`` (full rate, ``(n, ...)``) at ``rows``, change since start."""
@@ -89,15 +103,18 @@ class Signals:
         return self.is_temp.size
 
 
-def lowpass(x, tau, run):
+def lowpass(x, tau, run, rest=False):
     """First-order low-pass of ``x`` (time along axis 0, at ``run``'s
-    samples), started in steady state. Each step is filtered with its own
-    length (``run.time_s``), so uneven sampling and logging gaps (rows left
-    out) are filtered exactly. ``tau`` 0 returns ``x``."""
+    samples), started in steady state at the first row, or from zero with
+    ``rest=True``. Each step is filtered with its own length
+    (``run.time_s``), so uneven sampling and logging gaps (rows left out)
+    are filtered exactly. ``tau`` 0 returns ``x``."""
     x = np.asarray(x, dtype=float)
     if tau <= 0:
         return x
-    z = lowpass_steps(x.reshape(x.shape[0], -1), float(tau), *run.plan)
+    u = x.reshape(x.shape[0], -1)
+    z0 = np.zeros(u.shape[1]) if rest else None
+    z = lowpass_steps(u, float(tau), *run.plan, z0=z0)
     return z.reshape(x.shape)
 
 
@@ -504,7 +521,9 @@ class FeedHeating(DiscrepancyTerm):
     temperature_sign = 1  # friction heat only warms
 
     def _signal(self, run, theta):
-        return lowpass(np.abs(run.feed_mm_min) / 1000.0, theta["tau_s"], run)[:, None]
+        return run.driver_lowpass(np.abs(run.feed_mm_min) / 1000.0, theta["tau_s"])[
+            :, None
+        ]
 
 
 class SensorDrift(DiscrepancyTerm):
@@ -559,7 +578,7 @@ class FlexibleFeatures:
         parts = [run.compared(run.sim)[:, :, None]]
         c = signals.n_channels
         for tau in self.time_constants_s:
-            z = run.compared(lowpass(shared, tau, run))
+            z = run.compared(run.driver_lowpass(shared, tau))
             parts.append(np.broadcast_to(z[:, None, :], (z.shape[0], c, z.shape[1])))
             # The channel's own lag (as a difference, so that a small lag is
             # a small coefficient) and its speed-weighted rise.
