@@ -510,8 +510,8 @@ def test_bad_draws_fail_trials_not_the_search(runs_data):
     X, y, groups = runs_data
     with pytest.warns(
         UserWarning,
-        match=r"none of the study's 2 trial\(s\) completed \(2 fail\); see the "
-        "failed trials' 'error'",
+        match=r"none of the study's 2 trial\(s\) completed \(2 fail\); a failed "
+        "trial's user attribute 'error' holds its model's error",
     ):
         result = run_search(
             ANFISRegressor(),
@@ -882,7 +882,7 @@ def test_a_study_of_an_older_skthermal_is_joined_with_a_warning(runs_data, tmp_p
     study.enqueue_trial({"delay": 0})
     study.optimize(lambda trial: -float(trial.suggest_int("delay", 0, 1)), n_trials=1)
     with pytest.warns(
-        UserWarning, match="does not record their space, features, cv, data"
+        UserWarning, match="does not record their settings, space, features, cv, data"
     ):
         result = _grey_search(X, y, groups, storage)
     assert len(result.study.trials) == 2
@@ -914,7 +914,7 @@ def test_groups_given_apart_reach_every_fit(runs_data):
         == list(dict.fromkeys(groups))
     )
     assert_allclose(best.coef_, direct.coef_)
-    with pytest.raises(ValueError, match="groups has 3 run labels for"):
+    with pytest.raises(ValueError, match=r"groups holds 3 run label\(s\) .* for the"):
         run_search(GreyPSORegressor(), X.to_numpy(), y.to_numpy(), groups=groups[:3])
 
 
@@ -1103,3 +1103,95 @@ def test_run_search_validates_its_parameters(runs_data):
         run_search(est, X, y, groups=groups, n_trials=-1)
     with pytest.raises(TypeError, match="positional"):
         run_search(est, X, y, groups, n_trials=1)
+
+
+def test_a_study_of_other_estimator_settings_is_refused(runs_data, tmp_path):
+    # Only the estimator's classes were recorded: a session with another
+    # fixed ridge joined the study and reported the other session's best.
+    X, y, groups = runs_data
+    space = lambda trial: {"delay": trial.suggest_int("delay", 0, 1)}  # noqa: E731
+    kwargs = {
+        "space": space,
+        "storage": tmp_path / "settings.db",
+        "study_name": "s",
+        "n_trials": 1,
+        "refit": False,
+    }
+    run_search(
+        GreyPSORegressor(calibration="ls", random_state=0),
+        X,
+        y,
+        groups=groups,
+        **kwargs,
+    )
+    with pytest.raises(
+        ValueError, match=r"estimator settings: alpha 'auto' there, 1000.0 here"
+    ):
+        run_search(
+            GreyPSORegressor(calibration="ls", alpha=1000.0),
+            X,
+            y,
+            groups=groups,
+            **kwargs,
+        )
+    # Another seed, or another fixed value of a searched parameter, joins.
+    run_search(
+        GreyPSORegressor(calibration="ls", delay=1, random_state=5),
+        X,
+        y,
+        groups=groups,
+        **kwargs,
+    )
+
+
+def test_an_edited_space_function_does_not_change_the_best_params(runs_data, tmp_path):
+    # The best trial was replayed through the space function as it is now:
+    # edited since, best_params_ and the refit held settings never scored.
+    X, y, groups = runs_data
+    est = GreyPSORegressor(calibration="ls", random_state=0)
+    kwargs = {"storage": tmp_path / "edited.db", "study_name": "s", "refit": False}
+
+    def space(trial):
+        return {"delay": trial.suggest_int("delay", 0, 1), "alpha": 0.0}
+
+    first = run_search(est, X, y, groups=groups, space=space, n_trials=2, **kwargs)
+
+    def space(trial):  # noqa: F811 - the same cell, edited
+        return {"delay": trial.suggest_int("delay", 0, 1), "alpha": 50.0}
+
+    with pytest.warns(UserWarning, match=r"alpha 0.0 scored, 50.0 now"):
+        again = run_search(est, X, y, groups=groups, space=space, n_trials=0, **kwargs)
+    assert again.best_params_ == first.best_params_
+
+
+def test_search_input_errors_say_what_is_wrong(runs_data, tmp_path):
+    X, y, groups = runs_data
+    est = GreyPSORegressor(calibration="ls")
+    with pytest.raises(TypeError, match="search space returned NoneType, not a dict"):
+        run_search(est, X, y, groups=groups, space=lambda trial: None, n_trials=1)
+    plain = X.to_numpy()
+    with pytest.raises(ValueError, match=r"cv=GroupKFold\(...\) leaves out groups"):
+        run_search(est, plain, y, cv=GroupKFold(3), space=lambda t: {}, n_trials=1)
+    with pytest.raises(ValueError, match=r"grace_period \(5 s\) must be longer"):
+        make_storage(tmp_path / "g.db", heartbeat_interval=10, grace_period=5)
+    with pytest.raises(ValueError, match=r"'postgresq://u@h/db': not a database URL"):
+        make_storage("postgresq://u@h/db")
+
+
+def test_a_dead_local_worker_s_trial_is_retried(tmp_path):
+    # max_retry re-queued a trial failed for its heartbeat, not one failed
+    # at once for its dead process (a worker resumed a second after kill -9).
+    import socket
+
+    store = make_storage(tmp_path / "retry.db", heartbeat_interval=60, max_retry=1)
+    study = optuna.create_study(storage=store, study_name="r")
+    trial = study.ask()
+    trial.suggest_int("a", 0, 9)
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    trial.set_user_attr("worker_host", socket.gethostname())
+    trial.set_user_attr("worker_pid", gone.pid)
+    assert fail_stale_trials(study, heartbeat=False, storage=store) == [trial.number]
+    states = [t.state for t in study.get_trials()]
+    assert states == [FAIL, optuna.trial.TrialState.WAITING]
+    assert study.get_trials()[1].params == study.get_trials()[0].params

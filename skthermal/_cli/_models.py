@@ -716,7 +716,9 @@ def cmd_search(args):
             "storage": args.storage,
             "study_name": study_name,
         }
-        Path(args.out).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)  # as --save-model does
+        out.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
         print(f"Wrote {args.out}")
     if args.save_model and result.best_estimator_ is not None:
         from skthermal import __version__

@@ -8,6 +8,7 @@ SQLAlchemy reaches (PostgreSQL, MySQL) shared by workers on many machines:
 every worker runs the same call against the same storage and study name.
 """
 
+import ast
 import contextlib
 import hashlib
 import math
@@ -17,6 +18,7 @@ import socket
 import threading
 import time
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
 from sklearn.base import clone
@@ -54,6 +56,10 @@ _CREATE_ATTEMPTS = 5
 ATTR_HOST = "worker_host"
 ATTR_PID = "worker_pid"
 ATTR_START = "worker_start"
+# The estimator parameters a trial was scored with, as drawn by the space
+# (``{name: repr}``), so that a space function changed since cannot replay it
+# into other settings than were scored.
+ATTR_PARAMS = "skthermal_params"
 
 
 def _import_optuna():
@@ -210,6 +216,14 @@ def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
     if heartbeat_interval is not None:
         kwargs["heartbeat_interval"] = int(heartbeat_interval)
         if grace_period is not None:
+            if grace_period <= heartbeat_interval:
+                raise ValueError(
+                    f"grace_period ({grace_period} s) must be longer than "
+                    f"heartbeat_interval ({heartbeat_interval} s): a live worker "
+                    "records a heartbeat only every heartbeat_interval, so another "
+                    "worker would take its running trial for a dead one and fail "
+                    "it. The default is twice heartbeat_interval."
+                )
             kwargs["grace_period"] = int(grace_period)
         if max_retry is not None:
             retry = getattr(
@@ -230,18 +244,58 @@ def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
         engine_kwargs = {"connect_args": {"timeout": 60}}
     # Workers that start together on an empty database race to create Optuna's
     # tables; the losers see an integrity error and succeed on a retry.
-    from sqlalchemy.exc import IntegrityError, OperationalError
+    from sqlalchemy.exc import (
+        ArgumentError,
+        IntegrityError,
+        NoSuchModuleError,
+        OperationalError,
+    )
 
+    shown = _safe_url(url)
     for attempt in range(_CREATE_ATTEMPTS):
         try:
             with _no_experimental_warning():
                 return optuna.storages.RDBStorage(
                     url, engine_kwargs=engine_kwargs, **kwargs
                 )
-        except (IntegrityError, OperationalError):
+        except (NoSuchModuleError, ArgumentError) as exc:
+            raise ValueError(
+                f"storage {shown!r}: not a database URL SQLAlchemy knows "
+                f"({exc}); write e.g. sqlite:///study.db, "
+                "postgresql://user:password@host/db or mysql://user@host/db."
+            ) from None
+        except ImportError as exc:
+            scheme = shown.split(":", 1)[0]
+            driver = _DB_DRIVERS.get(scheme.split("+", 1)[0], "its database driver")
+            raise ValueError(
+                f"storage {shown!r}: the database driver for {scheme!r} is not "
+                f"installed; install {driver} in this environment ({exc})."
+            ) from None
+        except (IntegrityError, OperationalError) as exc:
             if attempt == _CREATE_ATTEMPTS - 1:
-                raise
+                raise ValueError(
+                    f"storage {shown!r}: cannot open the database: "
+                    f"{getattr(exc, 'orig', exc)}"
+                ) from exc
             time.sleep(0.2 * (attempt + 1))
+
+
+# The drivers SQLAlchemy needs for the usual database URLs.
+_DB_DRIVERS = {
+    "postgresql": "psycopg2-binary (or psycopg, with postgresql+psycopg://)",
+    "mysql": "pymysql (with mysql+pymysql://) or mysqlclient",
+    "mariadb": "pymysql (with mariadb+pymysql://) or mysqlclient",
+}
+
+
+def _safe_url(url):
+    """``url`` without its password, for messages."""
+    try:
+        from sqlalchemy.engine import make_url
+
+        return make_url(url).render_as_string(hide_password=True)
+    except Exception:  # noqa: BLE001 - an unparsable URL is shown as given
+        return url
 
 
 # --------------------------------------------------------------------------
@@ -286,7 +340,7 @@ def _is_alive(pid, start):
     return start is None or now[0] == start
 
 
-def fail_stale_trials(study, *, heartbeat=True, local_processes=True):
+def fail_stale_trials(study, *, heartbeat=True, local_processes=True, storage=None):
     """Mark failed the running trials whose worker is gone.
 
     Parameters
@@ -304,6 +358,12 @@ def fail_stale_trials(study, *, heartbeat=True, local_processes=True):
         no longer exists. This covers storages without heartbeat, such as
         the journal file. A restarted process that reused the id is told
         apart by its start time on Linux.
+    storage : optuna storage, optional
+        The study's storage (as :func:`make_storage` made it): a trial
+        failed for its dead process is then handed to the storage's stale
+        trial callback, so that ``max_retry`` re-queues its parameters as it
+        does for a trial failed for its heartbeat. :func:`run_search` passes
+        its own.
 
     Returns
     -------
@@ -329,6 +389,12 @@ def fail_stale_trials(study, *, heartbeat=True, local_processes=True):
             study.tell(
                 trial.number, state=optuna.trial.TrialState.FAIL, skip_if_finished=True
             )
+            retry = getattr(storage, "get_heartbeat_stale_trial_callback", None)
+            callback = retry() if retry is not None else None
+            if callback is not None:
+                failed = study.get_trials(deepcopy=True)[trial.number]
+                if failed.state == optuna.trial.TrialState.FAIL:
+                    callback(study, failed)
     after = {t.number for t in study.get_trials(deepcopy=False, states=running)}
     failed = {
         t.number
@@ -422,7 +488,15 @@ def _take(data, rows):
 
 def _run_groups(X, groups):
     if groups is not None:
-        return np.asarray(groups)
+        groups = np.asarray(groups)
+        n = len(X)
+        if groups.ndim != 1 or groups.shape[0] != n:
+            raise ValueError(
+                f"groups holds {groups.shape[0] if groups.ndim else 1} run "
+                f"label(s) of shape {groups.shape} for the {n} rows of X; give "
+                "one label per row."
+            )
+        return groups
     if "run" in list(getattr(X, "columns", [])):
         return np.asarray(X["run"])
     names = getattr(getattr(X, "index", None), "names", None) or []
@@ -452,6 +526,12 @@ def _resolve_cv(cv, groups):
                 f"{n_runs}."
             )
         return GroupKFold(n_splits=n_splits)
+    if groups is None and hasattr(cv, "split") and "Group" in type(cv).__name__:
+        raise ValueError(
+            f"cv={type(cv).__name__}(...) leaves out groups of rows, and there "
+            "are no run labels: pass groups, or X with a 'run' column or index "
+            "level (skthermal.datasets.split_runs)."
+        )
     return cv
 
 
@@ -565,6 +645,14 @@ class _Objective:
         for key, value in _worker_identity().items():
             trial.set_user_attr(key, value)
         params = self.space(trial)
+        if not isinstance(params, Mapping):
+            raise TypeError(
+                f"The search space returned {type(params).__name__}, not a dict "
+                "of estimator parameters: a space function returns {name: value} "
+                "drawn from the trial (e.g. {'n_clusters': "
+                "trial.suggest_int('n_clusters', 2, 6)})."
+            )
+        trial.set_user_attr(ATTR_PARAMS, _param_text(params))
         try:
             base = clone(self.estimator).set_params(**params)
         except (TypeError, ValueError) as exc:
@@ -619,6 +707,7 @@ class _TrialFailed(Exception):
 # the same model, scoring, target, inputs, folds and rows.
 _SETUP_KEYS = (
     "skthermal_estimator",
+    "skthermal_settings",
     "skthermal_space",
     "skthermal_scoring",
     "skthermal_target",
@@ -639,6 +728,27 @@ def _estimator_kind(estimator):
         }
     )
     return type(estimator).__name__ + (f"({', '.join(inner)})" if inner else "")
+
+
+# Settings that do not change a trial's score (or differ per process): not
+# recorded.
+_FREE_SETTINGS = ("random_state", "n_jobs", "verbose")
+
+
+def _estimator_settings(estimator):
+    """The estimator's settings as text, ``{name: repr}`` (nested ones by
+    their ``step__name``), but for those free to differ between workers
+    (seeds, parallelism, verbosity), estimators (in
+    :func:`_estimator_kind`) and callables (a callback's repr holds a memory
+    address)."""
+    out = {}
+    for name, value in estimator.get_params(deep=True).items():
+        if name.rsplit("__", 1)[-1] in _FREE_SETTINGS:
+            continue
+        if hasattr(value, "fit") or callable(value):
+            continue
+        out[name] = repr(value)
+    return out
 
 
 def _scoring_name(scoring):
@@ -695,6 +805,7 @@ def _search_setup(estimator, space, scoring, X, y, groups, cv, splits):
     as the caller gave it (its column names)."""
     values = (
         _estimator_kind(estimator),
+        _estimator_settings(estimator),
         describe_space(space),
         _scoring_name(scoring),
         _target_name(y),
@@ -717,10 +828,34 @@ def _describe_difference(key, there, here):
         if only_there or only_here:
             return f"features: only there {only_there}, only here {only_here}"
         return f"features in the order {there} there, {here} here"
+    if key == "skthermal_settings":
+        names = sorted(set(there) | set(here))
+        parts = [
+            f"{n} {there.get(n, 'unset')} there, {here.get(n, 'unset')} here"
+            for n in names
+            if there.get(n) != here.get(n)
+        ]
+        return "estimator settings: " + "; ".join(parts)
     return f"{what} {there!r} there, {here!r} here"
 
 
-def _check_study_setup(study, setup, direction):
+def _searched_names(study, space):
+    """The estimator parameters the search space sets, from a stored trial
+    replayed (empty when the study holds no trial with parameters)."""
+    optuna = _import_optuna()
+    for trial in study.get_trials(deepcopy=False):
+        recorded = trial.user_attrs.get(ATTR_PARAMS)
+        if recorded is not None:
+            return set(recorded)
+        if trial.params:
+            try:
+                return set(space(optuna.trial.FixedTrial(trial.params)))
+            except Exception:  # noqa: BLE001 - named by _replay later
+                return set()
+    return set()
+
+
+def _check_study_setup(study, setup, direction, space=None):
     """Record the search's setup (``_search_setup``) in a new study; refuse
     to join a study that another search made, naming what differs. A study
     holding trials but not (all of) the keys, made by an older skthermal or
@@ -736,7 +871,14 @@ def _check_study_setup(study, setup, direction):
     # Trials first: a search records its keys before its first trial, so a
     # trial seen here means that its keys are visible below.
     n_trials = len(study.get_trials(deepcopy=False))
-    stored = study.user_attrs
+    stored = dict(study.user_attrs)
+    key = "skthermal_settings"
+    if key in stored and stored[key] != setup[key] and space is not None:
+        # What the space sets is drawn per trial: its fixed value may differ.
+        searched = _searched_names(study, space)
+        there = {k: v for k, v in stored[key].items() if k not in searched}
+        here = {k: v for k, v in setup[key].items() if k not in searched}
+        stored[key], setup = there, {**setup, key: here}
     differ = [
         _describe_difference(key, stored[key], value)
         for key, value in setup.items()
@@ -765,16 +907,51 @@ def _check_study_setup(study, setup, direction):
         study.set_user_attr(key, setup[key])
 
 
+def _param_text(params):
+    """``{name: repr(value)}``: estimator parameters as a trial records them."""
+    return {str(k): repr(v) for k, v in params.items()}
+
+
 def _replay(space, trial):
-    """The estimator parameters of a stored trial, drawn again by ``space``."""
+    """The estimator parameters of a stored trial, drawn again by ``space``;
+    they must be those the trial was scored with."""
     optuna = _import_optuna()
     try:
-        return space(optuna.trial.FixedTrial(trial.params))
+        params = space(optuna.trial.FixedTrial(trial.params))
     except Exception as exc:  # e.g. a shared study searched another space
         raise ValueError(
             f"The best trial (number {trial.number}) has parameters "
             f"{trial.params} that this search space cannot replay: {exc}"
         ) from exc
+    scored = trial.user_attrs.get(ATTR_PARAMS)
+    if scored is None or not isinstance(params, Mapping):
+        return params
+    now = _param_text(params)
+    if now == scored:
+        return params
+    differ = "; ".join(
+        f"{k} {scored.get(k, 'unset')} scored, {now.get(k, 'unset')} now"
+        for k in sorted(set(scored) | set(now))
+        if scored.get(k) != now.get(k)
+    )
+    try:
+        params = {k: ast.literal_eval(v) for k, v in scored.items()}
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        raise ValueError(
+            f"The best trial (number {trial.number}) was scored with other "
+            f"estimator parameters than this search space draws from its values "
+            f"({differ}): the space function changed since. Restore it, or give "
+            "another study_name (or storage)."
+        ) from None
+    warnings.warn(
+        f"The best trial (number {trial.number}) was scored with other estimator "
+        f"parameters than this search space draws from its values ({differ}): "
+        "the space function changed since, or it does not draw every setting "
+        "from the trial. The parameters it was scored with are used.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+    return params
 
 
 class SearchResult:
@@ -837,7 +1014,10 @@ def _no_best_trial(study):
         counts[state] = counts.get(state, 0) + 1
     states = ", ".join(f"{n} {state}" for state, n in counts.items())
     hint = (
-        "; see the failed trials' 'error' user attributes" if "fail" in counts else ""
+        "; a failed trial's user attribute 'error' holds its model's error when "
+        "it raised one (none when the score was NaN, or its worker died)"
+        if "fail" in counts
+        else ""
     )
     return (
         f"No best trial: none of the study's {len(trials)} trial(s) completed "
@@ -1131,9 +1311,9 @@ def run_search(
         pruner=pruner,
         load_if_exists=load_if_exists,
     )
-    _check_study_setup(study, setup, direction)
+    _check_study_setup(study, setup, direction, space)
     if fail_stale and store is not None:
-        fail_stale_trials(study)
+        fail_stale_trials(study, storage=store)
     if sampler is None:
         # A seeded sampler resuming a stored study would draw the points of
         # its first session again: the seed also counts the trials there.
