@@ -180,7 +180,43 @@ def test_naming_errors_list_every_bad_column(runs):
         validate_runs(df)
 
 
-@pytest.mark.parametrize("name", ["S1_ue", "Sram1_ue", "disp_ch1_um", "TC2_C"])
+@pytest.mark.parametrize(
+    "bad, driver",
+    [
+        ("ambient_F", "ambient_C"),
+        ("ambient_K", "ambient_C"),
+        ("ambient_temp", "ambient_C"),
+        ("spindle_rps", "spindle_rpm"),
+        ("spindle_speed", "spindle_rpm"),
+        ("feed_mm_s", "feed_mm_min"),
+        ("feed_mm_min_", "feed_mm_min"),
+        ("feedrate", "feed_mm_min"),
+    ],
+)
+def test_a_driver_in_another_unit_is_named(runs, bad, driver):
+    # It was kept as an extra column without a word: the models and the
+    # simulator then had no such driver.
+    df = runs.drop(columns=driver, errors="ignore").assign(**{bad: 1.0})
+    with pytest.raises(
+        ValueError, match=re.escape(f"'{bad}' looks like the driver '{driver}'")
+    ):
+        validate_runs(df)
+    # Beside the driver itself, it is another unit's copy: an extra.
+    validate_runs(runs.assign(**{driver: 0.0, bad: 1.0}))
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "S1_ue",
+        "Sram1_ue",
+        "disp_ch1_um",
+        "TC2_C",
+        "spindle_load_pct",
+        "feed_override_pct",
+        "ambient_humidity_pct",
+    ],
+)
 def test_valid_names_pass(runs, name):
     validate_runs(runs.assign(**{name: 1.0}))
 
@@ -209,6 +245,33 @@ def test_non_numeric_column_names_column_and_row(runs, column):
         match=rf"Column '{column}' must be numeric.*run 'r1'.*\(row 5\) holds 'abc'",
     ):
         validate_runs(df)
+
+
+def test_complex_column_is_refused(runs):
+    # It passed with numpy's ComplexWarning alone, and write_runs then wrote
+    # "(20+0j)", which read_runs could not read back.
+    df = runs.assign(T1_C=runs["T1_C"].astype(complex))
+    with pytest.raises(ValueError, match=r"'T1_C' holds complex numbers .* run 'r0'"):
+        validate_runs(df)
+
+
+def test_a_duplicated_run_column_is_named_everywhere(runs, tmp_path):
+    # concat_runs and write_runs(validate=False) failed inside pandas.
+    twice = pd.concat([runs, runs[["run"]]], axis=1)
+    with pytest.raises(
+        ValueError, match=r"Run table 0 has duplicated columns: \['run'\]"
+    ):
+        concat_runs([twice])
+    with pytest.raises(ValueError, match=r"duplicated columns: \['run'\]"):
+        write_runs(twice, tmp_path / "twice.csv", validate=False)
+
+
+def test_changes_since_start_names_an_infinite_value(runs):
+    df = with_value(runs, "T1_C", 4, np.inf)
+    with pytest.raises(
+        ValueError, match=r"'T1_C' has 1 infinite value\(s\), the first at run 'r1'"
+    ):
+        changes_since_start(df)
 
 
 def test_bool_column_is_not_numeric(runs):
@@ -1025,6 +1088,12 @@ def test_csv_trailing_separators_are_ignored(tmp_path, runs):
     text = runs.to_csv(index=False).replace("\n", ",\n")
     path.write_text(text.replace(",\n", "\n", 1))  # not on the header line
     pd.testing.assert_frame_equal(read_runs(path), runs)
+    # On the header line too: no "Unnamed: 9" column of NaN.
+    path.write_text(text)
+    pd.testing.assert_frame_equal(read_runs(path), runs)
+    # An unnamed column that holds values is the table's, not a separator's.
+    path.write_text(text.replace(",\n", ",1\n").replace(",1\n", ",\n", 1))
+    assert read_runs(path).shape[1] == runs.shape[1] + 1
 
 
 def test_csv_row_with_an_extra_field_names_the_line(tmp_path):

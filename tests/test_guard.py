@@ -145,6 +145,26 @@ def test_a_flat_run_table_names_the_time_too(train, spiked):
     assert "'T2_C' in run 'r0' at time_s=1800" in msg
 
 
+def test_runs_in_the_index_and_times_in_a_column(train, new_run):
+    # The wrapped model got the times moved into the index in place of the
+    # runs (every run's times then one sequence: "time_s must increase
+    # strictly") where the same model alone read both.
+    from skthermal.preprocessing import make_lag_pipeline
+
+    X, y = train
+    mixed = X.reset_index("time_s")
+    mixed_new = new_run[0].reset_index("time_s")
+    assert list(mixed.index.names) == ["run"] and "time_s" in mixed.columns
+    guard = GuardedRegressor(make_lag_pipeline(drivers=None)).fit(mixed, y)
+    alone = make_lag_pipeline(drivers=None).fit(mixed, y)
+    np.testing.assert_allclose(
+        guard.predict(mixed_new), alone.predict(mixed_new), rtol=0, atol=1e-9
+    )
+    np.testing.assert_allclose(
+        guard.predict(mixed_new), guard.predict(new_run[0]), rtol=0, atol=1e-9
+    )
+
+
 @pytest.mark.parametrize("mode", ["clip", "hold"])
 def test_spike_is_bounded_in_safe_mode(train, spiked, mode):
     X, y = train

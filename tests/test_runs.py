@@ -40,6 +40,31 @@ def test_string_column_named_with_its_value():
             check_numeric_columns(df.assign(T2=values))
 
 
+def test_complex_columns_are_named():
+    df = pd.DataFrame({"a": [1.0, 2.0], "b": np.array([1, 2], dtype=complex)})
+    with pytest.raises(ValueError, match=r"Column 'b' holds complex numbers"):
+        extract_runs(df)
+
+
+def test_targets_that_are_not_numbers_are_named():
+    # scikit-learn said "could not convert string to float: '0,5'", naming
+    # no column or row; a timedelta target was taken as nanoseconds.
+    X = pd.DataFrame({"run": ["a"] * 3, "time_s": [0.0, 60.0, 120.0], "T1_C": 1.0})
+    comma = pd.Series(["0.0", "0,5", "1.0"], name="disp_y_um")
+    with pytest.raises(
+        ValueError,
+        match=r"target 'disp_y_um' is not numeric: row 1, run 'a', time_s=60 "
+        r"holds '0,5', a number with a decimal comma",
+    ):
+        extract_runs(X, y=comma)
+    clock = pd.Series(pd.to_timedelta([0, 1, 2], unit="s"), name="disp_y_um")
+    with pytest.raises(
+        ValueError, match=r"'disp_y_um' holds timedelta64.* not numbers"
+    ):
+        extract_runs(X, y=clock)
+    extract_runs(X, y=pd.Series(["0.0", "0.5", "1.0"]))  # numbers as text pass
+
+
 def test_numeric_boolean_and_numeric_object_columns_pass():
     df = pd.DataFrame(
         {

@@ -888,6 +888,20 @@ def test_calibration_names_bad_values_by_column_run_and_row():
         ValueError, match=r"Column 'spindle_rpm' is not numeric: row 3 .* 'fast'"
     ):
         machine.calibrate(text, ["q.bearing_W"])
+    # Rows without a run label used to be left out of every run.
+    other = runs.assign(run="b", spindle_rpm=2 * runs["spindle_rpm"])
+    both = pd.concat([runs, other], ignore_index=True)
+    unlabelled = both.assign(run=both["run"].where(both["run"] != "b"))
+    with pytest.raises(ValueError, match=f"Row {len(runs)} has no run label"):
+        machine.calibrate(unlabelled, ["q.bearing_W"])
+    # An air below absolute zero is not simulated.
+    cold = runs.copy()
+    cold.loc[3, "ambient_C"] = -300.0
+    with pytest.raises(ValueError, match=r"ambient_C must be a temperature .* -300"):
+        machine.calibrate(cold, ["q.bearing_W"])
+    twice = pd.concat([runs, runs[["T1_C"]]], axis=1)
+    with pytest.raises(ValueError, match=r"duplicated columns: \['T1_C'\]"):
+        machine.calibrate(twice, ["q.bearing_W"], channels=["T1_C"])
 
 
 def test_calibration_flags_time_in_hours():

@@ -181,6 +181,22 @@ def test_a_training_run_continued_after_a_hole():
     assert np.abs(tail - whole[400:]).max() < 0.02 * np.ptp(whole)
 
 
+def test_a_continued_run_beside_a_new_one():
+    # One call with a training run's later rows and a new run from its
+    # start used to fail inside numpy (the filters' start states, an array
+    # for the continued run and None for the new one).
+    X, y = _heating_runs()
+    model = TransferFunctionRegressor(speed_column="spindle_rpm").fit(
+        X.iloc[:300], y.iloc[:300]
+    )
+    tail = X.loc[["r0"]].iloc[300:]
+    new = X.loc[["r1"]]
+    both = model.predict(pd.concat([tail, new]))
+    np.testing.assert_allclose(
+        both, np.r_[model.predict(tail), model.predict(new)], rtol=0, atol=1e-12
+    )
+
+
 def test_a_gap_inside_predicted_rows_is_bridged_as_a_pause_is():
     # A pause between fit and predict was bridged (with a warning) while the
     # same hole inside the predicted rows was an error; both are bridged now.

@@ -313,6 +313,21 @@ def _csv_run_labels(data, labels):
     return text.where(text != "")
 
 
+def _without_trailing_empty(df, header):
+    """``df`` without the columns of trailing separators: a header that ends
+    with empty names (``run,time_s,T1_C,``) over columns without a value,
+    which pandas would read as an ``Unnamed: 3`` column of NaN."""
+    k = len(header) - next(
+        (i + 1 for i in range(len(header) - 1, -1, -1) if header[i].strip()), 0
+    )
+    if k == 0 or k > df.shape[1]:
+        return df
+    tail = df.columns[-k:]
+    if df[tail].isna().all().all():
+        return df.drop(columns=tail)
+    return df
+
+
 def _read_csv(path, labels=None):
     data = _raw_bytes(path)
     if not data.strip():
@@ -332,6 +347,7 @@ def _read_csv(path, labels=None):
                 df = pd.read_csv(io.BytesIO(data), index_col=False, **_CSV_OPTIONS)
             except pd.errors.ParserWarning as exc:
                 raise _long_line_error(path, data, len(header), exc) from None
+        df = _without_trailing_empty(df, header)
         if RUN in df.columns:
             df[RUN] = _csv_run_labels(data, labels)
         return df

@@ -22,14 +22,20 @@ from skthermal._naming import (
     plain,
 )
 from skthermal._run_changes import changes_since_first_row
-from skthermal.utils._runs import MAX_MAGNITUDE, check_frame, check_labels, unreadable
+from skthermal.utils._runs import (
+    ABSOLUTE_ZERO_C,
+    DECIMAL_COMMA,
+    MAX_MAGNITUDE,
+    check_frame,
+    check_labels,
+    unreadable,
+)
 from skthermal.utils._warnings import user_stacklevel
 
 RUN = "run"
 TIME = "time_s"
 DRIVERS = ("spindle_rpm", "feed_mm_min", "ambient_C")
 REQUIRED_DRIVERS = ("spindle_rpm", "ambient_C")
-ABSOLUTE_ZERO_C = -273.15
 
 
 _RULES = {
@@ -49,6 +55,26 @@ _RULES = {
 _TEMPERATURE_UNITS = {"c", "degc", "°c", "celsius", "k", "kelvin", "f", "degf"}
 _STRAIN_UNITS = {"ue", "µe", "μe", "με", "µε", "ustrain", "microstrain", "me"}
 _KNOWN = (RUN, TIME, *DRIVERS)
+# A driver written with another unit or spelling (ambient_F, spindle_rps,
+# feed_mm_s, feed_rate): every model and the simulator read the drivers by
+# their names, in these units. Other columns of the same stem (a spindle's
+# load in %, a feed override) are extras.
+_DRIVER_LOOKALIKES = {
+    "ambient_C": re.compile(
+        r"ambient(_?(air|temp|temperature))?"
+        r"(_?(c|f|k|degc|degf|°c|°f|kelvin|celsius|fahrenheit))?_*"
+    ),
+    "spindle_rpm": re.compile(
+        r"spindle(_?(speed|n))?(_?(rpm|rps|hz|rad_?s|1/min|min-1|u/min))?_*"
+    ),
+    "feed_mm_min": re.compile(
+        r"feed(_?rate)?(_?(mm|m|in|inch)_?(per_?)?(min|s|sec))?_*"
+    ),
+}
+_DRIVER_RULE = (
+    "the drivers are named exactly 'spindle_rpm' (rpm), 'feed_mm_min' (mm/min) "
+    "and 'ambient_C' (°C); convert its unit and rename it"
+)
 _SPACES = (
     "its header name has spaces around it; remove them (a CSV header written "
     "with a space after each comma)"
@@ -146,6 +172,18 @@ def driver_columns(df):
     return [c for c in _columns(df) if c in DRIVERS]
 
 
+def _driver_lookalike(name):
+    """The driver a column name writes with another unit or spelling
+    (``ambient_F``: ``"ambient_C"``), or None."""
+    if not isinstance(name, str) or name in DRIVERS:
+        return None
+    lower = name.lower()
+    return next(
+        (d for d, pattern in _DRIVER_LOOKALIKES.items() if pattern.fullmatch(lower)),
+        None,
+    )
+
+
 def _looks_like(name):
     """Which role a column that breaks the naming rules seems meant for.
 
@@ -165,6 +203,9 @@ def _looks_like(name):
     for known in _KNOWN:
         if lower == known.lower():
             return f"the column '{known}'", f"spell it exactly '{known}'"
+    driver = _driver_lookalike(name)
+    if driver is not None:
+        return f"the driver '{driver}'", _DRIVER_RULE
     last = lower.rsplit("_", 1)[-1] if "_" in lower else ""
     if lower.startswith("disp"):
         return "a displacement", _RULES["target"]
@@ -201,8 +242,15 @@ def check_column_names(columns, *, table="Run table", exempt=()):
     columns (e.g. mapped explicitly by the caller) are not checked."""
     # Columns that break one rule alike are named together, the rule once.
     broken = {}
+    columns = list(columns)
     for name in columns:
         hit = None if name in exempt else _looks_like(name)
+        if (
+            hit is not None
+            and hit[1] == _DRIVER_RULE
+            and _driver_lookalike(name) in columns
+        ):
+            hit = None  # the driver is there: this one is another unit's extra
         if hit is not None:
             broken.setdefault(hit, []).append(name)
     problems = []
@@ -235,7 +283,6 @@ def _missing_column(name, meaning, candidates):
     return ValueError(f"The run table has no {name!r} column ({meaning}){hint}.")
 
 
-_DECIMAL_COMMA = re.compile(r"\s*[-+]?[0-9]*,[0-9]+\s*")
 # 1,250 or 12,500,000.5: digits in groups of three after the first comma.
 _THOUSANDS = re.compile(r"\s*[-+]?[0-9]{1,3}(,[0-9]{3})+(\.[0-9]*)?\s*")
 
@@ -243,6 +290,13 @@ _THOUSANDS = re.compile(r"\s*[-+]?[0-9]{1,3}(,[0-9]{3})+(\.[0-9]*)?\s*")
 def _check_numeric(df, columns):
     for name in columns:
         col = df[name]
+        if pd.api.types.is_complex_dtype(col):
+            raise ValueError(
+                f"Column {name!r} holds complex numbers (dtype {col.dtype}), "
+                f"e.g. {plain(col.iloc[0])!r} at {_where(df, 0)}: a run table "
+                "holds real numbers; keep the real part or the magnitude "
+                "(np.real, np.abs)."
+            )
         if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
             continue
         where = ""
@@ -260,7 +314,7 @@ def _check_numeric(df, columns):
                         "separators and with a decimal point, e.g. "
                         "pandas.read_csv(..., thousands=',') for separators"
                     )
-                elif isinstance(value, str) and _DECIMAL_COMMA.fullmatch(value):
+                elif isinstance(value, str) and DECIMAL_COMMA.fullmatch(value):
                     where += (
                         ", a number with a decimal comma; write numbers with a "
                         "decimal point"
@@ -425,13 +479,6 @@ def _warn_odd_times(codes, times):
     )
 
 
-def check_unique_columns(df, what="The run table"):
-    """Raise a ValueError naming the columns ``df`` holds more than once."""
-    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
-    if duplicated:
-        raise ValueError(f"{what} has duplicated columns: {duplicated}.")
-
-
 def validate_runs(
     df, *, require_targets=False, require_drivers=False, allow_missing_sensors=False
 ):
@@ -529,7 +576,6 @@ def check_run_table(
     """:func:`validate_runs`, the way out of missing sensor values worded for
     the caller (``missing_hint``)."""
     check_frame(df)
-    check_unique_columns(df)
     names = [c for c in df.columns if isinstance(c, str)]
     if RUN not in df.columns:
         candidates = [c for c in names if c.strip().lower().startswith(("run", "test"))]
@@ -844,6 +890,12 @@ def changes_since_start(df, columns=None):
         run (NaN on every row of a run whose first value is missing). Other
         columns are unchanged.
 
+    Raises
+    ------
+    ValueError
+        Naming the column, run and row of an infinite value, a value that is
+        not a number, or ``time_s`` that does not increase within a run.
+
     Examples
     --------
     >>> import pandas as pd
@@ -860,7 +912,6 @@ def changes_since_start(df, columns=None):
     3   b    60.0   1.9        5.0
     """
     check_frame(df)
-    check_unique_columns(df)
     if RUN not in df.columns:
         raise _missing_column(RUN, "needed to find the start of every run", [])
     if TIME in df.columns:
@@ -876,8 +927,10 @@ def changes_since_start(df, columns=None):
     out = df.copy()
     if not columns or len(df) == 0:
         return out
-    changes = changes_since_first_row(
-        _as_float(df, columns), df[RUN].to_numpy(), what="Column 'run'"
-    )
+    values = _as_float(df, columns)
+    # A missing value stays missing; an infinite one would turn its run's
+    # changes into NaN and inf without a word.
+    _report_nonfinite(df, columns, np.isinf(values), "infinite")
+    changes = changes_since_first_row(values, df[RUN].to_numpy(), what="Column 'run'")
     out[columns] = pd.DataFrame(changes, index=df.index, columns=columns)
     return out

@@ -477,14 +477,14 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         fold_sse, n_feat, kept = [], [], []
         for taus, use, rel in cands:
             try:
-                lf = self._features(taus, rel, dt).fit(X_raw, groups=groups)
+                lf = self._features(taus, rel, dt)
+                F = np.asarray(lf.fit_transform(X_raw, groups=groups))
             except ValueError as exc:
                 # A candidate without features (no filters, every column a
                 # driver) is skipped; anything else is the input's fault.
                 if "would produce no features" not in str(exc):
                     raise
                 continue
-            F = np.asarray(lf.transform(X_raw, groups=groups))
             # A candidate without the drivers keeps the temperatures'
             # features only (the driver columns left out, not temperatures).
             n_temp = lf.n_temperature_features_

@@ -188,7 +188,11 @@ def exponential_filter(
     dts = np.broadcast_to(dts, (len(slices),))
     if state is None:
         state = [None] * len(slices)
-    if np.ndim(state) == 0:
+    if isinstance(state, np.ndarray) and state.ndim > 0:
+        state = list(state)
+    # Not np.ndim(state): a list mixing None (a run from its start) and
+    # arrays (a continued run) is no array.
+    if not isinstance(state, list | tuple):
         raise ValueError(
             f"state must be a list with one entry per run ({len(slices)}), each "
             f"None or one value per column of U, got {type(state).__name__}."
@@ -223,12 +227,16 @@ def exponential_filter(
             )
         if not np.all(np.isfinite(times)):
             raise ValueError("times must be finite (no NaN or infinite time).")
-        for sl in slices:
-            if np.any(np.diff(times[sl]) <= 0):
-                raise ValueError(
-                    "times must increase strictly within each run (slice "
-                    f"{sl.start}:{sl.stop})."
-                )
+        inner = np.ones(max(times.size - 1, 0), dtype=bool)
+        starts = np.array([sl.start for sl in slices if sl.start > 0], dtype=int)
+        inner[starts - 1] = False  # the step from one run into the next
+        bad = np.flatnonzero(inner & (np.diff(times) <= 0))
+        if bad.size:
+            sl = next(sl for sl in slices if sl.start <= bad[0] < sl.stop)
+            raise ValueError(
+                "times must increase strictly within each run (slice "
+                f"{sl.start}:{sl.stop})."
+            )
     if periods is not None:
         periods = np.asarray(periods, dtype=float).ravel()
         if periods.size != len(slices) or np.any(periods <= 0):
@@ -236,6 +244,10 @@ def exponential_filter(
                 f"periods must hold one sampling period > 0 per run "
                 f"({len(slices)}), got {periods.tolist()}."
             )
+    if _all_regular(slices, dts, times, periods, previous):
+        return _regular_lowpass(
+            U2, slices, dts[0], uniq, which, state, initial
+        ).reshape(U.shape)
     Z = np.empty_like(U2)
     for r, (sl, step) in enumerate(zip(slices, dts, strict=True)):
         if sl.stop <= sl.start:
@@ -306,6 +318,55 @@ def run_steps(times, period=None, *, step=None, continued=False):
     if not (first_gap or inner.any() or np.any(np.abs(d - step) > 1e-9 * step)):
         return step, None, None
     return step, np.concatenate(([step], d)), np.concatenate(([first_gap], inner))
+
+
+def _all_regular(slices, dts, times, periods, previous):
+    """Whether every run is sampled at one common step, without gaps, and
+    none continues earlier rows: :func:`exponential_filter` then filters
+    all runs in one pass (:func:`_regular_lowpass`) instead of one per run."""
+    if any(p is not None for p in previous):
+        return False
+    step = float(dts[0])
+    if np.any(np.abs(dts - step) > 1e-9 * step):
+        return False
+    if periods is not None and np.any(step > GAP_STEPS * periods):
+        return False
+    if times is None or times.size < 2:
+        return True
+    inner = np.ones(times.size - 1, dtype=bool)
+    starts = np.array([sl.start for sl in slices if sl.start > 0], dtype=int)
+    inner[starts - 1] = False  # the step from one run into the next
+    return not np.any(np.abs(np.diff(times)[inner] - step) > 1e-9 * step)
+
+
+def _regular_lowpass(U, slices, step, taus, which, state, initial):
+    """The filters of :func:`exponential_filter` for runs at one common step
+    (:func:`_all_regular`): the runs of one length are filtered together,
+    as the columns of one ``lfilter`` call per time constant, with the same
+    arithmetic as one call per run. With many short runs, one call per run
+    and time constant was the cost."""
+    Z = np.empty_like(U)
+    lengths = np.array([sl.stop - sl.start for sl in slices], dtype=int)
+    for length in np.unique(lengths[lengths > 0]):
+        runs = np.flatnonzero(lengths == length)
+        starts = np.array([slices[r].start for r in runs], dtype=int)
+        rows = starts[:, None] + np.arange(length)  # (n_runs, length)
+        for j, tau in enumerate(taus):
+            cols = np.flatnonzero(which == j)
+            u = U[rows[:, :, None], cols]  # (n_runs, length, n_cols)
+            z0 = u[:, 0, :].copy() if initial == "steady" else np.zeros_like(u[:, 0, :])
+            for i, r in enumerate(runs):
+                if state[r] is not None and np.all(np.isfinite(state[r][cols])):
+                    z0[i] = state[r][cols]
+            a = float(np.exp(-step / tau))
+            columns = u.transpose(1, 0, 2).reshape(length, -1)
+            out = lfilter(
+                [1.0 - a], [1.0, -a], columns, axis=0, zi=a * z0.reshape(1, -1)
+            )[0]
+            Z[rows[:, :, None], cols] = out.reshape(length, runs.size, -1).transpose(
+                1, 0, 2
+            )
+    return Z
 
 
 def lowpass_steps(u, time_constant, step, steps=None, gap=None, z0=None, u_prev=None):
@@ -564,6 +625,13 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         -------
         self : LagFeatures
         """
+        self._fit(X, groups)
+        return self
+
+    def _fit(self, X, groups):
+        """:meth:`fit`; returns the training rows' features when it has
+        computed them (to keep every labelled run's end state, else None),
+        with ``X`` as :func:`extract_runs` returns it and the run labels."""
         taus, powers = self._taus(), self._powers()
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64)
@@ -602,6 +670,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # row (the base of the changes) and times, and the filters' last
         # outputs.
         memory = run_memory(X_arr, slices, labels, X_raw)
+        F = None
         if memory:
             F = self._compute(X_arr, slices, dts, times=row_times(X_raw))
             # The filters' outputs: after the unfiltered temperatures, before
@@ -614,7 +683,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 if lab in memory:
                     memory[lab]["state"] = F[sl.stop - 1, skip:end].copy()
         self.run_states_ = memory
-        return self
+        return F, X_raw, groups
 
     def _compute(
         self,
@@ -763,7 +832,17 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         F : ndarray or DataFrame of shape (n_samples, n_features_out)
             As :meth:`transform` returns.
         """
-        return self.fit(X, y, groups=groups).transform(X, groups=groups)
+        F, X_raw, groups = self._fit(X, groups)
+        if F is None:  # no labelled run: fit computed nothing
+            return self.transform(X, groups=groups)
+        # The training rows are every run from its start: the features fit
+        # computed are what transform would compute again.
+        index = run_frame_index(X, X_raw, groups)
+        if index is None:
+            return F
+        import pandas as pd
+
+        return pd.DataFrame(F, index=index, columns=self.get_feature_names_out())
 
     def get_feature_names_out(self, input_features=None):
         """Names of the output features.

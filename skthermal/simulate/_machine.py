@@ -48,9 +48,12 @@ from skthermal.simulate._spec import (
     parameter_range,
 )
 from skthermal.utils._runs import (
+    ABSOLUTE_ZERO_C,
     check_finite_columns,
+    check_labels,
     check_numeric_columns,
     check_run_label,
+    check_unique_columns,
     is_clock_dtype,
     warn_short_runs,
 )
@@ -1666,6 +1669,12 @@ class ThermalMachine:
                 f"spindle_rpm must not be negative: {rpm[bad[0]]:g} in run {run!r} "
                 f"at row {bad[0]}."
             )
+        bad = np.flatnonzero(air <= ABSOLUTE_ZERO_C)
+        if bad.size:
+            raise ValueError(
+                f"ambient_C must be a temperature in °C, above {ABSOLUTE_ZERO_C:g}: "
+                f"{air[bad[0]]:g} in run {run!r} at row {bad[0]}."
+            )
         for name, a, limit, unit in (
             ("spindle_rpm", rpm, PLAUSIBLE_RPM, "rpm"),
             ("feed_mm_min", np.abs(feed), PLAUSIBLE_FEED_MM_MIN, "mm/min"),
@@ -2304,10 +2313,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     v0 = shares.to_variables(np.clip(x0, lo, hi))
     x0 = shares.to_params(v0)
 
+    check_unique_columns(runs)
     if "run" not in runs.columns:
         raise ValueError("The run table has no 'run' column.")
     if len(runs) == 0:
         raise ValueError("The run table is empty (no rows).")
+    # A row without a label would be left out of every run (groupby drops
+    # it) without a word.
+    check_labels(runs["run"].to_numpy())
     if channels is None:
         channels = [c for c in machine.targets if c in runs.columns]
         if not channels:

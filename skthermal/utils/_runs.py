@@ -10,6 +10,7 @@ level of a DataFrame's index.
 
 import datetime
 import inspect
+import re
 import warnings
 from numbers import Integral, Real
 
@@ -33,6 +34,17 @@ POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
 # magnitudes of about 1e150 on, those overflow float64 (1.8e308) into inf
 # and NaN. Up to this bound they stay finite with room to spare.
 MAX_MAGNITUDE = 1e100
+# A number written with a decimal comma ("20,5"), which pandas reads as text.
+DECIMAL_COMMA = re.compile(r"\s*[-+]?[0-9]*,[0-9]+\s*")
+# No temperature lies below it (°C).
+ABSOLUTE_ZERO_C = -273.15
+
+
+def check_unique_columns(df, what="The run table"):
+    """Raise a ValueError naming the columns ``df`` holds more than once."""
+    duplicated = df.columns[df.columns.duplicated()].unique().tolist()
+    if duplicated:
+        raise ValueError(f"{what} has duplicated columns: {duplicated}.")
 
 
 def run_slices(groups, n_samples=None):
@@ -246,11 +258,13 @@ def as_pandas(data):
 
 
 def check_frame(df, what="A run table"):
-    """Raise a ValueError unless ``df`` is a pandas DataFrame; a frame of
-    another library (polars, pyarrow) is named with the conversion."""
+    """Raise a ValueError unless ``df`` is a pandas DataFrame with each column
+    once; a frame of another library (polars, pyarrow) is named with the
+    conversion."""
     import pandas as pd
 
     if isinstance(df, pd.DataFrame):
+        check_unique_columns(df, what)
         return
     kind = type(df).__name__
     module = type(df).__module__.partition(".")[0]
@@ -527,7 +541,24 @@ def with_run_index(X, groups=None):
         X = as_pandas(X)  # a polars frame's run and times: into an index
     if isinstance(X, pd.DataFrame):
         moved = [c for c in (RUN_COLUMN, TIME_COLUMN) if c in X.columns]
-        if moved:
+        kept = [
+            n
+            for n in X.index.names
+            if n in (RUN_COLUMN, TIME_COLUMN) and n not in moved
+        ]
+        if moved and kept:
+            # The runs in the index and the times in a column (or the other
+            # way round): both into the index, in the run table's order.
+            X = X.set_index(moved, append=True)
+            other = [
+                i
+                for i, n in enumerate(X.index.names)
+                if n not in (RUN_COLUMN, TIME_COLUMN)
+            ]
+            if other:
+                X = X.droplevel(other)
+            X = X.reorder_levels([RUN_COLUMN, TIME_COLUMN])
+        elif moved:
             X = X.set_index(moved)
     if groups is None:
         return X
@@ -722,10 +753,13 @@ def check_finite_target(y, X, groups, *, given_index=None):
         values = np.asarray(y)
         if values.dtype.kind == "c":
             return  # scikit-learn names complex data
+        _check_target_numbers(y, values, X, groups)
         values = values.astype(float, copy=False)
     except OverflowError:
         raise _too_large_error(y, "y", X, groups) from None
-    except (TypeError, ValueError):
+    except (TypeError, ValueError) as exc:
+        if str(exc).startswith("The target"):
+            raise
         return
     if (
         values.ndim == 0
@@ -739,10 +773,7 @@ def check_finite_target(y, X, groups, *, given_index=None):
         return
     row, col = (int(i) for i in np.argwhere(bad)[0])
     kind = describe_unreadable(flat[row, col])
-    name = getattr(y, "name", None)
-    if name is None and values.ndim == 2 and hasattr(y, "columns"):
-        name = y.columns[col]
-    target = "The target" if name is None else f"The target {plain(name)!r}"
+    target = _target_name(y, col)
     note = _bad_values_note(bad, flat, "y")
     y_index = getattr(y, "index", None)
     if y_index is not None and not _same_index(y_index, X, given_index):
@@ -752,6 +783,45 @@ def check_finite_target(y, X, groups, *, given_index=None):
         f"{target} is {kind} at {describe_row(row, X, groups)} ({note}). Drop the "
         "rows without a measured target value before fitting."
     )
+
+
+def _target_name(y, column=0):
+    """``"The target 'disp_y_um'"`` (its Series or column name) or ``"The
+    target"``."""
+    name = getattr(y, "name", None)
+    if name is None and np.ndim(y) == 2 and hasattr(y, "columns"):
+        name = y.columns[column]
+    return "The target" if name is None else f"The target {plain(name)!r}"
+
+
+def _check_target_numbers(y, values, X, groups):
+    """Raise a ValueError naming a target of clock values, or its first
+    value that is text and not a number (row, run, time), before
+    scikit-learn's "could not convert string to float" names none."""
+    import pandas as pd
+
+    if values.dtype.kind in "mM":
+        raise ValueError(
+            f"{_target_name(y)} holds {values.dtype} values, not numbers: a "
+            "target is a displacement (µm) or another measured number."
+        )
+    if values.dtype.kind not in "OUS" or values.size == 0:
+        return
+    flat = values.reshape(values.shape[0], -1)
+    for col in range(flat.shape[1]):
+        raw = pd.Series(flat[:, col])
+        bad = pd.to_numeric(raw, errors="coerce").isna() & raw.notna()
+        if not bad.any():
+            continue
+        row = int(np.flatnonzero(bad.to_numpy())[0])
+        value = plain(raw.iloc[row])
+        hint = ""
+        if isinstance(value, str) and DECIMAL_COMMA.fullmatch(value):
+            hint = ", a number with a decimal comma; write numbers with a decimal point"
+        raise ValueError(
+            f"{_target_name(y, col)} is not numeric: "
+            f"{describe_row(row, X, groups)} holds {value!r}{hint}."
+        )
 
 
 def unreadable(values):
@@ -1239,21 +1309,21 @@ def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
     t = row_times(X)
     if t is None:
         return
-    worst, count = None, 0
-    for sl, lab in zip(slices, labels, strict=True):
-        steps = np.diff(t[sl])
-        if steps.size < 2:
-            continue
-        period = float(np.median(steps))
-        long = gap_steps(steps)
-        count += int(long.sum())
-        if long.any():
-            k = int(np.argmax(np.where(long, steps, -np.inf)))
-            if worst is None or steps[k] > worst[0]:
-                worst = (float(steps[k]), lab, t[sl][k], t[sl][k + 1], period)
-    if worst is None:
+    steps, run, first, medians = _run_steps(t, slices)
+    n_steps = np.bincount(run, minlength=len(slices))
+    # A gap is longer than GAP_STEPS times its run's median step
+    # (gap_steps), in runs of at least two steps.
+    long = (steps > GAP_STEPS * medians[run]) & (n_steps[run] >= 2)
+    if not long.any():
         return
-    size, lab, t0, t1, period = worst
+    count = int(long.sum())
+    # The longest gap; of equal ones, the first run's (in the runs' order).
+    candidates = np.flatnonzero(long)
+    size = steps[candidates].max()
+    at = candidates[steps[candidates] == size]
+    k = at[np.argmin(run[at])]
+    lab, period = labels[run[k]], float(medians[run[k]])
+    size, t0, t1 = float(size), t[first[k]], t[first[k] + 1]
     where = "" if lab is None else f" (run {lab!r})"
     warnings.warn(
         f"{name}: {count} gap(s) in time_s, steps longer than {GAP_STEPS:g} "
@@ -1314,14 +1384,36 @@ def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
             )
 
 
+def _run_steps(t, slices):
+    """Every run's time steps at once: ``(steps, run, first, medians)``, the
+    steps within runs (in row order), the run of each, the row before each
+    step, and every run's median step (NaN for a run of one row). One pass
+    for all runs: with many short runs a median per run was the cost."""
+    n = t.shape[0]
+    starts = np.array([sl.start for sl in slices], dtype=int)
+    lengths = np.array([sl.stop - sl.start for sl in slices], dtype=int)
+    order = np.argsort(starts, kind="stable")
+    run_of_row = np.repeat(order, lengths[order])  # the runs tile the rows
+    inner = run_of_row[:-1] == run_of_row[1:] if n > 1 else np.zeros(0, bool)
+    first = np.flatnonzero(inner)
+    steps = t[first + 1] - t[first]
+    run = run_of_row[first]
+    count = np.bincount(run, minlength=len(slices))
+    medians = np.full(len(slices), np.nan)
+    if steps.size:
+        sort = np.lexsort((steps, run))
+        ordered = steps[sort]
+        offset = np.r_[0, np.cumsum(count)[:-1]]
+        has = count > 0
+        lo = offset[has] + (count[has] - 1) // 2
+        hi = offset[has] + count[has] // 2
+        medians[has] = (ordered[lo] + ordered[hi]) / 2
+    return steps, run, first, medians
+
+
 def _median_periods(t, slices):
     """Median time step of every run of at least two rows (NaN otherwise)."""
-    return np.array(
-        [
-            float(np.median(np.diff(t[sl]))) if sl.stop - sl.start > 1 else np.nan
-            for sl in slices
-        ]
-    )
+    return _run_steps(t, slices)[3]
 
 
 def _worst_run(score, labels, limit):
@@ -1682,6 +1774,12 @@ def check_numeric_columns(X, groups=None):
         _check_text_in_array(X)
         return
     for name, dtype in zip(columns, dtypes, strict=True):
+        if pd.api.types.is_complex_dtype(dtype):
+            raise ValueError(
+                f"Column {plain(name)!r} holds complex numbers (dtype {dtype}). "
+                "Every feature column must hold real numbers; keep the real part "
+                "or the magnitude (np.real, np.abs) before fitting or predicting."
+            )
         if pd.api.types.is_bool_dtype(dtype) or pd.api.types.is_numeric_dtype(dtype):
             continue
         if is_clock_dtype(dtype):
@@ -1700,11 +1798,15 @@ def check_numeric_columns(X, groups=None):
         if not bad.any():
             continue
         i = int(np.flatnonzero(bad)[0])
+        value = plain(col.iloc[i])
+        comma = isinstance(value, str) and DECIMAL_COMMA.fullmatch(value)
         raise ValueError(
             f"Column {plain(name)!r} is not numeric: row {i} (index "
-            f"{_label(col.index[i])!r}) holds {plain(col.iloc[i])!r}. Every "
-            "feature column must hold numbers; "
-            "convert or drop this column before fitting or predicting."
+            f"{_label(col.index[i])!r}) holds {value!r}"
+            + (", a number with a decimal comma" if comma else "")
+            + ". Every feature column must hold numbers"
+            + (" written with a decimal point" if comma else "")
+            + "; convert or drop this column before fitting or predicting."
         )
 
 
