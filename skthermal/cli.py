@@ -436,7 +436,13 @@ def _add_search(sub):
         help="anfis-fcm, anfis-grid, gnnmci, grey-pso or mlp (ridge and "
         "lag-ridge tune themselves in fit)",
     )
-    p.add_argument("--trials", type=int, default=20, help="default 20")
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=20,
+        help="default 20; 0 with --storage: no new trial, the stored study's "
+        "best so far (with --out/--save-model)",
+    )
     p.add_argument(
         "--storage",
         metavar="URL|PATH",

@@ -633,8 +633,11 @@ def cmd_search(args):
             f"--model {args.model}: nothing to search; it chooses its settings "
             "by its own time-ordered cross-validation in 'skthermal fit'."
         )
-    if args.trials < 1:
-        raise UserError(f"--trials must be at least 1, got {args.trials}.")
+    if args.trials < 0 or (args.trials == 0 and not args.storage):
+        raise UserError(
+            f"--trials must be at least 1, got {args.trials} (0 only with "
+            "--storage: the stored study's best trial so far, refitted)."
+        )
     check_out_path(args.out, "--out")
     check_out_path(args.save_model, "--save-model")
     optuna = require("optuna", extra="optuna", command="search")
