@@ -757,9 +757,9 @@ def check_finite_target(y, X, groups, *, given_index=None):
         values = values.astype(float, copy=False)
     except OverflowError:
         raise _too_large_error(y, "y", X, groups) from None
-    except (TypeError, ValueError) as exc:
-        if str(exc).startswith("The target"):
-            raise
+    except _TargetNotNumeric:
+        raise
+    except (TypeError, ValueError):
         return
     if (
         values.ndim == 0
@@ -794,6 +794,10 @@ def _target_name(y, column=0):
     return "The target" if name is None else f"The target {plain(name)!r}"
 
 
+class _TargetNotNumeric(ValueError):
+    """A target that holds text or clock values (:func:`_check_target_numbers`)."""
+
+
 def _check_target_numbers(y, values, X, groups):
     """Raise a ValueError naming a target of clock values, or its first
     value that is text and not a number (row, run, time), before
@@ -801,7 +805,7 @@ def _check_target_numbers(y, values, X, groups):
     import pandas as pd
 
     if values.dtype.kind in "mM":
-        raise ValueError(
+        raise _TargetNotNumeric(
             f"{_target_name(y)} holds {values.dtype} values, not numbers: a "
             "target is a displacement (µm) or another measured number."
         )
@@ -818,7 +822,7 @@ def _check_target_numbers(y, values, X, groups):
         hint = ""
         if isinstance(value, str) and DECIMAL_COMMA.fullmatch(value):
             hint = ", a number with a decimal comma; write numbers with a decimal point"
-        raise ValueError(
+        raise _TargetNotNumeric(
             f"{_target_name(y, col)} is not numeric: "
             f"{describe_row(row, X, groups)} holds {value!r}{hint}."
         )
