@@ -608,44 +608,16 @@ def test_fit_set_parameters(capsys, workdir):
 def test_search_runs_a_small_study(capsys, workdir):
     pytest.importorskip("optuna")
     best = workdir / "best.json"
-    status, text, err = _run(
-        capsys,
-        "search",
-        "--runs",
-        workdir / "tests.csv",
-        "--model",
-        "grey-pso",
-        "--sensors",
-        "T05_C,T40_C,T70_C",
-        "--trials",
-        "2",
-        "--storage",
-        workdir / "study.db",
-        "--out",
-        best,
-    )
+    search = ["search", "--runs", workdir / "tests.csv", "--model", "grey-pso"]
+    search += ["--sensors", "T05_C,T40_C,T70_C", "--storage", workdir / "study.db"]
+    status, text, err = _run(capsys, *search, "--trials", "2", "--out", best)
     assert status == 0, err
     assert "2 of 2 trial(s) complete" in text
     doc = json.loads(best.read_text())
     assert doc["study_name"] == "skthermal-grey-pso" and doc["best_rmse_um"] > 0
     # --trials 0: the stored best so far, no new trial (into a new folder).
     again = workdir / "new" / "again.json"
-    status, text, err = _run(
-        capsys,
-        "search",
-        "--runs",
-        workdir / "tests.csv",
-        "--model",
-        "grey-pso",
-        "--sensors",
-        "T05_C,T40_C,T70_C",
-        "--trials",
-        "0",
-        "--storage",
-        workdir / "study.db",
-        "--out",
-        again,
-    )
+    status, text, err = _run(capsys, *search, "--trials", "0", "--out", again)
     assert status == 0, err
     assert "2 of 2 trial(s) complete" in text
     assert json.loads(again.read_text())["best_params"] == doc["best_params"]
