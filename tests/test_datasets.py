@@ -191,6 +191,10 @@ def test_naming_errors_list_every_bad_column(runs):
         ("feed_mm_s", "feed_mm_min"),
         ("feed_mm_min_", "feed_mm_min"),
         ("feedrate", "feed_mm_min"),
+        ("feed_ipm", "feed_mm_min"),
+        ("ambient_T_C", "ambient_C"),
+        ("spindle_rev_min", "spindle_rpm"),
+        ("spindle_rpm_act", "spindle_rpm"),
     ],
 )
 def test_a_driver_in_another_unit_is_named(runs, bad, driver):
@@ -215,6 +219,9 @@ def test_a_driver_in_another_unit_is_named(runs, bad, driver):
         "spindle_load_pct",
         "feed_override_pct",
         "ambient_humidity_pct",
+        "spindle_speed_cmd",
+        "feed_mm_rev",
+        "spindle2_rpm",
     ],
 )
 def test_valid_names_pass(runs, name):

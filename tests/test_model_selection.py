@@ -2,6 +2,7 @@
 searches shared by several worker processes (SQLite, journal file and, when
 SKTHERMAL_TEST_POSTGRES_URL is set, PostgreSQL)."""
 
+import json
 import os
 import re
 import signal
@@ -1125,7 +1126,7 @@ def test_a_study_of_other_estimator_settings_is_refused(runs_data, tmp_path):
         **kwargs,
     )
     with pytest.raises(
-        ValueError, match=r"estimator settings: alpha 'auto' there, 1000.0 here"
+        ValueError, match=r'estimator settings: alpha "auto" there, 1000.0 here'
     ):
         run_search(
             GreyPSORegressor(calibration="ls", alpha=1000.0),
@@ -1176,6 +1177,12 @@ def test_search_input_errors_say_what_is_wrong(runs_data, tmp_path):
         make_storage(tmp_path / "g.db", heartbeat_interval=10, grace_period=5)
     with pytest.raises(ValueError, match=r"'postgresq://u@h/db': not a database URL"):
         make_storage("postgresq://u@h/db")
+    # An unencoded '@' and ':' in the password: hidden whole, and said.
+    with pytest.raises(
+        ValueError, match=r"'postgresql://alice:\*\*\*@localhost/db'.*"
+    ) as info:
+        make_storage("postgresql://alice:p@ss:w0rd@localhost/db")
+    assert "ss" not in str(info.value).split("localhost")[0].replace("postgresql", "")
 
 
 def test_a_dead_local_worker_s_trial_is_retried(tmp_path):
@@ -1195,3 +1202,55 @@ def test_a_dead_local_worker_s_trial_is_retried(tmp_path):
     states = [t.state for t in study.get_trials()]
     assert states == [FAIL, optuna.trial.TrialState.WAITING]
     assert study.get_trials()[1].params == study.get_trials()[0].params
+
+
+def test_recorded_settings_are_the_same_in_every_process():
+    # Function-valued settings were recorded by repr (a memory address that
+    # differs per process), and settings inside a Pipeline's steps came back
+    # through the steps' repr: seeds, n_jobs and drawn values included.
+    from sklearn.compose import TransformedTargetRegressor
+    from sklearn.feature_selection import SelectKBest, f_regression
+    from sklearn.linear_model import Ridge
+    from sklearn.pipeline import Pipeline
+
+    from skthermal.model_selection._search import _estimator_settings, _param_text
+
+    def pipe(**ridge):
+        return Pipeline(
+            [("sel", SelectKBest(f_regression, k=2)), ("ridge", Ridge(**ridge))]
+        )
+
+    settings = _estimator_settings(pipe())
+    assert "steps" not in settings and not any("0x" in v for v in settings.values())
+    function = f"{f_regression.__module__}.{f_regression.__qualname__}"
+    assert json.loads(settings["sel__score_func"]) == {"callable": function}
+    assert settings == _estimator_settings(pipe(random_state=3))
+    assert _estimator_settings(pipe(alpha=np.float64(0.5))) == _estimator_settings(
+        pipe(alpha=0.5)
+    )
+    anfis = ANFISRegressor(epochs=5)
+    with_callback = ANFISRegressor(epochs=5, epoch_callback=lambda *a: None)
+    assert _estimator_settings(anfis) == _estimator_settings(with_callback)
+    assert _param_text({"a": (1, 2)}) == _param_text({"a": [1, 2]})
+    # Another function is another model.
+    assert _estimator_settings(
+        TransformedTargetRegressor(func=np.arcsinh, inverse_func=np.sinh)
+    ) != _estimator_settings(
+        TransformedTargetRegressor(func=np.cbrt, inverse_func=np.sinh)
+    )
+
+
+def test_folds_that_cut_runs_and_empty_spaces_are_named(runs_data):
+    from sklearn.model_selection import KFold
+
+    X, y, groups = runs_data
+    est = GreyPSORegressor(calibration="ls")
+    space = lambda trial: {"delay": trial.suggest_int("delay", 0, 1)}  # noqa: E731
+    with pytest.warns(
+        UserWarning, match=r"The folds cut runs: fold 0 scores rows of run"
+    ):
+        run_search(est, X, y, groups=groups, cv=KFold(4), space=space, n_trials=1)
+    with pytest.warns(
+        UserWarning, match="draws no parameter: every trial fits the same"
+    ):
+        run_search(est, X, y, groups=groups, space=lambda t: {}, n_trials=2)

@@ -61,14 +61,17 @@ _KNOWN = (RUN, TIME, *DRIVERS)
 # load in %, a feed override) are extras.
 _DRIVER_LOOKALIKES = {
     "ambient_C": re.compile(
-        r"ambient(_?(air|temp|temperature))?"
-        r"(_?(c|f|k|degc|degf|°c|°f|kelvin|celsius|fahrenheit))?_*"
+        r"ambient(_?(air|temp|temperature|t))*"
+        r"(_?(c|f|k|deg_?c|deg_?f|°c|°f|kelvin|celsius|fahrenheit))?_*"
     ),
     "spindle_rpm": re.compile(
-        r"spindle(_?(speed|n))?(_?(rpm|rps|hz|rad_?s|1/min|min-1|u/min))?_*"
+        r"spindle(_?(speed|n))?"
+        r"(_?(rpm|rps|hz|rad_?s|1/min|min-1|min\^-1|u/min|rev_?min|r_?min|rev_?s))?"
+        r"(_?(act|actual|meas|measured))?_*"
     ),
     "feed_mm_min": re.compile(
-        r"feed(_?rate)?(_?(mm|m|in|inch)_?(per_?)?(min|s|sec))?_*"
+        r"feed(_?rate)?(_?(mm|m|in|inch)_?(per_?|/)?(min|s|sec)|_?ipm|_?mmpm)?"
+        r"(_?(act|actual|meas|measured))?_*"
     ),
 }
 _DRIVER_RULE = (

@@ -11,9 +11,11 @@ every worker runs the same call against the same storage and study name.
 import ast
 import contextlib
 import hashlib
+import json
 import math
 import numbers
 import os
+import re
 import socket
 import threading
 import time
@@ -33,7 +35,7 @@ from sklearn.utils._param_validation import (
     validate_params,
 )
 
-from skthermal._naming import qualified_name
+from skthermal._naming import plain, qualified_name
 from skthermal._optional import import_optional
 from skthermal.metrics import get_scorer
 from skthermal.model_selection._spaces import (
@@ -57,9 +59,11 @@ ATTR_HOST = "worker_host"
 ATTR_PID = "worker_pid"
 ATTR_START = "worker_start"
 # The estimator parameters a trial was scored with, as drawn by the space
-# (``{name: repr}``), so that a space function changed since cannot replay it
-# into other settings than were scored.
+# (``{name: text}``, :func:`_setting_text`; and their reprs, to read them
+# back), so that a space function changed since cannot replay it into other
+# settings than were scored.
 ATTR_PARAMS = "skthermal_params"
+ATTR_PARAMS_REPR = "skthermal_params_repr"
 
 
 def _import_optuna():
@@ -264,6 +268,17 @@ def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
                 f"({exc}); write e.g. sqlite:///study.db, "
                 "postgresql://user:password@host/db or mysql://user@host/db."
             ) from None
+        except ValueError as exc:
+            # SQLAlchemy's own parse error quotes part of the URL (of the
+            # password, e.g. "invalid literal for int()" after an '@' in it).
+            if not _raised_in(exc, "sqlalchemy"):
+                raise
+            raise ValueError(
+                f"storage {shown!r}: SQLAlchemy cannot read this URL; write it as "
+                "dialect://user:password@host:port/database, with any '@', ':', "
+                "'/' or '%' in the user name or password percent-encoded "
+                "(urllib.parse.quote_plus(password))."
+            ) from None
         except ImportError as exc:
             scheme = shown.split(":", 1)[0]
             driver = _DB_DRIVERS.get(scheme.split("+", 1)[0], "its database driver")
@@ -288,14 +303,20 @@ _DB_DRIVERS = {
 }
 
 
-def _safe_url(url):
-    """``url`` without its password, for messages."""
-    try:
-        from sqlalchemy.engine import make_url
+def _raised_in(exc, package):
+    """Whether ``exc`` was raised inside ``package``'s code."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    name = "" if tb is None else tb.tb_frame.f_globals.get("__name__", "")
+    return name == package or name.startswith(package + ".")
 
-        return make_url(url).render_as_string(hide_password=True)
-    except Exception:  # noqa: BLE001 - an unparsable URL is shown as given
-        return url
+
+def _safe_url(url):
+    """``url`` without its password, for messages: everything between the
+    user name's ``:`` and the last ``@`` (a password holding an unencoded
+    ``@`` or ``:`` is hidden whole)."""
+    return re.sub(r"^([A-Za-z0-9+.-]+://[^:/@]*):.*@", r"\1:***@", url)
 
 
 # --------------------------------------------------------------------------
@@ -535,6 +556,29 @@ def _resolve_cv(cv, groups):
     return cv
 
 
+def _warn_cut_runs(splits, groups):
+    """Warn when a fold scores rows of a run it also trains on, with several
+    runs at hand (a row-wise KFold): the score then says how a run goes on,
+    not how a new run is predicted."""
+    if groups is None or len(np.unique(groups)) < 2:
+        return
+    groups = np.asarray(groups)
+    for k, (train, test) in enumerate(splits):
+        shared = np.intersect1d(groups[np.asarray(train)], groups[np.asarray(test)])
+        if shared.size:
+            warnings.warn(
+                f"The folds cut runs: fold {k} scores rows of run "
+                f"{plain(shared[0])!r} that it also trains on ({shared.size} "
+                "such run(s)). The score then says how a run goes on, not how a "
+                "new run is predicted, and comes out optimistic (four times "
+                "in an independent check); GroupKFold over the runs (the "
+                "default cv) scores whole runs left out.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+            return
+
+
 class _PruningCallback:
     """ANFIS ``epoch_callback`` reporting the monitored error to the trial,
     after calling the estimator's own ``epoch_callback`` (``user``), if any:
@@ -623,6 +667,7 @@ class _Objective:
         self.sign = sign
         self.guard = guard
         self.warned = False
+        self.warned_empty = False
 
     def _warn_training_error(self, validation_fraction):
         """Once per search: pruning ANFIS by its training error."""
@@ -653,6 +698,17 @@ class _Objective:
                 "trial.suggest_int('n_clusters', 2, 6)})."
             )
         trial.set_user_attr(ATTR_PARAMS, _param_text(params))
+        trial.set_user_attr(
+            ATTR_PARAMS_REPR, {str(k): repr(v) for k, v in params.items()}
+        )
+        if not params and not self.warned_empty:
+            self.warned_empty = True
+            warnings.warn(
+                "The search space draws no parameter: every trial fits the same "
+                "model. Give the space the parameters to search.",
+                UserWarning,
+                stacklevel=2,
+            )
         try:
             base = clone(self.estimator).set_params(**params)
         except (TypeError, ValueError) as exc:
@@ -735,19 +791,59 @@ def _estimator_kind(estimator):
 _FREE_SETTINGS = ("random_state", "n_jobs", "verbose")
 
 
+def _canonical(value):
+    """``value`` as plain JSON data that is the same in every process:
+    numpy scalars and arrays as numbers and lists, tuples as lists, dicts
+    with sorted keys, functions by module and qualified name, other objects
+    by their repr without memory addresses."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else repr(value)
+    if isinstance(value, np.ndarray):
+        return _canonical(value.tolist())
+    if isinstance(value, list | tuple):
+        return [_canonical(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _canonical(v) for k, v in sorted(value.items(), key=str)}
+    if callable(value) and hasattr(value, "__qualname__"):
+        return {"callable": qualified_name(value)}
+    return {"repr": re.sub(r" at 0x[0-9a-fA-F]+", "", repr(value))}
+
+
+def _setting_text(value):
+    """A parameter's value as text, equal for equal values in any process
+    (:func:`_canonical`): ``np.float64(0.1)`` and ``0.1``, ``(1, 2)`` and
+    ``[1, 2]``, a function in two processes."""
+    return json.dumps(_canonical(value), sort_keys=True)
+
+
+def _holds_estimator(value):
+    """Whether ``value`` is an estimator or a list/tuple holding one (a
+    Pipeline's ``steps``): its settings are recorded one by one."""
+    if hasattr(value, "fit"):
+        return True
+    if isinstance(value, list | tuple):
+        return any(_holds_estimator(v) for v in value)
+    return False
+
+
 def _estimator_settings(estimator):
-    """The estimator's settings as text, ``{name: repr}`` (nested ones by
-    their ``step__name``), but for those free to differ between workers
-    (seeds, parallelism, verbosity), estimators (in
-    :func:`_estimator_kind`) and callables (a callback's repr holds a memory
-    address)."""
+    """The estimator's settings as text, ``{name: text}`` (nested ones by
+    their ``step__name``; :func:`_setting_text`), but for those free to
+    differ between workers (seeds, parallelism, verbosity, callbacks) and
+    estimators (in :func:`_estimator_kind`; their settings are listed by
+    name)."""
     out = {}
     for name, value in estimator.get_params(deep=True).items():
-        if name.rsplit("__", 1)[-1] in _FREE_SETTINGS:
+        last = name.rsplit("__", 1)[-1]
+        if last in _FREE_SETTINGS or "callback" in last:
             continue
-        if hasattr(value, "fit") or callable(value):
+        if _holds_estimator(value):
             continue
-        out[name] = repr(value)
+        out[name] = _setting_text(value)
     return out
 
 
@@ -908,13 +1004,15 @@ def _check_study_setup(study, setup, direction, space=None):
 
 
 def _param_text(params):
-    """``{name: repr(value)}``: estimator parameters as a trial records them."""
-    return {str(k): repr(v) for k, v in params.items()}
+    """``{name: text}`` (:func:`_setting_text`): estimator parameters as a
+    trial records them."""
+    return {str(k): _setting_text(v) for k, v in params.items()}
 
 
-def _replay(space, trial):
+def _replay(space, trial, *, warn=True):
     """The estimator parameters of a stored trial, drawn again by ``space``;
-    they must be those the trial was scored with."""
+    they must be those the trial was scored with (else those, read back from
+    the trial, with a warning when ``warn``)."""
     optuna = _import_optuna()
     try:
         params = space(optuna.trial.FixedTrial(trial.params))
@@ -935,14 +1033,17 @@ def _replay(space, trial):
         if scored.get(k) != now.get(k)
     )
     try:
-        params = {k: ast.literal_eval(v) for k, v in scored.items()}
-    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        reprs = trial.user_attrs[ATTR_PARAMS_REPR]
+        params = {k: ast.literal_eval(v) for k, v in reprs.items()}
+    except (KeyError, ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
         raise ValueError(
             f"The best trial (number {trial.number}) was scored with other "
             f"estimator parameters than this search space draws from its values "
             f"({differ}): the space function changed since. Restore it, or give "
             "another study_name (or storage)."
         ) from None
+    if not warn:
+        return params
     warnings.warn(
         f"The best trial (number {trial.number}) was scored with other estimator "
         f"parameters than this search space draws from its values ({differ}): "
@@ -1287,6 +1388,7 @@ def run_search(
         splits = list(
             cv.split(X, y, groups) if hasattr(cv, "split") else cv  # iterable of folds
         )
+    _warn_cut_runs(splits, groups)
     scorer = get_scorer(scoring)
     setup = _search_setup(estimator, space, scoring, given_X, y, groups, cv, splits)
 
@@ -1328,7 +1430,7 @@ def run_search(
     if study.get_trials(deepcopy=False, states=complete):
         # A space that cannot replay the study's best trial (a callable
         # changed between sessions) fails now, before adding trials.
-        _replay(space, study.best_trial)
+        _replay(space, study.best_trial, warn=False)
     mode = _resolve_pruning(pruning, study, estimator)
     sign = -1.0 if direction == "maximize" else 1.0
     guard = _FailureGuard(max_failed_trials)

@@ -327,7 +327,7 @@ def _all_regular(slices, dts, times, periods, previous):
     if any(p is not None for p in previous):
         return False
     step = float(dts[0])
-    if np.any(np.abs(dts - step) > 1e-9 * step):
+    if np.any(dts != step):  # each run is filtered with its own step
         return False
     if periods is not None and np.any(step > GAP_STEPS * periods):
         return False
