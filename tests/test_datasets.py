@@ -1095,8 +1095,11 @@ def test_csv_trailing_separators_are_ignored(tmp_path, runs):
     text = runs.to_csv(index=False).replace("\n", ",\n")
     path.write_text(text.replace(",\n", "\n", 1))  # not on the header line
     pd.testing.assert_frame_equal(read_runs(path), runs)
-    # On the header line too: no "Unnamed: 9" column of NaN.
+    # On the header line too: no "Unnamed: 9" column of NaN; and on the
+    # header line alone (it was "the file is cut off").
     path.write_text(text)
+    pd.testing.assert_frame_equal(read_runs(path), runs)
+    path.write_text(text.replace(",\n", "\n").replace("\n", ",\n", 1))
     pd.testing.assert_frame_equal(read_runs(path), runs)
     # An unnamed column that holds values is the table's, not a separator's.
     path.write_text(text.replace(",\n", ",1\n").replace(",1\n", ",\n", 1))

@@ -161,7 +161,13 @@ def _check_complete(path, data):
     header = body[:first_end].decode("utf-8", errors="replace").lstrip("\ufeff")
     line_no = body.count(b"\n") + 1
     last = body[body.rfind(b"\n") + 1 :].decode("utf-8", errors="replace")
-    n_header, n_last = len(_csv_fields(header, path)), len(_csv_fields(last, path))
+    fields = _csv_fields(header, path)
+    # Empty names at the header's end are trailing separators, not columns
+    # the rows must fill.
+    n_header = next(
+        (i + 1 for i in range(len(fields) - 1, -1, -1) if fields[i].strip()), 0
+    )
+    n_last = len(_csv_fields(last, path))
     if not last.strip() or n_last >= n_header:
         return
     newline = "" if data.endswith(b"\n") else " and no line end"
