@@ -148,6 +148,12 @@ def _csv_fields(line, path):
         ) from None
 
 
+def _named_fields(fields):
+    """How many of a header's ``fields`` come up to its last named one (the
+    empty ones after it are trailing separators)."""
+    return next((i + 1 for i in range(len(fields) - 1, -1, -1) if fields[i].strip()), 0)
+
+
 def _check_complete(path, data):
     """Raise if the CSV bytes ``data`` end in a line that was cut short.
 
@@ -164,9 +170,7 @@ def _check_complete(path, data):
     fields = _csv_fields(header, path)
     # Empty names at the header's end are trailing separators, not columns
     # the rows must fill.
-    n_header = next(
-        (i + 1 for i in range(len(fields) - 1, -1, -1) if fields[i].strip()), 0
-    )
+    n_header = _named_fields(fields)
     n_last = len(_csv_fields(last, path))
     if not last.strip() or n_last >= n_header:
         return
@@ -323,9 +327,7 @@ def _without_trailing_empty(df, header):
     """``df`` without the columns of trailing separators: a header that ends
     with empty names (``run,time_s,T1_C,``) over columns without a value,
     which pandas would read as an ``Unnamed: 3`` column of NaN."""
-    k = len(header) - next(
-        (i + 1 for i in range(len(header) - 1, -1, -1) if header[i].strip()), 0
-    )
+    k = len(header) - _named_fields(header)
     if k == 0 or k > df.shape[1]:
         return df
     tail = df.columns[-k:]
