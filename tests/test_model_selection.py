@@ -1254,3 +1254,30 @@ def test_folds_that_cut_runs_and_empty_spaces_are_named(runs_data):
         UserWarning, match="draws no parameter: every trial fits the same"
     ):
         run_search(est, X, y, groups=groups, space=lambda t: {}, n_trials=2)
+
+
+def test_a_searched_setting_may_differ_before_the_first_trial(runs_data, tmp_path):
+    # A worker joining a study whose first trial has not started yet: the
+    # fixed value of a parameter the space draws does not count.
+    X, y, groups = runs_data
+    space = lambda trial: {"alpha": trial.suggest_float("alpha", 0.1, 10.0)}  # noqa: E731
+    kwargs = {"space": space, "storage": tmp_path / "early.db", "study_name": "s"}
+    with pytest.warns(UserWarning, match="No best trial"):
+        run_search(
+            GreyPSORegressor(calibration="ls", alpha=1.0),
+            X,
+            y,
+            groups=groups,
+            n_trials=0,
+            **kwargs,
+        )
+    result = run_search(
+        GreyPSORegressor(calibration="ls", alpha=5.0),
+        X,
+        y,
+        groups=groups,
+        n_trials=1,
+        refit=False,
+        **kwargs,
+    )
+    assert len(result.study.trials) == 1

@@ -936,19 +936,25 @@ def _describe_difference(key, there, here):
 
 
 def _searched_names(study, space):
-    """The estimator parameters the search space sets, from a stored trial
-    replayed (empty when the study holds no trial with parameters)."""
+    """The estimator parameters the search space sets: those a stored trial
+    recorded, else those of one draw of the space on a scratch study (a
+    worker joining a study whose first trial has not started yet)."""
     optuna = _import_optuna()
     for trial in study.get_trials(deepcopy=False):
         recorded = trial.user_attrs.get(ATTR_PARAMS)
         if recorded is not None:
             return set(recorded)
-        if trial.params:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            optuna.logging.disable_default_handler()
             try:
-                return set(space(optuna.trial.FixedTrial(trial.params)))
-            except Exception:  # noqa: BLE001 - named by _replay later
-                return set()
-    return set()
+                draw = space(optuna.create_study().ask())
+            finally:
+                optuna.logging.enable_default_handler()
+        return set(draw) if isinstance(draw, Mapping) else set()
+    except Exception:  # noqa: BLE001 - the search itself names a bad space
+        return set()
 
 
 def _check_study_setup(study, setup, direction, space=None):
