@@ -102,11 +102,13 @@ def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
     """
     sse = np.zeros((len(folds), alphas.size))
     for k, (tr, va) in enumerate(folds):
-        A, B = F[tr], F[va]
+        A, B = F[tr], F[va]  # copies: standardised in place below
         mu, sd = A.mean(0), A.std(0)
         sd[sd == 0] = 1.0
-        A = (A - mu) / sd
-        B = (B - mu) / sd
+        A -= mu
+        A /= sd
+        B -= mu
+        B /= sd
         ym = y[tr].mean()
         # The ridge path from A^T A = V diag(w) V^T (p x p, a fraction of
         # the cost of an SVD of the n x p A): the coefficients are
