@@ -101,8 +101,12 @@ simulated = machine.simulate_drivers(
     noise=False,
 )[["time_s", "spindle_rpm", "ambient_C", *channels]]
 block = (measured["time_s"] // (8 * 3600)).astype(int).to_numpy()
+# Each block is a run of its own: its time_s counts from its first row.
+since = measured["time_s"] - measured.groupby(block)["time_s"].transform("first")
 external = diagnose_runs(
-    simulated.assign(run=block), measured.assign(run=block), channels=channels
+    simulated.assign(run=block, time_s=since.to_numpy()),
+    measured.assign(run=block, time_s=since.to_numpy()),
+    channels=channels,
 )
 print(external.verdict())
 print(

@@ -317,6 +317,16 @@ def test_a_small_machine_from_a_dict_simulates():
             lambda d: d["displacement"]["z"].update(scerw=1.0),
             r"unknown node 'scerw'; known: \['air', 'housing', 'spindle'\]\.$",
         ),
+        (
+            # Left out, the bearings' heat went to the tool node silently.
+            lambda d: d["heat"]["bearing"].pop("node"),
+            r"^heat source 'bearing': node is required \(the node it heats\)",
+        ),
+        (
+            lambda d: d["heat"].update(hydraulic={"node": "housing"}),
+            r"heat: unknown field 'hydraulic'.*Another heat source \(a pump, a "
+            r"hydraulic unit\) is \[heat.custom.hydraulic\]",
+        ),
     ],
 )
 def test_bad_specs_name_the_entry(edit, message):

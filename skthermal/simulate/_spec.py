@@ -96,14 +96,14 @@ def _unknown(where, name, choices, what="node"):
     )
 
 
-def _check_fields(where, table, allowed):
+def _check_fields(where, table, allowed, hint=""):
     if not isinstance(table, dict):
         raise ValueError(f"{where} must be a table (dict), got {type(table).__name__}.")
     for key in table:
         if key not in allowed:
             raise ValueError(
                 f"{where}: unknown field {key!r}{suggest(key, allowed)}; "
-                f"fields: {list(allowed)}."
+                f"fields: {list(allowed)}{hint.format(key=key)}."
             )
 
 
@@ -1044,10 +1044,24 @@ class MachineSpec:
             for value in kw[f"{role}_nodes"]:
                 _node(f"roles: {role}", value, nodes)
         heat = data.get("heat", {})
-        _check_fields("heat", heat, (*HEAT_FIELDS, "feed", "custom"))
+        _check_fields(
+            "heat",
+            heat,
+            (*HEAT_FIELDS, "feed", "custom"),
+            hint=(
+                ". Another heat source (a pump, a hydraulic unit) is "
+                "[heat.custom.{key}], with its node and power"
+            ),
+        )
         for source, fields in HEAT_FIELDS.items():
             entry = heat.get(source, {})
             _check_fields(f"heat source {source!r}", entry, ("node", *fields))
+            if source in heat and "node" not in entry:
+                # Left out, the source would heat a stand-in node (the tool).
+                raise ValueError(
+                    f"heat source {source!r}: node is required (the node it "
+                    f"heats); a machine without it leaves [heat.{source}] out."
+                )
             if "node" in entry:
                 kw[HEAT_ROLES[source]] = _node(
                     f"heat source {source!r}", entry["node"], nodes
