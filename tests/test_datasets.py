@@ -1101,6 +1101,9 @@ def test_csv_trailing_separators_are_ignored(tmp_path, runs):
     pd.testing.assert_frame_equal(read_runs(path), runs)
     path.write_text(text.replace(",\n", "\n").replace("\n", ",\n", 1))
     pd.testing.assert_frame_equal(read_runs(path), runs)
+    # A separator written as ", " (a blank field) on every line.
+    path.write_text(text.replace(",\n", ", \n"))
+    pd.testing.assert_frame_equal(read_runs(path), runs)
     # An unnamed column that holds values is the table's, not a separator's.
     path.write_text(text.replace(",\n", ",1\n").replace(",1\n", ",\n", 1))
     assert read_runs(path).shape[1] == runs.shape[1] + 1

@@ -330,9 +330,11 @@ def _without_trailing_empty(df, header):
     k = len(header) - _named_fields(header)
     if k == 0 or k > df.shape[1]:
         return df
-    tail = df.columns[-k:]
-    if df[tail].isna().all().all():
-        return df.drop(columns=tail)
+    tail = df[df.columns[-k:]]
+    # Empty, or blank (a separator written as ", ").
+    blank = tail.isna() | tail.astype(str).apply(lambda c: c.str.strip() == "")
+    if blank.all().all():
+        return df.drop(columns=tail.columns)
     return df
 
 
