@@ -43,6 +43,7 @@ from skthermal.utils._runs import (
     warn_slow_periods,
     warn_unlabelled_runs,
     warn_unnamed_drivers,
+    within_run_steps,
 )
 
 
@@ -227,12 +228,10 @@ def exponential_filter(
             )
         if not np.all(np.isfinite(times)):
             raise ValueError("times must be finite (no NaN or infinite time).")
-        inner = np.ones(max(times.size - 1, 0), dtype=bool)
-        starts = np.array([sl.start for sl in slices if sl.start > 0], dtype=int)
-        inner[starts - 1] = False  # the step from one run into the next
-        bad = np.flatnonzero(inner & (np.diff(times) <= 0))
+        steps, run, _, _ = within_run_steps(times, slices, medians=False)
+        bad = np.flatnonzero(steps <= 0)
         if bad.size:
-            sl = next(sl for sl in slices if sl.start <= bad[0] < sl.stop)
+            sl = slices[run[bad[0]]]
             raise ValueError(
                 "times must increase strictly within each run (slice "
                 f"{sl.start}:{sl.stop})."
@@ -244,7 +243,7 @@ def exponential_filter(
                 f"periods must hold one sampling period > 0 per run "
                 f"({len(slices)}), got {periods.tolist()}."
             )
-    if _all_regular(slices, dts, times, periods, previous):
+    if _all_regular(dts, None if times is None else steps, periods, previous):
         return _regular_lowpass(
             U2, slices, dts[0], uniq, which, state, initial
         ).reshape(U.shape)
@@ -320,10 +319,11 @@ def run_steps(times, period=None, *, step=None, continued=False):
     return step, np.concatenate(([step], d)), np.concatenate(([first_gap], inner))
 
 
-def _all_regular(slices, dts, times, periods, previous):
-    """Whether every run is sampled at one common step, without gaps, and
-    none continues earlier rows: :func:`exponential_filter` then filters
-    all runs in one pass (:func:`_regular_lowpass`) instead of one per run."""
+def _all_regular(dts, steps, periods, previous):
+    """Whether every run is sampled at one common step (``steps``: the time
+    steps within runs, None without times), without gaps, and none continues
+    earlier rows: :func:`exponential_filter` then filters the runs of one
+    length together (:func:`_regular_lowpass`) instead of one by one."""
     if any(p is not None for p in previous):
         return False
     step = float(dts[0])
@@ -331,12 +331,9 @@ def _all_regular(slices, dts, times, periods, previous):
         return False
     if periods is not None and np.any(step > GAP_STEPS * periods):
         return False
-    if times is None or times.size < 2:
+    if steps is None:
         return True
-    inner = np.ones(times.size - 1, dtype=bool)
-    starts = np.array([sl.start for sl in slices if sl.start > 0], dtype=int)
-    inner[starts - 1] = False  # the step from one run into the next
-    return not np.any(np.abs(np.diff(times)[inner] - step) > 1e-9 * step)
+    return not np.any(np.abs(steps - step) > 1e-9 * step)
 
 
 def _regular_lowpass(U, slices, step, taus, which, state, initial):

@@ -1313,7 +1313,7 @@ def warn_gaps(name, X, slices, labels, bridged, stacklevel=4):
     t = row_times(X)
     if t is None:
         return
-    steps, run, first, medians = _run_steps(t, slices)
+    steps, run, first, medians = within_run_steps(t, slices)
     n_steps = np.bincount(run, minlength=len(slices))
     # A gap is longer than GAP_STEPS times its run's median step
     # (gap_steps), in runs of at least two steps.
@@ -1388,11 +1388,12 @@ def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
             )
 
 
-def _run_steps(t, slices):
+def within_run_steps(t, slices, *, medians=True):
     """Every run's time steps at once: ``(steps, run, first, medians)``, the
-    steps within runs (in row order), the run of each, the row before each
-    step, and every run's median step (NaN for a run of one row). One pass
-    for all runs: with many short runs a median per run was the cost."""
+    steps within runs (in row order), the run (index into ``slices``) of
+    each, the row before each step, and every run's median step (NaN for a
+    run of one row; None with ``medians=False``). ``slices`` tile the rows.
+    One pass for all runs: with many short runs a loop per run was the cost."""
     n = t.shape[0]
     starts = np.array([sl.start for sl in slices], dtype=int)
     lengths = np.array([sl.stop - sl.start for sl in slices], dtype=int)
@@ -1402,8 +1403,10 @@ def _run_steps(t, slices):
     first = np.flatnonzero(inner)
     steps = t[first + 1] - t[first]
     run = run_of_row[first]
+    if not medians:
+        return steps, run, first, None
     count = np.bincount(run, minlength=len(slices))
-    medians = np.full(len(slices), np.nan)
+    middle = np.full(len(slices), np.nan)
     if steps.size:
         sort = np.lexsort((steps, run))
         ordered = steps[sort]
@@ -1411,13 +1414,13 @@ def _run_steps(t, slices):
         has = count > 0
         lo = offset[has] + (count[has] - 1) // 2
         hi = offset[has] + count[has] // 2
-        medians[has] = (ordered[lo] + ordered[hi]) / 2
-    return steps, run, first, medians
+        middle[has] = (ordered[lo] + ordered[hi]) / 2
+    return steps, run, first, middle
 
 
 def _median_periods(t, slices):
     """Median time step of every run of at least two rows (NaN otherwise)."""
-    return _run_steps(t, slices)[3]
+    return within_run_steps(t, slices)[3]
 
 
 def _worst_run(score, labels, limit):
