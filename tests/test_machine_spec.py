@@ -774,6 +774,32 @@ def test_per_sensor_noise_overrides_the_machine_figures():
     assert MachineSpec.from_dict(machine.spec.to_dict()) == machine.spec
 
 
+def test_decimal_quantisation_steps_read_as_a_logger_writes_them():
+    # Steps of 0.01 °C (the spindle rig) and 0.1 °C give readings with that
+    # many decimals, as a logger's file has them (20.08, not
+    # 20.080000000000002); a binary step (0.125) is unchanged, and so is a
+    # step with no short decimal form.
+    rig = ThermalMachine.from_preset("spindle-rig")
+    run = rig.simulate(DUTY, 20.0, random_state=0)
+    temps = run.filter(regex="_C$")
+    decimals = temps.map(lambda v: len(repr(float(v)).split(".")[1]))
+    assert temps.shape[1] > 10 and (decimals <= 2).all().all()
+    data = _small()
+    for step, decimals in [(0.1, 1), (0.125, 3), (0.005, 3)]:
+        data["sensor_noise"] = {"noise_C": 0.3, "quantization_C": step}
+        run = ThermalMachine.from_spec(data, effects=[]).simulate(
+            DUTY, 20.0, random_state=1
+        )
+        values = run.filter(regex="_C$").to_numpy()
+        np.testing.assert_array_equal(values, np.round(values, decimals))
+        np.testing.assert_allclose(values / step, np.round(values / step), atol=1e-9)
+    data["sensor_noise"] = {"noise_C": 0.3, "quantization_C": 1 / 3}
+    machine = ThermalMachine.from_spec(data, effects=[])
+    run = machine.simulate(DUTY, 20.0, random_state=1)
+    values = run.filter(regex="_C$").to_numpy()
+    np.testing.assert_allclose(values * 3, np.round(values * 3), atol=1e-9)
+
+
 def test_parameters_that_cut_a_node_off_are_refused_at_construction():
     # As the spec itself would: a machine that cannot be saved or solved is
     # not made at all.

@@ -1891,7 +1891,19 @@ class ThermalMachine:
         q = self._params["sensor.quantization_C"] if step is None else step
         q = np.asarray(q, dtype=float)
         safe = np.where(q > 0, q, 1.0)
-        return np.where(q > 0, np.round(x / safe) * safe, x)
+        # A multiple of a decimal step such as 0.01 is written as the
+        # logger writes it (20.08, not 20.080000000000002): rounded to the
+        # decimals the step itself has, which changes no binary step (0.125).
+        decimals = _step_decimals(safe)
+        steps = np.round(x / safe) * safe
+        if decimals.ndim == 0:
+            if decimals >= 0:
+                steps = np.round(steps, int(decimals))
+        else:
+            for d in np.unique(decimals[decimals >= 0]):
+                cols = decimals == d
+                steps[..., cols] = np.round(steps[..., cols], int(d))
+        return np.where(q > 0, steps, x)
 
     def _sensor_numbers(self, field):
         """Per-sensor noise figure ``field``: its own, or the machine's."""
@@ -1935,6 +1947,17 @@ class ThermalMachine:
             x = effect.noise(self, p, x, t, dt, rng)
         x = x + rng.normal(0.0, 1.0, x.shape) * self._sensor_numbers("noise_C")
         return self._quantise(x, self._sensor_numbers("quantization_C"))
+
+
+def _step_decimals(step):
+    """The decimals of each positive ``step`` (0.01 -> 2, 0.125 -> 3, 5 -> 0),
+    -1 where it has more than 12 (1/3)."""
+    step = np.asarray(step, dtype=float)
+    out = np.full(step.shape, -1)
+    for d in range(12, -1, -1):
+        exact = np.abs(np.round(step, d) - step) <= 1e-9 * step
+        out = np.where(exact, d, out)
+    return out
 
 
 # calibrate scales a channel by no less than this share of the root mean
