@@ -414,6 +414,54 @@ def test_rows_without_labels_do_not_continue_a_run_labelled_zero(model):
     np.testing.assert_allclose(bare, use(tail.rename(index={1: 99}, level="run")))
 
 
+def test_filters_a_piece_of_columns_at_a_time_with_the_same_values(monkeypatch):
+    # Long runs with many columns are filtered a few columns at a time (the
+    # temporaries stay small); the values are those of one call per time
+    # constant, bit for bit, on the regular path (runs of one length
+    # together) and the per-run one (uneven times, a continued state).
+    import skthermal.preprocessing._lags as lags
+
+    rng = np.random.default_rng(3)
+    U = rng.normal(size=(90, 7)).cumsum(0)
+    slices = [slice(0, 30), slice(30, 60), slice(60, 90)]
+    taus = [5.0, 5.0, 20.0, 5.0, 20.0, 60.0, 5.0]
+    state = [None, rng.normal(size=7), None]
+    state[1][5] = np.nan  # this time constant's columns start anew
+    times = np.r_[np.arange(30.0), np.arange(30.0), np.arange(30.0) ** 1.1]
+    calls = [
+        {"dt": 1.0, "slices": slices, "state": state},
+        {"dt": 1.0, "slices": slices, "initial": "rest"},
+        {"dt": 1.0, "slices": slices, "times": times, "state": state},
+    ]
+    whole = [lags.exponential_filter(U, taus, **kw) for kw in calls]
+    monkeypatch.setattr(lags, "_CHUNK_ELEMENTS", 40)  # one column at a time
+    for kw, expected in zip(calls, whole, strict=True):
+        np.testing.assert_array_equal(lags.exponential_filter(U, taus, **kw), expected)
+
+
+def test_lag_ridge_cv_holds_one_fold_copy_at_a_time():
+    # The CV standardises a copy of each fold's rows; the previous fold's
+    # copy is gone before the next one is made, and no second copy is made
+    # for the standard deviations.
+    import tracemalloc
+
+    from skthermal.preprocessing._lag_ridge import _forward_folds, _ridge_path_sse
+
+    rng = np.random.default_rng(0)
+    F = rng.normal(size=(20000, 40))
+    y = F[:, 0] + rng.normal(size=20000)
+    folds = _forward_folds(20000, 4, 0.6)
+    alphas = np.logspace(-2, 4, 7)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        _ridge_path_sse(F, y, folds, alphas)
+        extra = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    assert extra < 1.3 * F.nbytes
+
+
 def test_cv_uses_training_rows_only():
     from sklearn.linear_model import Ridge
     from sklearn.preprocessing import StandardScaler

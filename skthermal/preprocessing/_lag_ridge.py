@@ -102,30 +102,40 @@ def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
     """
     sse = np.zeros((len(folds), alphas.size))
     for k, (tr, va) in enumerate(folds):
-        A, B = F[tr], F[va]  # copies: standardised in place below
-        mu, sd = A.mean(0), A.std(0)
-        sd[sd == 0] = 1.0
-        A -= mu
-        A /= sd
-        B -= mu
-        B /= sd
-        ym = y[tr].mean()
-        # The ridge path from A^T A = V diag(w) V^T (p x p, a fraction of
-        # the cost of an SVD of the n x p A): the coefficients are
-        # V diag(1 / (w + alpha)) V^T A^T y. The penalties (>= 1e-2 on
-        # standardised columns) keep the small eigenvalues' rounding
-        # harmless.
-        w, V = np.linalg.eigh(A.T @ A)
-        if alphas.min() >= 1e-10 * max(float(w.max()), 1.0):
-            c = V.T @ (A.T @ (y[tr] - ym))
-            d = c / (np.maximum(w, 0.0) + alphas[:, None])  # (n_alpha, p)
-            pred = (B @ V) @ d.T + ym  # (n_val, n_alpha)
-        else:  # penalties too small for the Gram's rounding: the SVD
-            U, sv, Vt = np.linalg.svd(A, full_matrices=False)
-            d = sv / (sv**2 + alphas[:, None]) * (U.T @ (y[tr] - ym))
-            pred = (B @ Vt.T) @ d.T + ym
-        sse[k] = ((pred - y[va][:, None]) ** 2).sum(0)
+        # One fold at a time: its copies of the rows are gone before the
+        # next fold's are made.
+        sse[k] = _fold_path_sse(F, y, tr, va, alphas)
     return sse if per_fold else sse.sum(0)
+
+
+def _fold_path_sse(F, y, tr, va, alphas):
+    """:func:`_ridge_path_sse` of one fold (training rows ``tr``, validation
+    rows ``va``)."""
+    A, B = F[tr], F[va]  # copies: standardised in place below
+    mu = A.mean(0)
+    A -= mu
+    # The standard deviation from the centred copy: A.std(0) would make
+    # another copy of A, the largest array of the fit.
+    sd = np.sqrt(np.einsum("ij,ij->j", A, A) / A.shape[0])
+    sd[sd == 0] = 1.0
+    A /= sd
+    B -= mu
+    B /= sd
+    ym = y[tr].mean()
+    # The ridge path from A^T A = V diag(w) V^T (p x p, a fraction of the
+    # cost of an SVD of the n x p A): the coefficients are
+    # V diag(1 / (w + alpha)) V^T A^T y. The penalties (>= 1e-2 on
+    # standardised columns) keep the small eigenvalues' rounding harmless.
+    w, V = np.linalg.eigh(A.T @ A)
+    if alphas.min() >= 1e-10 * max(float(w.max()), 1.0):
+        c = V.T @ (A.T @ (y[tr] - ym))
+        d = c / (np.maximum(w, 0.0) + alphas[:, None])  # (n_alpha, p)
+        pred = (B @ V) @ d.T + ym  # (n_val, n_alpha)
+    else:  # penalties too small for the Gram's rounding: the SVD
+        U, sv, Vt = np.linalg.svd(A, full_matrices=False)
+        d = sv / (sv**2 + alphas[:, None]) * (U.T @ (y[tr] - ym))
+        pred = (B @ Vt.T) @ d.T + ym
+    return ((pred - y[va][:, None]) ** 2).sum(0)
 
 
 # What the inner LagFeatures (its candidates in fit, the chosen one in
@@ -478,6 +488,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         results = {"time_constants": [], "use_drivers": [], "relative": [], "sse": []}
         fold_sse, n_feat, kept = [], [], []
         for taus, use, rel in cands:
+            # The previous candidate's features go before these are made.
+            F = None
             try:
                 lf = self._features(taus, rel, dt)
                 F = np.asarray(lf.fit_transform(X_raw, groups=groups))
@@ -508,6 +520,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             fold_sse.append(per)
             n_feat.append(F.shape[1])
             kept.append((taus, use, rel))
+        F = None
         if not kept:
             raise ValueError("No candidate setting produced any feature.")
         results["sse"] = np.asarray(results["sse"])
@@ -526,7 +539,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.use_drivers_ = self.n_lag_features_ > n_temp
         F = F[:, : self.n_lag_features_]
         self.scaler_ = StandardScaler().set_output(transform="default").fit(F)
-        self.ridge_ = Ridge(alpha=self.alpha_).fit(self.scaler_.transform(F), y)
+        F = self.scaler_.transform(F)  # the unscaled features go
+        self.ridge_ = Ridge(alpha=self.alpha_).fit(F, y)
         return self
 
     def predict(self, X, *, groups=None):

@@ -271,12 +271,14 @@ def exponential_filter(
                 u_prev = np.asarray(previous[r], dtype=float).reshape(-1)
         for j, tau in enumerate(uniq):
             cols = np.flatnonzero(which == j)
-            u = U2[sl, cols] if cols.size < U2.shape[1] else U2[sl]
-            z0 = u[0] if initial == "steady" else np.zeros(u.shape[1])
+            z0 = U2[sl.start, cols] if initial == "steady" else np.zeros(cols.size)
             if state[r] is not None and np.all(np.isfinite(state[r][cols])):
                 z0 = state[r][cols]
-            prev_u = None if u_prev is None else u_prev[cols]
-            Z[sl, cols] = lowpass_steps(u, tau, step, steps, gap, z0, prev_u)
+            for piece in _column_chunks(np.arange(cols.size), sl.stop - sl.start):
+                c = cols[piece]
+                u = U2[sl, c] if c.size < U2.shape[1] else U2[sl]
+                prev_u = None if u_prev is None else u_prev[c]
+                Z[sl, c] = lowpass_steps(u, tau, step, steps, gap, z0[piece], prev_u)
     return Z.reshape(U.shape)
 
 
@@ -350,20 +352,40 @@ def _regular_lowpass(U, slices, step, taus, which, state, initial):
         rows = starts[:, None] + np.arange(length)  # (n_runs, length)
         for j, tau in enumerate(taus):
             cols = np.flatnonzero(which == j)
-            u = U[rows[:, :, None], cols]  # (n_runs, length, n_cols)
-            z0 = u[:, 0, :].copy() if initial == "steady" else np.zeros_like(u[:, 0, :])
+            # A run's state is taken when finite in every column of the
+            # time constant, else its initial rule.
+            z0 = U[starts[:, None], cols] if initial == "steady" else None
+            z0 = np.zeros((runs.size, cols.size)) if z0 is None else z0
             for i, r in enumerate(runs):
                 if state[r] is not None and np.all(np.isfinite(state[r][cols])):
                     z0[i] = state[r][cols]
             a = float(np.exp(-step / tau))
-            columns = u.transpose(1, 0, 2).reshape(length, -1)
-            out = lfilter(
-                [1.0 - a], [1.0, -a], columns, axis=0, zi=a * z0.reshape(1, -1)
-            )[0]
-            Z[rows[:, :, None], cols] = out.reshape(length, runs.size, -1).transpose(
-                1, 0, 2
-            )
+            for piece in _column_chunks(np.arange(cols.size), rows.size):
+                c = cols[piece]
+                columns = U[rows.T[:, :, None], c].reshape(length, -1)
+                out = lfilter(
+                    [1.0 - a],
+                    [1.0, -a],
+                    columns,
+                    axis=0,
+                    zi=a * z0[:, piece].reshape(1, -1),
+                )[0]
+                Z[rows.T[:, :, None], c] = out.reshape(length, runs.size, -1)
     return Z
+
+
+# The largest number of values :func:`exponential_filter` filters in one
+# call (8 MB): more columns are filtered a piece at a time.
+_CHUNK_ELEMENTS = 1 << 20
+
+
+def _column_chunks(cols, n_rows):
+    """``cols`` in pieces of at most :data:`_CHUNK_ELEMENTS` values over
+    ``n_rows`` rows (at least one column each): the filters work column by
+    column, so filtering a piece at a time changes no value, and the
+    temporaries of a call stay a piece's size, not the input's."""
+    width = max(1, _CHUNK_ELEMENTS // max(int(n_rows), 1))
+    return [cols[i : i + width] for i in range(0, cols.size, width)]
 
 
 def lowpass_steps(u, time_constant, step, steps=None, gap=None, z0=None, u_prev=None):
@@ -730,25 +752,38 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                     instant.append(Dp)
                 filtered += [(Dp, Dp_last, tau, self.driver_initial) for tau in taus]
         states = [None] * n_runs if states is None else states
+        widths = [b.shape[1] for b in blocks + instant]
+        widths += [U.shape[1] for U, _, _, _ in filtered]
+        if not sum(widths):
+            return np.hstack(blocks + instant)  # no features: numpy says so
+        # Every block written into its place in one array (not stacked at
+        # the end, which held every block twice at the peak).
+        F = np.empty((X_arr.shape[0], sum(widths)))
+        col = 0
+        for block in blocks:
+            F[:, col : col + block.shape[1]] = block
+            col += block.shape[1]
         start = 0
         for U, U_last, tau, initial in filtered:
             width = U.shape[1]
             state = [None if st is None else st[start : start + width] for st in states]
-            blocks.append(
-                exponential_filter(
-                    U,
-                    tau,
-                    dts,
-                    slices,
-                    initial=initial,
-                    state=state,
-                    times=times,
-                    previous=U_last,
-                    periods=periods,
-                )
+            F[:, col : col + width] = exponential_filter(
+                U,
+                tau,
+                dts,
+                slices,
+                initial=initial,
+                state=state,
+                times=times,
+                previous=U_last,
+                periods=periods,
             )
             start += width
-        return np.hstack(blocks + instant)
+            col += width
+        for block in instant:
+            F[:, col : col + block.shape[1]] = block
+            col += block.shape[1]
+        return F
 
     def transform(self, X, *, groups=None):
         """Compute the lag features, restarting at every run.
@@ -812,7 +847,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             return F
         import pandas as pd
 
-        return pd.DataFrame(F, index=index, columns=self.get_feature_names_out())
+        return pd.DataFrame(
+            F, index=index, columns=self.get_feature_names_out(), copy=False
+        )
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).
@@ -839,7 +876,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             return F
         import pandas as pd
 
-        return pd.DataFrame(F, index=index, columns=self.get_feature_names_out())
+        return pd.DataFrame(
+            F, index=index, columns=self.get_feature_names_out(), copy=False
+        )
 
     def get_feature_names_out(self, input_features=None):
         """Names of the output features.
