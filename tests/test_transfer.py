@@ -79,6 +79,23 @@ def test_recovers_known_time_constants_and_gains():
     assert np.max(np.abs(model.predict(X) - y.to_numpy())) < 1e-3
 
 
+@pytest.mark.parametrize("unit", [1e-6, 1e-3, 1e3, 1e60])
+def test_the_unit_of_the_output_changes_no_time_constant(unit):
+    # The same displacements in metres (or nanometres): the same time
+    # constants, the predictions in that unit, and no warning from inside
+    # the optimiser. The refinement's stopping rules are absolute, and in
+    # metres it stopped at its start (the time constants were off by 2.5x).
+    X, y = _heating_runs(taus=(800.0, 2000.0))
+    ref = TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=20).fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        model = TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=20)
+        model.fit(X, y * unit)
+        pred = model.predict(X) / unit
+    np.testing.assert_allclose(model.time_constants_, ref.time_constants_, rtol=1e-6)
+    np.testing.assert_allclose(pred, ref.predict(X), rtol=1e-7, atol=1e-9)
+
+
 def test_time_from_index_matches_dt():
     X, y = _heating_runs()
     a = TransferFunctionRegressor(speed_column=2, max_iter=5).fit(X, y)

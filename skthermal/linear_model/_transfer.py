@@ -955,6 +955,14 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         n_lags, n = log_tau.size, Ut.shape[1]
         inputs = np.arange(n_lags) // self.order
         yc = y - y.mean()
+        # The refinement sees the output in units of its standard deviation:
+        # its stopping rules (a gradient below 1e-8) are absolute, and the
+        # same displacements in metres stopped it at the start (the time
+        # constants then depended on the unit of y). The ridge solution is
+        # linear in y, so the optimum is the same; the gains below are
+        # solved from y itself.
+        spread = float(np.std(yc))
+        y_refine = yc / spread if spread > 0 else yc
         # Work space of the refinement, allocated once: arrays of the size
         # of the design, which every evaluation faulted in afresh (a tenth
         # of a second each at 1e5 rows and 80 lags). The lags; the basis of
@@ -981,7 +989,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 tau = np.exp(to_log_tau(x))
                 A = _fit_lags(Ut, tau, inputs, dts, slices, buffer)
                 _standardise(A)
-                last[key] = (A, *_ridge_residual(A, yc, self.alpha))
+                last[key] = (A, *_ridge_residual(A, y_refine, self.alpha))
             return last[key]
 
         # The refinement sees only sums of squares and products of the
@@ -1033,7 +1041,14 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             # Rows: the residual, then the changes of every step.
             Kn[0], Kp[0] = rho[:n], rho[n:]
             changes = _ridge_column_changes(
-                A, yc, self.alpha, gram, lags, new_lags(), (Kn[1:], Kp[1:]), basis
+                A,
+                y_refine,
+                self.alpha,
+                gram,
+                lags,
+                new_lags(),
+                (Kn[1:], Kp[1:]),
+                basis,
             )
             if changes is None:
                 bad = np.ones(x.size, dtype=bool)
@@ -1048,7 +1063,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 )
                 direct = _direct_changes(
                     A,
-                    yc,
+                    y_refine,
                     self.alpha,
                     gram,
                     w,
