@@ -273,6 +273,12 @@ def test_constant_target_is_named(selector):
     y = pd.Series(np.ones(len(X)), name="disp_y_um")
     with pytest.raises(ValueError, match="Target 'disp_y_um' does not change"):
         clone(selector).fit(X, y, groups=groups)
+    # Constant up to rounding: the selectors ranked the sensors on it.
+    y = 5.0 + np.where(np.arange(len(X)) % 2, 1e-13, 0.0)
+    with pytest.raises(ValueError, match="Target 0 does not change"):
+        clone(selector).fit(X, y, groups=groups)
+    # A small but real change is a thermal error, in any unit.
+    clone(selector).fit(X, 1e-9 * np.asarray(_small()[1]), groups=groups)
 
 
 @pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
@@ -290,6 +296,9 @@ def test_missing_target_names_row_and_run(selector):
 def test_constant_sensor_is_named(selector):
     X, y, groups = _small()
     X["Tb_C"] = 21.5
+    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
+        clone(selector).fit(X, y, groups=groups)
+    X["Tb_C"] = 21.5 + np.where(np.arange(len(X)) % 3, 3e-15, 0.0)  # rounding
     with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
         clone(selector).fit(X, y, groups=groups)
 

@@ -273,3 +273,33 @@ def test_fuzzy_equivalence_pandas_output(two_families):
     sel = FuzzyEquivalenceSelector(n_groups=2).set_output(transform="pandas")
     out = sel.fit(df, e).transform(df)
     assert list(out.columns) == list(sel.get_feature_names_out())
+
+
+@pytest.mark.parametrize("scale", [1e80, 1e-90])
+def test_scores_do_not_depend_on_the_units(scale):
+    # Readings, error and its uncertainty in other (accepted) units: the
+    # same scores. The product of the sums of squares overflowed (scores 0)
+    # or underflowed (NaN) past 1e40 and 1e-40, and the selector still chose.
+    import warnings
+
+    from skthermal.datasets import make_sensor_groups
+    from skthermal.selection import StableTSPSelector
+
+    runs, _ = make_sensor_groups(
+        n_groups=2,
+        sensors_per_group=2,
+        n_noise=1,
+        n_runs=2,
+        n_samples=60,
+        random_state=0,
+    )
+    X, y = runs.drop(columns="disp_y_um"), runs["disp_y_um"]
+    sensors = [c for c in X if c.startswith("T")]
+    ref = StableTSPSelector(2).fit(X, y)
+    Xs = X.copy()
+    Xs[sensors] = Xs[sensors] * scale
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        sel = StableTSPSelector(2, displacement_uncertainty=scale).fit(Xs, y * scale)
+    np.testing.assert_allclose(sel.scores_, ref.scores_, rtol=1e-9)
+    assert list(sel.get_feature_names_out()) == list(ref.get_feature_names_out())

@@ -32,6 +32,19 @@ from skthermal.utils._runs import (
 )
 from skthermal.utils._warnings import user_stacklevel
 
+# A column whose changes within its runs are all at most this share of its
+# largest magnitude does not change: what is left is the rounding of the
+# readings (5 + 1e-13 passed as a varying target, and the selectors ranked
+# the sensors on it).
+_ROUNDING_SHARE = 1e-12
+
+
+def _unchanging(A, slices):
+    """Whether each column of ``A`` is constant within every run, up to the
+    rounding of its values (:data:`_ROUNDING_SHARE`)."""
+    change = np.abs(changes_since_start(A, slices)).max(axis=0)
+    return change <= _ROUNDING_SHARE * np.abs(A).max(axis=0)
+
 
 def _feature_label(estimator, j):
     names = getattr(estimator, "feature_names_in_", None)
@@ -130,7 +143,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             hint = "Impute or drop the samples before fitting."
             self._check_finite(name, A, rows, groups, hint)
         check_run_lengths(slices, labels, "measuring a change")
-        flat = ~np.any(changes_since_start(Y, slices) != 0, axis=0)
+        flat = _unchanging(Y, slices)
         if flat.any():
             k = int(np.argmax(flat))
             target = f"{names[k]!r}" if names else str(k)
@@ -140,8 +153,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
                 f"with it is undefined). {type(self).__name__} needs a varying "
                 "thermal error."
             )
-        change = changes_since_start(X, slices)
-        constant = ~np.any(change != 0, axis=0)
+        constant = _unchanging(X, slices)
         if constant.any():
             j = int(np.flatnonzero(constant)[0])
             label = _feature_label(self, j)

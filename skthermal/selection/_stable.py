@@ -68,7 +68,7 @@ def pearson_gradients(x, e):
     xc, ec = _centred(x), _centred(e)
     sxx = np.einsum("ki,ki->i", xc, xc)
     see = float(ec @ ec)
-    norm = np.sqrt(sxx * see)
+    norm = np.sqrt(sxx) * np.sqrt(see)  # not sqrt(sxx * see): it overflows
     r = (ec @ xc) / norm
     dr_dx = ec[:, None] / norm - r * xc / sxx
     dr_de = xc / norm - r * ec[:, None] / see
