@@ -152,6 +152,10 @@ def test_nan_costs_are_infeasible():
         ([0.0, 1.0], "shape"),
         ([], "shape"),
         ([(0, 1, 2)], "shape"),
+        # Finite but too wide: the steps overflowed, and the run ended in
+        # "every position had a non-finite cost", blaming the objective.
+        ([(-1e308, 1e308)], r"dimension 0 \(-1e\+308, 1e\+308\) are wider"),
+        ([(0.0, 1.0), (-1e301, 0.0)], "dimension 1"),
     ],
 )
 def test_bad_bounds(bounds, match):
@@ -168,6 +172,11 @@ def test_bad_objective_output():
         particle_swarm(lambda P: -np.inf * np.ones(len(P)), [(-1, 1)], n_particles=5)
     with pytest.raises(ValueError, match="non-finite"):
         particle_swarm(lambda P: np.full(len(P), np.nan), [(-1, 1)], epochs=2)
+    # The imaginary part was dropped with a numpy ComplexWarning.
+    with pytest.raises(ValueError, match="complex costs"):
+        particle_swarm(lambda P: np.sqrt(P[:, 0] - 2 + 0j), [(-1, 1)], epochs=2)
+    with pytest.raises(ValueError, match="real numbers"):
+        particle_swarm(lambda P: np.array(["a"] * len(P)), [(-1, 1)], epochs=2)
 
 
 @pytest.mark.parametrize(

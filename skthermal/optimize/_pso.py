@@ -43,7 +43,21 @@ def _as_bounds(bounds):
         raise ValueError(
             f"bounds of dimension {d} have low > high: ({lo[d]}, {hi[d]})."
         )
+    with np.errstate(over="ignore"):
+        wide = ~(np.abs(hi - lo) <= _WIDEST_BOX)
+    if np.any(wide):
+        d = int(np.flatnonzero(wide)[0])
+        raise ValueError(
+            f"bounds of dimension {d} ({lo[d]:g}, {hi[d]:g}) are wider than "
+            f"{_WIDEST_BOX:g}: the swarm's steps would overflow. Search a "
+            "rescaled parameter (or its logarithm) instead."
+        )
     return lo.copy(), hi.copy()
+
+
+# The widest box :func:`particle_swarm` searches in any dimension: its
+# velocities (up to a few times the width) stay far from overflow.
+_WIDEST_BOX = 1e300
 
 
 def _inertia_schedule(inertia, epochs):
@@ -67,7 +81,20 @@ def _inertia_schedule(inertia, epochs):
 
 
 def _evaluate(fun, P, n_particles):
-    costs = np.asarray(fun(P.copy()), dtype=float)
+    costs = np.asarray(fun(P.copy()))
+    if np.iscomplexobj(costs):
+        raise ValueError(
+            "fun returned complex costs: a cost must be a real number (a "
+            "square root or power of a negative value, or an FFT, left "
+            "unreduced?)."
+        )
+    try:
+        costs = costs.astype(float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"fun must return real numbers, one cost per particle; got "
+            f"{costs.dtype} values."
+        ) from exc
     if costs.shape != (n_particles,):
         raise ValueError(
             "fun must return one cost per particle, an array of shape "
