@@ -871,6 +871,22 @@ def test_a_least_squares_of_gigabytes_warns(monkeypatch):
         ANFISRegressor(init="grid", n_mfs=4, epochs=1).fit(X, X.sum(axis=1))
 
 
+def test_more_consequents_than_rows_warns_unless_a_ridge_fixes_them():
+    # 32 rules x 6 consequents on 160 rows: the data do not fix them, and
+    # the same rows in another order gave predictions 0.1-0.2 apart on a
+    # range of 20, without a word.
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(160, 5))
+    y = X @ np.arange(1.0, 6.0)
+    grid = ANFISRegressor(init="grid", n_mfs=2, epochs=2, random_state=0)
+    with pytest.warns(UserWarning, match=r"192 unknowns on 160 training rows"):
+        clone(grid).fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        clone(grid).set_params(ridge=1e-2).fit(X, y)
+        clone(grid).fit(np.r_[X, X[:40] + 0.1], np.r_[y, y[:40]])  # 200 rows
+
+
 @pytest.mark.parametrize(
     "rules, message",
     [

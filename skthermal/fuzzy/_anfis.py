@@ -149,6 +149,29 @@ def _warn_large_problem(n_rules, n_features, n_samples):
     )
 
 
+# Below this ridge (relative, as ``ridge`` is) consequents with more
+# unknowns than training rows are left to the rounding: fit warns.
+_UNDERDETERMINED_RIDGE = 1e-3
+
+
+def _warn_underdetermined(n_rules, n_features, n_samples, ridge):
+    """Warn when the consequents have more unknowns than training rows and
+    no ridge worth the name fixes them."""
+    columns = n_rules * (n_features + 1)
+    if columns <= n_samples or ridge == "auto" or ridge >= _UNDERDETERMINED_RIDGE:
+        return
+    warnings.warn(
+        f"ANFISRegressor: {n_rules} rules x {n_features + 1} consequents = "
+        f"{columns} unknowns on {n_samples} training rows: more unknowns than "
+        "rows, so the data do not fix the consequents (the fit then depends "
+        "on the rows' order and on rounding, and extrapolates far). Use fewer "
+        "membership functions (n_mfs) or inputs, init='fcm' with a few rules, "
+        f"or a ridge of {_UNDERDETERMINED_RIDGE:g} .. 1 (or ridge='auto').",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
 # A premise step longer than this many times an input's span moves its
 # membership functions far outside the data (train R^2 0.99 -> 0.79 on
 # temperatures given in units 1e5 times too large); one shorter than the
@@ -637,6 +660,9 @@ default="fcm"
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
         _warn_large_problem(rules.shape[0], X_train.shape[1], X_train.shape[0])
+        _warn_underdetermined(
+            rules.shape[0], X_train.shape[1], X_train.shape[0], self.ridge
+        )
         _warn_input_scales(
             self.step_size, X_train, self._feature_names(), grey=self.grey
         )
