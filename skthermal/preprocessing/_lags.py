@@ -354,8 +354,10 @@ def _regular_lowpass(U, slices, step, taus, which, state, initial):
             cols = np.flatnonzero(which == j)
             # A run's state is taken when finite in every column of the
             # time constant, else its initial rule.
-            z0 = U[starts[:, None], cols] if initial == "steady" else None
-            z0 = np.zeros((runs.size, cols.size)) if z0 is None else z0
+            if initial == "steady":
+                z0 = U[starts[:, None], cols]
+            else:
+                z0 = np.zeros((runs.size, cols.size))
             for i, r in enumerate(runs):
                 if state[r] is not None and np.all(np.isfinite(state[r][cols])):
                     z0[i] = state[r][cols]
