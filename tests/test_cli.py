@@ -665,6 +665,9 @@ class _FakeGapReport:
     def verdict(self):
         return "tool_growth explains the gap"
 
+    def where_summary(self, model="as given"):
+        return f"Where ({model}):\n  run 'A': gap 0.1 [norm.]"
+
     def save(self, folder):
         Path(folder).mkdir(parents=True, exist_ok=True)
         (Path(folder) / "report.md").write_text("# gap\n")

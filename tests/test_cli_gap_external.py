@@ -35,6 +35,9 @@ def test_gap_simulated_names_the_effect(tables, capsys):
     text = capsys.readouterr().out
     assert "'tool_growth' explains the gap" in text
     assert "share_of_explainable" in text and "lr_p_value" in text
+    # Where, not only which: the run, channel, regime and jumps.
+    assert "Where (as given):\n  run " in text and "\n  channel " in text
+    assert "\n  regime " in text
 
 
 def test_gap_n_jobs_gives_the_same_report(tables, capsys):
@@ -218,6 +221,9 @@ class _FakeReport:
 
     def verdict(self):
         return "No candidate effect explains the gap beyond noise (...)."
+
+    def where_summary(self, model="as given"):
+        return f"Where ({model}):\n  run 'A': gap 0.1 [norm.]"
 
 
 def test_gap_labels_the_screening_and_prints_how_far(tables, capsys, monkeypatch):

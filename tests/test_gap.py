@@ -1188,14 +1188,16 @@ def test_runs_that_start_warm_take_their_initial_state_from_the_readings():
         diagnose(rig, runs, initial="warm", **kw)
 
 
-def _where_of(R, t):
+def _where_of(R, t, y=None):
     """The "where" tables of one run of two displacement channels with
-    residuals ``R`` at times ``t`` (a bare problem: unit weights)."""
+    residuals ``R`` at times ``t`` (a bare problem: unit weights), the
+    measured readings ``y`` (default zeros)."""
     from types import SimpleNamespace
 
     from skthermal.gap._report import _where_tables
 
-    run = SimpleNamespace(name="r1", time_s=t, rows=np.arange(t.size))
+    y = np.zeros_like(R) if y is None else y
+    run = SimpleNamespace(name="r1", time_s=t, rows=np.arange(t.size), y=y)
     problem = SimpleNamespace(
         runs=[run],
         channels=["disp_x_um", "disp_y_um"],
@@ -1242,6 +1244,23 @@ def test_quantised_readings_do_not_jump_at_every_step():
     assert len(jumps) == 10
     assert np.all(np.diff(jumps["time_s"]) > 0)
     assert jumps["jump"].abs().min() > 1.4
+
+
+def test_readings_logged_in_steps_against_a_smooth_simulation_do_not_jump():
+    """A smooth simulation less readings logged in steps of 0.1: the
+    residual has no step of its own, and every reading step stood out as a
+    jump (10 per run, pushing a real jump out of the table). One reading
+    step is noise; a jump of many steps is found."""
+    n = 480
+    rng = np.random.default_rng(2)
+    t = np.arange(n) * 60.0
+    sim = 20.0 + np.c_[np.linspace(0, 1.5, n), 0.8 * np.sin(t / 9000.0)]
+    y = np.round(sim + rng.normal(0, 0.02, sim.shape), 1)
+    y[300:, 1] += 1.2  # a sensor re-seated: 12 reading steps
+    jumps = _where_of(sim - y, t, y)["jumps"]
+    assert list(zip(jumps["time_s"], jumps["channel"], strict=True)) == [
+        (300 * 60.0, "disp_y_um")
+    ]
 
 
 def test_where_bands_split_the_squared_gap_about_each_channels_mean():

@@ -850,3 +850,45 @@ def test_a_lag_of_hours_is_not_called_sensor_lag(rng):
     sim, meas = _tables(rng, "sensor_lag", n_runs=3, hours=6.0)
     report = diagnose_runs(sim, meas, candidates=["sensor_lag", "sensor_drift"])
     assert report.best_effect == "sensor_lag"
+
+
+def test_where_names_a_planted_jump_in_one_run_and_channel(rng):
+    # A displacement sensor re-seated in one run (+4 µm from 4 h on) and a
+    # temperature logged in steps of 0.1 °C: the jump is found, in the
+    # channel's unit, and the reading steps are not jumps. The summary, the
+    # Markdown and the CSV agree on it; times are written in full.
+    sim, meas = _tables(rng, "null")
+    meas["T2_C"] = meas["T2_C"].round(1)
+    late = (meas["run"] == "r2") & (meas["time_s"] >= 14460)
+    meas.loc[late, "disp_z_um"] += 4.0
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    jumps = report.where["jumps"]
+    given = jumps[jumps["model"] == "as given"]
+    assert list(zip(given["run"], given["time_s"], given["channel"], strict=True)) == [
+        ("r2", 14460.0, "disp_z_um")
+    ]
+    # Simulated minus measured, in µm.
+    assert given["jump"].iloc[0] == pytest.approx(-4.0, abs=0.3)
+    assert given["size"].iloc[0] > 6
+    summary = report.where_summary()
+    assert summary.startswith("Where (as given):")
+    assert "run 'r2'" in summary
+    assert "1 jump(s), largest: run 'r2' at 14460 s in disp_z_um (-4" in summary
+    # The simulation's gain is off on every channel as given; calibrated,
+    # the re-seated sensor is what is left.
+    calibrated = report.where_summary("base calibrated")
+    assert "run 'r2'" in calibrated and "channel disp_z_um" in calibrated
+    text = report.to_markdown()
+    assert "| as given | r2 | 14460 | disp_z_um |" in text
+    assert "jump [µm or °C]" in text and "1.45e+04" not in text
+    with pytest.raises(ValueError, match="Unknown model 'calibrated'"):
+        report.where_summary("calibrated")
+
+
+def test_report_text_rounds_as_it_says(rng):
+    from skthermal.gap._report import _gap_cell, _time_text
+
+    assert _time_text(16080.0) == "16080" and _time_text(9010.5) == "9010.5"
+    assert _time_text(123456789.0) == "123456789"
+    # A term's fitted parameters as the other figures are.
+    assert _gap_cell({"tau_s": 0.0009228073853221015}) == "tau_s: 0.000923"

@@ -309,6 +309,7 @@ def cmd_gap_external(args):
     except ValueError as exc:
         raise _library_error(exc, prefix="--simulated/--runs: ") from exc
     print(report.verdict())
+    print(report.where_summary())
     shown = [
         "effect",
         "gap_before",
@@ -361,6 +362,7 @@ def cmd_gap(args):
     except ValueError as exc:
         raise _library_error(exc) from exc
     print(report.verdict())
+    print(report.where_summary("base calibrated"))
     overall = _how_far_overall(report)
     if overall is not None:
         print("How far (fine calibration of the spindle head), overall:")

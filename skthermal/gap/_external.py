@@ -552,7 +552,7 @@ class ExternalGapReport(GapReport):
         if not row:
             return "No candidate effect was tested."
         share = self.explainable.get("share", np.nan)
-        if share < 0:
+        if round(share * 100) < 0:  # worse by at least half a percent
             flexible = (
                 "a flexible model of the drivers makes the held-out gap worse "
                 f"(excess above noise {percent(-share)} larger)"

@@ -13,19 +13,27 @@ from skthermal._naming import percent, removes
 from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
 
 
-def _first_rows(frame, table, file, limit=20):
-    """The markdown ``table`` of ``frame``'s first ``limit`` rows, with a note
-    of the rows left out and the ``file`` that holds them all."""
-    out = [table(frame.head(limit))]
-    if len(frame) > limit:
-        out.append(f"\n({limit} of {len(frame)} rows; all in `{file}`.)")
+def _largest_jumps(jumps, table, file, limit=20):
+    """The markdown ``table`` of the ``limit`` largest jumps (``size``), in
+    the order of the table (model, run, time), with a note of the rows left
+    out and the ``file`` that holds them all."""
+    shown = jumps
+    if len(jumps) > limit:
+        keep = jumps["size"].sort_values(ascending=False, kind="stable").index[:limit]
+        shown = jumps.loc[sorted(keep)]
+    out = [table(shown)]
+    if len(shown) < len(jumps):
+        out.append(f"\n(The {limit} largest of {len(jumps)} jumps; all in `{file}`.)")
     return out
 
 
 def _largest_per_model(channels, table, file, limit=10):
     """The markdown ``table`` of each model's ``limit`` channels of largest
-    error, the models in their order, with a note of the rows left out."""
-    ordered = channels.sort_values("rmse", ascending=False, kind="stable")
+    error for their noise (displacements and temperatures alike), the
+    models in their order, with a note of the rows left out."""
+    noise = channels["noise"].where(channels["noise"] > 0)
+    relative = (channels["rmse"] / noise).fillna(np.inf)
+    ordered = channels.loc[relative.sort_values(ascending=False, kind="stable").index]
     models = list(dict.fromkeys(channels["model"]))
     shown = pd.concat(
         [ordered[ordered["model"] == m].head(limit) for m in models],
@@ -34,7 +42,7 @@ def _largest_per_model(channels, table, file, limit=10):
     out = [table(shown)]
     if len(shown) < len(channels):
         out.append(
-            f"\n(The {limit} channels of largest error per model, "
+            f"\n(The {limit} channels of largest error for their noise per model, "
             f"{len(shown)} of {len(channels)} rows; all in `{file}`.)"
         )
     return out
@@ -43,6 +51,16 @@ def _largest_per_model(channels, table, file, limit=10):
 def _units(problem, R):
     """Residuals back in channel units (µm, °C)."""
     return R / np.sqrt(problem.weight) * problem.scale
+
+
+def _smallest_step(A):
+    """Each column's smallest change between consecutive rows, above the
+    rounding of its values (0 where it never changes): one reading step of
+    a channel logged in steps."""
+    D = np.abs(np.diff(A, axis=0))
+    tiny = 1e-9 * np.maximum(np.abs(A).max(axis=0), 1e-300)
+    steps = np.where(D > tiny, D, np.inf).min(axis=0)
+    return np.where(np.isfinite(steps), steps, 0.0)
 
 
 def _where_tables(problem, Rs, regimes, label):
@@ -102,9 +120,20 @@ def _where_tables(problem, Rs, regimes, label):
             mad = np.median(dev, axis=0) / 0.6745
             # Quantised readings change in steps, mostly not at all: their
             # median deviation is 0, and a single reading step must not count
-            # as a jump. The smallest step taken is the floor of the spread.
-            steps = np.where(dev > 1e-12, dev, np.inf).min(axis=0)
-            mad = np.maximum(mad, np.where(np.isfinite(steps), steps, 0.0))
+            # as a jump. The smallest step taken is the floor of the spread:
+            # the residual's own, and the reading step of the measured and
+            # the simulated channel (a smooth simulation less readings
+            # logged in steps of 0.1 °C has no step of its own, and every
+            # reading step stood out as a jump).
+            measured = run.y * (np.sqrt(problem.weight) / problem.scale)
+            floor = np.maximum.reduce(
+                [
+                    _smallest_step(R),
+                    _smallest_step(measured),
+                    _smallest_step(R + measured),
+                ]
+            )
+            mad = np.maximum(mad, floor)
             ratio = np.abs(D) / np.maximum(mad, 1e-12)
             big = np.flatnonzero(ratio.max(axis=1) > 6)
             # The 10 largest of a run, in time order.
@@ -117,7 +146,9 @@ def _where_tables(problem, Rs, regimes, label):
                         "run": run.name,
                         "time_s": float(t[k + 1]),
                         "channel": problem.channels[j],
-                        "jump": float(D[k, j]),
+                        # In the channel's unit, simulated minus measured.
+                        "jump": float(U[k + 1, j] - U[k, j]),
+                        "size": float(ratio[k, j]),
                     }
                 )
     reg = pd.concat(regs, ignore_index=True)
@@ -151,7 +182,7 @@ def _where_tables(problem, Rs, regimes, label):
         "channels_by_run": pd.DataFrame(chans),
         "bands": band_table,
         "jumps": pd.DataFrame(
-            jumps, columns=["model", "run", "time_s", "channel", "jump"]
+            jumps, columns=["model", "run", "time_s", "channel", "jump", "size"]
         ),
     }
 
@@ -462,6 +493,65 @@ class GapReport:
             Path(path).write_text(text)
         return text
 
+    def where_summary(self, model="as given"):
+        """Where the simulation misses most, in a few lines of text.
+
+        From :attr:`where`, for ``model`` (``"as given"``, or ``"base
+        calibrated"`` in the ThermalMachine mode): the run of largest gap,
+        the channel of largest error for its noise, the regime whose share
+        of the squared gap most exceeds its share of time, and the largest
+        jumps. The tables hold the rest.
+
+        Parameters
+        ----------
+        model : str, default="as given"
+
+        Returns
+        -------
+        str
+        """
+        where = {k: v[v["model"] == model] for k, v in self.where.items()}
+        if not len(where["runs"]):
+            models = sorted(set(self.where["runs"]["model"]))
+            raise ValueError(f"Unknown model {model!r}; the report has {models}.")
+        lines = []
+        runs = where["runs"]
+        top = runs.loc[runs["gap"].idxmax()]
+        lines.append(
+            f"run {_label(top['run'])}: gap {top['gap']:.3g} [norm.] (median of the "
+            f"{len(runs)} runs {runs['gap'].median():.3g})"
+        )
+        chans = where["channels"]
+        noise = chans["noise"].where(chans["noise"] > 0)
+        relative = (chans["rmse"] / noise).fillna(np.inf)
+        c = chans.loc[relative.idxmax()]
+        lines.append(
+            f"channel {c['channel']}: rmse {c['rmse']:.3g} {_unit(c['channel'])}, "
+            f"{relative.max():.3g} x its noise, bias {c['bias']:+.3g}"
+            f" {_unit(c['channel'])}".rstrip()
+        )
+        regs = where["regimes"]
+        regs = regs[regs["share_time"] > 0]
+        if len(regs):
+            r = regs.loc[(regs["share_sq_error"] / regs["share_time"]).idxmax()]
+            lines.append(
+                f"regime {r['regime']}: {percent(r['share_sq_error'])} of the "
+                f"squared gap in {percent(r['share_time'])} of the time"
+            )
+        jumps = where["jumps"]
+        if len(jumps):
+            largest = jumps.sort_values("size", ascending=False, kind="stable")
+            shown = [
+                f"run {_label(j['run'])} at {_time_text(j['time_s'])} s in "
+                f"{j['channel']} "
+                f"({j['jump']:+.3g} {_unit(j['channel'])})"
+                for _, j in largest.head(3).iterrows()
+            ]
+            lines.append(f"{len(jumps)} jump(s), largest: " + "; ".join(shown))
+        else:
+            lines.append("no jumps")
+        return f"Where ({model}):\n" + "\n".join(f"  {line}" for line in lines)
+
     def to_markdown(self):
         """The report as Markdown."""
 
@@ -516,7 +606,7 @@ class GapReport:
             table(where["bands"]),
             "",
             "## Where: jumps",
-            *_first_rows(where["jumps"], table, "where_jumps.csv"),
+            *_largest_jumps(where["jumps"], table, "where_jumps.csv"),
         ]
         if self.explainable:
             parts += [
@@ -772,14 +862,27 @@ _DISPLAY_UNITS = {
     "bias": "bias [µm or °C]",
     "max_abs": "max_abs [µm or °C]",
     "noise": "noise [µm or °C]",
-    "jump": "jump [norm.]",
+    "jump": "jump [µm or °C]",
+    "size": "size [x spread]",
     "time_s": "time [s]",
 }
 
 
 def _with_units(df):
-    """``df`` with units in the headers of its gap and error columns."""
+    """``df`` with units in the headers of its gap and error columns, and its
+    times written in full (16080 s, not 1.61e+04)."""
+    if "time_s" in df:
+        df = df.assign(time_s=df["time_s"].map(_time_text))
     return df.rename(columns=_DISPLAY_UNITS)
+
+
+def _time_text(t):
+    """A time in seconds as a table shows it: whole seconds as integers, else
+    to the millisecond."""
+    t = float(t)
+    if not np.isfinite(t):
+        return _NO_VALUE
+    return f"{t:.0f}" if t == round(t) else f"{t:.3f}".rstrip("0")
 
 
 # How a table shows a value that does not exist (a candidate without a
@@ -791,8 +894,11 @@ def _gap_cell(v):
     if isinstance(v, float | np.floating):
         # + 0.0: a negative zero is written "0", not "-0".
         return _NO_VALUE if np.isnan(v) else f"{v + 0.0:.3g}"
-    if isinstance(v, dict) and not v:
-        return _NO_VALUE
+    if isinstance(v, dict):
+        if not v:
+            return _NO_VALUE
+        # A term's fitted parameters, each as the other figures are.
+        return ", ".join(f"{k}: {_gap_cell(x)}" for k, x in v.items())
     return str(v).replace("|", "/")
 
 
@@ -800,6 +906,22 @@ def gap_table(df):
     """A gap table as Markdown, with units in the headers, ``(none)`` when
     empty."""
     return markdown_table(_with_units(df), cell=_gap_cell, empty="(none)")
+
+
+def _label(run):
+    """A run label as text: quoted when it is text ('R2'), else as written."""
+    return repr(run) if isinstance(run, str) else str(run)
+
+
+def _unit(channel):
+    """The unit of a channel by its name's suffix (``_um``, ``_C``), else
+    empty."""
+    name = str(channel)
+    if name.endswith("_um"):
+        return "µm"
+    if name.endswith("_C"):
+        return "°C"
+    return ""
 
 
 def _pyplot():
