@@ -621,6 +621,24 @@ def test_search_runs_a_small_study(capsys, workdir):
     assert status == 0, err
     assert "2 of 2 trial(s) complete" in text
     assert json.loads(again.read_text())["best_params"] == doc["best_params"]
+    # A study with no trial: the library's reason, said once.
+    empty = ["--storage", workdir / "empty.db", "--trials", "0"]
+    status, text, err = _run(capsys, *search[:-2], *empty)
+    assert status == 2
+    last = err.strip().splitlines()[-1]
+    assert "error: No best trial: the study holds no trial" in last
+    assert err.count("No best trial") == 1
+
+
+def test_search_shows_no_password(capsys, workdir):
+    # The banner printed the URL as given while the error below hid it.
+    pytest.importorskip("optuna")
+    url = "postgresql://alice:S3cr3t@db.invalid/optuna"
+    argv = ["search", "--runs", workdir / "tests.csv", "--model", "grey-pso"]
+    status, text, err = _run(capsys, *argv, "--trials", "1", "--storage", url)
+    assert status == 2
+    assert "alice:***@db.invalid" in text + err
+    assert "S3cr3t" not in text + err
 
 
 def test_search_and_guard_ignore_each_runs_starting_offset(capsys, workdir, tmp_path):

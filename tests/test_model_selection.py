@@ -1185,6 +1185,18 @@ def test_search_input_errors_say_what_is_wrong(runs_data, tmp_path):
     assert "ss" not in str(info.value).split("localhost")[0].replace("postgresql", "")
 
 
+def test_a_url_that_names_its_driver_gets_that_driver_s_advice():
+    import importlib.util
+
+    if importlib.util.find_spec("psycopg") is not None:
+        pytest.skip("psycopg is installed: the URL's driver is found")
+    # It said "install psycopg2-binary (or psycopg, ...)" for a URL that
+    # needs psycopg.
+    with pytest.raises(ValueError, match=r"install psycopg \(pip install") as info:
+        make_storage("postgresql+psycopg://u:secret@localhost/db")
+    assert "psycopg2" not in str(info.value) and "secret" not in str(info.value)
+
+
 def test_a_dead_local_worker_s_trial_is_retried(tmp_path):
     # max_retry re-queued a trial failed for its heartbeat, not one failed
     # at once for its dead process (a worker resumed a second after kill -9).

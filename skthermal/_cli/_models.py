@@ -622,6 +622,7 @@ def cmd_evaluate(args):
 def cmd_search(args):
     from skthermal.datasets import split_runs
     from skthermal.model_selection import run_search
+    from skthermal.model_selection._search import no_best_trial, safe_url
     from skthermal.models import MODELS, make_model, model_search_space
 
     if args.model not in MODELS:
@@ -670,12 +671,18 @@ def cmd_search(args):
         f"Searching {MODELS[args.model].label} on {len(sensors)} input(s) -> "
         f"{target}: {args.trials} trial(s), {min(5, n_runs)}-fold CV over "
         f"{n_runs} runs"
-        + (f", study {study_name!r} in {args.storage}" if args.storage else "")
+        + (
+            f", study {study_name!r} in {safe_url(args.storage)}"
+            if args.storage
+            else ""
+        )
         + " ...",
         flush=True,
     )
     with warnings.catch_warnings():
         warnings.simplefilter("always", ConvergenceWarning)
+        # Said below as the command's error, not twice.
+        warnings.filterwarnings("ignore", message="No best trial")
         result = run_search(
             model,
             X,
@@ -697,10 +704,7 @@ def cmd_search(args):
     if errors:
         print(f"{len(errors)} trial(s) failed; the first: {errors[0]}")
     if result.best_params_ is None:
-        raise UserError(
-            f"No trial of {len(trials)} completed; see the trials' 'error' "
-            "attribute in the study."
-        )
+        raise UserError(no_best_trial(result.study))
     best = {k.removeprefix("estimator__"): v for k, v in result.best_params_.items()}
     print(
         f"{done} of {len(trials)} trial(s) complete; best CV RMSE "
@@ -716,7 +720,8 @@ def cmd_search(args):
             "best_rmse_um": -result.best_score_,
             "best_params": {k: _plain(v) for k, v in best.items()},
             "n_trials": len(trials),
-            "storage": args.storage,
+            # The URL without its password: this file is shared.
+            "storage": None if args.storage is None else safe_url(args.storage),
             "study_name": study_name,
         }
         out = Path(args.out)

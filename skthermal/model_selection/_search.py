@@ -255,7 +255,7 @@ def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
         OperationalError,
     )
 
-    shown = _safe_url(url)
+    shown = safe_url(url)
     for attempt in range(_CREATE_ATTEMPTS):
         try:
             with _no_experimental_warning():
@@ -281,7 +281,9 @@ def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
             ) from None
         except ImportError as exc:
             scheme = shown.split(":", 1)[0]
-            driver = _DB_DRIVERS.get(scheme.split("+", 1)[0], "its database driver")
+            driver = _DB_DRIVERS.get(
+                scheme, _DB_DRIVERS.get(scheme.split("+", 1)[0], "its database driver")
+            )
             raise ValueError(
                 f"storage {shown!r}: the database driver for {scheme!r} is not "
                 f"installed; install {driver} in this environment ({exc})."
@@ -298,6 +300,11 @@ def _rdb_storage(optuna, url, heartbeat_interval, grace_period, max_retry):
 # The drivers SQLAlchemy needs for the usual database URLs.
 _DB_DRIVERS = {
     "postgresql": "psycopg2-binary (or psycopg, with postgresql+psycopg://)",
+    # A URL that names its driver needs that one.
+    "postgresql+psycopg": "psycopg (pip install 'psycopg[binary]')",
+    "postgresql+psycopg2": "psycopg2-binary",
+    "mysql+pymysql": "pymysql",
+    "mariadb+pymysql": "pymysql",
     "mysql": "pymysql (with mysql+pymysql://) or mysqlclient",
     "mariadb": "pymysql (with mariadb+pymysql://) or mysqlclient",
 }
@@ -312,7 +319,7 @@ def _raised_in(exc, package):
     return name == package or name.startswith(package + ".")
 
 
-def _safe_url(url):
+def safe_url(url):
     """``url`` without its password, for messages: everything between the
     user name's ``:`` and the last ``@`` (a password holding an unencoded
     ``@`` or ``:`` is hidden whole)."""
@@ -1107,7 +1114,7 @@ class SearchResult:
         )
 
 
-def _no_best_trial(study):
+def no_best_trial(study):
     """Why a study has no best trial, by the states of its trials."""
     trials = study.get_trials(deepcopy=False)
     if not trials:
@@ -1464,7 +1471,7 @@ def run_search(
     try:
         best_trial = study.best_trial
     except ValueError:
-        warnings.warn(_no_best_trial(study), UserWarning, stacklevel=3)
+        warnings.warn(no_best_trial(study), UserWarning, stacklevel=3)
     if best_trial is not None:
         best_params = _replay(space, best_trial)
         if refit:
