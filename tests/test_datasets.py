@@ -952,6 +952,10 @@ def test_ambient_proxy_picks_the_sensor_the_spindle_does_not_heat():
         ambient_proxy(runs.assign(spindle_rpm=0.0))
     with pytest.raises(ValueError, match="temperature sensors"):
         ambient_proxy(runs[["run", "time_s", "spindle_rpm"]])
+    # A column twice: named (a pandas TypeError or a 2-D run label before).
+    for col in ("T1_C", "run"):
+        with pytest.raises(ValueError, match=rf"duplicated columns: \['{col}'\]"):
+            ambient_proxy(pd.concat([runs, runs[[col]]], axis=1))
 
 
 # --- CSV run labels, metadata and malformed CSV files -------------------------

@@ -789,6 +789,10 @@ def test_mapping_typos_and_uncompared_channels(rig_runs):
         build_problem(rig, slip)
     problem = build_problem(rig, slip, mapping={"disp_ch1_mm": "disp_ch1_um"})
     assert "disp_ch1_mm" in problem.channels
+    # A column twice is the table's fault, not channels='s (none was given).
+    twice = pd.concat([runs, runs[["disp_ch1_um"]]], axis=1)
+    with pytest.raises(ValueError, match=r"measured run table has duplicated"):
+        build_problem(rig, twice)
 
 
 def test_cv_as_folds_over_runs(rig_runs):

@@ -14,7 +14,7 @@ from skthermal.datasets._runtable import (
     _report_nonfinite,
     sensor_columns,
 )
-from skthermal.utils._runs import run_slices
+from skthermal.utils._runs import check_unique_columns, run_slices
 
 
 @validate_params(
@@ -84,6 +84,7 @@ def ambient_proxy(runs, *, time_constant_s=7200.0, alpha=1.5, return_scores=Fals
 
 
 def _proxy_scores(runs, time_constant_s, alpha):
+    check_unique_columns(runs)
     for col in ("time_s", "spindle_rpm"):
         if col not in runs.columns:
             raise ValueError(

@@ -24,6 +24,7 @@ from skthermal.simulate import EFFECTS
 from skthermal.utils._runs import (
     MAX_MAGNITUDE,
     check_labels,
+    check_unique_columns,
     is_clock_dtype,
     warn_short_runs,
 )
@@ -427,6 +428,7 @@ def build_problem(
     machine's sensors it holds (:attr:`MeasuredRun.start`; compared or not,
     under their measured names through ``mapping``).
     """
+    check_unique_columns(runs, "The measured run table")
     for col in ("run", "time_s", "spindle_rpm", "ambient_C"):
         if col not in runs.columns:
             raise ValueError(
