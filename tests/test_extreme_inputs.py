@@ -221,3 +221,22 @@ def test_a_value_just_beyond_the_bound_is_not_shown_as_the_bound():
     assert describe_unreadable(value).startswith("1.0000000000000002e+100, beyond")
     assert describe_unreadable(1e307).startswith("1e+307, beyond")
     assert describe_unreadable(np.nan) == "missing (NaN)"
+
+
+def test_the_missing_reading_advice_says_what_hold_also_holds():
+    # The advice to bridge dropouts with GuardedRegressor(mode='hold') led an
+    # independent check into a frozen compensation: 'hold' also holds while a
+    # reading is beyond its training range by more than span (29% of the
+    # held-out rows of a chronological split).
+    import pandas as pd
+
+    from skthermal.preprocessing import make_lag_pipeline
+
+    t = np.arange(50) * 60.0
+    X = pd.DataFrame(
+        {"run": "a", "time_s": t, "T1_C": 20 + t / 1000, "spindle_rpm": 1e3}
+    )
+    X = X.set_index(["run", "time_s"])
+    X.iloc[5, 0] = np.nan
+    with pytest.raises(ValueError, match=r"mode='hold'\) bridges .* span=0.25"):
+        make_lag_pipeline().fit(X, np.arange(50.0))

@@ -96,6 +96,18 @@ def test_the_unit_of_the_output_changes_no_time_constant(unit):
     np.testing.assert_allclose(pred, ref.predict(X), rtol=1e-7, atol=1e-9)
 
 
+def test_a_time_constant_at_the_upper_bound_warns():
+    # A lag far slower than the runs: the data cannot fix it, it ends at the
+    # longest run, and its gain extrapolates; the input is named.
+    X, y = _heating_runs(taus=(300.0, 1e6), gains=(2.0, -400.0))
+    with pytest.warns(UserWarning, match=r"time constant of 'T2_C' ends at the upper"):
+        TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=20).fit(X, y)
+    X, y = _heating_runs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=20).fit(X, y)
+
+
 def test_time_from_index_matches_dt():
     X, y = _heating_runs()
     a = TransferFunctionRegressor(speed_column=2, max_iter=5).fit(X, y)

@@ -8,6 +8,7 @@ identified by variable projection (for fixed time constants the error is linear
 in the gains, which a least-squares solve gives exactly).
 """
 
+import warnings
 from numbers import Integral, Real
 
 import numpy as np
@@ -42,6 +43,7 @@ from skthermal.utils._runs import (
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
+from skthermal.utils._warnings import user_stacklevel
 
 # Relative spread of the sampling interval tolerated within one run: the exact
 # discretisation below assumes a constant step.
@@ -1164,6 +1166,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             np.array(part) for part in zip(*fits, strict=True)
         )
         self.n_iter_ = int(n_iter.max())
+        self._warn_at_bounds(taus, bounds, tau_bounds_given=self.tau_bounds is not None)
         if y.ndim == 1:
             taus, coefs, intercepts = taus[0], coefs[0], float(intercepts[0])
         self.time_constants_ = taus
@@ -1177,6 +1180,33 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
                 memory[lab]["state"] = states[:, r]
         self.run_states_ = memory
         return self
+
+    def _warn_at_bounds(self, taus, bounds, tau_bounds_given):
+        """Warn naming the inputs whose time constant ends at the upper bound
+        of ``tau_bounds`` (within 1%): the data did not fix it there, and its
+        gain extrapolates (an independent check found slow sensors at the
+        upper bound, the training span, with gains of -21 and -130 µm/K and
+        a held-out error growing through the test part). A lag at the lower
+        bound is an input that acts at once: nothing to say."""
+        hi = bounds[1]
+        at_hi = (taus >= hi / 1.01).reshape(-1, *taus.shape[-2:]).any(axis=(0, 2))
+        if not at_hi.any():
+            return
+        names = getattr(self, "feature_names_in_", None)
+        shown = [
+            repr(str(names[i])) if names is not None else f"input {i}"
+            for i in np.flatnonzero(at_hi)
+        ]
+        where = "given" if tau_bounds_given else "the longest training run"
+        warnings.warn(
+            f"TransferFunctionRegressor: the time constant of {', '.join(shown)} "
+            f"ends at the upper bound of tau_bounds ({hi:g} s, {where}): the "
+            "training data do not fix it, and a lag that slow fits a drift "
+            "with a large gain, which extrapolates. Leave such an input out, "
+            "give longer or more runs, or a larger alpha.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
 
     def predict(self, X, *, groups=None):
         """Predict the thermal error, run by run from rest.

@@ -895,7 +895,10 @@ def check_finite_columns(X, groups=None, *, what="X", hint=None):
         hint = (
             "The model needs every reading: impute or drop those rows first "
             "(skthermal.compose.GuardedRegressor(mode='hold') bridges sensor "
-            "dropouts in service)."
+            "dropouts in service; it also holds the compensation while any "
+            "reading is beyond its training range by more than span=0.25 of "
+            "it, so widen span, or list the checked inputs, for service beyond "
+            "the training conditions)."
         )
     raise ValueError(
         f"Column {name} is {describe_unreadable(values[row, col])} at "
