@@ -789,6 +789,10 @@ def test_mapping_typos_and_uncompared_channels(rig_runs):
         build_problem(rig, slip)
     problem = build_problem(rig, slip, mapping={"disp_ch1_mm": "disp_ch1_um"})
     assert "disp_ch1_mm" in problem.channels
+    # A driver under another name is named beside the missing one.
+    rps = runs.rename(columns={"spindle_rpm": "spindle_rps"})
+    with pytest.raises(ValueError, match=r"'spindle_rps' looks like 'spindle_rpm'"):
+        build_problem(rig, rps)
     # A column twice is the table's fault, not channels='s (none was given).
     twice = pd.concat([runs, runs[["disp_ch1_um"]]], axis=1)
     with pytest.raises(ValueError, match=r"measured run table has duplicated"):

@@ -892,3 +892,10 @@ def test_report_text_rounds_as_it_says(rng):
     assert _time_text(123456789.0) == "123456789"
     # A term's fitted parameters as the other figures are.
     assert _gap_cell({"tau_s": 0.0009228073853221015}) == "tau_s: 0.000923"
+
+
+def test_a_driver_under_another_name_is_named(rng):
+    sim, meas = _tables(rng, "null", n_runs=2, hours=2.0)
+    fahrenheit = meas.rename(columns={"ambient_C": "ambient_F"})
+    with pytest.raises(ValueError, match=r"'ambient_F' looks like 'ambient_C'"):
+        diagnose_runs(sim, fahrenheit)

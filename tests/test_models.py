@@ -206,3 +206,68 @@ def test_wrappers_take_several_targets_when_their_models_do():
     grey = ModularRegressor([("grey", GreyPSORegressor(), None)])
     assert not get_tags(grey).target_tags.multi_output
     assert get_tags(ModularRegressor()).target_tags.multi_output
+
+
+def _cold_runs_that_start_turning(n_runs=6):
+    """Runs from a cold machine whose spindle turns from the first row: the
+    error and the temperatures are lags of the bearing heat from rest."""
+    from scipy.signal import lfilter
+
+    def lag(x, tau):
+        a = np.exp(-60.0 / tau)
+        return lfilter([1 - a], [1, -a], x)
+
+    rng = np.random.default_rng(0)
+    frames = []
+    for r in range(n_runs):
+        t = np.arange(0, 5 * 3600, 60.0)
+        speeds = rng.choice([2000.0, 4000.0, 6000.0], 5)
+        hour = (t // 3600).astype(int)
+        rpm = np.where(hour % 2 == 0, speeds[hour], 0.0)
+        heat = (rpm / 1000) ** 1.3
+        noise = rng.standard_normal((3, t.size))
+        frames.append(
+            pd.DataFrame(
+                {
+                    "run": f"r{r}",
+                    "time_s": t,
+                    "spindle_rpm": rpm,
+                    "T1_C": 20 + 0.5 * lag(heat, 1200) + 0.02 * noise[0],
+                    "T2_C": 20 + 0.2 * lag(heat, 3600) + 0.02 * noise[1],
+                    "disp_z_um": 3 * lag(heat, 900)
+                    + 1.5 * lag(heat, 5400)
+                    + 0.2 * noise[2],
+                }
+            )
+        )
+    return pd.concat(frames, ignore_index=True).set_index(["run", "time_s"])
+
+
+def test_lag_ridge_starts_the_drivers_filters_at_the_run_start():
+    # The named lag model predicts changes since each run's start, which is
+    # its reference state: its drivers' filters start from rest there. In
+    # steady state, a run that starts turning read as a warm machine at its
+    # first row, and that row's predicted error, subtracted from the whole
+    # run, shifted it.
+    import warnings
+
+    from skthermal.preprocessing import make_lag_pipeline
+
+    runs = _cold_runs_that_start_turning()
+    train = runs.loc[["r0", "r1", "r2", "r3"]]
+    test = runs.loc[["r4", "r5"]]
+    X = ["T1_C", "T2_C", "spindle_rpm"]
+    model = make_model("lag-ridge")
+    assert model.estimator.driver_initial == "rest"
+    steady = RunStartRegressor(make_lag_pipeline(), drivers="auto")
+
+    def rmse(m, cols):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m.fit(train[cols], train["disp_z_um"].to_numpy())
+            p = m.predict(test[cols])
+        return float(np.sqrt(np.mean((p - test["disp_z_um"].to_numpy()) ** 2)))
+
+    ours, before = rmse(model, X), rmse(steady, X)
+    assert ours < 0.9 * before
+    assert ours < rmse(make_model("ridge"), X[:2])

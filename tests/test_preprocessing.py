@@ -811,6 +811,11 @@ def test_auto_drivers_found_nowhere_warn():
             X.drop(columns="spindle_rpm")
         )
         LagFeatures(time_constants=[60.0]).fit(X)
+    # The speed under another name: the warning names it (it went in as a
+    # temperature without a word about it).
+    rps = X.rename(columns={"spindle_rpm": "spindle_rps"})
+    with pytest.warns(UserWarning, match=r"'spindle_rps' looks like 'spindle_rpm'"):
+        LagFeatures(time_constants=[60.0]).fit(rps)
 
 
 def test_exponential_filter_names_bad_rows_slices_state_and_periods():

@@ -25,9 +25,11 @@ from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import (
     ABSOLUTE_ZERO_C,
     DECIMAL_COMMA,
+    DRIVER_RULE,
     MAX_MAGNITUDE,
     check_frame,
     check_labels,
+    driver_lookalike,
     unreadable,
 )
 from skthermal.utils._warnings import user_stacklevel
@@ -55,29 +57,6 @@ _RULES = {
 _TEMPERATURE_UNITS = {"c", "degc", "°c", "celsius", "k", "kelvin", "f", "degf"}
 _STRAIN_UNITS = {"ue", "µe", "μe", "με", "µε", "ustrain", "microstrain", "me"}
 _KNOWN = (RUN, TIME, *DRIVERS)
-# A driver written with another unit or spelling (ambient_F, spindle_rps,
-# feed_mm_s, feed_rate): every model and the simulator read the drivers by
-# their names, in these units. Other columns of the same stem (a spindle's
-# load in %, a feed override) are extras.
-_DRIVER_LOOKALIKES = {
-    "ambient_C": re.compile(
-        r"ambient(_?(air|temp|temperature|t))*"
-        r"(_?(c|f|k|deg_?c|deg_?f|°c|°f|kelvin|celsius|fahrenheit))?_*"
-    ),
-    "spindle_rpm": re.compile(
-        r"spindle(_?(speed|n))?"
-        r"(_?(rpm|rps|hz|rad_?s|1/min|min-1|min\^-1|u/min|rev_?min|r_?min|rev_?s))?"
-        r"(_?(act|actual|meas|measured))?_*"
-    ),
-    "feed_mm_min": re.compile(
-        r"feed(_?rate)?(_?(mm|m|in|inch)_?(per_?|/)?(min|s|sec)|_?ipm|_?mmpm)?"
-        r"(_?(act|actual|meas|measured))?_*"
-    ),
-}
-_DRIVER_RULE = (
-    "the drivers are named exactly 'spindle_rpm' (rpm), 'feed_mm_min' (mm/min) "
-    "and 'ambient_C' (°C); convert its unit and rename it"
-)
 _SPACES = (
     "its header name has spaces around it; remove them (a CSV header written "
     "with a space after each comma)"
@@ -175,18 +154,6 @@ def driver_columns(df):
     return [c for c in _columns(df) if c in DRIVERS]
 
 
-def _driver_lookalike(name):
-    """The driver a column name writes with another unit or spelling
-    (``ambient_F``: ``"ambient_C"``), or None."""
-    if not isinstance(name, str) or name in DRIVERS:
-        return None
-    lower = name.lower()
-    return next(
-        (d for d, pattern in _DRIVER_LOOKALIKES.items() if pattern.fullmatch(lower)),
-        None,
-    )
-
-
 def _looks_like(name):
     """Which role a column that breaks the naming rules seems meant for.
 
@@ -206,9 +173,9 @@ def _looks_like(name):
     for known in _KNOWN:
         if lower == known.lower():
             return f"the column '{known}'", f"spell it exactly '{known}'"
-    driver = _driver_lookalike(name)
+    driver = driver_lookalike(name)
     if driver is not None:
-        return f"the driver '{driver}'", _DRIVER_RULE
+        return f"the driver '{driver}'", DRIVER_RULE
     last = lower.rsplit("_", 1)[-1] if "_" in lower else ""
     if lower.startswith("disp"):
         return "a displacement", _RULES["target"]
@@ -250,8 +217,8 @@ def check_column_names(columns, *, table="Run table", exempt=()):
         hit = None if name in exempt else _looks_like(name)
         if (
             hit is not None
-            and hit[1] == _DRIVER_RULE
-            and _driver_lookalike(name) in columns
+            and hit[1] == DRIVER_RULE
+            and driver_lookalike(name) in columns
         ):
             hit = None  # the driver is there: this one is another unit's extra
         if hit is not None:

@@ -74,7 +74,12 @@ from skthermal.gap._terms import (
     Signals,
     flexible_heldout,
 )
-from skthermal.utils._runs import check_labels, check_unique_columns, warn_short_runs
+from skthermal.utils._runs import (
+    check_labels,
+    check_unique_columns,
+    driver_lookalike_hint,
+    warn_short_runs,
+)
 from skthermal.utils._threads import with_single_threaded_blas
 from skthermal.utils._warnings import user_stacklevel
 
@@ -94,7 +99,7 @@ def _check_table(df, label):
         raise ValueError(
             f"The {label} run table has no {missing} column(s); both tables need "
             "run, time_s, spindle_rpm and ambient_C (and feed_mm_min if the axis "
-            "moved)."
+            "moved)" + driver_lookalike_hint(df.columns, missing) + "."
         )
 
 

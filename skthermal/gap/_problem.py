@@ -25,6 +25,7 @@ from skthermal.utils._runs import (
     MAX_MAGNITUDE,
     check_labels,
     check_unique_columns,
+    driver_lookalike_hint,
     is_clock_dtype,
     warn_short_runs,
 )
@@ -434,7 +435,9 @@ def build_problem(
             raise ValueError(
                 f"The measured runs have no {col!r} column; the diagnosis "
                 "simulates each run from its drivers (time_s, spindle_rpm, "
-                "ambient_C and, if present, feed_mm_min)."
+                "ambient_C and, if present, feed_mm_min)"
+                + driver_lookalike_hint(runs.columns, [col])
+                + "."
             )
     if runs.shape[0] == 0:
         raise ValueError(

@@ -598,6 +598,7 @@ def make_lag_pipeline(
     n_splits=4,
     dt=None,
     relative="auto",
+    driver_initial="steady",
 ):
     """The recommended dynamic compensation model, unfitted.
 
@@ -608,7 +609,7 @@ def make_lag_pipeline(
 
     Parameters
     ----------
-    time_constant_sets, drivers, alphas, n_splits, dt, relative
+    time_constant_sets, drivers, alphas, n_splits, dt, relative, driver_initial
         See :class:`LagRidgeCV`.
 
     Returns
@@ -628,4 +629,5 @@ def make_lag_pipeline(
         n_splits=n_splits,
         dt=dt,
         relative=relative,
+        driver_initial=driver_initial,
     )

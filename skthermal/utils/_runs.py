@@ -27,6 +27,58 @@ TIME_COLUMN = "time_s"
 # their magnitude (not readings: a model takes them as they are, not as
 # changes since the run start).
 POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
+
+# A driver written with another unit or spelling (ambient_F, spindle_rps,
+# feed_mm_s, feed_rate): every model and the simulator read the drivers by
+# their names, in these units. Other columns of the same stem (a spindle's
+# load in %, a feed override) are extras.
+DRIVER_LOOKALIKES = {
+    "ambient_C": re.compile(
+        r"ambient(_?(air|temp|temperature|t))*"
+        r"(_?(c|f|k|deg_?c|deg_?f|°c|°f|kelvin|celsius|fahrenheit))?_*"
+    ),
+    "spindle_rpm": re.compile(
+        r"spindle(_?(speed|n))?"
+        r"(_?(rpm|rps|hz|rad_?s|1/min|min-1|min\^-1|u/min|rev_?min|r_?min|rev_?s))?"
+        r"(_?(act|actual|meas|measured))?_*"
+    ),
+    "feed_mm_min": re.compile(
+        r"feed(_?rate)?(_?(mm|m|in|inch)_?(per_?|/)?(min|s|sec)|_?ipm|_?mmpm)?"
+        r"(_?(act|actual|meas|measured))?_*"
+    ),
+}
+DRIVER_RULE = (
+    "the drivers are named exactly 'spindle_rpm' (rpm), 'feed_mm_min' (mm/min) "
+    "and 'ambient_C' (°C); convert its unit and rename it"
+)
+
+
+def driver_lookalike(name):
+    """The driver a column name writes with another unit or spelling
+    (``ambient_F``: ``"ambient_C"``), or None."""
+    if not isinstance(name, str) or name in (*POWER_DRIVERS, "ambient_C"):
+        return None
+    lower = name.lower()
+    return next(
+        (d for d, pattern in DRIVER_LOOKALIKES.items() if pattern.fullmatch(lower)),
+        None,
+    )
+
+
+def driver_lookalike_hint(columns, missing):
+    """Text to add to an error about the ``missing`` drivers: the columns
+    that write one of them in another unit or spelling (``ambient_F``), and
+    the naming rule; empty when there is none."""
+    found = [
+        f"{c!r} looks like {d!r}"
+        for c in columns
+        if (d := driver_lookalike(c)) is not None and d in missing
+    ]
+    if not found:
+        return ""
+    return f" ({'; '.join(found)}: {DRIVER_RULE})"
+
+
 # The largest magnitude a feature or target value may have. No sensor reads
 # 1e100 in any unit: such a value is a broken sensor or a corrupt file. The
 # models square readings, multiply them and sum them over runs (least
@@ -1629,10 +1681,11 @@ def warn_unnamed_drivers(name, drivers, names, groups):
         return
     if names is not None:
         if not any(str(c) in POWER_DRIVERS for c in names):
+            hint = driver_lookalike_hint([str(c) for c in names], POWER_DRIVERS)
             warnings.warn(
                 f"{name}.fit: drivers='auto' found none of the drivers "
-                f"({', '.join(POWER_DRIVERS)}) among the columns of X, so the "
-                "features hold temperatures only, no heat input. split_runs "
+                f"({', '.join(POWER_DRIVERS)}) among the columns of X{hint}, so "
+                "the features hold temperatures only, no heat input. split_runs "
                 "keeps the sensor columns alone unless told: "
                 "split_runs(runs, sensors=[*sensor_columns(runs), "
                 "'spindle_rpm']). drivers=None says there are none (and "
