@@ -816,6 +816,9 @@ def test_auto_drivers_found_nowhere_warn():
     rps = X.rename(columns={"spindle_rpm": "spindle_rps"})
     with pytest.warns(UserWarning, match=r"'spindle_rps' looks like 'spindle_rpm'"):
         LagFeatures(time_constants=[60.0]).fit(rps)
+    # drivers=None with the speed in X: it goes in as a temperature, said.
+    with pytest.warns(UserWarning, match=r"drivers=None .* \['spindle_rpm'\] too"):
+        LagFeatures(time_constants=[60.0], drivers=None).fit(X)
 
 
 def test_exponential_filter_names_bad_rows_slices_state_and_periods():

@@ -1676,7 +1676,20 @@ def warn_unnamed_drivers(name, drivers, names, groups):
     them), or ``X`` has lost its column names and its run labels (``names``
     and ``groups`` None: a scikit-learn step in front that outputs numpy),
     so that every column is taken as a temperature. Plain arrays given with
-    their run labels are taken as meant."""
+    their run labels are taken as meant. With ``drivers=None``, a column
+    named as a driver is named: it is taken as a temperature."""
+    if drivers is None and names is not None:
+        found = [str(c) for c in names if str(c) in POWER_DRIVERS]
+        if found:
+            warnings.warn(
+                f"{name}.fit: drivers=None takes every column as a temperature, "
+                f"{found} too: their changes and filters enter as a "
+                "temperature's, not as heat. Give them as drivers "
+                "(drivers='auto'), or leave them out of X.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+        return
     if not isinstance(drivers, str):
         return
     if names is not None:
