@@ -811,7 +811,42 @@ class GapReport:
             fig.tight_layout()
             fig.savefig(folder / f"timeline_{name}.png", dpi=90)
             plt.close(fig)
+        # The figures show a displacement; where another channel misses most
+        # for its noise (a temperature, say), its worst run too.
+        extra = self._worst_other_channel()
+        if extra is not None:
+            run, channel = extra
+            name = _file_names(runs)[runs.index(run)]
+            fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+            self.plot_overlay(run, channel, ax=axes[0])
+            self.plot_timeline(run, channel, ax=axes[1])
+            fig.tight_layout()
+            stem = _file_names([channel])[0]
+            fig.savefig(folder / f"timeline_{name}_{stem}.png", dpi=90)
+            plt.close(fig)
         return folder
+
+    def _worst_other_channel(self):
+        """``(run, channel)`` of the channel of largest error for its noise
+        (after the base calibration where there is one) and its run of
+        largest error, when that channel is not what the figures show by
+        default; else None."""
+        chans = self.where["channels"]
+        by_run = self.where["channels_by_run"]
+        models = list(dict.fromkeys(chans["model"]))
+        model = "base calibrated" if "base calibrated" in models else models[0]
+        chans = chans[chans["model"] == model]
+        noise = chans["noise"].where(chans["noise"] > 0)
+        relative = (chans["rmse"] / noise).fillna(np.inf)
+        channel = chans.loc[relative.idxmax(), "channel"]
+        rows = by_run[(by_run["model"] == model) & (by_run["channel"] == channel)]
+        rows = rows[rows["run"].isin(list(self.timelines))]
+        if not len(rows):
+            return None
+        run = rows.loc[rows["rmse"].idxmax(), "run"]
+        if channel == self._default_channel(self.timelines[run]):
+            return None
+        return run, channel
 
 
 def jsonable(value):
