@@ -1277,6 +1277,12 @@ def test_readings_logged_in_steps_against_a_smooth_simulation_do_not_jump():
     assert list(zip(jumps["time_s"], jumps["channel"], strict=True)) == [
         (300 * 60.0, "disp_y_um")
     ]
+    # Four reading steps are a jump too (the floor is half a step).
+    y[300:, 1] -= 0.8
+    jumps = _where_of(sim - y, t, y)["jumps"]
+    assert list(zip(jumps["time_s"], jumps["channel"], strict=True)) == [
+        (300 * 60.0, "disp_y_um")
+    ]
 
 
 def test_where_bands_split_the_squared_gap_about_each_channels_mean():
