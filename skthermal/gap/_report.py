@@ -27,12 +27,18 @@ def _largest_jumps(jumps, table, file, limit=20):
     return out
 
 
+def _for_noise(channels):
+    """Each row's RMSE in multiples of its channel's noise (inf where the
+    noise is 0): the channels' errors, comparable across µm and °C."""
+    noise = channels["noise"].where(channels["noise"] > 0)
+    return (channels["rmse"] / noise).fillna(np.inf)
+
+
 def _largest_per_model(channels, table, file, limit=10):
     """The markdown ``table`` of each model's ``limit`` channels of largest
     error for their noise (displacements and temperatures alike), the
     models in their order, with a note of the rows left out."""
-    noise = channels["noise"].where(channels["noise"] > 0)
-    relative = (channels["rmse"] / noise).fillna(np.inf)
+    relative = _for_noise(channels)
     ordered = channels.loc[relative.sort_values(ascending=False, kind="stable").index]
     models = list(dict.fromkeys(channels["model"]))
     shown = pd.concat(
@@ -524,8 +530,7 @@ class GapReport:
             f"{len(runs)} runs {runs['gap'].median():.3g})"
         )
         chans = where["channels"]
-        noise = chans["noise"].where(chans["noise"] > 0)
-        relative = (chans["rmse"] / noise).fillna(np.inf)
+        relative = _for_noise(chans)
         c = chans.loc[relative.idxmax()]
         lines.append(
             f"channel {c['channel']}: rmse {c['rmse']:.3g} {_unit(c['channel'])}, "
@@ -838,8 +843,7 @@ class GapReport:
         models = list(dict.fromkeys(chans["model"]))
         model = "base calibrated" if "base calibrated" in models else models[0]
         chans = chans[chans["model"] == model]
-        noise = chans["noise"].where(chans["noise"] > 0)
-        relative = (chans["rmse"] / noise).fillna(np.inf)
+        relative = _for_noise(chans)
         channel = chans.loc[relative.idxmax(), "channel"]
         rows = by_run[(by_run["model"] == model) & (by_run["channel"] == channel)]
         rows = rows[rows["run"].isin(list(self.timelines))]
