@@ -885,6 +885,13 @@ def test_more_consequents_than_rows_warns_unless_a_ridge_fixes_them():
         warnings.simplefilter("error", UserWarning)
         clone(grid).set_params(ridge=1e-2).fit(X, y)
         clone(grid).fit(np.r_[X, X[:40] + 0.1], np.r_[y, y[:40]])  # 200 rows
+    # ridge="auto" is judged by the ridge it picks.
+    auto = clone(grid).set_params(ridge="auto", ridge_grid=(1e-8,))
+    with pytest.warns(UserWarning, match=r"ridge='auto' picked 1e-08 from ridge_gr"):
+        auto.fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        auto.set_params(ridge_grid=(1e-2,)).fit(X, y)
 
 
 @pytest.mark.parametrize(

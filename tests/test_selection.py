@@ -301,6 +301,16 @@ def test_constant_sensor_is_named(selector):
     X["Tb_C"] = 21.5 + np.where(np.arange(len(X)) % 3, 3e-15, 0.0)  # rounding
     with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
         clone(selector).fit(X, y, groups=groups)
+    # float32 readings rounded at their own precision (1 ulp at 21.5 is
+    # 1.9e-6): constant too, where a real float32 change is kept.
+    X["Tb_C"] = np.float32(21.5) + np.where(
+        np.arange(len(X)) % 3, np.float32(1.9073486e-06), np.float32(0.0)
+    ).astype(np.float32)
+    assert X["Tb_C"].dtype == np.float32 and X["Tb_C"].nunique() == 2
+    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
+        clone(selector).fit(X, y, groups=groups)
+    X["Tb_C"] = X["Tb_C"] + np.float32(0.01) * np.arange(len(X), dtype=np.float32)
+    clone(selector).fit(X, y, groups=groups)
 
 
 def test_constant_within_each_run_is_constant():

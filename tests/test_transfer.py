@@ -108,6 +108,54 @@ def test_a_time_constant_at_the_upper_bound_warns():
         TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=20).fit(X, y)
 
 
+def _duty_runs(n_runs=6, hours=4.0, dt=10.0, seed=1):
+    """Runs of random spindle duty with first-order lags and noise: the error
+    follows T1 (1200 s), the speed (600 s) and T2 (300 s)."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for r in range(n_runs):
+        t = np.arange(0.0, hours * 3600.0, dt)
+        one = [slice(0, t.size)]
+        edges = np.cumsum(rng.uniform(1800.0, 5400.0, 20))
+        block = np.searchsorted(edges, t)
+        speeds = rng.choice([2000.0, 4000.0, 6000.0, 8000.0], 20)
+        rpm = np.where(block % 2 == r % 2, speeds[block], 0.0)
+
+        def lag(u, tau, t=t, one=one):
+            return first_order_lags(u[:, None], np.array([tau]), [dt], one)[:, 0]
+
+        t1 = 21.0 + 0.8 * lag(rpm / 1000.0, 900.0)
+        t1 += 0.01 * rng.standard_normal(t.size)
+        t2 = 20.0 + 0.5 * np.sin(2 * np.pi * t / 20000.0 + r)
+        t2 += 0.01 * rng.standard_normal(t.size)
+        err = (
+            3.0 * lag(t1 - t1[0], 1200.0)
+            + 0.4 * lag(rpm / 1000.0, 600.0)
+            - lag(t2 - t2[0], 300.0)
+            + 0.02 * rng.standard_normal(t.size)
+        )
+        frames.append(
+            pd.DataFrame(
+                {"run": f"r{r}", "time_s": t, "T1_C": t1, "T2_C": t2},
+            ).assign(spindle_rpm=rpm, err=err)
+        )
+    df = pd.concat(frames).set_index(["run", "time_s"])
+    return df.drop(columns="err"), df["err"]
+
+
+def test_a_superfluous_slow_lag_with_no_gain_does_not_warn():
+    # First-order data fitted with order=2: an input's second lag has
+    # nothing to fit and ends at the upper bound with a gain near zero; it
+    # changes nothing, so it is not worth a word.
+    X, y = _duty_runs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model = TransferFunctionRegressor(speed_column="spindle_rpm", order=2).fit(X, y)
+    at_bound = model.time_constants_ >= 0.99 * 4 * 3600.0
+    assert at_bound.any()
+    assert np.all(np.abs(model.coef_[at_bound]) < 0.05)
+
+
 def test_time_from_index_matches_dt():
     X, y = _heating_runs()
     a = TransferFunctionRegressor(speed_column=2, max_iter=5).fit(X, y)

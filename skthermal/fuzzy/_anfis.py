@@ -154,19 +154,29 @@ def _warn_large_problem(n_rules, n_features, n_samples):
 _UNDERDETERMINED_RIDGE = 1e-3
 
 
-def _warn_underdetermined(n_rules, n_features, n_samples, ridge):
+def _warn_underdetermined(n_rules, n_features, n_samples, ridge, chosen=False):
     """Warn when the consequents have more unknowns than training rows and
-    no ridge worth the name fixes them."""
+    no ridge worth the name fixes them (``chosen``: the ridge is the one
+    ``ridge="auto"`` picked)."""
     columns = n_rules * (n_features + 1)
-    if columns <= n_samples or ridge == "auto" or ridge >= _UNDERDETERMINED_RIDGE:
+    if columns <= n_samples or ridge >= _UNDERDETERMINED_RIDGE:
         return
+    if chosen:
+        fix = (
+            f"ridge='auto' picked {ridge:g} from ridge_grid on a checking set "
+            "that cannot tell such fits apart: give a ridge_grid from "
+            f"{_UNDERDETERMINED_RIDGE:g}, or a ridge of "
+            f"{_UNDERDETERMINED_RIDGE:g} .. 1."
+        )
+    else:
+        fix = f"or a ridge of {_UNDERDETERMINED_RIDGE:g} .. 1 (or ridge='auto')."
     warnings.warn(
         f"ANFISRegressor: {n_rules} rules x {n_features + 1} consequents = "
         f"{columns} unknowns on {n_samples} training rows: more unknowns than "
         "rows, so the data do not fix the consequents (the fit then depends "
         "on the rows' order and on rounding, and extrapolates far). Use fewer "
         "membership functions (n_mfs) or inputs, init='fcm' with a few rules, "
-        f"or a ridge of {_UNDERDETERMINED_RIDGE:g} .. 1 (or ridge='auto').",
+        f"{fix}",
         UserWarning,
         stacklevel=4,
     )
@@ -660,9 +670,10 @@ default="fcm"
         X_train, Y_train = X_model[train_rows], Y_model[train_rows]
         mf_params, rules = self._initial_rule_base(X_train, rng)
         _warn_large_problem(rules.shape[0], X_train.shape[1], X_train.shape[0])
-        _warn_underdetermined(
-            rules.shape[0], X_train.shape[1], X_train.shape[0], self.ridge
-        )
+        if self.ridge != "auto":
+            _warn_underdetermined(
+                rules.shape[0], X_train.shape[1], X_train.shape[0], self.ridge
+            )
         _warn_input_scales(
             self.step_size, X_train, self._feature_names(), grey=self.grey
         )
@@ -681,6 +692,9 @@ default="fcm"
                 rules,
                 checking,
                 rng,
+            )
+            _warn_underdetermined(
+                rules.shape[0], X_train.shape[1], X_train.shape[0], ridge, True
             )
 
         if result is None or self.epoch_callback is not None:

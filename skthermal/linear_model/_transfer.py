@@ -57,6 +57,12 @@ _DT_RTOL = 0.01
 # two lags is such a sum (partial fractions), and one of two nearly equal
 # lags is matched closely by a pair this far apart.
 MIN_TAU_RATIO = 2.0
+# Least reach of a lag at the upper bound of tau_bounds that fit warns
+# about, as a share of the output's range over the training rows (reach:
+# the gain times the range of the lag's input, where a slow lag ends if its
+# input holds): below it, a slow lag with a gain near zero (the superfluous
+# second lag of order=2 often ends there) changes nothing.
+_BOUND_SHARE = 0.05
 # Values held at once by the grid search's lags (a block of rows of all of
 # them, see _grid_moments): 32 MB.
 _GRID_BLOCK = 2**22
@@ -1166,7 +1172,9 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
             np.array(part) for part in zip(*fits, strict=True)
         )
         self.n_iter_ = int(n_iter.max())
-        self._warn_at_bounds(taus, bounds, tau_bounds_given=self.tau_bounds is not None)
+        self._warn_at_bounds(
+            taus, coefs, Ut, Y, bounds, tau_bounds_given=self.tau_bounds is not None
+        )
         if y.ndim == 1:
             taus, coefs, intercepts = taus[0], coefs[0], float(intercepts[0])
         self.time_constants_ = taus
@@ -1181,15 +1189,26 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         self.run_states_ = memory
         return self
 
-    def _warn_at_bounds(self, taus, bounds, tau_bounds_given):
+    def _warn_at_bounds(self, taus, coefs, Ut, Y, bounds, tau_bounds_given):
         """Warn naming the inputs whose time constant ends at the upper bound
-        of ``tau_bounds`` (within 1%): the data did not fix it there, and its
-        gain extrapolates (an independent check found slow sensors at the
-        upper bound, the training span, with gains of -21 and -130 µm/K and
-        a held-out error growing through the test part). A lag at the lower
-        bound is an input that acts at once: nothing to say."""
+        of ``tau_bounds`` (within 1%) with a lag that matters: the data did
+        not fix it there, and its gain extrapolates (an independent check
+        found slow sensors at the upper bound, the training span, with gains
+        of -21 and -130 µm/K and a held-out error growing through the test
+        part). A lag matters when its reach, its gain times the range of its
+        input over the training rows (where the lag ends if the input
+        holds), is at least :data:`_BOUND_SHARE` of the output's range: with
+        ``order=2`` a superfluous second lag often ends at the bound with a
+        gain near zero, and says nothing. A lag at the lower bound is an
+        input that acts at once: nothing to say."""
         hi = bounds[1]
-        at_hi = (taus >= hi / 1.01).reshape(-1, *taus.shape[-2:]).any(axis=(0, 2))
+        taus = taus.reshape(Y.shape[1], -1)
+        coefs = coefs.reshape(Y.shape[1], -1)
+        inputs = np.arange(taus.shape[1]) // self.order
+        reach = np.abs(coefs) * np.ptp(Ut, axis=1)[inputs]
+        matters = reach > _BOUND_SHARE * np.ptp(Y, axis=0)[:, None]
+        at_hi = np.zeros(Ut.shape[0], dtype=bool)
+        at_hi[inputs[((taus >= hi / 1.01) & matters).any(axis=0)]] = True
         if not at_hi.any():
             return
         names = getattr(self, "feature_names_in_", None)

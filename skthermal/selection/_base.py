@@ -39,11 +39,32 @@ from skthermal.utils._warnings import user_stacklevel
 _ROUNDING_SHARE = 1e-12
 
 
-def _unchanging(A, slices):
+def _rounding_share(A):
+    """Relative rounding of the values of ``A`` as given, before conversion
+    to float64: :data:`_ROUNDING_SHARE`, or a few steps of the machine
+    precision of its least precise float type (float32 rounds at 6e-8
+    relative, so float32 readings constant up to rounding vary by ~1e-7)."""
+    if hasattr(A, "columns"):  # a DataFrame: one dtype per column
+        dtypes = list(A.dtypes)
+    else:
+        dtypes = [getattr(A, "dtype", None)]
+    share = _ROUNDING_SHARE
+    for d in dtypes:
+        try:  # pandas' nullable dtypes carry their numpy dtype
+            d = np.dtype(getattr(d, "numpy_dtype", d))
+        except TypeError:
+            continue
+        if d.kind == "f":
+            share = max(share, 8.0 * float(np.finfo(d).eps))
+    return share
+
+
+def _unchanging(A, slices, share=_ROUNDING_SHARE):
     """Whether each column of ``A`` is constant within every run, up to the
-    rounding of its values (:data:`_ROUNDING_SHARE`)."""
+    rounding of its values (``share`` of their largest magnitude,
+    :func:`_rounding_share`)."""
     change = np.abs(changes_since_start(A, slices)).max(axis=0)
-    return change <= _ROUNDING_SHARE * np.abs(A).max(axis=0)
+    return change <= share * np.abs(A).max(axis=0)
 
 
 def _feature_label(estimator, j):
@@ -96,6 +117,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             check_finite_target(y, X, groups)
         rows = X  # its run and time_s, for messages
         names = target_names(y)
+        shares = (_rounding_share(X), _rounding_share(y))
         X, y = validate_data(
             self,
             X,
@@ -108,7 +130,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         )
         Y = np.asarray(y, dtype=float).reshape(X.shape[0], -1)
         slices, labels = run_slices(groups, X.shape[0])
-        self._check_runs(X, Y, slices, labels, rows, groups, names)
+        self._check_runs(X, Y, slices, labels, rows, groups, names, shares)
         self._fit_runs(X, Y, groups, slices)
         return self
 
@@ -138,12 +160,22 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             f"{describe_row(row, rows, groups)}{role}. {hint}"
         )
 
-    def _check_runs(self, X, Y, slices, labels, rows=None, groups=None, names=None):
+    def _check_runs(
+        self,
+        X,
+        Y,
+        slices,
+        labels,
+        rows=None,
+        groups=None,
+        names=None,
+        shares=(_ROUNDING_SHARE, _ROUNDING_SHARE),
+    ):
         for name, A in (("X", X), ("y", Y)):
             hint = "Impute or drop the samples before fitting."
             self._check_finite(name, A, rows, groups, hint)
         check_run_lengths(slices, labels, "measuring a change")
-        flat = _unchanging(Y, slices)
+        flat = _unchanging(Y, slices, shares[1])
         if flat.any():
             k = int(np.argmax(flat))
             target = f"{names[k]!r}" if names else str(k)
@@ -153,7 +185,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
                 f"with it is undefined). {type(self).__name__} needs a varying "
                 "thermal error."
             )
-        constant = _unchanging(X, slices)
+        constant = _unchanging(X, slices, shares[0])
         if constant.any():
             j = int(np.flatnonzero(constant)[0])
             label = _feature_label(self, j)
