@@ -284,6 +284,7 @@ def test_without_drivers_the_driver_columns_are_left_out():
         np.testing.assert_allclose(
             model.cv_results_["sse"][1], alone.cv_results_["sse"][0]
         )
+        assert alone.cv_results_["use_drivers"] == [False]
         # With the drivers: their filters and the terms unfiltered, two
         # powers each.
         assert model.use_drivers_
@@ -489,9 +490,18 @@ def test_cv_uses_training_rows_only():
     np.testing.assert_allclose(_ridge_path_sse(F, y, folds, alphas), expected)
     # fit's CV scores come from the rows given to fit, in the same folds
     m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)], alphas=alphas, dt=1.0).fit(T, y)
-    np.testing.assert_allclose(m1.cv_results_["sse"][1], expected)
+    # one entry per (candidate, penalty): a table, the candidates in order
+    np.testing.assert_allclose(m1.cv_results_["sse"][2:], expected)
+    table = pd.DataFrame(m1.cv_results_)
+    assert table.shape[0] == 4
+    np.testing.assert_array_equal(table["alpha"], np.tile(alphas, 2))
+    assert list(table["time_constants"]) == [(), (), (5.0,), (5.0,)]
+    n_scored = sum(va.size for _, va in folds)
+    np.testing.assert_allclose(table["mse"], table["sse"] / n_scored)
+    assert table["rank_sse"].min() == 1 and sorted(table["rank_sse"]) == [1, 2, 3, 4]
+    assert m1.best_score_ == table["mse"][m1.best_index_] == table["mse"].min()
     m1 = LagRidgeCV(time_constant_sets=[(), (5.0,)], dt=1.0).fit(T[:200], y[:200])
-    assert m1.cv_results_["sse"].shape == (2, 15)
+    assert m1.cv_results_["sse"].shape == (2 * 15,)
     assert np.isfinite(m1.predict(T)).all()
 
 

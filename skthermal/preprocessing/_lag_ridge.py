@@ -4,6 +4,7 @@ import warnings
 from numbers import Integral, Real
 
 import numpy as np
+from scipy.stats import rankdata
 from sklearn.base import BaseEstimator, RegressorMixin, _fit_context
 from sklearn.linear_model import Ridge
 from sklearn.preprocessing import StandardScaler
@@ -155,6 +156,23 @@ def _quiet_inner_lag_features():
         warnings.filterwarnings("ignore", message=message)
 
 
+def _flat_results(results, alphas, n_scored):
+    """``cv_results_`` with one entry per (candidate, penalty), from the
+    candidates' lists and their ``sse`` rows over ``alphas``."""
+    n_alphas = alphas.size
+    sse = np.asarray(results["sse"], dtype=float).reshape(-1)
+    flat = {
+        key: [v for v in results[key] for _ in range(n_alphas)]
+        for key in ("time_constants", "use_drivers", "relative")
+    }
+    flat["alpha"] = np.tile(alphas, len(results["time_constants"]))
+    flat["sse"] = sse
+    flat["mse"] = sse / n_scored if n_scored else np.full(sse.size, np.nan)
+    # Ties share the best rank, as scikit-learn's search results rank them.
+    flat["rank_sse"] = rankdata(sse, method="min").astype(int)
+    return flat
+
+
 class LagRidgeCV(RegressorMixin, BaseEstimator):
     """Standardised ridge regression on :class:`LagFeatures`, tuned by time CV.
 
@@ -226,10 +244,17 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         powers, as :class:`LagFeatures` makes them).
     alpha_ : float
         Chosen ridge penalty.
-    cv_results_ : dict
-        ``"time_constants"``, ``"use_drivers"``, ``"relative"`` (one per
-        candidate) and
-        ``"sse"`` of shape (n_candidates, n_alphas).
+    cv_results_ : dict of lists and ndarrays
+        One entry per setting tried (every candidate with every penalty, the
+        candidates in order, the penalties of each in the order of
+        ``alphas``), so that ``pandas.DataFrame(cv_results_)`` is a table:
+        ``"time_constants"`` (tuple), ``"use_drivers"``, ``"relative"``,
+        ``"alpha"``, ``"sse"`` (total squared validation error over the
+        folds), ``"mse"`` (``sse`` over the validation rows) and
+        ``"rank_sse"`` (1 for the least).
+    best_index_ : int
+        Row of ``cv_results_`` of the chosen settings (with
+        ``selection="1se"`` not always the least ``sse``).
     best_score_ : float
         Mean squared validation error of the chosen settings.
     lag_features_ : LagFeatures
@@ -523,11 +548,11 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         F = None
         if not kept:
             raise ValueError("No candidate setting produced any feature.")
-        results["sse"] = np.asarray(results["sse"])
-        self.cv_results_ = results
         c, j = self._select(np.asarray(fold_sse), folds, np.asarray(n_feat), alphas)
         n_scored = sum(va.size for _, va in folds)
-        score = results["sse"][c, j]
+        self.cv_results_ = _flat_results(results, alphas, n_scored)
+        self.best_index_ = int(c * alphas.size + j)
+        score = self.cv_results_["sse"][self.best_index_]
         self.best_score_ = float(score / n_scored) if n_scored else float("nan")
         (taus, use, rel), self.alpha_ = kept[c], float(alphas[j])
         self.time_constants_ = taus
