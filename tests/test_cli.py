@@ -639,6 +639,12 @@ def test_search_shows_no_password(capsys, workdir):
     assert status == 2
     assert "alice:***@db.invalid" in text + err
     assert "S3cr3t" not in text + err
+    # A password given as a query parameter, as libpq reads it.
+    url = "postgresql://alice@db.invalid/optuna?sslmode=off&password=S3cr3t&x=1"
+    status, text, err = _run(capsys, *argv, "--trials", "1", "--storage", url)
+    assert status == 2
+    assert "password=***&x=1" in text + err
+    assert "S3cr3t" not in text + err
 
 
 def test_search_and_guard_ignore_each_runs_starting_offset(capsys, workdir, tmp_path):
@@ -683,8 +689,8 @@ class _FakeGapReport:
     def verdict(self):
         return "tool_growth explains the gap"
 
-    def where_summary(self, model="as given"):
-        return f"Where ({model}):\n  run 'A': gap 0.1 [norm.]"
+    def where_summary(self, model=None):
+        return f"Where ({model or 'default'}):\n  run 'A': gap 0.1 [norm.]"
 
     def save(self, folder):
         Path(folder).mkdir(parents=True, exist_ok=True)

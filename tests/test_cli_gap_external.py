@@ -222,8 +222,8 @@ class _FakeReport:
     def verdict(self):
         return "No candidate effect explains the gap beyond noise (...)."
 
-    def where_summary(self, model="as given"):
-        return f"Where ({model}):\n  run 'A': gap 0.1 [norm.]"
+    def where_summary(self, model=None):
+        return f"Where ({model or 'default'}):\n  run 'A': gap 0.1 [norm.]"
 
 
 def test_gap_labels_the_screening_and_prints_how_far(tables, capsys, monkeypatch):

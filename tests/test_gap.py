@@ -857,6 +857,10 @@ def test_report_files_and_plots_with_awkward_run_labels(rig_runs, tmp_path):
     assert runs_shown <= set(names)
     run, channel = report._worst_other_channel()
     assert not channel.startswith("disp_")
+    # The channel the summary names by default (after the base calibration
+    # in this mode).
+    assert report.where_summary() == report.where_summary("base calibrated")
+    assert f"channel {channel}:" in report.where_summary()
     extra = set(names) - runs_shown
     assert len(extra) == 1 and extra.pop().endswith(f"_{channel}.png")
     assert not (tmp_path / "out" / "x.png").exists()

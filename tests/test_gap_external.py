@@ -284,6 +284,13 @@ def test_different_drivers_are_named(pair):
     sim2 = pair[0].assign(feed_mm_min=1000.0)
     with pytest.raises(ValueError, match="feed_mm_min.*absent from one table"):
         diagnose_runs(sim2, meas)
+    # A simulated table that writes it otherwise: named (a measured one is
+    # refused for it up front).
+    sim3 = pair[0].assign(feed_mm_s=1000.0 / 60.0)
+    with pytest.raises(
+        ValueError, match=r"table: 0\) \('feed_mm_s' looks like 'feed_mm_min'"
+    ):
+        diagnose_runs(sim3, meas.assign(feed_mm_min=1000.0))
 
 
 def test_missing_runs_and_columns_are_named(pair):
@@ -883,6 +890,34 @@ def test_where_names_a_planted_jump_in_one_run_and_channel(rng):
     assert "jump [µm or °C]" in text and "1.45e+04" not in text
     with pytest.raises(ValueError, match="Unknown model 'calibrated'"):
         report.where_summary("calibrated")
+
+
+def test_save_draws_the_channel_the_summary_names(rng, tmp_path):
+    # A temperature that rises 60% more than simulated: the summary (as
+    # given, the run-table mode's default) names it, and save() draws that
+    # channel, not the worst one after the base calibration (which absorbs
+    # a gain, leaving a channel at its noise). Nothing missing beyond noise:
+    # no extra figure.
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    sim, _ = _tables(rng, "null", n_runs=3, hours=4.0)
+    cols = ["T1_C", "T2_C", "disp_z_um"]
+    noise = 0.01 * rng.standard_normal((len(sim), 3)) * [1, 1, 10]
+    meas = sim.copy()
+    meas[cols] += noise
+    null = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    assert null.where_model == "as given"
+    names = [p.name for p in null.save(tmp_path / "null").glob("timeline_*")]
+    assert len(names) == 3, names  # one per run
+    meas["T2_C"] += 0.6 * (sim["T2_C"] - sim["ambient_C"])
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    assert "channel T2_C:" in report.where_summary()
+    assert report.where_summary() == report.where_summary("as given")
+    names = [p.name for p in report.save(tmp_path / "gain").glob("timeline_*")]
+    extra = [n for n in names if n.count("_") > 1 and n.endswith("_T2_C.png")]
+    assert len(names) == 4 and len(extra) == 1, names
 
 
 def test_report_text_rounds_as_it_says(rng):

@@ -177,6 +177,19 @@ def test_bad_objective_output():
         particle_swarm(lambda P: np.sqrt(P[:, 0] - 2 + 0j), [(-1, 1)], epochs=2)
     with pytest.raises(ValueError, match="real numbers"):
         particle_swarm(lambda P: np.array(["a"] * len(P)), [(-1, 1)], epochs=2)
+    # Text that reads as a number is still text, and None is no cost (it
+    # became NaN, blamed on the bounds as a non-finite cost).
+    with pytest.raises(ValueError, match=r"real numbers.*got text \(<U"):
+        particle_swarm(lambda P: [str(v) for v in P[:, 0]], [(-1, 1)])
+    with pytest.raises(ValueError, match=r"real numbers.*got NoneType"):
+        particle_swarm(lambda P: np.array([None] * len(P)), [(-1, 1)], epochs=2)
+    with pytest.raises(ValueError, match=r"real numbers.*got str"):
+        particle_swarm(lambda P: np.array([0.0, "1"] * 10, dtype=object), [(-1, 1)])
+    # Numbers in an object array, or integers, are costs.
+    res = particle_swarm(
+        lambda P: np.array(list(np.abs(P[:, 0])), dtype=object), [(-1, 1)]
+    )
+    assert res.fun < 0.1
 
 
 @pytest.mark.parametrize(

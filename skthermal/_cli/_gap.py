@@ -362,7 +362,7 @@ def cmd_gap(args):
     except ValueError as exc:
         raise _library_error(exc) from exc
     print(report.verdict())
-    print(report.where_summary("base calibrated"))
+    print(report.where_summary())
     overall = _how_far_overall(report)
     if overall is not None:
         print("How far (fine calibration of the spindle head), overall:")

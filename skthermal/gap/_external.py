@@ -265,7 +265,12 @@ def _align(
             off = np.flatnonzero(wrong & inside)
             if off.size:
                 k = int(off[0])
-                where = "" if in_m and in_s else " (absent from one table: 0)"
+                where = ""
+                if not (in_m and in_s):
+                    lacking = sim if in_m else meas
+                    where = " (absent from one table: 0)" + driver_lookalike_hint(
+                        lacking.columns, [col]
+                    )
                 row = f"row {k} of the run" if same else f"simulated row {k} of the run"
                 raise ValueError(
                     f"The drivers differ: {col} in run {name!r} at {row} "
@@ -551,6 +556,9 @@ class ExternalGapReport(GapReport):
     ``explainable`` is as in :class:`GapReport`; here the flexible model
     corrects the external simulation itself.
     """
+
+    # The user's own simulation: the where answer is about it as given.
+    where_model = "as given"
 
     def _verdict(self):
         row = self.how_far_evidence

@@ -27,6 +27,11 @@ def _largest_jumps(jumps, table, file, limit=20):
     return out
 
 
+# Least error, in multiples of its noise, of a channel that save() draws
+# beside the displacements: one at its noise level misses nothing.
+_FIGURE_NOISE = 2.0
+
+
 def _for_noise(channels):
     """Each row's RMSE in multiples of its channel's noise (inf where the
     noise is 0): the channels' errors, comparable across µm and °C."""
@@ -284,6 +289,11 @@ class GapReport:
     Kolmogorov-Smirnov band; ``white_after``).
     """
 
+    # The where-tables' model that where_summary and save's extra figure
+    # read by default (not a field): a preset as given is off everywhere,
+    # so the ThermalMachine mode answers after its base calibration.
+    where_model = "base calibrated"
+
     ranking: pd.DataFrame
     best_effect: str | None
     where: dict
@@ -501,23 +511,29 @@ class GapReport:
             Path(path).write_text(text)
         return text
 
-    def where_summary(self, model="as given"):
+    def where_summary(self, model=None):
         """Where the simulation misses most, in a few lines of text.
 
-        From :attr:`where`, for ``model`` (``"as given"``, or ``"base
-        calibrated"`` in the ThermalMachine mode): the run of largest gap,
-        the channel of largest error for its noise, the regime whose share
-        of the squared gap most exceeds its share of time, and the largest
-        jumps. The tables hold the rest.
+        From :attr:`where`, for ``model`` (``"as given"`` or ``"base
+        calibrated"``): the run of largest gap, the channel of largest error
+        for its noise, the regime whose share of the squared gap most
+        exceeds its share of time, and the largest jumps. The tables hold
+        the rest.
 
         Parameters
         ----------
-        model : str, default="as given"
+        model : str, optional
+            Default: ``"base calibrated"`` in the ThermalMachine mode
+            (:func:`diagnose`; a preset as given is off everywhere),
+            ``"as given"`` in the run-table mode (:func:`diagnose_runs`;
+            the user's own simulation). The figure :meth:`save` adds reads
+            the same model.
 
         Returns
         -------
         str
         """
+        model = self.where_model if model is None else model
         where = {k: v[v["model"] == model] for k, v in self.where.items()}
         if not len(where["runs"]):
             models = sorted(set(self.where["runs"]["model"]))
@@ -835,15 +851,18 @@ class GapReport:
 
     def _worst_other_channel(self):
         """``(run, channel)`` of the channel of largest error for its noise
-        (after the base calibration where there is one) and its run of
+        in the tables :meth:`where_summary` reads by default, and its run of
         largest error, when that channel is not what the figures show by
-        default; else None."""
+        default and misses by more than :data:`_FIGURE_NOISE` times its
+        noise; else None."""
         chans = self.where["channels"]
         by_run = self.where["channels_by_run"]
         models = list(dict.fromkeys(chans["model"]))
-        model = "base calibrated" if "base calibrated" in models else models[0]
+        model = self.where_model if self.where_model in models else models[0]
         chans = chans[chans["model"] == model]
         relative = _for_noise(chans)
+        if not relative.max() > _FIGURE_NOISE:
+            return None
         channel = chans.loc[relative.idxmax(), "channel"]
         rows = by_run[(by_run["model"] == model) & (by_run["channel"] == channel)]
         rows = rows[rows["run"].isin(list(self.timelines))]

@@ -322,8 +322,11 @@ def _raised_in(exc, package):
 def safe_url(url):
     """``url`` without its password, for messages: everything between the
     user name's ``:`` and the last ``@`` (a password holding an unencoded
-    ``@`` or ``:`` is hidden whole)."""
-    return re.sub(r"^([A-Za-z0-9+.-]+://[^:/@]*):.*@", r"\1:***@", url)
+    ``@`` or ``:`` is hidden whole), and the value of a ``password`` (or
+    ``sslpassword``) query parameter, which libpq and SQLAlchemy also
+    read."""
+    url = re.sub(r"^([A-Za-z0-9+.-]+://[^:/@]*):.*@", r"\1:***@", url)
+    return re.sub(r"([?&](?:ssl)?password=)[^&#]*", r"\1***", url, flags=re.IGNORECASE)
 
 
 # --------------------------------------------------------------------------

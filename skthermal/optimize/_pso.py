@@ -88,13 +88,27 @@ def _evaluate(fun, P, n_particles):
             "square root or power of a negative value, or an FFT, left "
             "unreduced?)."
         )
-    try:
-        costs = costs.astype(float)
-    except (TypeError, ValueError) as exc:
+    # Numbers only: numpy would read text ("1.0") as a number, and None as
+    # NaN, which the swarm takes for a failed evaluation.
+    odd = None
+    if costs.dtype.kind == "O":
+        odd = next(
+            (
+                type(c).__name__
+                for c in costs.ravel()
+                if not isinstance(c, numbers.Real)
+            ),
+            None,
+        )
+    elif costs.dtype.kind in "US":
+        odd = f"text ({costs.dtype} values)"
+    elif costs.dtype.kind not in "biuf":
+        odd = f"{costs.dtype} values"
+    if odd is not None:
         raise ValueError(
-            f"fun must return real numbers, one cost per particle; got "
-            f"{costs.dtype} values."
-        ) from exc
+            f"fun must return real numbers, one cost per particle; got {odd}."
+        )
+    costs = costs.astype(float)
     if costs.shape != (n_particles,):
         raise ValueError(
             "fun must return one cost per particle, an array of shape "

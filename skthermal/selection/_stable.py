@@ -230,6 +230,19 @@ class StableTSPSelector(ScoreSelector):
         slices, _ = run_slices(groups, X.shape[0])
         Xc = changes_since_start(X, slices)
         Yc = changes_since_start(Y, slices)
+        spread = np.ptp(Yc, axis=0)
+        if np.any(self.displacement_uncertainty > spread):
+            k = int(np.argmax(self.displacement_uncertainty > spread))
+            warnings.warn(
+                f"StableTSPSelector: displacement_uncertainty="
+                f"{self.displacement_uncertainty:g} is larger than the whole "
+                f"range of the thermal error of target {k} ({spread[k]:.3g}): "
+                "every correlation is then within its uncertainty and the "
+                "scores do not tell the sensors apart. Give the uncertainty "
+                "in the unit of y.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
         known = self.temperature_uncertainty
         out = [
             uncertainty_correlation(
