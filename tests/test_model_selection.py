@@ -830,7 +830,7 @@ def test_a_study_of_another_space_is_refused_before_any_trial(runs_data, tmp_pat
         search_space("anfis", init="fcm", n_clusters=2, epochs=9),
         search_space("anfis", init="grid", n_mfs=2, epochs=(3, 5)),
     ):
-        with pytest.raises(ValueError, match=r"\(space \"search_space\('anfis', "):
+        with pytest.raises(ValueError, match=r"\(search space ranges: ranges\.(ep|in)"):
             search(other)
     study = optuna.load_study(study_name="s", storage=make_storage(storage))
     assert len(study.trials) == 1
@@ -855,6 +855,102 @@ def test_a_changed_space_callable_is_refused_before_any_trial(runs_data, tmp_pat
         _grey_search(X, y, groups, storage, space=make("lag"))
     study = optuna.load_study(study_name="s", storage=make_storage(storage))
     assert len(study.trials) == 1
+
+
+def test_a_study_records_every_range_and_the_version(runs_data, tmp_path, monkeypatch):
+    # The space's text lists only what differs from the installed defaults:
+    # a later version with other default ranges joined a study of the old
+    # ones silently, and refused one whose explicit ranges are its defaults.
+    from skthermal.model_selection import _spaces
+
+    X, y, groups = runs_data
+    storage = tmp_path / "ranges.db"
+
+    def search(**ranges):
+        return _grey_search(
+            X, y, groups, storage, space=search_space("grey_pso", **ranges)
+        )
+
+    first = search(calibration="ls")
+    attrs = first.study.user_attrs
+    assert attrs["skthermal_space_ranges"]["ranges"]["alpha"] == [1e-6, 100.0]
+    assert attrs["skthermal_version"]
+    defaults = dict(_spaces._REGISTRY["grey_pso"][1], alpha=(1e-3, 1e4))
+    registry = dict(
+        _spaces._REGISTRY,
+        grey_pso=(*_spaces._REGISTRY["grey_pso"][:1], defaults, "GreyPSORegressor"),
+    )
+    monkeypatch.setattr(_spaces, "_REGISTRY", registry)
+    with pytest.raises(ValueError, match=r"search space ranges: ranges.alpha \[1e-06"):
+        search(calibration="ls")
+    # The old ranges given explicitly are the study's.
+    assert len(search(calibration="ls", alpha=(1e-6, 100.0)).study.trials) == 2
+
+
+def test_a_study_of_another_space_is_refused_in_plain_words(runs_data, tmp_path):
+    # A study searched outside run_search with other parameter names: the
+    # refusal ended on Optuna's advice about its FixedTrial, and the refused
+    # search had already written its records into the study.
+    X, y, groups = runs_data
+    storage = tmp_path / "foreign.db"
+    study = optuna.create_study(
+        study_name="s", storage=make_storage(storage), direction="maximize"
+    )
+    study.optimize(lambda t: -t.suggest_float("ridge", 0.1, 1.0), n_trials=1)
+    with (
+        pytest.warns(UserWarning, match="does not record"),
+        pytest.raises(ValueError, match=r"searched with another space") as info,
+    ):
+        _grey_search(X, y, groups, storage)
+    assert "FixedTrial" not in str(info.value)
+    stored = optuna.load_study(study_name="s", storage=make_storage(storage))
+    assert not [k for k in stored.user_attrs if k.startswith("skthermal_")]
+
+
+def test_groups_that_cut_the_runs_of_x_warn(runs_data):
+    # groups= splitting a run of X's own run index: folds over the groups
+    # trained and scored on one run without a word.
+    from sklearn.linear_model import Ridge
+
+    X, y, groups = runs_data
+    cut = np.where(
+        (groups == groups[0]) & (np.arange(len(groups)) % 50 >= 25),
+        "cut",
+        groups.astype(object),
+    )
+    with pytest.warns(UserWarning, match=r"groups cuts run .* into 2 groups"):
+        run_search(
+            Ridge(),
+            X,
+            y,
+            groups=cut,
+            space=lambda t: {"alpha": t.suggest_float("alpha", 0.1, 1.0)},
+            n_trials=1,
+            refit=False,
+        )
+
+
+def test_heartbeat_interval_without_heartbeats_warns(tmp_path):
+    with pytest.warns(UserWarning, match="heartbeat_interval ignored: a journal"):
+        make_storage(tmp_path / "s.log", heartbeat_interval=5)
+    with pytest.warns(UserWarning, match="heartbeat_interval ignored: a study in"):
+        make_storage(None, heartbeat_interval=5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        make_storage(tmp_path / "t.log")
+        make_storage(None)
+
+
+def test_a_space_of_another_estimator_is_named():
+    with pytest.raises(ValueError, match=r"built-in space of GreyPSORegressor is 'gr"):
+        run_search(
+            GreyPSORegressor(),
+            np.zeros((4, 2)),
+            np.zeros(4),
+            groups=[0, 0, 1, 1],
+            space="anfis",
+            n_trials=1,
+        )
 
 
 def test_a_space_shows_its_overrides():
@@ -883,7 +979,8 @@ def test_a_study_of_an_older_skthermal_is_joined_with_a_warning(runs_data, tmp_p
     study.enqueue_trial({"delay": 0})
     study.optimize(lambda trial: -float(trial.suggest_int("delay", 0, 1)), n_trials=1)
     with pytest.warns(
-        UserWarning, match="does not record their settings, space, features, cv, data"
+        UserWarning,
+        match="does not record their settings, space, space_ranges, features, cv, d",
     ):
         result = _grey_search(X, y, groups, storage)
     assert len(result.study.trials) == 2
@@ -1213,6 +1310,9 @@ def test_a_dead_local_worker_s_trial_is_retried(tmp_path):
     assert fail_stale_trials(study, heartbeat=False, storage=store) == [trial.number]
     states = [t.state for t in study.get_trials()]
     assert states == [FAIL, optuna.trial.TrialState.WAITING]
+    # The failed trial says why, as a trial whose model failed does.
+    error = study.get_trials()[0].user_attrs["error"]
+    assert f"its worker (process {gone.pid} on" in error and "stopped" in error
     assert study.get_trials()[1].params == study.get_trials()[0].params
 
 

@@ -698,11 +698,11 @@ def cmd_search(args):
         )
     trials = result.trials_dataframe()
     done = int((trials["state"] == "COMPLETE").sum()) if len(trials) else 0
-    errors = [
-        t.user_attrs["error"] for t in result.study.trials if "error" in t.user_attrs
-    ]
-    if errors:
-        print(f"{len(errors)} trial(s) failed; the first: {errors[0]}")
+    failed = [t for t in result.study.trials if t.state.name == "FAIL"]
+    errors = [t.user_attrs["error"] for t in failed if "error" in t.user_attrs]
+    if failed:
+        first = errors[0] if errors else "no error recorded (its worker stopped)"
+        print(f"{len(failed)} trial(s) failed; the first: {first}")
     if result.best_params_ is None:
         raise UserError(no_best_trial(result.study))
     best = {k.removeprefix("estimator__"): v for k, v in result.best_params_.items()}

@@ -23,6 +23,7 @@ import warnings
 from collections.abc import Mapping
 
 import numpy as np
+import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import Pipeline
@@ -37,6 +38,7 @@ from sklearn.utils._param_validation import (
 
 from skthermal._naming import plain, qualified_name
 from skthermal._optional import import_optional
+from skthermal._versions import package_versions
 from skthermal.metrics import get_scorer
 from skthermal.model_selection._spaces import (
     PrefixedSpace,
@@ -44,6 +46,7 @@ from skthermal.model_selection._spaces import (
     combine_spaces,
     describe_space,
     search_space,
+    space_ranges,
     space_values,
 )
 from skthermal.utils._runs import with_run_index
@@ -152,7 +155,15 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
     True
     """
     optuna = _import_optuna()
-    if spec is None or isinstance(spec, optuna.storages.BaseStorage):
+    if spec is None:
+        _check_no_heartbeat_options(
+            "a study in memory has no heartbeats",
+            grace_period,
+            max_retry,
+            heartbeat_interval,
+        )
+        return spec
+    if isinstance(spec, optuna.storages.BaseStorage):
         return spec
     if not isinstance(spec, str | os.PathLike):
         raise TypeError(
@@ -170,7 +181,10 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
             )
         if lower.endswith(_JOURNAL_SUFFIXES):
             _check_no_heartbeat_options(
-                "a journal file has no heartbeats", grace_period, max_retry
+                "a journal file has no heartbeats",
+                grace_period,
+                max_retry,
+                heartbeat_interval,
             )
             return _journal_storage(optuna, text)
         if not lower.endswith(_SQLITE_SUFFIXES):
@@ -184,13 +198,15 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
     return _rdb_storage(optuna, text, heartbeat_interval, grace_period, max_retry)
 
 
-def _check_no_heartbeat_options(why, grace_period, max_retry):
-    """Warn of heartbeat options a storage ignores, saying ``why``."""
-    given = [
-        name
-        for name, value in (("grace_period", grace_period), ("max_retry", max_retry))
-        if value is not None
-    ]
+def _check_no_heartbeat_options(why, grace_period, max_retry, interval="auto"):
+    """Warn of heartbeat options a storage ignores, saying ``why`` (an
+    ``interval`` other than the default "auto" or None is one)."""
+    options = (
+        ("heartbeat_interval", None if interval == "auto" else interval),
+        ("grace_period", grace_period),
+        ("max_retry", max_retry),
+    )
+    given = [name for name, value in options if value is not None]
     if given:
         warnings.warn(
             f"{' and '.join(given)} ignored: {why}. Stale trials are failed "
@@ -417,6 +433,18 @@ def fail_stale_trials(study, *, heartbeat=True, local_processes=True, storage=No
                 attrs[ATTR_PID], attrs.get(ATTR_START)
             ):
                 continue
+            if storage is not None:
+                # Why it failed, for trials_dataframe's readers (a finished
+                # trial takes no attributes: before it is told).
+                study_id = storage.get_study_id_from_name(study.study_name)
+                storage.set_trial_user_attr(
+                    storage.get_trial_id_from_study_id_trial_number(
+                        study_id, trial.number
+                    ),
+                    "error",
+                    f"its worker (process {attrs[ATTR_PID]} on {host}) stopped "
+                    "while it ran",
+                )
             study.tell(
                 trial.number, state=optuna.trial.TrialState.FAIL, skip_if_finished=True
             )
@@ -507,9 +535,16 @@ def _check_space_values(space, estimator):
                     {name: constraints[name]}, {name: value}, type(owner).__name__
                 )
             except InvalidParameterError as exc:
+                own = _default_space_name(owner)
+                hint = (
+                    f" Is the space meant for another estimator? The built-in "
+                    f"space of {type(owner).__name__} is {own!r}."
+                    if own is not None
+                    else ""
+                )
                 raise ValueError(
                     f"The search space sets {key}={value!r}, which "
-                    f"{type(owner).__name__} refuses: {exc}"
+                    f"{type(owner).__name__} refuses: {exc}{hint}"
                 ) from None
 
 
@@ -564,6 +599,34 @@ def _resolve_cv(cv, groups):
             "level (skthermal.datasets.split_runs)."
         )
     return cv
+
+
+def _warn_groups_cut_runs(X, groups):
+    """Warn when the ``groups`` given cut a run of X's own run labels (its
+    ``run`` column or index level) in two or more: folds over ``groups``
+    may then train and score on one run, and a sequence model, which reads
+    X's runs, fails on every fold."""
+    own = _run_groups(X, None)
+    if own is None or groups is None:
+        return
+    pairs = pd.DataFrame({"run": own, "group": np.asarray(groups)})
+    counts = pairs.groupby("run", sort=False)["group"].nunique()
+    cut = counts[counts > 1]
+    if not len(cut):
+        return
+    run = cut.index[0]
+    labels = list(dict.fromkeys(pairs.loc[pairs["run"] == run, "group"]))
+    warnings.warn(
+        f"groups cuts run {plain(run)!r} of X's run labels into "
+        f"{len(labels)} groups ({', '.join(repr(plain(g)) for g in labels[:4])}"
+        f"{', ...' if len(labels) > 4 else ''}; {len(cut)} run(s) cut in all): "
+        "folds over these groups may train and score on one run, which "
+        "scores optimistically, and a sequence model, which reads X's runs, "
+        "fails. Give one group per run, or leave groups out (X's run labels "
+        "are used).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_cut_runs(splits, groups):
@@ -775,6 +838,7 @@ _SETUP_KEYS = (
     "skthermal_estimator",
     "skthermal_settings",
     "skthermal_space",
+    "skthermal_space_ranges",
     "skthermal_scoring",
     "skthermal_target",
     "skthermal_features",
@@ -913,6 +977,7 @@ def _search_setup(estimator, space, scoring, X, y, groups, cv, splits):
         _estimator_kind(estimator),
         _estimator_settings(estimator),
         describe_space(space),
+        _canonical(space_ranges(space)),
         _scoring_name(scoring),
         _target_name(y),
         _feature_names(X),
@@ -922,8 +987,36 @@ def _search_setup(estimator, space, scoring, X, y, groups, cv, splits):
     return dict(zip(_SETUP_KEYS, values, strict=True))
 
 
+def _skthermal_version():
+    return package_versions(("skthermal",))["skthermal"]
+
+
+def _flat(value, path=""):
+    """Plain JSON data as ``{path: leaf}``: dicts by key, lists of dicts by
+    position (a list of values is one leaf)."""
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            out.update(_flat(v, f"{path}.{k}" if path else str(k)))
+        return out
+    if isinstance(value, list) and any(isinstance(v, dict) for v in value):
+        out = {}
+        for i, v in enumerate(value):
+            out.update(_flat(v, f"{path}[{i}]"))
+        return out
+    return {path: value}
+
+
 def _describe_difference(key, there, here):
     what = key.removeprefix("skthermal_")
+    if key == "skthermal_space_ranges":
+        a, b = _flat(there), _flat(here)
+        parts = [
+            f"{k} {a.get(k, 'unset')} there, {b.get(k, 'unset')} here"
+            for k in sorted(set(a) | set(b))
+            if a.get(k) != b.get(k)
+        ]
+        return "search space ranges: " + "; ".join(parts)
     if (
         key == "skthermal_features"
         and isinstance(there, list)
@@ -991,9 +1084,14 @@ def _check_study_setup(study, setup, direction, space=None):
         there = {k: v for k, v in stored[key].items() if k not in searched}
         here = {k: v for k, v in setup[key].items() if k not in searched}
         stored[key], setup = there, {**setup, key: here}
+    compared = dict(setup)
+    if "skthermal_space_ranges" in stored:
+        # The ranges in full decide: the space's text lists only what
+        # differs from the defaults of the version that wrote it.
+        compared.pop("skthermal_space")
     differ = [
         _describe_difference(key, stored[key], value)
-        for key, value in setup.items()
+        for key, value in compared.items()
         if key in stored and stored[key] != value
     ]
     if differ:
@@ -1015,8 +1113,17 @@ def _check_study_setup(study, setup, direction, space=None):
             UserWarning,
             stacklevel=4,
         )
+    return missing
+
+
+def _record_setup(study, setup, missing):
+    """Record the ``missing`` keys of the search's setup in the study, and
+    the skthermal version that made it (not compared: a new version may
+    join a study of an older one with the same setup)."""
     for key in missing:
         study.set_user_attr(key, setup[key])
+    if "skthermal_version" not in study.user_attrs:
+        study.set_user_attr("skthermal_version", _skthermal_version())
 
 
 def _param_text(params):
@@ -1033,9 +1140,15 @@ def _replay(space, trial, *, warn=True):
     try:
         params = space(optuna.trial.FixedTrial(trial.params))
     except Exception as exc:  # e.g. a shared study searched another space
+        # Optuna's own advice ("set it at the construction of the FixedTrial
+        # object") is about its internals, not the user's study.
+        why = str(exc).split(" Please set it at the construction")[0]
         raise ValueError(
             f"The best trial (number {trial.number}) has parameters "
-            f"{trial.params} that this search space cannot replay: {exc}"
+            f"{trial.params} that this search space cannot replay ({why}): "
+            "the study was searched with another space (made outside "
+            "run_search, or by another version of this space). Give another "
+            "study_name (or storage)."
         ) from exc
     scored = trial.user_attrs.get(ATTR_PARAMS)
     if scored is None or not isinstance(params, Mapping):
@@ -1392,6 +1505,8 @@ def run_search(
     _check_space_values(space, estimator)
     said = groups is not None  # run labels the user gave explicitly
     groups = _run_groups(X, groups)
+    if said:
+        _warn_groups_cut_runs(X, groups)
     given_X = X
     X = with_run_index(X, groups)
     cv = _resolve_cv(cv, groups)
@@ -1429,7 +1544,14 @@ def run_search(
         pruner=pruner,
         load_if_exists=load_if_exists,
     )
-    _check_study_setup(study, setup, direction, space)
+    missing = _check_study_setup(study, setup, direction, space)
+    complete = (optuna.trial.TrialState.COMPLETE,)
+    if study.get_trials(deepcopy=False, states=complete):
+        # A space that cannot replay the study's best trial (a callable
+        # changed between sessions, a study searched with another space)
+        # fails now, before adding trials or records.
+        _replay(space, study.best_trial, warn=False)
+    _record_setup(study, setup, missing)
     if fail_stale and store is not None:
         fail_stale_trials(study, storage=store)
     if sampler is None:
@@ -1442,11 +1564,6 @@ def run_search(
             seed = int(state[0])
         study.sampler = optuna.samplers.TPESampler(seed=seed)
 
-    complete = (optuna.trial.TrialState.COMPLETE,)
-    if study.get_trials(deepcopy=False, states=complete):
-        # A space that cannot replay the study's best trial (a callable
-        # changed between sessions) fails now, before adding trials.
-        _replay(space, study.best_trial, warn=False)
     mode = _resolve_pruning(pruning, study, estimator)
     sign = -1.0 if direction == "maximize" else 1.0
     guard = _FailureGuard(max_failed_trials)

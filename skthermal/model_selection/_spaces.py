@@ -427,6 +427,28 @@ def space_values(space):
     return {}
 
 
+def space_ranges(space):
+    """Every range and choice of a space's built-in parts, defaults
+    included, as plain data (a callable of the user's own by its module and
+    qualified name): what a stored study records, so that a search whose
+    defaults changed between versions does not join it unnoticed.
+
+    Examples
+    --------
+    >>> from skthermal.model_selection._spaces import space_ranges
+    >>> space_ranges(search_space("fcm_picker", n_clusters=(2, 4)))
+    {'space': 'fcm_picker', 'prefix': None, 'ranges': {'n_clusters': (2, 4), \
+'scorer': ['gm1n', 'gm0n', 'gra', 'pearson']}}
+    """
+    if isinstance(space, SearchSpace):
+        return {"space": space.name, "prefix": space.prefix, "ranges": space.ranges}
+    if isinstance(space, _CombinedSpace):
+        return [space_ranges(s) for s in space.spaces]
+    if isinstance(space, PrefixedSpace):
+        return {"step": space.prefix, "space": space_ranges(space.space)}
+    return qualified_name(space)
+
+
 def describe_space(space):
     """What a search space is, the same in every process: a built-in space
     with its overrides, or a callable's module and qualified name.
