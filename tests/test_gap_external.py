@@ -2,6 +2,7 @@
 its discrepancy terms and its structure-selection evidence."""
 
 import json
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -326,6 +327,14 @@ def test_a_simulation_at_other_times_is_interpolated(pair):
     short = sim.drop(index=sim.index[sim["run"] == "r1"][-1])
     with pytest.raises(ValueError, match="Run 'r1': the simulated table covers"):
         diagnose_runs(short, meas)
+    # The span is the simulation's whole span, not the part compared; a
+    # measurement in a clock's time is told so.
+    with pytest.raises(
+        ValueError, match=r"covers time_s 0-7140 s, the measured one 36"
+    ):
+        diagnose_runs(sim, meas.assign(time_s=meas["time_s"] + 3600.0))
+    with pytest.raises(ValueError, match=r"covers time_s 0-7140 s.*a clock's time"):
+        diagnose_runs(sim, meas.assign(time_s=meas["time_s"] + 1.78e9))
     wrong = coarse.copy()
     wrong.loc[wrong.index[wrong["run"] == "r2"][4], "spindle_rpm"] += 500
     with pytest.raises(ValueError, match="spindle_rpm in run 'r2' at simulated row 4"):
@@ -334,6 +343,26 @@ def test_a_simulation_at_other_times_is_interpolated(pair):
     back.loc[back.index[back["run"] == "r0"][7], "time_s"] -= 90.0
     with pytest.raises(ValueError, match="not strictly increasing in run 'r0' of the"):
         diagnose_runs(back, meas)
+
+
+def test_a_measurement_that_starts_late_reads_the_simulation_before_it(rng):
+    # A logger started 30 min into the runs: the simulated rows before the
+    # measured start were dropped, so the terms' filters started cold there,
+    # and the planted 15 min sensor lag made the gap worse (named none).
+    sim, meas = _tables(rng, "sensor_lag", n_runs=3, hours=6.0)
+    late = meas[meas["time_s"] >= 1800.0]
+    with warnings.catch_warnings():
+        # Runs that start at 1800 s: no clock's time, the simulation
+        # starts before them.
+        warnings.filterwarnings("error", message=".*do not start at 0")
+        report = diagnose_runs(sim, late, candidates=["sensor_lag", "sensor_drift"])
+    assert report.best_effect == "sensor_lag"
+    row = report.ranking.set_index("effect").loc["sensor_lag"]
+    assert row["shrink"] > 0.5
+    # Times in the where tables are the tables' own (from the run's start).
+    assert sorted(set(report.where["runs"]["run"])) == ["r0", "r1", "r2"]
+    jumps = report.where["jumps"]
+    assert jumps.empty or jumps["time_s"].min() >= 1800.0
 
 
 def test_empty_tables_and_missing_values(pair):

@@ -404,7 +404,7 @@ _SHORT_RUNS_S = 1200.0
 _FAST_STEP_S = 1.0
 
 
-def _warn_odd_times(codes, times):
+def _warn_odd_times(codes, times, late_start=True):
     """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
     time (most runs start after 0) or like another unit than seconds: every
     model reads it as seconds since the run's start, so the filters' time
@@ -417,7 +417,7 @@ def _warn_odd_times(codes, times):
     step = float(np.median(steps)) if steps.size else 0.0
     # A run whose first sample is one period in (at 15 s, not 0) is fine.
     late = first[first > 2 * step]
-    if late.size > 1 and 2 * late.size >= first.size:
+    if late_start and late.size > 1 and 2 * late.size >= first.size:
         warnings.warn(
             f"Column 'time_s' is the time since each run's start, but "
             f"{late.size} of the {first.size} runs do not start at 0 (they start "
@@ -671,16 +671,17 @@ def _check_ranges(df, columns, values):
             )
 
 
-def warn_implausible(df):
+def warn_implausible(df, late_start=True):
     """The plausibility warnings of a run table whose ``time_s`` is checked
     (finite, increasing within each run), for readers that skip the rest of
     :func:`validate_runs` (the gap diagnosis reads its own columns): a
-    ``time_s`` like a clock's or in another unit, workshop air in another
-    unit."""
+    ``time_s`` like a clock's or in another unit (``late_start=False``:
+    runs that start after 0 are not warned about, e.g. measured runs whose
+    simulation starts before them), workshop air in another unit."""
     codes = pd.factorize(df[RUN])[0]
     order = np.argsort(codes, kind="stable")
     times = _as_float(df, [TIME])[:, 0]
-    _warn_odd_times(codes[order], times[order])
+    _warn_odd_times(codes[order], times[order], late_start)
     _warn_air_unit(df)
 
 

@@ -199,6 +199,11 @@ def _align(
         check_times(t, name, "measured")
         check_times(ts, name, "simulated")
         tol = 1e-6 * max(1.0, float(np.max(np.abs(t))))
+        span = (float(ts[0]), float(ts[-1]))
+        # Simulated rows before the measured start (a logger started late):
+        # not compared, but the terms' filters run through them from the
+        # simulation's start, with the simulation's drivers.
+        before = _before_measured(sim, ts, t[0] - tol, sim_cols, name)
         # Simulated rows beyond the measured span, but for one on either
         # side to interpolate from, are neither compared nor checked.
         first = max(int(np.searchsorted(ts, t[0] + tol, side="right")) - 1, 0)
@@ -214,10 +219,17 @@ def _align(
             if ts.size < 2 or ts[0] > t[0] + slack or ts[-1] < t[-1] - slack:
                 raise ValueError(
                     f"Run {name!r}: the simulated table covers time_s "
-                    f"{ts[0]:.10g}-{ts[-1]:.10g} s, the measured one "
+                    f"{span[0]:.10g}-{span[1]:.10g} s, the measured one "
                     f"{t[0]:.10g}-{t[-1]:.10g} s. A simulation at other times "
                     "than the measurement's is interpolated onto them, so it "
                     "must cover the measured span (both in seconds)."
+                    + (
+                        " The measured times start after the simulation ends: "
+                        "a clock's time? Give both tables the time since the "
+                        "run's start."
+                        if t[0] > span[1]
+                        else ""
+                    )
                 )
         # Where the simulation was computed: its rows, and the measured
         # driver in force at each (zero-order hold).
@@ -284,22 +296,32 @@ def _align(
             y_sim = np.column_stack(
                 [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
             )
-        out.append((name, t, drivers, y_meas, y_sim))
-    warn_implausible(measured)
+        out.append((name, t, drivers, y_meas, y_sim, before))
+    # Measured runs that start after 0 are no clock's time when the
+    # simulation starts before them (a logger started late).
+    warn_implausible(measured, late_start=not any(row[5] is not None for row in out))
     warn_short_runs("diagnose_runs", {name: t[-1] - t[0] for name, t, *_ in out}, 5)
+    aligned = [row[:5] for row in out]
     blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
     if sum(len(b) for b in blocks) < 2:
         longest = max(float(t[-1] - t[0]) for _, t, *_ in out)
         raise too_few_runs(len(out), longest, block_hours)
-    keep = _varying_channels(out, channels, sim_cols, explicit)
+    keep = _varying_channels(aligned, channels, sim_cols, explicit)
     channels = [c for c, k in zip(channels, keep, strict=True) if k]
     sim_cols = [c for c, k in zip(sim_cols, keep, strict=True) if k]
     runs = []
-    for (name, t, drivers, y_meas, y_sim), spans in zip(out, blocks, strict=True):
+    for (name, t, drivers, y_meas, y_sim, before), spans in zip(
+        out, blocks, strict=True
+    ):
         # A block (block_hours) keeps its run's signals from the start (the
         # terms' filters start there, gaps judged against the whole run's
-        # sampling period), compared over its own span only.
+        # sampling period), compared over its own span only; so does a run
+        # whose simulation starts before its measurement (``before``: the
+        # simulated rows ahead of it).
         period = float(np.median(np.diff(t))) if t.size > 1 else None
+        ahead = 0 if before is None else before["time_s"].size
+        t0 = t[0] if before is None else before["time_s"][0]
+
         for a, b, label in spans:
             check_length(b - a, label)
             step = max(1, int(np.ceil((b - a) / max_samples)))
@@ -308,20 +330,49 @@ def _align(
             runs.append(
                 RunSignals(
                     label,
-                    t[:b] - t[0],
-                    drivers["spindle_rpm"][:b],
-                    drivers["ambient_C"][:b],
-                    drivers["feed_mm_min"][:b],
-                    y_sim[:b][:, keep],
-                    rows,
+                    _ahead(before, "time_s", t[:b]) - t0,
+                    _ahead(before, "spindle_rpm", drivers["spindle_rpm"][:b]),
+                    _ahead(before, "ambient_C", drivers["ambient_C"][:b]),
+                    _ahead(before, "feed_mm_min", drivers["feed_mm_min"][:b]),
+                    _ahead(before, "sim", y_sim[:b][:, keep], keep),
+                    rows + ahead,
                     y - y[:START_SAMPLES].mean(axis=0),
                     origin=None if len(spans) == 1 else name,
-                    period=None if len(spans) == 1 else period,
+                    period=None if len(spans) == 1 and not ahead else period,
                     driver_initial=driver_initial,
                 )
             )
     noise = pooled_noise([frame for _, frame in meas_runs], channels)
     return runs, channels, sim_cols, noise
+
+
+def _before_measured(sim, ts, start, sim_cols, name):
+    """The simulated rows of a run before its measured start (``start``):
+    their times, drivers (a driver the simulated table lacks is 0) and
+    simulated channels, or None when the simulation starts with the
+    measurement."""
+    ahead = ts < start
+    if not ahead.any():
+        return None
+    rows = sim[ahead]
+    out = {"time_s": ts[ahead]}
+    for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
+        out[col] = (
+            driver_values(rows, col, name, "simulated")
+            if col in rows.columns
+            else np.zeros(out["time_s"].size)
+        )
+    out["sim"] = channel_values(rows, sim_cols, out["time_s"], name, "simulated")
+    return out
+
+
+def _ahead(before, key, values, keep=None):
+    """``values`` of a run's signals with the simulated rows ahead of its
+    measurement (``before``, :func:`_before_measured`) in front."""
+    if before is None:
+        return values
+    pre = before[key] if keep is None else before[key][:, keep]
+    return np.concatenate([pre, values])
 
 
 def _varying_channels(aligned, channels, sim_cols, explicit):
