@@ -469,6 +469,10 @@ def test_fit_the_baselines_and_predict(capsys, workdir):
         assert status == 0, err
         bundle = joblib.load(out)
         assert ("spindle_rpm" in bundle["sensors"]) == (name == "lag-ridge")
+        # The drivers are inputs, not sensors.
+        n = len(bundle["sensors"]) - (name == "lag-ridge") * 2
+        drivers = " and spindle_rpm, feed_mm_min" if name == "lag-ridge" else ""
+        assert f" on {n} sensor(s){drivers} -> " in text
         pred = workdir / f"{name}.csv"
         argv = ["predict", "--model", out, "--runs", workdir / "tests.csv"]
         status, _, err = _run(capsys, *argv, "--out", pred)

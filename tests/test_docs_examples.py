@@ -15,7 +15,7 @@ Not kept, and why:
   (``measured_runs``); gap_external.md (``sim.csv``, ``real.csv``);
   model_selection.md (``search.py`` reads ``sys.argv[1]``, ``url``);
   other_systems.md (``raw_ue``, ``temperature_C``, ``spindle_test``,
-  ``feed_test``, ``combined_test``); own_machine.md (``train_runs``);
+  ``feed_test``, ``combined_test``); own_machine.md (``my_rig_tests.csv``);
   run_tables.md (``tests.csv.gz``, ``tests.parquet``, ``heating``,
   ``cooling``, and the blocks that use the ``runs`` of those);
   sensor_selection.md (``regressor``); simulation.md (``time_s``,

@@ -285,6 +285,14 @@ def test_different_drivers_are_named(pair):
     sim2 = pair[0].assign(feed_mm_min=1000.0)
     with pytest.raises(ValueError, match="feed_mm_min.*absent from one table"):
         diagnose_runs(sim2, meas)
+    # Air off by its reading noise: the simulation was exported with noise.
+    noisy = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 0.1)
+    with pytest.raises(ValueError, match=r"exported with its sensors' noise"):
+        diagnose_runs(noisy, meas)
+    other = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 5.0)
+    with pytest.raises(ValueError, match=r"simulated; simulate the measured") as info:
+        diagnose_runs(other, meas)
+    assert "noise" not in str(info.value)
     # A simulated table that writes it otherwise: named (a measured one is
     # refused for it up front).
     sim3 = pair[0].assign(feed_mm_s=1000.0 / 60.0)

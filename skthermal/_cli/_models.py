@@ -266,8 +266,12 @@ def cmd_fit(args):
     rmse = ", ".join(
         f"{r}: {v:.2f}" for r, v in zip(scores["run"], scores["RMSE_um"], strict=True)
     )
+    used = [s for s in sensors if s not in measured]  # the drivers
+    inputs = f"{len(sensors) - len(used)} sensor(s)" + (
+        f" and {', '.join(used)}" if used else ""
+    )
     print(
-        f"Fitted {MODELS[args.model].label} on {len(sensors)} sensor(s) -> {target}, "
+        f"Fitted {MODELS[args.model].label} on {inputs} -> {target}, "
         f"runs {', '.join(bundle['train_runs'])}; training RMSE (µm) {rmse}."
     )
     print(f"Wrote {args.out}")

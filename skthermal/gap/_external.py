@@ -284,6 +284,14 @@ def _align(
                         lacking.columns, [col]
                     )
                 row = f"row {k} of the run" if same else f"simulated row {k} of the run"
+                small = abs(m[at[k]] - sim_d[k]) < 1.0
+                if col == "ambient_C" and in_m and in_s and small:
+                    # Off by a little: a simulated air reading with noise.
+                    where += (
+                        " (a simulation exported with its sensors' noise on "
+                        "the air reading? Export it without: skthermal "
+                        "simulate --no-noise, or noise=False)"
+                    )
                 raise ValueError(
                     f"The drivers differ: {col} in run {name!r} at {row} "
                     f"(time {ts[k]:g} s) is {m[at[k]]:g} measured and {sim_d[k]:g} "
