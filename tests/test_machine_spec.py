@@ -368,6 +368,37 @@ def test_a_range_error_in_a_file_names_the_file_and_the_entry(tmp_path):
         ThermalMachine.from_spec(path)
 
 
+def test_sensor_noise_figures_are_checked_against_a_slip():
+    # A noise of 20 °C (meant 0.02) was accepted; the readings carried it,
+    # and the only word came later: the air "in Fahrenheit?".
+    data = {**_small(), "sensor_noise": {"noise_C": 20.0}}
+    with pytest.raises(ValueError, match=r"sensor_noise, field 'noise_C'.* \[0, 5\]"):
+        MachineSpec.from_dict(data)
+    data = {**_small(), "params": {"disp.noise_um": 500.0}}
+    with pytest.raises(ValueError, match=r"'disp.noise_um' must lie in \[0, 100\]"):
+        MachineSpec.from_dict(data)
+    data = _small()
+    data["sensors"]["T1_C"]["offset_C"] = 15.0
+    with pytest.raises(ValueError, match=r"T1_C.*offset_C must lie in \[0, 5\] °C"):
+        MachineSpec.from_dict(data)
+    data["sensors"]["T1_C"]["offset_C"] = 0.2
+    MachineSpec.from_dict(data)
+
+
+def test_a_simulation_far_hotter_than_any_machine_warns():
+    # A heat input in kW written as W: the part reached 453 °C without a word.
+    data = _small()
+    data["heat"]["bearing"]["W_at_1000_rpm"] = 4000.0
+    machine = ThermalMachine.from_spec(MachineSpec.from_dict(data), effects=[])
+    t = np.arange(0.0, 4 * 3600.0, 60.0)
+    with pytest.warns(UserWarning, match=r"node 'spindle' rises \d+ K above the air"):
+        machine.simulate_drivers(t, np.full(t.size, 8000.0), np.full(t.size, 20.0))
+    ok = ThermalMachine.from_spec(MachineSpec.from_dict(_small()), effects=[])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ok.simulate_drivers(t, np.full(t.size, 8000.0), np.full(t.size, 20.0))
+
+
 def test_numpy_numbers_in_a_dict_spec_are_numbers(tmp_path):
     data = _small()
     data["nodes"]["spindle"]["capacity_J_per_K"] = np.int64(2000)

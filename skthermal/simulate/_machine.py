@@ -1514,6 +1514,7 @@ class ThermalMachine:
                 steps[np.abs(steps - dt) <= 1e-9 * dt] = dt
                 T = self._integrate(rpm_f, feed_f, air_f, steps, T0, run=run)
                 T = T[np.searchsorted(times, t)]
+            _warn_hot(T, air, self.spec.nodes, run)
             readings = self._read_sensors(T, air, t, dt, noise, rng)
             disp = (T - T[0]) @ self._displacement_array().T
         p = self._params
@@ -2560,3 +2561,27 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         message=str(res.message),
     )
     return machine.with_params(dict(zip(params, x, strict=True))), result
+
+
+# A part of a machine tool this much warmer than the air (K) is no machine's:
+# spindle bearings run at 20-40 K above it. A simulation that gets there has
+# a slip in its file (a heat input in kW written as W, a capacity in kJ/K).
+_HOT_RISE_K = 100.0
+
+
+def _warn_hot(T, air, nodes, run):
+    """Warn naming the node of a simulated run that rises more than
+    :data:`_HOT_RISE_K` above the air (``T``: node temperatures at the
+    samples, ``air``: the air at the samples)."""
+    rise = T - np.asarray(air, dtype=float)[:, None]
+    if not np.nanmax(rise, initial=-np.inf) > _HOT_RISE_K:
+        return
+    k, j = np.unravel_index(int(np.nanargmax(rise)), rise.shape)
+    warnings.warn(
+        f"ThermalMachine: in run {run!r} node {nodes[j]!r} rises "
+        f"{rise[k, j]:.0f} K above the air (to {T[k, j]:.0f} °C): no part "
+        "of a machine tool runs that hot. Check the machine's heat inputs "
+        "(W, not kW), capacities (J/K) and conductances (W/K).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )

@@ -85,6 +85,11 @@ REQUIRED_ROLES = {
     "enclosure": "the air node around the machine",
     "tool": "the tool or test bar",
 }
+# Largest sensor noise, quantisation step or offset (°C) and displacement
+# noise (µm) a machine file may give: beyond them a figure is a slip (a
+# noise of 20 °C meant 0.02), which the simulated readings would carry.
+_SENSOR_C = 5.0
+_DISP_UM = 100.0
 # A sensor's weights must sum to 1 within this tolerance.
 WEIGHT_SUM_TOLERANCE = 1e-6
 
@@ -323,8 +328,24 @@ def parameter_range(key):
         )
     if family == "q":
         return NOT_NEGATIVE._replace(rule="is a heat input and must not be negative")
-    if family in ("sensor", "disp"):
-        return NOT_NEGATIVE
+    if family == "sensor":
+        return ParameterRange(
+            0.0,
+            _SENSOR_C,
+            False,
+            f"must lie in [0, {_SENSOR_C:g}] °C",
+            "; temperature sensors read to 0.01-0.5 °C, so more is a slip of "
+            "unit or decimal point",
+        )
+    if family == "disp":
+        return ParameterRange(
+            0.0,
+            _DISP_UM,
+            False,
+            f"must lie in [0, {_DISP_UM:g}] µm",
+            "; displacement probes read to 0.01-1 µm, so more is a slip of "
+            "unit (mm?) or decimal point",
+        )
     if family in EFFECTS:
         return EFFECTS[family].parameter_range(key.partition(".")[2])
     return ANY
@@ -735,9 +756,14 @@ class MachineSpec:
                 )
             if not s.weights:
                 raise ValueError(f"{where} reads no node (weights is empty).")
-            for f in SENSOR_FIELDS:
+            for f, key in SENSOR_FIELDS.items():
                 if getattr(s, f) is not None:
-                    _number(f"{where}: {f}", getattr(s, f), nonnegative=True)
+                    value = _number(f"{where}: {f}", getattr(s, f), nonnegative=True)
+                    valid = parameter_range(key)
+                    if value not in valid:
+                        raise ValueError(
+                            f"{where}: {f} {valid.rule}, got {value}{valid.hint}."
+                        )
             total = 0.0
             for node, w in s.weights.items():
                 if node != ROOM and node not in known:
