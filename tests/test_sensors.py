@@ -1,5 +1,7 @@
 """Virtual sensors from thermal images, FBG strain correction and strain channels."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -140,6 +142,27 @@ def test_layout_errors(stack, kwargs, message):
     else:
         with pytest.raises(ValueError, match=message):
             ext.fit(stack)
+
+
+def test_given_centres_at_one_pixel_are_refused(stack):
+    # Two given spots at one pixel: two copies of one column, silently.
+    for centres in ([[5, 5], [5, 5]], {"a": (5, 5), "b": (5, 5)}):
+        with pytest.raises(ValueError, match=r"share the centre \(row 5, col 5\)"):
+            VirtualSensorExtractor(centres=centres).fit(stack)
+
+
+def test_images_below_absolute_zero_or_in_kelvin_are_named(stack):
+    ext = VirtualSensorExtractor(centres=[[5, 5]]).fit(stack)
+    cold = stack.copy()
+    cold[3, 5, 5] = -400.0
+    with pytest.raises(ValueError, match=r"frame 3, pixel \(row 5, col 5\): below"):
+        ext.transform(cold)
+    with pytest.warns(UserWarning, match=r"like kelvin"):
+        ext.transform(stack + 273.15)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ext.transform(stack)
+        ext.transform(stack + 60.0)  # a hot spindle nose: still °C
 
 
 def test_transform_errors(stack):

@@ -171,7 +171,8 @@ class GRASelector(ScoreSelector):
     >>> t = np.linspace(0, 1, 60)
     >>> X = np.c_[np.sin(7 * t), t ** 2, 1 - np.exp(-3 * t)]
     >>> y = 4 * (1 - np.exp(-3 * t))
-    >>> GRASelector(n_features_to_select=1).fit(X, y).get_support().tolist()
+    >>> sel = GRASelector(n_features_to_select=1).fit(X, y, groups=np.zeros(60))
+    >>> sel.get_support().tolist()
     [False, False, True]
     """
 

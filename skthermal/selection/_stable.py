@@ -197,7 +197,8 @@ class StableTSPSelector(ScoreSelector):
     >>> E = 20 * (1 - np.exp(-t))
     >>> X = np.c_[E / 5 + rng.normal(0, 0.5, 60), E / 4 + rng.normal(0, 0.05, 60),
     ...           -E / 6 + rng.normal(0, 0.1, 60), rng.normal(0, 1, 60)]
-    >>> sel = StableTSPSelector(n_features_to_select=2).fit(X, E)
+    >>> one_run = np.zeros(60)  # the rows are one run
+    >>> sel = StableTSPSelector(n_features_to_select=2).fit(X, E, groups=one_run)
     >>> sel.get_support().tolist()
     [False, True, True, False]
     >>> sel.correlation_.round(2).tolist()
@@ -388,7 +389,8 @@ class FuzzyEquivalenceSelector(RunAwareSelector):
     >>> from skthermal.selection import FuzzyEquivalenceSelector
     >>> t = np.linspace(0, 1, 50)
     >>> X = np.c_[t, t ** 1.1, np.sin(9 * t), np.sin(9 * t) + 0.01 * t]
-    >>> sel = FuzzyEquivalenceSelector(threshold=0.95).fit(X, t)
+    >>> one_run = np.zeros(50)  # the rows are one run
+    >>> sel = FuzzyEquivalenceSelector(threshold=0.95).fit(X, t, groups=one_run)
     >>> sel.labels_.tolist(), sel.representatives_.tolist()
     ([0, 0, 1, 1], [0, 3])
     """

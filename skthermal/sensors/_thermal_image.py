@@ -14,6 +14,7 @@ without a camera.
 """
 
 import re
+import warnings
 from dataclasses import dataclass
 from numbers import Integral, Real
 
@@ -23,11 +24,17 @@ from sklearn.utils import check_random_state, check_scalar
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import TEMPERATURE_PATTERN
-from skthermal.utils._runs import check_run_label, is_clock_dtype
+from skthermal.utils._runs import ABSOLUTE_ZERO_C, check_run_label, is_clock_dtype
+from skthermal.utils._warnings import user_stacklevel
 
 _NAME = re.compile(r"[A-Za-z0-9]+")
 # Frames processed at once: bounds the memory of the integral images.
 _CHUNK_PIXELS = 1 << 23
+
+
+# Median image reading that looks like kelvin rather than °C: a machine in
+# a workshop reads 250-400 K; in °C no machine part is that warm.
+_KELVIN_LIKE = (250.0, 400.0)
 
 
 def _as_stack(stack, what="stack"):
@@ -45,6 +52,31 @@ def _as_stack(stack, what="stack"):
             f"width), got shape {np.shape(stack)}."
         )
     return arr
+
+
+def _check_image_temperatures(valid, pixels):
+    """Refuse images below absolute zero, and warn of images that read like
+    kelvin (a camera export of about 293 for a room at 20 °C): the virtual
+    sensors are ``T<name>_C`` columns, in °C. ``valid``: the frames' valid
+    pixels ``(n_frames, n_pixels)``; ``pixels``: their (row, col)."""
+    cold = valid <= ABSOLUTE_ZERO_C
+    if cold.any():
+        f, p = np.argwhere(cold)[0]
+        r, c = pixels[p]
+        raise ValueError(
+            f"The stack reads {valid[f, p]:g} at frame {f}, pixel (row {r}, col "
+            f"{c}): below absolute zero ({ABSOLUTE_ZERO_C:g} °C). The images "
+            "must be temperatures in °C."
+        )
+    median = float(np.median(valid))
+    if _KELVIN_LIKE[0] <= median <= _KELVIN_LIKE[1]:
+        warnings.warn(
+            f"The images read a median of {median:.4g}: like kelvin, not °C (a "
+            "room at 20 °C is 293 K). The virtual sensors are °C columns; "
+            "subtract 273.15 from a kelvin export.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
 
 
 def _seconds(time_s):
@@ -377,6 +409,19 @@ class VirtualSensorExtractor:
         bad = [n for n in names if not TEMPERATURE_PATTERN.fullmatch(n)]
         if bad:
             raise ValueError(f"Invalid temperature column name {bad[0]!r}.")
+        # Given centres that coincide (the grid's and the strips' spots are
+        # kept apart where they are made).
+        given_at = [k for k, kind in enumerate(kinds) if kind == "centre"]
+        seen = {}
+        for k in given_at:
+            j = seen.setdefault(tuple(P[k]), k)
+            if j != k:
+                raise ValueError(
+                    f"Virtual sensors {names[j]!r} and {names[k]!r} share the "
+                    f"centre (row {P[k, 0]}, col {P[k, 1]}): they would read the "
+                    "same pixels, two copies of one column. Give distinct "
+                    "centres."
+                )
         inside = (P[:, 0] >= 0) & (P[:, 0] < shape[0]) & (P[:, 1] >= 0)
         inside &= P[:, 1] < shape[1]
         cover = self._coverage(P, mask, shape)
@@ -489,7 +534,8 @@ class VirtualSensorExtractor:
             raise ValueError(
                 f"The stack has {n} frame(s), fewer than frame_average={k}."
             )
-        bad = ~np.isfinite(frames[:, self._mask])
+        valid = frames[:, self._mask]
+        bad = ~np.isfinite(valid)
         if bad.any():
             f, p = np.argwhere(bad)[0]
             r, c = np.argwhere(self._mask)[p]
@@ -497,6 +543,7 @@ class VirtualSensorExtractor:
                 f"The stack is NaN or infinite at frame {f}, pixel (row {r}, "
                 f"col {c}); repair or mask the pixel."
             )
+        _check_image_temperatures(valid, np.argwhere(self._mask))
         columns = {}
         if run is not None:
             check_run_label(run)
