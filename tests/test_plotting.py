@@ -191,6 +191,57 @@ def test_prediction_errors(run_data):
         PredictionDisplay.from_predictions(np.ones(3), np.ones(3), time=[0, 1])
 
 
+def test_prediction_gaps_order_lengths_and_one_time_unit(run_data):
+    X, y, groups, model = run_data
+    pred = pd.Series(model.predict(X), index=y.index, name="p")
+    # A NaN (a model's warm-up) is a gap, left out of the metrics; the
+    # warning names the row of the whole input and its run. It stopped the
+    # plot, naming the row within its run.
+    holes = pred.copy()
+    holes.iloc[70] = np.nan
+    with pytest.warns(UserWarning, match=r"1 row\(s\).* first at row 70 \(run 'b'\)"):
+        disp = PredictionDisplay.from_predictions(y, holes)
+    whole = PredictionDisplay.from_predictions(y, pred)
+    b = y.index.get_level_values("run") == "b"
+    keep = b & ~np.isnan(holes.to_numpy())
+    expected = np.sqrt(np.mean((y[keep] - pred[keep]) ** 2))
+    assert disp.metrics_.loc["b", "rmse"] == pytest.approx(expected)
+    assert disp.metrics_.loc["a", "rmse"] == whole.metrics_.loc["a", "rmse"]
+    # A prediction in another row order is paired by its labels.
+    shuffled = pred.sample(frac=1.0, random_state=0)
+    again = PredictionDisplay.from_predictions(y, shuffled)
+    pd.testing.assert_frame_equal(again.metrics_, whole.metrics_)
+    other = pred.rename(index={"a": "z"}, level="run")
+    with pytest.raises(ValueError, match="indexed by other \\(run, time_s\\) labels"):
+        PredictionDisplay.from_predictions(y, other)
+    # Lengths are checked before a run is picked.
+    with pytest.raises(ValueError, match=r"groups must hold one value per row .*\(3"):
+        PredictionDisplay.from_predictions(
+            y.to_numpy(), pred.to_numpy(), groups=groups[:-3], run="a"
+        )
+    with pytest.raises(ValueError, match=r"time must hold one value per row"):
+        PredictionDisplay.from_predictions(y, pred, time=np.arange(10), run="a")
+    # Runs of 2, 4 and 6 h side by side share one time unit (the 2 h run
+    # was drawn in minutes beside the others in hours).
+    twice = 2 * np.asarray(y.index.get_level_values("time_s"))
+    slow = PredictionDisplay.from_predictions(y, pred, time=twice)
+    assert {ax.get_xlabel() for ax in slow.axes_[1]} == {"time (h)"}
+    plt.close("all")
+
+
+def test_an_estimator_of_several_outputs_plots_the_one_asked_for(run_data):
+    X, y, _, _ = run_data
+    Y = np.c_[y, 2 * y]
+    model = LinearRegression().fit(X, Y)
+    with pytest.raises(ValueError, match=r"predicts 2 outputs.*output=j"):
+        PredictionDisplay.from_estimator(model, X, y)
+    disp = PredictionDisplay.from_estimator(model, X, 2 * y, output=1)
+    assert (disp.metrics_["rmse"] < 1e-9).all()
+    with pytest.raises(ValueError, match=r"output must be an int in \[0, 1\]"):
+        PredictionDisplay.from_estimator(model, X, y, output=2)
+    plt.close("all")
+
+
 # ---------------------------------------------------- MembershipFunctionDisplay
 
 
@@ -424,7 +475,10 @@ def test_membership_of_a_pipeline_or_a_wrapped_model(run_data):
     anfis = ANFISRegressor(n_clusters=2, epochs=3, random_state=0)
     pipe = make_pipeline(StandardScaler(), anfis).fit(X, y)
     disp = MembershipFunctionDisplay.from_estimator(pipe)
-    assert [ax.get_xlabel() for ax in disp.axes_] == ["T1_C", "T2_C"]
+    # The functions live in the scaler's units: said on the axes (they were
+    # labelled as if in °C).
+    scaled = ["T1_C (after standardscaler)", "T2_C (after standardscaler)"]
+    assert [ax.get_xlabel() for ax in disp.axes_] == scaled
     wrapped = make_model("anfis-fcm", random_state=0, quick=True).fit(X, y)
     disp = MembershipFunctionDisplay.from_estimator(wrapped)
     assert [ax.get_xlabel() for ax in disp.axes_] == ["T1_C", "T2_C"]

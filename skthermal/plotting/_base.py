@@ -50,9 +50,28 @@ def _time_scale(time, time_unit):
         return time, "time"
     t = np.asarray(time, dtype=float)
     if time_unit == "auto":
-        span = float(np.nanmax(t) - np.nanmin(t)) if t.size else 0.0
-        time_unit = "h" if span > 3 * 3600 else "min" if span > 180 else "s"
+        time_unit = _unit_of_span(float(np.nanmax(t) - np.nanmin(t)) if t.size else 0.0)
     return t / _TIME_UNITS[time_unit], f"time ({time_unit})"
+
+
+def _unit_of_span(span):
+    """The ``"auto"`` time unit of a span of seconds."""
+    return "h" if span > 3 * 3600 else "min" if span > 180 else "s"
+
+
+def _time_unit(time, slices):
+    """The ``"auto"`` time unit shared by the runs (``slices``) drawn side
+    by side: that of the longest run (None for times that are no numbers,
+    which :func:`_time_scale` leaves as they are)."""
+    if not np.issubdtype(np.asarray(time).dtype, np.number):
+        return None
+    t = np.asarray(time, dtype=float)
+    spans = [
+        float(np.nanmax(t[sl]) - np.nanmin(t[sl]))
+        for sl in slices
+        if sl.stop > sl.start
+    ]
+    return _unit_of_span(max(spans, default=0.0))
 
 
 def _index_level(obj, name):

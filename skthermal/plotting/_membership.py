@@ -5,6 +5,7 @@ and after it (solid), as 001 Fig. 6-6 and Jang (1993) Fig. 13.
 """
 
 import numpy as np
+from sklearn.feature_selection import SelectorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from skthermal.plotting._base import _new_figure_or_axes, check_matplotlib_support
@@ -192,7 +193,7 @@ class MembershipFunctionDisplay:
                 f"which must be 'trained', 'initial' or 'both', got {which!r}."
             )
         given = estimator
-        estimator, outer_names = _final_model(estimator)
+        estimator, outer_names, changed = _final_model(estimator)
         if not hasattr(estimator, "mf"):
             what = type(given).__name__
             if estimator is not given:
@@ -218,6 +219,9 @@ class MembershipFunctionDisplay:
             if names is not None
             else [f"x{j + 1}" for j in range(d)]
         )
+        if changed:
+            # The functions live in the units the steps before make.
+            names = [f"{n} (after {', '.join(changed)})" for n in names]
         # One column of evaluation points per input: its range plus 5 %.
         grid = np.empty((n_points, d))
         for j, (lo, hi) in enumerate(np.asarray(estimator.get_input_range())):
@@ -252,8 +256,11 @@ def _final_model(estimator):
     """The model that does the work inside ``estimator`` (the last step of a
     pipeline, the fitted ``estimator_`` of a wrapper such as
     :class:`~skthermal.models.RunStartRegressor`), and the names of its
-    inputs as the outer layers know them (None when unknown)."""
-    names = None
+    inputs as the outer layers know them (None when unknown), and the names
+    of the pipeline steps before it that change the inputs' values (a
+    scaler: its functions are then in the scaled units; a sensor selector
+    changes none)."""
+    names, changed = None, []
     for _ in range(16):  # nesting depth; a loop guard, not a limit in practice
         own = getattr(estimator, "feature_names_in_", None)
         if own is not None:
@@ -264,6 +271,12 @@ def _final_model(estimator):
                 names = list(estimator[:-1].get_feature_names_out(names))
             except Exception:  # unfitted, or a step without names
                 names = None if len(steps) > 1 else names
+            changed += [
+                name
+                for name, step in steps[:-1]
+                if step not in (None, "passthrough")
+                and not isinstance(step, SelectorMixin)
+            ]
             estimator = steps[-1][1]
         elif not hasattr(estimator, "mf") and hasattr(estimator, "estimator_"):
             estimator = estimator.estimator_
@@ -271,4 +284,4 @@ def _final_model(estimator):
             if not hasattr(estimator, "mf") and hasattr(estimator, "estimator"):
                 check_is_fitted(estimator)  # an unfitted wrapper: say so
             break
-    return estimator, names
+    return estimator, names, changed

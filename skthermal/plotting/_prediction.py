@@ -5,7 +5,9 @@ and the predicted displacement of a test against time, the residual below it
 with the residual band shaded, and the accuracy figures in the title.
 """
 
+import numbers
 import re
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -18,6 +20,7 @@ from skthermal.plotting._base import (
     _index_level,
     _new_figure_or_axes,
     _time_scale,
+    _time_unit,
     check_matplotlib_support,
 )
 from skthermal.utils._runs import (
@@ -27,6 +30,7 @@ from skthermal.utils._runs import (
     pass_runs,
     run_slices,
 )
+from skthermal.utils._warnings import user_stacklevel
 
 _DISP = re.compile(r"^disp_(?P<axis>[a-z0-9]+)_um$", re.IGNORECASE)
 
@@ -42,6 +46,12 @@ def _target_label(name):
 
 
 def _metrics(y_true, y_pred):
+    """The title's metrics on the rows where both values are finite (NaN
+    when there is none)."""
+    ok = np.isfinite(y_true) & np.isfinite(y_pred)
+    if not ok.any():
+        return dict.fromkeys(("rmse", "r", "nse", "band"), np.nan)
+    y_true, y_pred = y_true[ok], y_pred[ok]
     with np.errstate(all="ignore"):
         return {
             "rmse": rmse(y_true, y_pred),
@@ -49,6 +59,71 @@ def _metrics(y_true, y_pred):
             "nse": nash_sutcliffe(y_true, y_pred),
             "band": residual_band(y_true, y_pred),
         }
+
+
+def _one_output(y_pred, output):
+    """Column ``output`` of an estimator's prediction of several outputs."""
+    arr = np.asarray(y_pred)
+    k = arr.shape[1] if arr.ndim == 2 else 1
+    if output is None:
+        if k > 1:
+            raise ValueError(
+                f"The estimator predicts {k} outputs (one per target it was "
+                "fitted on): pick one with output=j (its j-th target, 0-based), "
+                "and pass that target as y."
+            )
+        return y_pred
+    if not isinstance(output, numbers.Integral) or not 0 <= output < k:
+        raise ValueError(
+            f"output must be an int in [0, {k - 1}] (the estimator predicts "
+            f"{k} output(s)), got {output!r}."
+        )
+    return arr[:, output] if arr.ndim == 2 else arr
+
+
+def _aligned_prediction(y_true, y_pred):
+    """``y_pred`` in the row order of ``y_true`` when both are pandas objects
+    indexed by runs and times (a prediction sorted or grouped otherwise);
+    taken as it is (by position) otherwise. Labels that differ are an
+    error: the runs and times come from ``y_true``."""
+    a, b = getattr(y_true, "index", None), getattr(y_pred, "index", None)
+    if a is None or b is None or RUN_COLUMN not in (b.names or []):
+        return y_pred
+    if a.equals(b):
+        return y_pred
+    if (
+        a.is_unique
+        and b.is_unique
+        and len(a) == len(b)
+        and a.sort_values().equals(b.sort_values())
+    ):
+        return y_pred.reindex(a)
+    raise ValueError(
+        "y_pred is indexed by other (run, time_s) labels than y_true: the runs "
+        "and times are read from y_true, so the rows would be paired wrongly. "
+        "Predict the rows of y_true, or pass y_pred as an array in its row "
+        "order."
+    )
+
+
+def _warn_missing(y_true, y_pred, slices, labels):
+    """Warn of the rows without a finite measured or predicted value
+    (drawn as gaps, left out of the metrics), naming the first run."""
+    bad = ~(np.isfinite(y_true) & np.isfinite(y_pred))
+    if not bad.any():
+        return
+    row = int(np.argmax(bad))
+    run = next(
+        lab for sl, lab in zip(slices, labels, strict=True) if sl.start <= row < sl.stop
+    )
+    where = f"row {row}" + ("" if run is None else f" (run {plain(run)!r})")
+    warnings.warn(
+        f"PredictionDisplay: {int(bad.sum())} row(s) hold a missing or infinite "
+        f"measured or predicted value, the first at {where}: they are drawn "
+        "as gaps and left out of the metrics.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 class PredictionDisplay:
@@ -211,7 +286,13 @@ default=None
         )
         ylabel, unit = _target_label(self.target_name)
         pred_label = self.estimator_name or "predicted"
-        residual = y_true - y_pred
+        _warn_missing(y_true, y_pred, slices, labels)
+        finite = np.isfinite(y_true) & np.isfinite(y_pred)
+        with np.errstate(invalid="ignore"):
+            residual = np.where(finite, y_true - y_pred, np.nan)
+        if time is not None and time_unit == "auto":
+            # One unit for every run: the longest one's.
+            time_unit = _time_unit(time, slices)
         self.lines_measured_, self.lines_predicted_ = [], []
         self.lines_residual_, self.bands_ = [], []
         rows = []
@@ -335,8 +416,20 @@ default=None
             time = _index_level(y_true, TIME_COLUMN)
         if groups is None:
             groups = _index_level(y_true, RUN_COLUMN)
+        y_pred = _aligned_prediction(y_true, y_pred)
         y_true = _as_1d(y_true, "y_true")
         y_pred = _as_1d(y_pred, "y_pred")
+        n = y_true.shape[0]
+        if y_pred.shape[0] != n:
+            raise ValueError(
+                f"y_true has {n} samples but y_pred has {y_pred.shape[0]}."
+            )
+        for name, values in (("groups", groups), ("time", time)):
+            if values is not None and np.shape(values) != (n,):
+                raise ValueError(
+                    f"{name} must hold one value per row of y_true ({n}), got "
+                    f"shape {np.shape(values)}."
+                )
         if run is not None:
             if groups is None:
                 raise ValueError(
@@ -354,11 +447,6 @@ default=None
                     f"Run(s) {missing} not found; the runs are {known[:20]}."
                 )
             mask = np.isin(groups, wanted)
-            if y_pred.shape[0] != mask.shape[0]:
-                raise ValueError(
-                    f"y_true has {mask.shape[0]} samples but y_pred has "
-                    f"{y_pred.shape[0]}."
-                )
             y_true, y_pred, groups = y_true[mask], y_pred[mask], groups[mask]
             if time is not None:
                 time = np.asarray(time)[mask]
@@ -382,6 +470,7 @@ default=None
         time=None,
         groups=None,
         run=None,
+        output=None,
         target_name=None,
         estimator_name=None,
         ax=None,
@@ -412,6 +501,11 @@ default=None
             ``predict`` when the estimator's ``predict`` accepts ``groups``.
         run : label or list of labels, default=None
             The run(s) to plot; None plots every run, one column each.
+        output : int, default=None
+            For an estimator fitted on several targets (``disp_x_um``,
+            ``disp_y_um``, ...): the column of its prediction to draw, in
+            the order of its targets; ``y`` is then that target. Needed when
+            the estimator predicts several outputs.
         target_name : str, default=None
             Name of the target; default: the name of ``y``.
         estimator_name : str, default=None
@@ -434,6 +528,7 @@ default=None
             y_pred = estimator.predict(X_in, **kwargs)
         else:
             y_pred = estimator.predict(X)
+        y_pred = _one_output(y_pred, output)
         if time is None:
             time = _index_level(y, TIME_COLUMN)
             if time is None:
