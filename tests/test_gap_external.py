@@ -946,8 +946,8 @@ def test_save_draws_the_channel_the_summary_names(rng, tmp_path):
     meas[cols] += noise
     null = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
     assert null.where_model == "as given"
-    names = [p.name for p in null.save(tmp_path / "null").glob("timeline_*")]
-    assert len(names) == 3, names  # one per run
+    null_figures = list(null.save(tmp_path / "null").glob("timeline_*"))
+    assert len(null_figures) == 3, null_figures  # one per run
     meas["T2_C"] += 0.6 * (sim["T2_C"] - sim["ambient_C"])
     report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
     assert "channel T2_C:" in report.where_summary()
@@ -955,6 +955,13 @@ def test_save_draws_the_channel_the_summary_names(rng, tmp_path):
     names = [p.name for p in report.save(tmp_path / "gain").glob("timeline_*")]
     extra = [n for n in names if n.count("_") > 1 and n.endswith("_T2_C.png")]
     assert len(names) == 4 and len(extra) == 1, names
+    # The pages show every figure (they were only files beside them).
+    md = (tmp_path / "gain" / "report.md").read_text()
+    page = (tmp_path / "gain" / "report.html").read_text()
+    for name in names:
+        assert f"]({name})" in md and f"<img src='{name}'" in page
+    md = (tmp_path / "null" / "report.md").read_text()
+    assert all(f"]({n})" in md for n in (p.name for p in null_figures))
 
 
 def test_report_text_rounds_as_it_says(rng):

@@ -807,8 +807,7 @@ class GapReport:
                 "name exists; save() writes a folder of files."
             )
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "report.md").write_text(self.to_markdown())
-        (folder / "report.html").write_text(self.to_html())
+        self._write_pages(folder, [])
         self.to_json(folder / "report.json")
         self.ranking.to_csv(folder / "ranking.csv", index=False)
         self.how_far.to_csv(folder / "how_far.csv", index=False)
@@ -827,6 +826,7 @@ class GapReport:
         except ImportError:
             return folder
         runs = list(self.timelines)
+        figures = []
         for run, name in zip(runs, _file_names(runs), strict=True):
             fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
             self.plot_overlay(run, ax=axes[0])
@@ -834,6 +834,7 @@ class GapReport:
             fig.tight_layout()
             fig.savefig(folder / f"timeline_{name}.png", dpi=90)
             plt.close(fig)
+            figures.append((f"run {_label(run)}", f"timeline_{name}.png"))
         # The figures show a displacement; where another channel misses most
         # for its noise (a temperature, say), its worst run too.
         extra = self._worst_other_channel()
@@ -847,7 +848,32 @@ class GapReport:
             stem = _file_names([channel])[0]
             fig.savefig(folder / f"timeline_{name}_{stem}.png", dpi=90)
             plt.close(fig)
+            figures.append(
+                (f"run {_label(run)}, {channel}", f"timeline_{name}_{stem}.png")
+            )
+        # The pages again, now showing the figures.
+        self._write_pages(folder, figures)
         return folder
+
+    def _write_pages(self, folder, figures):
+        """report.md and report.html, with the ``figures`` (caption, file)
+        that :meth:`save` drew, shown at the end."""
+        import html
+
+        md, page = self.to_markdown(), self.to_html()
+        if figures:
+            md += "\n\n## Figures\n\n" + "\n\n".join(
+                f"![{caption}]({file})" for caption, file in figures
+            )
+            shown = "".join(
+                f"<figure><img src='{html.escape(file)}' alt='"
+                f"{html.escape(caption)}'><figcaption>{html.escape(caption)}"
+                "</figcaption></figure>"
+                for caption, file in figures
+            )
+            page = page.replace("</body>", f"<h2>Figures</h2>{shown}</body>")
+        (folder / "report.md").write_text(md)
+        (folder / "report.html").write_text(page)
 
     def _worst_other_channel(self):
         """``(run, channel)`` of the channel of largest error for its noise
