@@ -351,6 +351,14 @@ def test_a_simulation_at_other_times_is_interpolated(pair):
     back.loc[back.index[back["run"] == "r0"][7], "time_s"] -= 90.0
     with pytest.raises(ValueError, match="not strictly increasing in run 'r0' of the"):
         diagnose_runs(back, meas)
+    # A table out of order is told to be sorted; a repeated time, to drop it.
+    shuffled = meas.sample(frac=1.0, random_state=0)
+    with pytest.raises(ValueError, match=r"out of order\? Sort the table"):
+        diagnose_runs(sim, shuffled)
+    twice = meas.copy()
+    twice.loc[twice.index[5], "time_s"] = twice.loc[twice.index[4], "time_s"]
+    with pytest.raises(ValueError, match="A repeated time: drop the duplicated row"):
+        diagnose_runs(sim, twice)
 
 
 def test_a_measurement_that_starts_late_reads_the_simulation_before_it(rng):

@@ -214,9 +214,17 @@ def check_times(t, run, table=""):
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
+        # Going back in time (rather than standing still) is most often a
+        # table out of order.
+        fix = (
+            " Rows out of order? Sort the table: "
+            "df.sort_values(['run', 'time_s'], kind='stable')."
+            if t[k] < t[k - 1]
+            else " A repeated time: drop the duplicated row."
+        )
         raise ValueError(
             f"time_s is not strictly increasing in {_where(run, table)} at row "
-            f"{k} of the run (time_s {t[k]:g} after {t[k - 1]:g})."
+            f"{k} of the run (time_s {t[k]:g} after {t[k - 1]:g}).{fix}"
         )
 
 
