@@ -543,6 +543,27 @@ def test_gap_overlay_errors():
         GapOverlayDisplay.from_arrays([0], [0, 0], [0, 0])
     with pytest.raises(ValueError, match="non-empty 1-D"):
         GapOverlayDisplay.from_arrays([], [], [])
+    # The same checks as the timeline's: time goes forward, text is named,
+    # a one-column simulation is a column.
+    with pytest.raises(ValueError, match="time must increase strictly; sample 1"):
+        GapOverlayDisplay.from_arrays([1, 0, 2], [0, 0, 0], [0, 0, 0])
+    with pytest.raises(ValueError, match="time must hold numbers .* or datetimes"):
+        GapOverlayDisplay.from_arrays(["a", "b"], [0, 0], [0, 0])
+    with pytest.raises(ValueError, match="simulated must be numeric"):
+        GapOverlayDisplay.from_arrays([0, 1], [0, 0], ["a", "b"])
+    disp = GapOverlayDisplay.from_arrays([0, 1], [0, 1], np.array([[0.0], [1.0]]))
+    assert disp.ax_ is not None
+    plt.close("all")
+
+
+def test_sensor_scores_named_by_their_index():
+    disp = SensorScoreDisplay(scores=pd.Series([0.3, 0.9], index=["T1_C", "T2_C"]))
+    disp.plot()
+    labels = sorted(t.get_text() for t in disp.ax_.get_xticklabels())
+    assert labels == ["T1_C", "T2_C"]
+    with pytest.raises(ValueError, match="scores must be numeric"):
+        SensorScoreDisplay(scores=["a", "b"]).plot()
+    plt.close("all")
 
 
 def test_gap_overlay_import_error_names_the_extra(monkeypatch):

@@ -85,12 +85,7 @@ def _index_level(obj, name):
 
 def _as_1d(values, name):
     """A 1-D float array; a single-column DataFrame or (n, 1) array is squeezed."""
-    try:
-        arr = np.asarray(values, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric: {exc}") from exc
-    if arr.ndim == 2 and arr.shape[1] == 1:
-        arr = arr[:, 0]
+    arr = _floats(values, name)
     if arr.ndim != 1:
         raise ValueError(
             f"{name} must be one-dimensional (one target), got shape {arr.shape}; "
@@ -101,11 +96,13 @@ def _as_1d(values, name):
     return arr
 
 
-def _per_sample(lead_name, lead, **arrays):
-    """``lead`` as a non-empty 1-D float array and every other array (None
-    left out) as one value per sample of it; a ValueError names the first
-    that is not. Returns ``(lead, {name: array})``."""
-    lead = np.asarray(lead, dtype=float)
+def _per_sample(lead_name, lead, *, text=(), **arrays):
+    """``lead`` as a non-empty 1-D float array, and every other array (None
+    left out) as one value per sample of it: ``time`` numbers or datetimes
+    that increase strictly, the arrays named in ``text`` as objects (labels),
+    the rest as floats (an ``(n, 1)`` column squeezed). A ValueError names
+    the first that is not. Returns ``(lead, {name: array})``."""
+    lead = _floats(lead, lead_name)
     if lead.ndim != 1 or lead.size == 0:
         raise ValueError(
             f"{lead_name} must be a non-empty 1-D array, got shape {lead.shape}."
@@ -115,14 +112,43 @@ def _per_sample(lead_name, lead, **arrays):
     for name, values in arrays.items():
         if values is None:
             continue
-        arr = np.asarray(values)
+        if name == "time":
+            arr = np.asarray(values)
+            if not (
+                np.issubdtype(arr.dtype, np.number)
+                or np.issubdtype(arr.dtype, np.datetime64)
+            ):
+                raise ValueError(
+                    f"time must hold numbers (seconds) or datetimes, got "
+                    f"{arr.dtype} values."
+                )
+        elif name in text:
+            arr = np.asarray(values, dtype=object)
+        else:
+            arr = _floats(values, name)
         if arr.shape != (n,):
             raise ValueError(
                 f"{name} must hold one value per {lead_name} sample ({n}), got "
                 f"shape {arr.shape}."
             )
+        if name == "time" and n > 1 and not np.all(arr[1:] > arr[:-1]):
+            bad = int(np.flatnonzero(~(arr[1:] > arr[:-1]))[0]) + 1
+            raise ValueError(
+                f"time must increase strictly; sample {bad} has time {arr[bad]} "
+                f"after {arr[bad - 1]}."
+            )
         out[name] = arr
     return lead, out
+
+
+def _floats(values, name):
+    """``values`` as floats (an ``(n, 1)`` column squeezed to ``(n,)``); text
+    is an error naming ``name``."""
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric: {exc}") from exc
+    return arr[:, 0] if arr.ndim == 2 and arr.shape[1] == 1 else arr
 
 
 def _new_figure_or_axes(plt, ax, shape, caller, **subplots_kw):

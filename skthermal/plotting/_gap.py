@@ -6,7 +6,6 @@ where in a test the residual grows -- while heating, after a stop, dwelling, dur
 an ambient event -- is the first clue to the missing physics.
 """
 
-import numpy as np
 import pandas as pd
 
 from skthermal.plotting._base import (
@@ -111,17 +110,11 @@ class GapTimelineDisplay:
         residual, arrays = _per_sample(
             "residual",
             self.residual,
+            text=("regimes",),
             time=self.time,
-            regimes=np.asarray(self.regimes, dtype=object),
+            regimes=self.regimes,
         )
-        time, regimes, n = arrays["time"], arrays["regimes"], residual.size
-        if n > 1 and not np.all(time[1:] > time[:-1]):
-            bad = int(np.flatnonzero(~(time[1:] > time[:-1]))[0]) + 1
-            raise ValueError(
-                f"time must increase strictly; sample {bad} has time {time[bad]} "
-                f"after {time[bad - 1]}."
-            )
-        return time, residual, regimes
+        return arrays["time"], residual, arrays["regimes"]
 
     def plot(
         self, ax=None, *, time_unit="auto", colors=None, alpha=0.2, line_kwargs=None
@@ -309,10 +302,8 @@ class GapOverlayDisplay:
             "measured",
             self.measured,
             time=self.time,
-            simulated=np.asarray(self.simulated, dtype=float),
-            simulated_after=None
-            if self.simulated_after is None
-            else np.asarray(self.simulated_after, dtype=float),
+            simulated=self.simulated,
+            simulated_after=self.simulated_after,
         )
         return (
             arrays["time"],

@@ -8,9 +8,10 @@ coloured by sensor group (the fuzzy c-means clusters of
 from collections.abc import Mapping
 
 import numpy as np
+import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
-from skthermal.plotting._base import check_matplotlib_support
+from skthermal.plotting._base import _floats, check_matplotlib_support
 
 
 class SensorScoreDisplay:
@@ -26,7 +27,8 @@ class SensorScoreDisplay:
     support : array-like of bool of shape (n_sensors,), default=None
         Mask of the kept sensors; None draws every bar alike.
     feature_names : array-like of str of shape (n_sensors,), default=None
-        Sensor names; default ``x0``, ``x1``, ...
+        Sensor names; default: the index of ``scores`` when it is a pandas
+        Series indexed by name, else ``x0``, ``x1``, ...
     groups : array-like of shape (n_sensors,), default=None
         Group of every sensor (bars of a group share a colour); None colours
         by kept/dropped only.
@@ -80,7 +82,7 @@ class SensorScoreDisplay:
         self.score_name = score_name
 
     def _validated(self):
-        scores = np.asarray(self.scores, dtype=float)
+        scores = _floats(self.scores, "scores")
         if scores.ndim != 1 or scores.size == 0:
             raise ValueError(
                 f"scores must be a non-empty 1-D array, got shape {scores.shape}."
@@ -94,10 +96,15 @@ class SensorScoreDisplay:
                     f"support must be a boolean mask of shape ({n},), got "
                     f"{support.dtype} of shape {support.shape}."
                 )
+        given = self.feature_names
+        if (
+            given is None
+            and isinstance(self.scores, pd.Series)
+            and not isinstance(self.scores.index, pd.RangeIndex)
+        ):
+            given = self.scores.index  # scores named by sensor
         names = (
-            [f"x{j}" for j in range(n)]
-            if self.feature_names is None
-            else [str(s) for s in self.feature_names]
+            [f"x{j}" for j in range(n)] if given is None else [str(s) for s in given]
         )
         if len(names) != n:
             raise ValueError(f"feature_names must hold {n} names, got {len(names)}.")
