@@ -2581,7 +2581,8 @@ def _warn_hot(T, air, nodes, run):
         f"ThermalMachine: in run {run!r} node {nodes[j]!r} rises "
         f"{rise[k, j]:.0f} K above the air (to {T[k, j]:.0f} °C): no part "
         "of a machine tool runs that hot. Check the machine's heat inputs "
-        "(W, not kW), capacities (J/K) and conductances (W/K).",
+        "(W, not kW), capacities (J/K) and conductances (W/K), and the "
+        "drivers (a speed beyond what the machine is built for).",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
