@@ -209,7 +209,11 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     float or ndarray of shape (n_outputs,)
         R in [-1, 1] per output (or their mean). R is undefined, and NaN is
         returned for that output with an ``UndefinedMetricWarning``, when
-        ``y_true`` or ``y_pred`` is constant in it (or has a single sample).
+        ``y_true`` or ``y_pred`` is constant in it (or has a single sample);
+        the mean over the outputs is then NaN too (pass
+        ``multioutput="raw_values"`` for the others). As a scorer, a model
+        that predicts a constant scores NaN, which a search ranks as
+        undefined rather than as bad.
 
     Examples
     --------
