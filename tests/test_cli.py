@@ -457,6 +457,28 @@ def test_fit_every_model_with_a_selector(capsys, workdir, name):
     assert "grey selected" in text and out.is_file()
 
 
+def test_fit_notes_runs_that_start_turning(capsys, workdir, tmp_path):
+    table = pd.read_csv(workdir / "tests.csv")
+    first = ~table["run"].duplicated()
+    for rpm, noted in ((3000.0, True), (0.0, False)):
+        path = tmp_path / f"start_{int(rpm)}.csv"
+        table.assign(spindle_rpm=table["spindle_rpm"].mask(first, rpm)).to_csv(
+            path, index=False
+        )
+        argv = [
+            "fit",
+            "--runs",
+            path,
+            "--model",
+            "ridge",
+            "--out",
+            tmp_path / "m.joblib",
+        ]
+        status, text, err = _run(capsys, *argv)
+        assert status == 0, err
+        assert ("start with the spindle turning" in text) == noted, text
+
+
 def test_fit_the_baselines_and_predict(capsys, workdir):
     # The tuned linear baseline, and the recommended dynamic model, which
     # also reads the spindle speed from the table.
