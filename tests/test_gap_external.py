@@ -381,6 +381,25 @@ def test_a_measurement_that_starts_late_reads_the_simulation_before_it(rng):
     assert jumps.empty or jumps["time_s"].min() >= 1800.0
 
 
+def test_a_gap_within_the_noise_names_no_effect(rng):
+    # The measurement is the simulation plus white noise: a term fitted to
+    # noise "removed 100% of the gap above noise" (the gap fell by 2%, at
+    # p = 0.04) and was named. An effect is named only for a gap beyond
+    # the noise.
+    from skthermal.gap._scores import MIN_EXCESS, beyond_noise
+
+    assert beyond_noise(1.3, 1.0) and not beyond_noise(1.2, 1.0)
+    assert beyond_noise(np.sqrt(1 + MIN_EXCESS**2), 1.0)
+    sim, _ = _tables(rng, "null", n_runs=4, hours=6.0)
+    cols = ["T1_C", "T2_C", "disp_z_um"]
+    meas = sim.copy()
+    meas[cols] += 0.01 * rng.standard_normal((len(sim), 3)) * [1, 1, 10]
+    report = diagnose_runs(sim, meas)
+    assert report.best_effect is None
+    assert not report.ranking["explains"].any()
+    assert "is within the noise (floor" in report.verdict()
+
+
 def test_empty_tables_and_missing_values(pair):
     sim, meas = pair
     with pytest.raises(ValueError, match="simulated run table is empty"):

@@ -185,7 +185,22 @@ def test_bad_objective_output():
         particle_swarm(lambda P: np.array([None] * len(P)), [(-1, 1)], epochs=2)
     with pytest.raises(ValueError, match=r"real numbers.*got str"):
         particle_swarm(lambda P: np.array([0.0, "1"] * 10, dtype=object), [(-1, 1)])
-    # Numbers in an object array, or integers, are costs.
+    # Numbers of any kind in an object array are costs: numpy bools, 0-d
+    # arrays, Decimal.
+    from decimal import Decimal
+
+    makers = (
+        lambda v: np.bool_(v > 0.5),
+        lambda v: np.asarray(abs(v)),
+        lambda v: Decimal(str(abs(v))),
+    )
+    for make in makers:
+        res = particle_swarm(
+            lambda P, make=make: np.array([make(v) for v in P[:, 0]], dtype=object),
+            [(-1, 1)],
+            epochs=3,
+        )
+        assert np.isfinite(res.fun)
     res = particle_swarm(
         lambda P: np.array(list(np.abs(P[:, 0])), dtype=object), [(-1, 1)]
     )

@@ -40,6 +40,7 @@ from skthermal.gap._report import GapReport
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
     applicable,
+    beyond_noise,
     block_test,
     candidate_list,
     excess_shrink,
@@ -318,7 +319,9 @@ def _score(ctx, before_R, after_R, candidate, regimes, floor2, min_shrink, alpha
         "xcorr_after": _xcorr(ctx.problem, a),
     }
     row.update(whiteness_columns(b, a))
-    row["explains"] = bool(shrink >= min_shrink and p < alpha)
+    row["explains"] = bool(
+        shrink >= min_shrink and p < alpha and beyond_noise(gap_b, floor2)
+    )
     return row, (rb, ra)
 
 

@@ -57,6 +57,7 @@ from skthermal.gap._report import GapReport
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
     applicable,
+    beyond_noise,
     block_test,
     candidate_list,
     excess_shrink,
@@ -562,7 +563,11 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
             rates = np.median(rates, axis=0)
             row["fitted"] = {"rate_C_per_h": float(np.sqrt(np.mean(rates**2)))}
     row["ruled_out"] = ruled_out(name, row["fitted"])
-    row["explains"] = bool(shrink >= min_shrink and p < alpha) and not row["ruled_out"]
+    row["explains"] = (
+        bool(shrink >= min_shrink and p < alpha)
+        and beyond_noise(gap_b, floor2)
+        and not row["ruled_out"]
+    )
     rb = regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
     ra = regime_gaps(after_R, regimes)
     return row, (rb, ra), after_R, {"folds": models, "all": full}
@@ -654,10 +659,14 @@ class ExternalGapReport(GapReport):
         )
         if self.best_effect is None:
             return (
-                "No candidate effect explains the gap beyond noise (best "
-                f"candidate {row['effect']!r} {removes(row['shrink'])} the "
-                f"excess held-out gap: {evidence})."
-            ) + self._ruled_out_text(row)
+                (
+                    "No candidate effect explains the gap beyond noise (best "
+                    f"candidate {row['effect']!r} {removes(row['shrink'])} the "
+                    f"excess held-out gap: {evidence})."
+                )
+                + self._ruled_out_text(row)
+                + self._within_noise_text(row)
+            )
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
             f"{percent(row['shrink'])} of the held-out gap above the noise floor "

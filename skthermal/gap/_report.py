@@ -10,7 +10,7 @@ import pandas as pd
 
 from skthermal._markdown import markdown_table
 from skthermal._naming import percent, removes
-from skthermal.gap._scores import BANDS_H, GAP_UNIT, excess_shrink
+from skthermal.gap._scores import BANDS_H, GAP_UNIT, beyond_noise, excess_shrink
 
 
 def _largest_jumps(jumps, table, file, limit=20):
@@ -446,7 +446,7 @@ class GapReport:
                 f"candidate {fine['effect']!r} {removes(fine['shrink'])} "
                 f"the excess held-out gap {how}: {evidence})."
             )
-            return text + self._ruled_out_text(fine)
+            return text + self._ruled_out_text(fine) + self._within_noise_text(fine)
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
             f"{percent(fine['shrink'])} of the held-out gap above the noise floor "
@@ -463,6 +463,19 @@ class GapReport:
         if len(self.steps) > 1:
             text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
         return text
+
+    def _within_noise_text(self, row):
+        """A sentence when the base's held-out gap in ``row`` is within
+        :data:`~skthermal.gap._scores.MIN_EXCESS` of the noise floor (no
+        effect is named then)."""
+        gap, floor = row.get("gap_before", np.nan), self.noise_floor
+        if not (np.isfinite(gap) and floor > 0) or beyond_noise(gap, floor**2):
+            return ""
+        return (
+            f" The held-out gap ({gap:.3g}) is within the noise (floor "
+            f"{floor:.3g}, {gap / floor:.2f} times it): the simulation matches "
+            "the measurement as far as the noise tells."
+        )
 
     @staticmethod
     def _ruled_out_text(row):

@@ -92,11 +92,15 @@ def _evaluate(fun, P, n_particles):
     # NaN, which the swarm takes for a failed evaluation.
     odd = None
     if costs.dtype.kind == "O":
+        # Numbers of any kind (numpy bools and 0-d arrays, Decimal), not
+        # text, None or complex numbers.
         odd = next(
             (
                 type(c).__name__
                 for c in costs.ravel()
-                if not isinstance(c, numbers.Real)
+                if c is None
+                or isinstance(c, str | bytes | complex | np.complexfloating)
+                or (isinstance(c, np.ndarray) and c.dtype.kind not in "biuf")
             ),
             None,
         )
@@ -108,7 +112,12 @@ def _evaluate(fun, P, n_particles):
         raise ValueError(
             f"fun must return real numbers, one cost per particle; got {odd}."
         )
-    costs = costs.astype(float)
+    try:
+        costs = costs.astype(float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"fun must return real numbers, one cost per particle; got {exc}."
+        ) from None
     if costs.shape != (n_particles,):
         raise ValueError(
             "fun must return one cost per particle, an array of shape "
