@@ -311,6 +311,10 @@ def test_constant_sensor_is_named(selector):
         clone(selector).fit(X, y, groups=groups)
     X["Tb_C"] = X["Tb_C"] + np.float32(0.01) * np.arange(len(X), dtype=np.float32)
     clone(selector).fit(X, y, groups=groups)
+    # A float64 sensor beside it keeps float64's allowance: a change of 1e-6
+    # of its value is a change.
+    X["Tc_C"] = 21.5 + np.where(np.arange(len(X)) % 3, 2e-5, 0.0)
+    clone(selector).fit(X, y, groups=groups)
 
 
 def test_constant_within_each_run_is_constant():

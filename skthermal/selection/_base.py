@@ -41,28 +41,33 @@ _ROUNDING_SHARE = 1e-12
 
 def _rounding_share(A):
     """Relative rounding of the values of ``A`` as given, before conversion
-    to float64: :data:`_ROUNDING_SHARE`, or a few steps of the machine
-    precision of its least precise float type (float32 rounds at 6e-8
-    relative, so float32 readings constant up to rounding vary by ~1e-7)."""
-    if hasattr(A, "columns"):  # a DataFrame: one dtype per column
-        dtypes = list(A.dtypes)
-    else:
-        dtypes = [getattr(A, "dtype", None)]
-    share = _ROUNDING_SHARE
-    for d in dtypes:
-        try:  # pandas' nullable dtypes carry their numpy dtype
-            d = np.dtype(getattr(d, "numpy_dtype", d))
-        except TypeError:
-            continue
-        if d.kind == "f":
-            share = max(share, 8.0 * float(np.finfo(d).eps))
-    return share
+    to float64, per column of a DataFrame (else one figure):
+    :data:`_ROUNDING_SHARE`, or a few steps of the machine precision of a
+    lower-precision float type (float32 rounds at 6e-8 relative, so float32
+    readings constant up to rounding vary by ~1e-7)."""
+    if hasattr(A, "columns"):  # a DataFrame: one figure per column
+        return np.array([_dtype_share(d) for d in A.dtypes])
+    return _dtype_share(getattr(A, "dtype", None))
+
+
+def _dtype_share(dtype):
+    """:func:`_rounding_share` of one dtype (None: float64's)."""
+    try:  # pandas' nullable dtypes carry their numpy dtype
+        d = np.dtype(getattr(dtype, "numpy_dtype", dtype))
+    except TypeError:
+        return _ROUNDING_SHARE
+    if dtype is None or d.kind != "f":
+        return _ROUNDING_SHARE
+    return max(_ROUNDING_SHARE, 8.0 * float(np.finfo(d).eps))
 
 
 def _unchanging(A, slices, share=_ROUNDING_SHARE):
     """Whether each column of ``A`` is constant within every run, up to the
     rounding of its values (``share`` of their largest magnitude,
-    :func:`_rounding_share`)."""
+    :func:`_rounding_share`: one figure, or one per column)."""
+    share = np.asarray(share, dtype=float)
+    if share.ndim and share.size != A.shape[1]:  # columns left out since
+        share = share.max()
     change = np.abs(changes_since_start(A, slices)).max(axis=0)
     return change <= share * np.abs(A).max(axis=0)
 
