@@ -820,7 +820,6 @@ class GapReport:
                 "name exists; save() writes a folder of files."
             )
         folder.mkdir(parents=True, exist_ok=True)
-        self._write_pages(folder, [])
         self.to_json(folder / "report.json")
         self.ranking.to_csv(folder / "ranking.csv", index=False)
         self.how_far.to_csv(folder / "how_far.csv", index=False)
@@ -834,39 +833,40 @@ class GapReport:
             self.initial_states.add_suffix("_K_above_air").to_csv(
                 folder / "initial_states.csv"
             )
+        self._write_pages(folder, self._save_figures(folder))
+        return folder
+
+    def _save_figures(self, folder):
+        """The timeline figures of :meth:`save`, as (caption, file) pairs;
+        none without matplotlib."""
         try:
             plt = _pyplot()
         except ImportError:
-            return folder
-        runs = list(self.timelines)
-        figures = []
-        for run, name in zip(runs, _file_names(runs), strict=True):
+            return []
+
+        def draw(run, channel, file):
             fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
-            self.plot_overlay(run, ax=axes[0])
-            self.plot_timeline(run, ax=axes[1])
+            self.plot_overlay(run, channel, ax=axes[0])
+            self.plot_timeline(run, channel, ax=axes[1])
             fig.tight_layout()
-            fig.savefig(folder / f"timeline_{name}.png", dpi=90)
+            fig.savefig(folder / file, dpi=90)
             plt.close(fig)
+
+        runs = list(self.timelines)
+        names = _file_names(runs)
+        figures = []
+        for run, name in zip(runs, names, strict=True):
+            draw(run, None, f"timeline_{name}.png")
             figures.append((f"run {_label(run)}", f"timeline_{name}.png"))
         # The figures show a displacement; where another channel misses most
         # for its noise (a temperature, say), its worst run too.
         extra = self._worst_other_channel()
         if extra is not None:
             run, channel = extra
-            name = _file_names(runs)[runs.index(run)]
-            fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
-            self.plot_overlay(run, channel, ax=axes[0])
-            self.plot_timeline(run, channel, ax=axes[1])
-            fig.tight_layout()
-            stem = _file_names([channel])[0]
-            fig.savefig(folder / f"timeline_{name}_{stem}.png", dpi=90)
-            plt.close(fig)
-            figures.append(
-                (f"run {_label(run)}, {channel}", f"timeline_{name}_{stem}.png")
-            )
-        # The pages again, now showing the figures.
-        self._write_pages(folder, figures)
-        return folder
+            file = f"timeline_{names[runs.index(run)]}_{_file_names([channel])[0]}.png"
+            draw(run, channel, file)
+            figures.append((f"run {_label(run)}, {channel}", file))
+        return figures
 
     def _write_pages(self, folder, figures):
         """report.md and report.html, with the ``figures`` (caption, file)

@@ -106,10 +106,11 @@ def _aligned_prediction(y_true, y_pred):
     )
 
 
-def _warn_missing(y_true, y_pred, slices, labels):
+def _warn_missing(finite, slices, labels):
     """Warn of the rows without a finite measured or predicted value
-    (drawn as gaps, left out of the metrics), naming the first run."""
-    bad = ~(np.isfinite(y_true) & np.isfinite(y_pred))
+    (``~finite``: drawn as gaps, left out of the metrics), naming the first
+    run."""
+    bad = ~finite
     if not bad.any():
         return
     row = int(np.argmax(bad))
@@ -286,8 +287,8 @@ default=None
         )
         ylabel, unit = _target_label(self.target_name)
         pred_label = self.estimator_name or "predicted"
-        _warn_missing(y_true, y_pred, slices, labels)
         finite = np.isfinite(y_true) & np.isfinite(y_pred)
+        _warn_missing(finite, slices, labels)
         with np.errstate(invalid="ignore"):
             residual = np.where(finite, y_true - y_pred, np.nan)
         if time is not None and time_unit == "auto":

@@ -54,15 +54,15 @@ def _as_stack(stack, what="stack"):
     return arr
 
 
-def _check_image_temperatures(valid, pixels):
+def _check_image_temperatures(valid, mask):
     """Refuse images below absolute zero, and warn of images that read like
     kelvin (a camera export of about 293 for a room at 20 °C): the virtual
-    sensors are ``T<name>_C`` columns, in °C. ``valid``: the frames' valid
-    pixels ``(n_frames, n_pixels)``; ``pixels``: their (row, col)."""
+    sensors are ``T<name>_C`` columns, in °C. ``valid``: the frames' pixels
+    where ``mask`` holds, ``(n_frames, n_pixels)``."""
     cold = valid <= ABSOLUTE_ZERO_C
     if cold.any():
         f, p = np.argwhere(cold)[0]
-        r, c = pixels[p]
+        r, c = np.argwhere(mask)[p]
         raise ValueError(
             f"The stack reads {valid[f, p]:g} at frame {f}, pixel (row {r}, col "
             f"{c}): below absolute zero ({ABSOLUTE_ZERO_C:g} °C). The images "
@@ -543,7 +543,7 @@ class VirtualSensorExtractor:
                 f"The stack is NaN or infinite at frame {f}, pixel (row {r}, "
                 f"col {c}); repair or mask the pixel."
             )
-        _check_image_temperatures(valid, np.argwhere(self._mask))
+        _check_image_temperatures(valid, self._mask)
         columns = {}
         if run is not None:
             check_run_label(run)

@@ -351,6 +351,15 @@ def parameter_range(key):
     return ANY
 
 
+def _in_range(value, key, where):
+    """``value`` of parameter ``key``, or an error naming ``where`` when it
+    lies outside :func:`parameter_range`."""
+    valid = parameter_range(key)
+    if value not in valid:
+        raise ValueError(f"{where} {valid.rule}, got {value}{valid.hint}.")
+    return value
+
+
 def check_parameters(spec, params, *, strict=False, base=None):
     """Check the names and values of a machine's parameters.
 
@@ -390,13 +399,7 @@ def check_parameters(spec, params, *, strict=False, base=None):
                 value = _number(where, value)
             else:
                 value = _check_number(value, where)
-        valid = parameter_range(key)
-        if value not in valid:
-            raise ValueError(
-                f"{parameter_entry(key)}: parameter {key!r} {valid.rule}, "
-                f"got {value}{valid.hint}."
-            )
-        out[key] = value
+        out[key] = _in_range(value, key, f"{parameter_entry(key)}: parameter {key!r}")
     if base is None:
         full = {
             f"{e.name}.{k}": v for e in EFFECTS.values() for k, v in e.params.items()
@@ -759,11 +762,7 @@ class MachineSpec:
             for f, key in SENSOR_FIELDS.items():
                 if getattr(s, f) is not None:
                     value = _number(f"{where}: {f}", getattr(s, f), nonnegative=True)
-                    valid = parameter_range(key)
-                    if value not in valid:
-                        raise ValueError(
-                            f"{where}: {f} {valid.rule}, got {value}{valid.hint}."
-                        )
+                    _in_range(value, key, f"{where}: {f}")
             total = 0.0
             for node, w in s.weights.items():
                 if node != ROOM and node not in known:
