@@ -409,6 +409,8 @@ def test_verdict_and_tables_show_the_same_numbers(tool_report):
     overall = tool_report.how_far.set_index("regime").loc["overall"]
     assert f"{overall['gap_before']:.3g} -> {overall['gap_after']:.3g}" in text
     assert "table 'How far', overall" in text
+    share = tool_report.explainable["share"]
+    assert f"; a flexible model of the drivers removes {round(100 * share)}%" in text
     top = tool_report.ranking.set_index("effect").loc["tool_growth"]
     assert f"{top['gap_before']:.3g} -> {top['gap_after']:.3g}" in text
     md = tool_report.to_markdown()

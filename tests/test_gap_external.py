@@ -225,7 +225,8 @@ def test_null_gain_and_offset_call_none(rng):
     sim, meas = _tables(rng, "null")
     report = diagnose_runs(sim, meas)
     assert report.best_effect is None
-    assert "No candidate effect explains" in report.verdict()
+    assert "No candidate effect explains the gap beyond noise" in report.verdict()
+    assert "The held-out gap (" in report.verdict()  # within the noise
     assert not report.ranking["explains"].any()
     # The base (gain per channel, offsets as change since start) closes the
     # gap down to the noise.
@@ -896,8 +897,18 @@ def test_a_trend_too_fast_for_a_sensor_is_not_called_sensor_drift(rng):
     assert row["shrink"] > 0.5 and row["p_value"] < 0.05  # it fits the trend
     assert "beyond a sensor's drift" in row["ruled_out"] and not row["explains"]
     assert report.best_effect is None
-    assert "'sensor_drift' is ruled out: drift rates of 0.2" in report.verdict()
+    assert (
+        "'sensor_drift' is ruled out: drift rates of 0.28 °C/h (root mean square "
+        "over the 2 temperature sensors; the fastest, 'T1_C', +0.4 °C/h)"
+    ) in report.verdict()
     assert "- `sensor_drift` is ruled out" in report.to_markdown()
+    # A gap far above the noise is not said to be noise.
+    ratio = row["gap_before"] / report.noise_floor
+    assert ratio > 2
+    assert (
+        f"No candidate effect explains the gap (the held-out gap is {ratio:.1f} "
+        "times the noise floor) (best candidate 'sensor_drift'"
+    ) in report.verdict()
     # A plausible drift (0.05 °C/h) is named.
     sim, meas = _tables(rng, "null", n_runs=3, hours=4.0, noise=0.002)
     meas["T1_C"] += 0.05 * meas["time_s"] / 3600.0

@@ -88,6 +88,12 @@ def test_run_start_regressor_keeps_drivers_and_times():
     assert lag.estimator_.lag_features_.sample_period_s_ == pytest.approx(60.0)
     with pytest.raises(ValueError, match="drivers: 'rpm' is not a column"):
         RunStartRegressor(LinearRegression(), drivers=["rpm"]).fit(frame, y)
+    # A name with a plain array: the cause is that X has no names.
+    plain = frame.drop(columns=["run", "time_s"], errors="ignore").to_numpy()
+    with pytest.raises(
+        ValueError, match="'spindle_rpm' is a column name, but X has no"
+    ):
+        RunStartRegressor(LinearRegression(), drivers=["spindle_rpm"]).fit(plain, y)
     # "auto": the run table's drivers present among the columns.
     auto = RunStartRegressor(Spy(), drivers="auto").fit(frame, y)
     pd.testing.assert_frame_equal(auto.estimator_.seen_, seen)

@@ -625,6 +625,30 @@ def test_lag_ridge_on_too_few_rows_says_nothing_was_validated():
         )
 
 
+def test_lag_ridge_says_when_its_candidates_are_slow_for_the_runs():
+    # A process that responds within a few samples, runs of 1,800 s and
+    # candidates of 600 s and more: the CV falls back to the static model,
+    # and says why, with what to do.
+    rng = np.random.default_rng(0)
+    n = 200
+    u = rng.uniform(0, 5, n)
+    y = np.convolve(u, np.exp(-np.arange(20) / 2.0), mode="full")[:n]
+    y = y + 0.01 * rng.standard_normal(n)
+    X = pd.DataFrame({"run": "a", "time_s": 9.0 * np.arange(n), "T1_C": u})
+    slow = [(), (600.0, 1800.0)]
+    with pytest.warns(
+        UserWarning,
+        match=r"chose no time constant .*600-1800 s.*"
+        r"at most 1791 s \(sampled every 9 s\).*time_constant_sets",
+    ):
+        model = LagRidgeCV(time_constant_sets=slow, drivers=None).fit(X, y)
+    assert model.time_constants_ == ()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fast = LagRidgeCV(time_constant_sets=[(), (9.0, 27.0)], drivers=None)
+        assert fast.fit(X, y).time_constants_ == (9.0, 27.0)
+
+
 @pytest.mark.parametrize(
     "params, message",
     [

@@ -145,12 +145,22 @@ def test_seen_label_continues_unless_it_restarts():
         memory_and_plan(fit, table([15.0, 30.0], ["a"] * 2))
 
 
-def test_seen_label_starting_before_its_training_span_is_an_error():
+def test_seen_label_starting_before_its_training_span_starts_there():
+    # Fit had a later part of the run (a cut), predict an earlier one: it is
+    # predicted from its own first row, as the run's start (the advice of
+    # the error for a run inside its span, "pass the run from its start").
     fit = table([100.0, 115.0, 130.0], ["a"] * 3)
-    with pytest.raises(
-        ValueError, match=r"time_s=50, before the span 100-130.*GroupKFold"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert memory_and_plan(fit, table([0.0, 15.0], ["a"] * 2)) == [None]
+        whole = table([0.0, 15.0, 100.0, 115.0, 130.0, 145.0], ["a"] * 6)
+        assert memory_and_plan(fit, whole) == [None]
+    with pytest.warns(
+        UserWarning,
+        match=r"time_s=50, not 0, and before its rows seen in fit "
+        r"\(from time_s=100\)",
     ):
-        memory_and_plan(fit, table([50.0, 65.0], ["a"] * 2))
+        assert memory_and_plan(fit, table([50.0, 65.0], ["a"] * 2)) == [None]
 
 
 def test_new_run_not_starting_at_zero_warns():
@@ -906,3 +916,37 @@ def test_labels_of_two_kinds_in_a_list_are_not_merged():
     with pytest.raises(ValueError, match=r"Run labels mix kinds"):
         extract_runs(np.ones((4, 2)), [1, 1, "1", "1"])
     assert run_slices(["a", "a", "b"], 3)[1] == ["a", "b"]
+
+
+def _leaky_models():
+    from sklearn.linear_model import LinearRegression
+
+    from skthermal.linear_model import UpdateRegressor
+    from skthermal.models import RunStartRegressor
+    from skthermal.preprocessing import LagFeatures
+    from skthermal.selection import GreyInfluenceSelector
+
+    return {
+        "selector": GreyInfluenceSelector(n_features_to_select=1),
+        "LagFeatures": LagFeatures(time_constants=(600.0,)),
+        "UpdateRegressor": UpdateRegressor(),
+        "RunStartRegressor": RunStartRegressor(LinearRegression()),
+    }
+
+
+@pytest.mark.parametrize("name", list(_leaky_models()))
+def test_a_stored_table_whose_targets_are_features_warns(name):
+    # The run table passed whole as X keeps its displacement columns: a model
+    # fitted on it with y = one of them predicts the target from itself.
+    table, y, _ = _split_record()
+    table = table.assign(disp_y_um=y, disp_z_um=0.5 * y + 1.0)
+    model = _leaky_models()[name]
+    with pytest.warns(UserWarning, match=r"\['disp_y_um'\] equal the target y") as rec:
+        model.fit(table, table["disp_y_um"])
+    message = next(str(w.message) for w in rec if "equal the target" in str(w.message))
+    assert "['disp_z_um'] (targets of the run table" in message
+    # Without them, no such warning.
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        model.fit(table.drop(columns=["disp_y_um", "disp_z_um"]), y)
+    assert not [w for w in rec if "target" in str(w.message)]

@@ -731,8 +731,18 @@ def test_bad_drivers_name_the_problem(vmc_b):
         ValueError, match=r"time_s must increase strictly: run 'x', row 3"
     ):
         vmc_b.simulate_drivers([0, 30, 60, 60, 90], np.zeros(5), ok, run="x")
-    with pytest.raises(ValueError, match="not regularly sampled"):
+    with pytest.raises(ValueError, match="not regularly sampled") as err:
         vmc_b.simulate_drivers([0, 30, 60, 100, 130], np.zeros(5), ok)
+    assert "round time_s" not in str(err.value)  # a gap, not jitter
+    # A jittering clock: the suggested period (the logger's, not the median
+    # of the jittered steps) makes the run regular.
+    rng = np.random.default_rng(0)
+    t = np.arange(200) * 60.0
+    t[1:] += rng.uniform(-2.0, 2.0, t.size - 1)
+    with pytest.raises(ValueError, match=r"round\(time_s / 60\) \* 60,") as err:
+        vmc_b.simulate_drivers(t, np.zeros(t.size), np.full(t.size, 20.0))
+    fixed = np.round(t / 60.0) * 60.0
+    vmc_b.simulate_drivers(fixed, np.zeros(t.size), np.full(t.size, 20.0))
 
 
 def test_bad_presets_and_parameters():

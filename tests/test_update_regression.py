@@ -198,6 +198,18 @@ def test_default_penalty_warns_on_inputs_far_from_degrees(data):
     )
     with pytest.warns(UserWarning, match=r"regularises far more"):
         UpdateRegressor().fit(X / 1000, y)
+    # One column beyond the range (a driver in rpm among temperatures) is
+    # named; every column beyond it names none.
+    frame = pd.DataFrame(X, columns=[f"T{j}_C" for j in range(X.shape[1])])
+    frame["spindle_rpm"] = 3000.0 + 100.0 * (np.arange(len(frame)) % 7)
+    with pytest.warns(
+        UserWarning,
+        match=r"of \S+ \(from the column\(s\) 'spindle_rpm' \(3\.\d+e\+03\)\)",
+    ):
+        UpdateRegressor().fit(frame, y)
+    with pytest.warns(UserWarning, match=r"of 2\.\d+e\+03, far from") as rec:
+        UpdateRegressor().fit(1000 * frame.drop(columns="spindle_rpm"), y)
+    assert "from the column" not in str(rec[0].message)
     with pytest.warns(UserWarning, match=r"default eta=0\.1 .* \(1 - eta\) / eta"):
         UpdateRegressor().partial_fit(1000 * X, y)  # from scratch: a ridge
     # The remedy the message gives: alpha times the unit ratio squared is the

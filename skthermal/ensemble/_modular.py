@@ -80,7 +80,9 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         Work on changes since the start of each run (inputs and targets in
         ``fit``, inputs in ``predict``), the papers' "temperature change" and
         "thermal drift": the prediction is then the displacement *change*
-        since the start of the run. Runs come from ``groups``, a ``run``
+        since the start of the run (at a run's first row, where every input
+        change is zero, what the modules give for zero: their intercepts,
+        not forced to zero). Runs come from ``groups``, a ``run``
         column or a ``run`` index level (:func:`skthermal.datasets.split_runs`);
         without them all rows are one run (``fit`` warns when the rows carry
         no ``time_s`` either: a plain array, as a scikit-learn step that

@@ -227,6 +227,7 @@ def _evaluate(
     _log_row("Which", row)
     regime_shrink = (1.0 - ra / rb.reindex(ra.index)).rename(candidate)
     param = EFFECT_PARAMETER.get(candidate)
+    per_sensor = None
     if param is not None:
         row["fitted"] = float(
             np.median([f.values[param] for f in fits]) * ctx.reference[param]
@@ -235,11 +236,13 @@ def _evaluate(
         # The drift rates' spread over the temperature channels in °C/h, as
         # the simulator's rate_C_per_h: the root mean square of the rates
         # of report.drift_rates (each the median over the folds).
-        rates = np.median(drift_rates_C_per_h(ctx.problem, fits), axis=0)
+        per_fold = drift_rates_C_per_h(ctx.problem, fits)
+        rates = np.median(per_fold, axis=0)
         row["fitted"] = float(np.sqrt(np.mean(rates**2)))
+        per_sensor = drift_table(ctx.problem, per_fold)
     else:
         row["fitted"] = np.nan
-    row["ruled_out"] = ruled_out(candidate, row["fitted"])
+    row["ruled_out"] = ruled_out(candidate, row["fitted"], per_sensor)
     row["explains"] = row["explains"] and not row["ruled_out"]
     signature = None
     if candidate not in RESIDUAL_EFFECTS:

@@ -18,7 +18,11 @@ def downstream_error(
     simulated (with sensor noise), ``estimator`` is trained on the simulated
     runs and scored on the measured runs. A simulation that lacks an effect
     the machine has trains a worse compensation model; adding the effect
-    should lower the error.
+    can lower the error, but need not: ``report.machines`` hold the
+    calibrated parameters without the diagnosis's per-channel gains, so
+    another misfit of theirs can outweigh the effect (an independent check
+    found the error higher with a correctly named ``sensor_lag`` in 2 of 3
+    seeds). Read it as a check, not a proof.
 
     Parameters
     ----------

@@ -553,6 +553,7 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         **whiteness_columns(before_R, after_R),
         "fitted": {k: float(np.median([t[k] for t in thetas])) for k in full.theta_},
     }
+    per_sensor = None
     if not full.theta_ and name == "sensor_drift":
         # No nonlinear parameter: the root mean square over the temperature
         # channels of the drift rates of report.drift_rates (each the median
@@ -562,7 +563,10 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
         if rates.size:
             rates = np.median(rates, axis=0)
             row["fitted"] = {"rate_C_per_h": float(np.sqrt(np.mean(rates**2)))}
-    row["ruled_out"] = ruled_out(name, row["fitted"])
+            names = np.asarray(signals.channels, dtype=object)
+            names = names[signals.is_temp] if names.size else range(rates.size)
+            per_sensor = dict(zip(names, rates, strict=True))
+    row["ruled_out"] = ruled_out(name, row["fitted"], per_sensor)
     row["explains"] = (
         bool(shrink >= min_shrink and p < alpha)
         and beyond_noise(gap_b, floor2)
@@ -628,21 +632,7 @@ class ExternalGapReport(GapReport):
         row = self.how_far_evidence
         if not row:
             return "No candidate effect was tested."
-        share = self.explainable.get("share", np.nan)
-        if round(share * 100) < 0:  # worse by at least half a percent
-            flexible = (
-                "a flexible model of the drivers makes the held-out gap worse "
-                f"(excess above noise {percent(-share)} larger)"
-            )
-        else:
-            flexible = f"a flexible model of the drivers removes {percent(share)}"
-            if np.isfinite(share) and row["shrink"] > share:
-                # The flexible model is an estimate, fitted on few runs:
-                # here it falls short of a term, so it bounds nothing.
-                flexible += (
-                    f", less than {row['effect']!r}: the gap explainable at "
-                    "all is at least what the term removes"
-                )
+        flexible = self._flexible_text(row)
         given = row.get("gap_as_given", np.nan)
         as_given = (
             f" (the simulation as given: {given:.3g}, less than the base "
@@ -655,12 +645,12 @@ class ExternalGapReport(GapReport):
             f"{row['gap_after']:.3g}, "
             f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
             f"p = {row['p_value']:.2g}; likelihood ratio p = "
-            f"{row['lr_p_value']:.2g}; {flexible}"
+            f"{row['lr_p_value']:.2g}{flexible}"
         )
         if self.best_effect is None:
             return (
                 (
-                    "No candidate effect explains the gap beyond noise (best "
+                    f"{self._none_opening(row)} (best "
                     f"candidate {row['effect']!r} {removes(row['shrink'])} the "
                     f"excess held-out gap: {evidence})."
                 )
@@ -835,7 +825,7 @@ def diagnose_runs(
     problem = _problem(runs, channels, sim_cols, noise)
     problem.meta["source"] = "run table"
     w = np.sqrt(problem.weight) / problem.scale
-    signals = Signals(runs, ~problem.is_disp, w)
+    signals = Signals(runs, ~problem.is_disp, w, tuple(problem.channels))
     n = len(runs)
     all_idx = list(range(n))
     folds = [

@@ -92,11 +92,13 @@ class RunSignals:
 @dataclass
 class Signals:
     """All runs, which channels are temperatures, and the channel weights
-    (``sqrt(weight) / scale``) with which squared errors are summed."""
+    (``sqrt(weight) / scale``) with which squared errors are summed;
+    ``channels``: their names (for messages), when known."""
 
     runs: list
     is_temp: np.ndarray
     w: np.ndarray
+    channels: tuple = ()
 
     @property
     def n_channels(self):

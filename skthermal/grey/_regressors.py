@@ -385,9 +385,11 @@ class GreyPSORegressor(_GreyRunRegressor):
     sample). A labelled run whose first row is the run's first training row
     (same first ``time_s``; without a time index, same first inputs) is
     predicted again from its start, so training rows can be re-predicted; one
-    whose first ``time_s`` is inside or before the span seen in ``fit`` is an
-    error. Without a time index, rows of a seen run that do not start with its
-    first training row are taken to follow its last one. A run not seen in
+    whose first ``time_s`` is inside the span seen in ``fit`` is an error, and
+    one that starts before it (``fit`` had a later part of the run) is
+    predicted from its own first row, as the run's start. Without a time
+    index, rows of a seen run that do not start with its first training row
+    are taken to follow its last one. A run not seen in
     ``fit`` starts at its first row, with a warning if its ``time_s`` does not
     start at 0. Rows without run labels given to a model fitted on labelled
     runs are taken as one new run, with a warning. ``fit`` on rows with

@@ -317,11 +317,13 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
 _DESIGN_SCALE = (0.01, 100.0)
 
 
-def _warn_input_scale(X, name, value, stacklevel):
+def _warn_input_scale(X, name, value, stacklevel, columns=None):
     """Warn when ``X`` is far from the °C magnitudes a default penalty assumes.
 
     ``name=value`` is the default penalty in use: ``alpha`` of ``fit``, or
     ``eta`` of a ``partial_fit`` from scratch (ridge with ``(1 - eta) / eta``).
+    ``columns``: X's column names, to name the columns beyond the range
+    (a driver such as ``spindle_rpm`` among temperatures in °C).
     """
     if X.size == 0:
         return
@@ -335,8 +337,18 @@ def _warn_input_scale(X, name, value, stacklevel):
         else "regularises far more than intended (coefficients shrunk to ~0)"
     )
     what = "alpha" if name == "alpha" else "(1 - eta) / eta"
+    each = np.sqrt(np.mean(np.square(X), axis=0))
+    beyond = (each > hi) if scale > hi else (each < lo)
+    where = ""
+    if 0 < beyond.sum() < X.shape[1]:
+        names = columns if columns is not None else [f"x{j}" for j in range(X.shape[1])]
+        listed = ", ".join(
+            f"{names[j]!r} ({each[j]:.3g})" for j in np.flatnonzero(beyond)[:5]
+        )
+        more = f" and {beyond.sum() - 5} more" if beyond.sum() > 5 else ""
+        where = f" (from the column(s) {listed}{more})"
     warnings.warn(
-        f"UpdateRegressor: X has a root-mean-square of {scale:.3g}, far from "
+        f"UpdateRegressor: X has a root-mean-square of {scale:.3g}{where}, far from "
         f"the temperature changes in °C (about {lo:g} to {hi:g}) for which the "
         f"default {name}={value!r} (004's) was set; as an absolute penalty it "
         f"{effect} here. Give X in °C (e.g. millidegrees / 1000) or "
@@ -495,7 +507,9 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         )
         self._target_names = names
         if self.alpha == 25.0:
-            _warn_input_scale(X, "alpha", self.alpha, 4)
+            _warn_input_scale(
+                X, "alpha", self.alpha, 4, getattr(self, "feature_names_in_", None)
+            )
         coef = ridge_coef(
             X,
             _as_2d_target(y),
@@ -534,7 +548,9 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
         )
         if first and self.eta == 0.1:
             # From scratch the update is ridge with p = (1 - eta) / eta.
-            _warn_input_scale(X, "eta", self.eta, 4)
+            _warn_input_scale(
+                X, "eta", self.eta, 4, getattr(self, "feature_names_in_", None)
+            )
         coef = update_coef(
             X, E, old, eta=self.eta, penalize_intercept=self.penalize_intercept
         )

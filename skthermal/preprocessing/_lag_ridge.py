@@ -558,6 +558,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.time_constants_ = taus
         self.relative_ = rel
         self.lag_features_ = self._features(taus, rel, dt).fit(X_raw, groups=groups)
+        if not taus:
+            self._warn_slow_candidates(sets, slices)
         F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         n_temp = self.lag_features_.n_temperature_features_
         self.n_lag_features_ = F.shape[1] if use else n_temp
@@ -567,6 +569,30 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         F = self.scaler_.transform(F)  # the unscaled features go
         self.ridge_ = Ridge(alpha=self.alpha_).fit(F, y)
         return self
+
+    def _warn_slow_candidates(self, sets, slices):
+        """Warn when the CV chose no time constant and every candidate's is
+        slow for the training runs (the longest shorter than ten times the
+        shortest candidate time constant): the model is then the static
+        one by default, not because the process has no lag."""
+        shortest = min((min(taus) for taus in sets if taus), default=None)
+        period = getattr(self.lag_features_, "sample_period_s_", np.nan)
+        if shortest is None or not np.isfinite(period):
+            return
+        longest = max(sl.stop - sl.start - 1 for sl in slices) * period
+        if longest >= 10 * shortest:
+            return
+        taus = sorted({t for ts in sets for t in ts})
+        warnings.warn(
+            f"{type(self).__name__} chose no time constant (a static model "
+            f"of the readings): the candidates ({taus[0]:g}-{taus[-1]:g} s) "
+            f"are slow for training runs of at most {longest:g} s (sampled "
+            f"every {period:g} s). Give time_constant_sets on the process's "
+            "own time scale (e.g. a few sampling periods to a fraction of a "
+            "run).",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
 
     def predict(self, X, *, groups=None):
         """Predict, restarting the lag features at every run.

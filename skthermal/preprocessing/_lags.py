@@ -41,6 +41,7 @@ from skthermal.utils._runs import (
     warn_no_time,
     warn_pauses,
     warn_slow_periods,
+    warn_target_columns,
     warn_unlabelled_runs,
     warn_unnamed_drivers,
     within_run_steps,
@@ -646,15 +647,16 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         -------
         self : LagFeatures
         """
-        self._fit(X, groups)
+        self._fit(X, groups, y)
         return self
 
-    def _fit(self, X, groups):
+    def _fit(self, X, groups, y=None):
         """:meth:`fit`; returns the training rows' features when it has
         computed them (to keep every labelled run's end state, else None),
         with ``X`` as :func:`extract_runs` returns it and the run labels."""
         taus, powers = self._taus(), self._powers()
         X_raw, groups = extract_runs(X, groups)
+        warn_target_columns(X_raw, y)
         X_arr = validate_data(self, X_raw, dtype=np.float64)
         slices, labels = run_slices(groups, X_arr.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
@@ -868,7 +870,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         F : ndarray or DataFrame of shape (n_samples, n_features_out)
             As :meth:`transform` returns.
         """
-        F, X_raw, groups = self._fit(X, groups)
+        F, X_raw, groups = self._fit(X, groups, y)
         if F is None:  # no labelled run: fit computed nothing
             return self.transform(X, groups=groups)
         # The training rows are every run from its start: the features fit

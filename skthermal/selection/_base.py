@@ -28,6 +28,7 @@ from skthermal.utils._runs import (
     run_slices,
     target_names,
     unreadable,
+    warn_target_columns,
     warn_unlabelled_runs,
 )
 from skthermal.utils._warnings import user_stacklevel
@@ -90,6 +91,8 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.target_tags.required = True
+        # transform only picks columns: float32 readings stay float32.
+        tags.transformer_tags.preserves_dtype = ["float64", "float32"]
         return tags
 
     @_fit_context(prefer_skip_nested_validation=True)
@@ -120,6 +123,7 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         )
         if y is not None:
             check_finite_target(y, X, groups)
+            warn_target_columns(X, y)
         rows = X  # its run and time_s, for messages
         names = target_names(y)
         shares = (_rounding_share(X), _rounding_share(y))

@@ -247,6 +247,27 @@ def _warn_inactive(spec, effects):
         )
 
 
+def _jittered_period(t):
+    """The period of a clock that only jitters: the coarsest rounding of
+    the median step (to a decimal digit) that makes the times, rounded to
+    its multiples, evenly spaced, each time near its slot; None when none
+    does (the run has gaps or another period in places)."""
+    median = float(np.median(np.diff(t)))
+    if not median > 0:
+        return None
+    top = int(np.floor(np.log10(median)))
+    for digits in range(-top, 10):
+        period = round(median, digits)
+        if period <= 0:
+            continue
+        k = np.round(t / period)
+        # Evenly spaced, and every time within a tenth of a period of its
+        # slot either way: jitter, not a gap or a drifting clock.
+        if np.all(np.diff(k) == 1) and np.ptp(t - k * period) <= 0.2 * period:
+            return period
+    return None
+
+
 class ThermalMachine:
     """A simulated machine tool: thermal network, heat sources, sensors, errors.
 
@@ -1698,14 +1719,19 @@ class ThermalMachine:
                 f"(time_s {t[bad[0] + 1]:g} after {t[bad[0]]:g})."
             )
         if np.ptp(steps) > 1e-6 * steps.mean():
-            period = float(np.median(steps))
+            period = _jittered_period(t)
+            fix = (
+                "Resample it to a constant period first."
+                if period is None
+                else "Resample it to a constant period first, or, where the "
+                "logger's clock only jitters, round time_s to its period "
+                f"(time_s = round(time_s / {period:.6g}) * {period:.6g}, "
+                "which makes this run regular)."
+            )
             raise ValueError(
                 f"Run {run!r} is not regularly sampled (steps from "
                 f"{steps.min():.9g} to {steps.max():.9g} s); the simulation "
-                "runs at one period. Resample it to a constant period first, "
-                "or, where the logger's clock only jitters, round time_s to "
-                f"its period (time_s = round(time_s / {period:.6g}) * "
-                f"{period:.6g})."
+                f"runs at one period. {fix}"
             )
 
     def _integrate(self, rpm, feed, air, dt, T0, sources=("spindle", "feed"), run=None):

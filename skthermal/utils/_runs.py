@@ -17,7 +17,7 @@ from numbers import Integral, Real
 import numpy as np
 from sklearn.utils._param_validation import InvalidParameterError
 
-from skthermal._naming import plain, shown
+from skthermal._naming import TARGET_PATTERN, plain, shown
 from skthermal.utils._warnings import user_stacklevel
 from skthermal.utils._wrappers import routed_params, routing_enabled
 
@@ -451,7 +451,54 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
     if y is not None:
         check = check_finite_target if finite else check_target_rows
         check(y, X, groups, given_index=given_index)
+        warn_target_columns(X, y)
     return X, groups
+
+
+def warn_target_columns(X, y):
+    """Warn when the features ``X`` (a DataFrame, ``run`` and ``time_s``
+    already taken out) hold the target ``y`` itself or a displacement column
+    of the run table (``disp_<axis>_um``): a stored run table passed whole
+    as ``X`` keeps its targets as features, and a model fitted so predicts
+    the target from itself (a selector picks it as the best "sensor", a
+    cross-validation scores it perfect), silently."""
+    columns = getattr(X, "columns", None)
+    if columns is None or y is None or X.shape[0] == 0:
+        return
+    targets = [c for c in columns if isinstance(c, str) and TARGET_PATTERN.fullmatch(c)]
+    values = np.asarray(y)
+    values = values.reshape(len(values), -1) if values.ndim else values
+    same = []
+    if values.ndim == 2 and values.shape[0] == X.shape[0]:
+        try:
+            wanted = values.astype(float)
+        except (TypeError, ValueError):
+            wanted = None
+        for c in columns:
+            if wanted is None or X[c].dtype.kind not in "biuf":
+                continue
+            column = X[c].to_numpy(dtype=float)
+            if any(np.array_equal(column, w, equal_nan=True) for w in wanted.T):
+                same.append(c)
+    if not targets and not same:
+        return
+    parts = []
+    if same:
+        parts.append(f"X's column(s) {shown(same)} equal the target y")
+    rest = [c for c in targets if c not in same]
+    if rest:
+        parts.append(
+            f"X holds the displacement column(s) {shown(rest)} (targets of the "
+            "run table, not sensors)"
+        )
+    warnings.warn(
+        "; ".join(parts) + ": they are features of this fit, so the model "
+        "predicts the target from a target. Drop them from X, e.g. "
+        "split_runs(runs, targets=...) or runs.drop(columns=[...]), and pass "
+        "the target as y.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_other_runs(groups, labels, where):
@@ -1633,6 +1680,12 @@ def driver_positions(drivers, names, n_features):
             out.append(int(d))
         elif names is not None and str(d) in names:
             out.append(names.index(str(d)))
+        elif names is None and isinstance(d, str):
+            raise ValueError(
+                f"drivers: {d!r} is a column name, but X has no column names "
+                f"({n_features} unnamed feature(s), e.g. a numpy array or a "
+                "step that outputs numpy): pass a DataFrame or a column position."
+            )
         else:
             known = "" if names is None else f"; columns: {names}"
             raise ValueError(
@@ -2094,8 +2147,12 @@ def continued_runs(
       starts where the training run started (same first ``time_s``, or,
       without a time index, the same first row of inputs): then the run is
       predicted again from its start;
-    - a labelled run whose first ``time_s`` is neither the first one seen in
-      ``fit`` nor after the last one is an error: neither reading is right;
+    - a labelled run whose first ``time_s`` is before the first one seen
+      in ``fit`` (fit had a later part of the run) starts at its own first
+      row, as a run's start;
+    - a labelled run whose first ``time_s`` is inside its training span
+      (after the first, up to the last) is an error: neither reading is
+      right;
     - a run that is not continued starts at its first row; if its ``time_s``
       does not start at 0, a warning says so (the later part of a run given
       without its start is otherwise predicted as a run of its own).
@@ -2128,6 +2185,19 @@ def continued_runs(
     for r, (sl, lab) in enumerate(zip(slices, labels, strict=True)):
         state = memory.get(lab) if lab is not None else None
         t0 = None if times is None else float(times[r, 0])
+        if (
+            state is not None
+            and t0 is not None
+            and np.isfinite(state["t_first"])
+            and t0 < state["t_first"]
+        ):
+            # Fit had a later part of this run (a cut), this call an earlier
+            # one: nothing to continue, so it is predicted from its own first
+            # row, as the start of the run.
+            earlier = state["t_first"]
+            state = None
+        else:
+            earlier = None
         if state is not None:
             if t0 is not None and np.isfinite(state["t_first"]):
                 if t0 == state["t_first"]:
@@ -2135,12 +2205,7 @@ def continued_runs(
                     continue
                 if t0 <= state["t_last"]:
                     span = f"{state['t_first']:g}-{state['t_last']:g}"
-                    where = (
-                        f"before the span {span} of it seen in fit: fit had a "
-                        "later part of this run, and this call an earlier one"
-                        if t0 < state["t_first"]
-                        else f"inside the span {span} of it seen in fit"
-                    )
+                    where = f"inside the span {span} of it seen in fit"
                     raise ValueError(
                         f"Run {lab!r} starts at time_s={t0:g}, {where}. {who} "
                         "takes a run either from its start or after the end of "
@@ -2180,7 +2245,16 @@ def continued_runs(
                 )
             continue
         out.append(None)
-        if t0 is not None and t0 != 0:
+        if t0 is not None and t0 != 0 and earlier is not None:
+            warnings.warn(
+                f"Run {lab!r} given to {who} starts at time_s={t0:g}, not 0, "
+                f"and before its rows seen in fit (from time_s={earlier:g}), "
+                "so it is taken as a run that starts at its first row. Pass "
+                "the run from its start (time_s=0) to predict it from there.",
+                UserWarning,
+                stacklevel=stacklevel,
+            )
+        elif t0 is not None and t0 != 0:
             run = "The rows" if lab is None else f"Run {lab!r}"
             warnings.warn(
                 f"{run} given to {who} start(s) at time_s={t0:g}, not "
