@@ -308,3 +308,88 @@ def test_metrics_do_not_overflow_or_underflow(scale):
             nash_sutcliffe(y, p)
         )
         assert pearson_r(y * scale, p * scale) == pytest.approx(pearson_r(y, p))
+
+
+def test_sample_weights(rng):
+    from sklearn.metrics import mean_squared_error
+
+    z = rng.normal(size=40)
+    p = z + rng.normal(scale=0.3, size=40)
+    w = rng.uniform(0.0, 3.0, size=40)
+    w[:5] = 0.0
+    assert rmse(z, p, sample_weight=w) == pytest.approx(
+        np.sqrt(mean_squared_error(z, p, sample_weight=w))
+    )
+    assert nash_sutcliffe(z, p, sample_weight=w) == pytest.approx(
+        r2_score(z, p, sample_weight=w)
+    )
+    cov = np.cov(z, p, aweights=w)
+    assert pearson_r(z, p, sample_weight=w) == pytest.approx(
+        cov[0, 1] / np.sqrt(cov[0, 0] * cov[1, 1])
+    )
+    # A largest residual is not weighted: weight 0 leaves a sample out.
+    p_out = p.copy()
+    p_out[0] += 100.0
+    assert residual_band(z, p_out, sample_weight=w) == pytest.approx(
+        np.abs(z - p)[5:].max()
+    )
+    assert improvement(z, p_out, sample_weight=w) == pytest.approx(
+        1 - np.abs(z - p)[5:].max() / np.abs(z[5:]).max()
+    )
+    # Equal weights are no weights; whole-number weights repeat samples.
+    for metric in METRICS:
+        assert metric(z, p, sample_weight=np.full(40, 2.5)) == pytest.approx(
+            metric(z, p)
+        )
+    counts = rng.integers(1, 4, size=40)
+    rows = np.repeat(np.arange(40), counts)
+    for metric in (rmse, nash_sutcliffe, pearson_r):
+        assert metric(z, p, sample_weight=counts) == pytest.approx(
+            metric(z[rows], p[rows])
+        )
+
+
+@pytest.mark.parametrize("metric", METRICS)
+@pytest.mark.parametrize(
+    "weights, message",
+    [
+        (np.ones(3), r"shape \(3,\), expected \(4,\)"),
+        ([1.0, -1.0, 1.0, 1.0], "row 1 has -1.0"),
+        ([1.0, np.nan, 1.0, 1.0], "row 1 has nan"),
+        (np.zeros(4), "0 for every sample"),
+        (["a", "b", "c", "d"], "must be numbers"),
+    ],
+)
+def test_sample_weights_are_checked(metric, weights, message):
+    with pytest.raises(ValueError, match=message):
+        metric(Z, P, sample_weight=weights)
+
+
+def test_scorers_pass_sample_weights_under_routing(rng):
+    import sklearn
+
+    n_runs, n_rows = 4, 15
+    groups = np.repeat(np.arange(n_runs), n_rows)
+    X = rng.normal(size=(n_runs * n_rows, 2))
+    y = X @ [1.0, -2.0] + 0.3 * rng.normal(size=n_runs * n_rows)
+    w = np.where(groups == 0, 5.0, 1.0)
+    with sklearn.config_context(enable_metadata_routing=True):
+        scorers = thermal_scorers()
+        for scorer in scorers.values():
+            scorer.set_score_request(sample_weight=True)
+        cv = cross_validate(
+            LinearRegression().set_fit_request(sample_weight=False),
+            X,
+            y,
+            params={"groups": groups, "sample_weight": w},
+            cv=GroupKFold(2),
+            scoring=scorers,
+            return_indices=True,
+            error_score="raise",
+        )
+    for k, test in enumerate(cv["indices"]["test"]):
+        train = cv["indices"]["train"][k]
+        p = LinearRegression().fit(X[train], y[train]).predict(X[test])
+        assert -cv["test_neg_rmse"][k] == pytest.approx(
+            rmse(y[test], p, sample_weight=w[test])
+        )

@@ -84,6 +84,50 @@ def _check_targets(y_true, y_pred, multioutput):
     return y_true, y_pred, weights
 
 
+def _sample_weights(sample_weight, n):
+    """Validated sample weights of ``n`` samples (None: all equal): 1-D,
+    finite, 0 or more, not all 0."""
+    if sample_weight is None:
+        return None
+    try:
+        w = np.asarray(sample_weight, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"sample_weight must be numbers: {exc}") from exc
+    if w.ndim == 0:
+        w = np.full(n, float(w))
+    if w.shape != (n,):
+        raise ValueError(
+            f"sample_weight has shape {w.shape}, expected ({n},): one weight "
+            "per sample."
+        )
+    bad = ~np.isfinite(w) | (w < 0)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"sample_weight must be finite and 0 or more; row {row} has {w[row]}."
+        )
+    if not w.sum() > 0:
+        raise ValueError(
+            "sample_weight is 0 for every sample; give at least one sample a "
+            "positive weight."
+        )
+    return w
+
+
+def _weighted_mean(a, w, axis=0):
+    """Mean over ``axis`` (weights ``w`` or None)."""
+    return np.average(a, axis=axis, weights=w)
+
+
+def _kept(y_true, y_pred, w):
+    """The samples of positive weight (all without weights): a largest
+    residual is not weighted, only left out at weight 0."""
+    if w is None:
+        return y_true, y_pred
+    keep = w > 0
+    return y_true[keep], y_pred[keep]
+
+
 def _aggregate(values, weights):
     if isinstance(weights, str):
         if weights == "raw_values":
@@ -111,7 +155,7 @@ def _ratio_score(num, den, force_finite):
     return score
 
 
-def rmse(y_true, y_pred, *, multioutput="uniform_average"):
+def rmse(y_true, y_pred, *, sample_weight=None, multioutput="uniform_average"):
     """Root mean squared error, ``sqrt(mean((z - p)^2))``.
 
     Parameters
@@ -120,6 +164,9 @@ def rmse(y_true, y_pred, *, multioutput="uniform_average"):
         Measured values.
     y_pred : array-like of shape (n_samples,) or (n_samples, n_outputs)
         Predicted values.
+    sample_weight : array-like of shape (n_samples,), default=None
+        Weight of every sample (e.g. to count runs of other lengths
+        alike); None weighs them equally.
     multioutput : {"raw_values", "uniform_average"} or array-like of shape \
 (n_outputs,), default="uniform_average"
         ``"raw_values"`` returns one value per output; otherwise the (weighted)
@@ -144,8 +191,9 @@ def rmse(y_true, y_pred, *, multioutput="uniform_average"):
     array([1.        , 2.12132034])
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    w = _sample_weights(sample_weight, y_true.shape[0])
     e, scale = _unit_columns(y_true - y_pred)
-    values = scale * np.sqrt(np.mean(e**2, axis=0))
+    values = scale * np.sqrt(_weighted_mean(e**2, w))
     return _aggregate(values, weights)
 
 
@@ -159,7 +207,14 @@ def _unit_columns(a, scale=None):
     return a / scale, scale
 
 
-def nash_sutcliffe(y_true, y_pred, *, multioutput="uniform_average", force_finite=True):
+def nash_sutcliffe(
+    y_true,
+    y_pred,
+    *,
+    sample_weight=None,
+    multioutput="uniform_average",
+    force_finite=True,
+):
     """Nash-Sutcliffe efficiency, ``1 - sum (z - p)^2 / sum (z - mean z)^2``.
 
     1 is a perfect model, 0 a model no better than the mean of the measured
@@ -168,8 +223,9 @@ def nash_sutcliffe(y_true, y_pred, *, multioutput="uniform_average", force_finit
 
     Parameters
     ----------
-    y_true, y_pred, multioutput
-        As in :func:`rmse`.
+    y_true, y_pred, sample_weight, multioutput
+        As in :func:`rmse` (with weights, the sums and the mean of ``z``
+        are weighted, as in ``r2_score``).
     force_finite : bool, default=True
         What to return for an output whose measured values are constant
         (``sum (z - mean z)^2 = 0``): with ``True``, 1.0 if the prediction is
@@ -187,22 +243,24 @@ def nash_sutcliffe(y_true, y_pred, *, multioutput="uniform_average", force_finit
     -1.0
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    w = _sample_weights(sample_weight, y_true.shape[0])
     e = y_true - y_pred
-    d = y_true - y_true.mean(axis=0)
+    d = y_true - _weighted_mean(y_true, w)
     # One scale for both sums per output: their ratio is unchanged.
     _, scale = _unit_columns(np.vstack([e, d]))
-    sse = np.sum(_unit_columns(e, scale)[0] ** 2, axis=0)
-    sst = np.sum(_unit_columns(d, scale)[0] ** 2, axis=0)
+    sse = _weighted_mean(_unit_columns(e, scale)[0] ** 2, w)
+    sst = _weighted_mean(_unit_columns(d, scale)[0] ** 2, w)
     return _aggregate(_ratio_score(sse, sst, force_finite), weights)
 
 
-def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
+def pearson_r(y_true, y_pred, *, sample_weight=None, multioutput="uniform_average"):
     """Pearson's correlation coefficient R between measured and predicted values.
 
     Parameters
     ----------
-    y_true, y_pred, multioutput
-        As in :func:`rmse`.
+    y_true, y_pred, sample_weight, multioutput
+        As in :func:`rmse` (with weights, the weighted correlation: weighted
+        means, covariance and variances).
 
     Returns
     -------
@@ -224,11 +282,15 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
     0.5
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    w = _sample_weights(sample_weight, y_true.shape[0])
+    if w is not None:  # samples of weight 0 count for nothing
+        keep = w > 0
+        y_true, y_pred, w = y_true[keep], y_pred[keep], w[keep]
     # Deviations in units of their largest: R does not depend on the scale,
     # and products of 1e-170s or 1e160s neither underflow nor overflow.
-    dt = _unit_columns(y_true - y_true.mean(axis=0))[0]
-    dp = _unit_columns(y_pred - y_pred.mean(axis=0))[0]
-    den = np.sqrt(np.sum(dt**2, axis=0) * np.sum(dp**2, axis=0))
+    dt = _unit_columns(y_true - _weighted_mean(y_true, w))[0]
+    dp = _unit_columns(y_pred - _weighted_mean(y_pred, w))[0]
+    den = np.sqrt(_weighted_mean(dt**2, w) * _weighted_mean(dp**2, w))
     # Constant by its values, not by the rounding of its mean (0.1 three
     # times leaves deviations of 1e-17, a correlation of 0 or 1e-16).
     constant = (np.ptp(y_true, axis=0) == 0) | (np.ptp(y_pred, axis=0) == 0)
@@ -246,11 +308,11 @@ def pearson_r(y_true, y_pred, *, multioutput="uniform_average"):
             stacklevel=2,
         )
     with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.where((den > 0) & ~constant, np.sum(dt * dp, axis=0) / den, np.nan)
+        r = np.where((den > 0) & ~constant, _weighted_mean(dt * dp, w) / den, np.nan)
     return _aggregate(np.clip(r, -1.0, 1.0), weights)
 
 
-def residual_band(y_true, y_pred, *, multioutput="uniform_average"):
+def residual_band(y_true, y_pred, *, sample_weight=None, multioutput="uniform_average"):
     """Largest absolute residual, ``max |z - p|``.
 
     A compensated test whose residual stays within ±4 µm has a residual band
@@ -258,8 +320,9 @@ def residual_band(y_true, y_pred, *, multioutput="uniform_average"):
 
     Parameters
     ----------
-    y_true, y_pred, multioutput
-        As in :func:`rmse`.
+    y_true, y_pred, sample_weight, multioutput
+        As in :func:`rmse`; a largest residual is not weighted: samples of
+        weight 0 are left out, the others count alike.
 
     Returns
     -------
@@ -272,10 +335,19 @@ def residual_band(y_true, y_pred, *, multioutput="uniform_average"):
     3.0
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    w = _sample_weights(sample_weight, y_true.shape[0])
+    y_true, y_pred = _kept(y_true, y_pred, w)
     return _aggregate(np.max(np.abs(y_true - y_pred), axis=0), weights)
 
 
-def improvement(y_true, y_pred, *, multioutput="uniform_average", force_finite=True):
+def improvement(
+    y_true,
+    y_pred,
+    *,
+    sample_weight=None,
+    multioutput="uniform_average",
+    force_finite=True,
+):
     """Share of the peak error removed by compensation, ``1 - max|z - p| / max|z|``.
 
     ``y_true`` is the error before compensation (typically the displacement
@@ -284,8 +356,8 @@ def improvement(y_true, y_pred, *, multioutput="uniform_average", force_finite=T
 
     Parameters
     ----------
-    y_true, y_pred, multioutput
-        As in :func:`rmse`.
+    y_true, y_pred, sample_weight, multioutput
+        As in :func:`residual_band` (samples of weight 0 left out).
     force_finite : bool, default=True
         What to return for an output whose measured values are all zero: with
         ``True``, 1.0 if the prediction is exact and 0.0 otherwise; with
@@ -302,6 +374,8 @@ def improvement(y_true, y_pred, *, multioutput="uniform_average", force_finite=T
     0.925
     """
     y_true, y_pred, weights = _check_targets(y_true, y_pred, multioutput)
+    w = _sample_weights(sample_weight, y_true.shape[0])
+    y_true, y_pred = _kept(y_true, y_pred, w)
     band = np.max(np.abs(y_true - y_pred), axis=0)
     peak = np.max(np.abs(y_true), axis=0)
     return _aggregate(_ratio_score(band, peak, force_finite), weights)
