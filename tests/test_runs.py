@@ -950,3 +950,24 @@ def test_a_stored_table_whose_targets_are_features_warns(name):
         warnings.simplefilter("always")
         model.fit(table.drop(columns=["disp_y_um", "disp_z_um"]), y)
     assert not [w for w in rec if "target" in str(w.message)]
+
+
+def test_permutation_importance_needs_the_runs_out_of_the_columns():
+    # permutation_importance shuffles every column of X, a 'run' column too:
+    # the error says so; with the runs as the index it works.
+    from sklearn.inspection import permutation_importance
+
+    from skthermal.datasets import make_sensor_groups, split_runs
+    from skthermal.grey import GreyPSORegressor
+
+    runs, _ = make_sensor_groups(
+        n_groups=2, sensors_per_group=2, n_runs=3, n_samples=40, random_state=0
+    )
+    y = runs.pop("disp_y_um")
+    model = GreyPSORegressor(calibration="ls").fit(runs, y)
+    with pytest.raises(ValueError, match="shuffles a 'run' column too"):
+        permutation_importance(model, runs, y, n_repeats=2, random_state=0)
+    X, y2, _ = split_runs(runs.assign(disp_y_um=y), targets="disp_y_um")
+    model = GreyPSORegressor(calibration="ls").fit(X, y2)
+    result = permutation_importance(model, X, y2, n_repeats=2, random_state=0)
+    assert result.importances_mean.shape == (X.shape[1],)

@@ -165,7 +165,10 @@ def run_slices(groups, n_samples=None):
         ]
         raise ValueError(
             f"The rows of run {bad!r} are not contiguous ({', '.join(blocks[:3])}); "
-            "sort the table by run and time so that each run is one block."
+            "sort the table by run and time so that each run is one block. "
+            "(A tool that shuffles columns, such as permutation_importance, "
+            "shuffles a 'run' column too: give the runs as the index, e.g. "
+            "X from split_runs, or as groups.)"
         )
     slices = [slice(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
     return slices, labels
