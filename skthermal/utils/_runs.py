@@ -475,6 +475,8 @@ def warn_target_columns(X, y):
     if values.ndim == 2 and values.shape[0] == X.shape[0]:
         try:
             wanted = values.astype(float)
+            # A constant target says nothing of which column it is.
+            wanted = wanted[:, np.ptp(wanted, axis=0) > 0] if wanted.size else None
         except (TypeError, ValueError):
             wanted = None
         for c in columns:
