@@ -971,3 +971,13 @@ def test_permutation_importance_needs_the_runs_out_of_the_columns():
     model = GreyPSORegressor(calibration="ls").fit(X, y2)
     result = permutation_importance(model, X, y2, n_repeats=2, random_state=0)
     assert result.importances_mean.shape == (X.shape[1],)
+
+
+def test_a_run_column_renamed_by_a_column_transformer_is_named():
+    X = pd.DataFrame({"remainder__run": ["a", "a", "b"], "T1_C": [1.0, 2.0, 3.0]})
+    with pytest.raises(ValueError, match="verbose_feature_names_out=False"):
+        extract_runs(X)
+    X = pd.DataFrame({"sensor": ["hot", "a", "b"], "T1_C": [1.0, 2.0, 3.0]})
+    with pytest.raises(ValueError, match="is not numeric") as err:
+        extract_runs(X)
+    assert "ColumnTransformer" not in str(err.value)

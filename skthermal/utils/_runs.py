@@ -1941,7 +1941,22 @@ def check_numeric_columns(X, groups=None):
             + ". Every feature column must hold numbers"
             + (" written with a decimal point" if comma else "")
             + "; convert or drop this column before fitting or predicting."
+            + _prefixed_run_hint(name)
         )
+
+
+def _prefixed_run_hint(name):
+    """A hint for a ``run`` or ``time_s`` column renamed by a
+    ``ColumnTransformer`` (``remainder__run``), which is then a feature."""
+    text = str(name)
+    for column in (RUN_COLUMN, TIME_COLUMN):
+        if text.endswith(f"__{column}"):
+            return (
+                f" It looks like the run table's {column!r} column renamed by a "
+                "ColumnTransformer: set verbose_feature_names_out=False on it so "
+                f"that {column!r} keeps its name and is read as the run index."
+            )
+    return ""
 
 
 def run_times(X, slices):
