@@ -1,14 +1,17 @@
 """One worker of a distributed search, run as its own process by the tests.
 
     python tests/_search_worker.py STORAGE STUDY [--n-trials N] [--sleep S]
-        [--marker PATH] [--heartbeat H] [--grace G]
+        [--marker PATH] [--heartbeat H] [--grace G] [--random-state R]
+        [--start-at PATH]
 
 ``STORAGE`` is anything :func:`skthermal.model_selection.make_storage`
 takes (a ``.db`` or ``.log`` path, a ``postgresql://`` URL). Every worker
 searches a small ANFIS space on the same tiny synthetic runs, so the workers'
 trials belong to one study. ``--sleep`` makes each trial sleep after drawing
 its parameters (and after writing ``--marker``), so a test can kill the
-worker in the middle of a trial.
+worker in the middle of a trial. ``--start-at`` makes the worker write
+``PATH.<pid>`` once it is ready, then wait for ``PATH`` before it joins the
+study, so that several workers join at the same moment.
 """
 
 import argparse
@@ -29,6 +32,8 @@ def main(argv=None):
     parser.add_argument("--marker", default=None)
     parser.add_argument("--heartbeat", default="auto", help="seconds, or none")
     parser.add_argument("--grace", type=int, default=None)
+    parser.add_argument("--random-state", type=int, default=None)
+    parser.add_argument("--start-at", default=None)
     args = parser.parse_args(argv)
     import optuna  # here, so that collecting this file never needs optuna
 
@@ -54,6 +59,12 @@ def main(argv=None):
             time.sleep(args.sleep)
         return params
 
+    if args.start_at:
+        import os
+
+        Path(f"{args.start_at}.{os.getpid()}").write_text("ready")
+        while not Path(args.start_at).exists():
+            time.sleep(0.01)
     run_search(
         ANFISRegressor(random_state=0),
         X,
@@ -65,6 +76,7 @@ def main(argv=None):
         study_name=args.study,
         heartbeat_interval=heartbeat,
         grace_period=args.grace,
+        random_state=args.random_state,
         refit=False,
     )
 
