@@ -981,3 +981,24 @@ def test_a_run_column_renamed_by_a_column_transformer_is_named():
     with pytest.raises(ValueError, match="is not numeric") as err:
         extract_runs(X)
     assert "ColumnTransformer" not in str(err.value)
+
+
+def test_time_restarting_without_run_labels_points_at_a_misnamed_run_level():
+    X = pd.DataFrame(
+        {"T1_C": [1.0, 2.0, 3.0, 4.0]},
+        index=pd.MultiIndex.from_arrays(
+            [["a", "a", "b", "b"], [0.0, 60.0, 0.0, 60.0]], names=["Run", "time_s"]
+        ),
+    )
+    X, groups = extract_runs(X)
+    with pytest.raises(
+        ValueError, match=r"No run labels were found .*'Run' is not read as them"
+    ):
+        check_time_order(X, groups)
+    labelled = X.reset_index(level="Run", drop=True)
+    with pytest.raises(ValueError, match="No run labels were found") as err:
+        check_time_order(labelled, None)
+    assert "not read" not in str(err.value)
+    with pytest.raises(ValueError, match=r"in run 'a'") as err:
+        check_time_order(labelled, np.array(["a", "a", "a", "a"]))
+    assert "No run labels" not in str(err.value)

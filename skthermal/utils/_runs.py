@@ -1131,7 +1131,21 @@ def check_time_order(X, groups):
     t = row_times(X)
     if t is None:
         return
-    _check_increasing(t, groups)
+    _check_increasing(t, groups, _unread_run_names(X))
+
+
+def _unread_run_names(X):
+    """Index levels and columns of ``X`` named ``run`` in another case or
+    spelling (``Run``, ``RUN``, ``run_id``): run labels that are not read."""
+    names = list(getattr(getattr(X, "index", None), "names", None) or [])
+    names += list(getattr(X, "columns", []))
+    return [
+        n
+        for n in names
+        if isinstance(n, str)
+        and n != RUN_COLUMN
+        and re.fullmatch(r"(test_?)?run(_?(id|no|name|label))?", n.lower())
+    ]
 
 
 def check_table_times(frame, groups):
@@ -1156,16 +1170,28 @@ def check_table_times(frame, groups):
     _check_increasing(t, groups)
 
 
-def _check_increasing(t, groups):
+def _check_increasing(t, groups, unread=()):
     slices, labels = run_slices(groups, t.shape[0])
     for sl, lab in zip(slices, labels, strict=True):
         bad = np.flatnonzero(np.diff(t[sl]) <= 0)
         if bad.size:
             row = sl.start + int(bad[0]) + 1
             where = "" if lab is None else f" in run {lab!r}"
+            hint = ""
+            if groups is None:
+                hint = (
+                    " No run labels were found (a 'run' column or index level, "
+                    "or groups), so all rows are one run"
+                    + (
+                        f"; {shown(unread[0])} is not read as them: name it 'run'"
+                        if unread
+                        else ""
+                    )
+                    + "."
+                )
             raise ValueError(
                 f"time_s must increase strictly within a run, but{where} row {row} "
-                f"has time_s={t[row]:g} after {t[row - 1]:g}."
+                f"has time_s={t[row]:g} after {t[row - 1]:g}.{hint}"
             )
 
 
