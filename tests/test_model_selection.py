@@ -278,6 +278,13 @@ def test_run_search_in_memory(runs_data):
     )
     assert len(best.user_attrs["fold_scores"]) == 3
     assert best.user_attrs["worker_pid"] == os.getpid()
+    # A seeded search's result (its study and sampler too) pickles, and the
+    # restored study draws on as the original would.
+    import pickle
+
+    restored = pickle.loads(pickle.dumps(result))
+    assert restored.best_params_ == result.best_params_
+    assert type(restored.study.sampler) is type(study.sampler)
     assert_allclose(np.mean(best.user_attrs["fold_scores"]), best.value)
     # The objective is the mean over run-wise folds of the scorer, as cross_validate.
     from sklearn.model_selection import cross_validate
