@@ -637,11 +637,16 @@ def test_share_of_the_explainable_gap_is_not_clipped(pair):
     text = report.verdict()
     assert "makes the held-out gap worse (excess above noise 25% larger)" in text
     assert "drivers removes" not in text
-    # A term that removes more than the flexible model: said so.
+    # A term that removes more than the flexible model: said so, when its
+    # improvement is significant (else it bounds nothing either).
     report.how_far_evidence["shrink"] = 0.6
+    report.how_far_evidence["p_value"] = 0.01
     report.explainable["share"] = 0.2
     text = report.verdict()
     assert "removes 20%, less than 'tool_growth': the gap explainable at" in text
+    report.how_far_evidence["p_value"] = 0.3
+    assert "less than" not in report.verdict()
+    report.how_far_evidence["p_value"] = 0.01
     report.explainable["share"] = 0.7
     assert "less than" not in report.verdict()
     # The simulation as given, on the same rows, beside a worse base.
@@ -898,7 +903,7 @@ def test_a_trend_too_fast_for_a_sensor_is_not_called_sensor_drift(rng):
     assert "beyond a sensor's drift" in row["ruled_out"] and not row["explains"]
     assert report.best_effect is None
     assert (
-        "'sensor_drift' is ruled out: drift rates of 0.28 °C/h (root mean square "
+        "'sensor_drift' is ruled out: drift rates of 0.283 °C/h (root mean square "
         "over the 2 temperature sensors; the fastest, 'T1_C', +0.4 °C/h)"
     ) in report.verdict()
     assert "- `sensor_drift` is ruled out" in report.to_markdown()
@@ -906,8 +911,8 @@ def test_a_trend_too_fast_for_a_sensor_is_not_called_sensor_drift(rng):
     ratio = row["gap_before"] / report.noise_floor
     assert ratio > 2
     assert (
-        f"No candidate effect explains the gap (the held-out gap is {ratio:.1f} "
-        "times the noise floor) (best candidate 'sensor_drift'"
+        f"No candidate effect explains the gap: held out it is {ratio:.1f} times "
+        "the noise floor (best candidate 'sensor_drift'"
     ) in report.verdict()
     # A plausible drift (0.05 °C/h) is named.
     sim, meas = _tables(rng, "null", n_runs=3, hours=4.0, noise=0.002)

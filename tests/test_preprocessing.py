@@ -647,6 +647,14 @@ def test_lag_ridge_says_when_its_candidates_are_slow_for_the_runs():
         warnings.simplefilter("error")
         fast = LagRidgeCV(time_constant_sets=[(), (9.0, 27.0)], drivers=None)
         assert fast.fit(X, y).time_constants_ == (9.0, 27.0)
+    # A run that spans ten times the shortest candidate (here across a
+    # logging pause of 11 h) is not short for them.
+    paused = X.assign(time_s=np.r_[9.0 * np.arange(100), 40000 + 9.0 * np.arange(100)])
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        model = LagRidgeCV(time_constant_sets=slow, drivers=None).fit(paused, y)
+    assert model.time_constants_ == ()
+    assert not [w for w in rec if "chose no time constant" in str(w.message)]
 
 
 @pytest.mark.parametrize(

@@ -32,6 +32,7 @@ from skthermal.utils._runs import (
     LATE_START_WARNING,
     MAX_MAGNITUDE,
     RUN_COLUMN,
+    TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
     RunMemory,
     describe_unreadable,
@@ -466,7 +467,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         X_inner, fit_params = routed_runs(
             self, "fit", self.estimator_.fit, X, groups, fit_params
         )
-        self.estimator_.fit(X_inner, y, **fit_params)
+        with warnings.catch_warnings():
+            # Said above, for X as given.
+            warnings.filterwarnings("ignore", message=TARGET_COLUMNS_WARNING)
+            self.estimator_.fit(X_inner, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
         self._output_names = target_names(y)
         return self

@@ -473,8 +473,8 @@ class GapReport:
         gap, floor = row.get("gap_before", np.nan), self.noise_floor
         if np.isfinite(gap) and floor > 0 and beyond_noise(gap, floor**2):
             return (
-                "No candidate effect explains the gap (the held-out gap is "
-                f"{gap / floor:.1f} times the noise floor)"
+                "No candidate effect explains the gap: held out it is "
+                f"{gap / floor:.1f} times the noise floor"
             )
         return "No candidate effect explains the gap beyond noise"
 
@@ -490,7 +490,8 @@ class GapReport:
                 f"(excess above noise {percent(-share)} larger)"
             )
         text = f"; a flexible model of the drivers removes {percent(share)}"
-        if row["shrink"] > share:
+        significant = row.get("p_value", np.nan) < self.settings.get("alpha", 0.05)
+        if row["shrink"] > share and significant:
             # The flexible model is an estimate, fitted on few runs: here it
             # falls short of a term, so it bounds nothing.
             text += (

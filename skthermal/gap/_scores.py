@@ -75,7 +75,7 @@ def ruled_out(effect, fitted, rates=None):
         fastest = f"; the fastest, {sensor!r}, {rate:+.2g} °C/h"
     n = f" {len(rates)}" if rates else ""
     return (
-        f"drift rates of {value:.2g} °C/h (root mean square over the{n} "
+        f"drift rates of {value:.3g} °C/h (root mean square over the{n} "
         f"temperature sensors{fastest}) are beyond a sensor's drift (at most "
         f"{limit:g} °C/h): a heat load the simulation lacks (or a faulty "
         "sensor) is likelier"

@@ -13,6 +13,7 @@ from skthermal.utils._runs import (
     LATE_START_WARNING,
     REUSED_LABEL_WARNING,
     RUN_COLUMN,
+    TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
     changes_since_start,
     check_time_order,
@@ -190,7 +191,10 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         changes = self._changes(A, groups, X)
         # The runs reach the model in the index of the changes.
         fit_params = routed_params(self, "fit", fit_params)
-        self.estimator_ = clone(self.estimator).fit(changes, dy, **fit_params)
+        with warnings.catch_warnings():
+            # Said above, for X as given.
+            warnings.filterwarnings("ignore", message=TARGET_COLUMNS_WARNING)
+            self.estimator_ = clone(self.estimator).fit(changes, dy, **fit_params)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = None if groups is None else len(slices)
         # What continuing a labelled run in predict needs: its first row and

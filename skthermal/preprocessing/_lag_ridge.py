@@ -559,7 +559,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.relative_ = rel
         self.lag_features_ = self._features(taus, rel, dt).fit(X_raw, groups=groups)
         if not taus:
-            self._warn_slow_candidates(sets, slices)
+            self._warn_slow_candidates(sets, slices, run_times(X_raw, slices))
         F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         n_temp = self.lag_features_.n_temperature_features_
         self.n_lag_features_ = F.shape[1] if use else n_temp
@@ -570,16 +570,20 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.ridge_ = Ridge(alpha=self.alpha_).fit(F, y)
         return self
 
-    def _warn_slow_candidates(self, sets, slices):
+    def _warn_slow_candidates(self, sets, slices, times):
         """Warn when the CV chose no time constant and every candidate's is
         slow for the training runs (the longest shorter than ten times the
-        shortest candidate time constant): the model is then the static
-        one by default, not because the process has no lag."""
+        shortest candidate time constant; ``times``: the runs' first and
+        last ``time_s``, or None): the model is then the static one by
+        default, not because the process has no lag."""
         shortest = min((min(taus) for taus in sets if taus), default=None)
         period = getattr(self.lag_features_, "sample_period_s_", np.nan)
         if shortest is None or not np.isfinite(period):
             return
-        longest = max(sl.stop - sl.start - 1 for sl in slices) * period
+        if times is not None:
+            longest = float(np.max(times[:, 1] - times[:, 0]))
+        else:
+            longest = max(sl.stop - sl.start - 1 for sl in slices) * period
         if longest >= 10 * shortest:
             return
         taus = sorted({t for ts in sets for t in ts})

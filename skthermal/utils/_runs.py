@@ -2177,6 +2177,11 @@ def memory_period(state):
 # its inner models (warnings.filterwarnings(message=...)): a run that starts
 # late, and a run under a training run's label that jumps from its end.
 LATE_START_WARNING = r"(Run .*|The rows) given to .* start\(s\) at"
+# The warning of warn_target_columns, for a wrapper that has said it for its
+# inner model.
+TARGET_COLUMNS_WARNING = (
+    r"X's column\(s\) .* equal the target y|X holds the displacement"
+)
 REUSED_LABEL_WARNING = r"Run .* given to .* has the label of a training run"
 
 
@@ -2291,12 +2296,21 @@ def continued_runs(
                 )
             continue
         out.append(None)
-        if t0 is not None and t0 != 0 and earlier is not None:
+        if earlier is not None:
+            start = (
+                "from its start"
+                if t0 == 0
+                else f"at time_s={t0:g}, not 0 (pass it from time_s=0 to "
+                "predict it from there)"
+            )
             warnings.warn(
-                f"Run {lab!r} given to {who} starts at time_s={t0:g}, not 0, "
-                f"and before its rows seen in fit (from time_s={earlier:g}), "
-                "so it is taken as a run that starts at its first row. Pass "
-                "the run from its start (time_s=0) to predict it from there.",
+                f"Run {lab!r} given to {who} starts before its rows seen in fit "
+                f"(from time_s={earlier:g}): fit had a later part of this run, "
+                f"so it is predicted as a run that starts at its first row, "
+                f"{start}. In cross-validation, a splitter that cuts runs into "
+                "pieces (KFold, ShuffleSplit, train_test_split on rows) trains "
+                "on later parts of a test run; split by run (GroupKFold with "
+                "the run labels as groups) or in time order (TimeSeriesSplit).",
                 UserWarning,
                 stacklevel=stacklevel,
             )
