@@ -958,6 +958,18 @@ def test_a_space_of_another_estimator_is_named():
             space="anfis",
             n_trials=1,
         )
+    # Its own built-in space with a bad override: no "another estimator?".
+    with pytest.raises(ValueError, match="epochs=-5") as err:
+        run_search(
+            ANFISRegressor(),
+            np.zeros((4, 2)),
+            np.zeros(4),
+            groups=[0, 0, 1, 1],
+            space=search_space("anfis", init="fcm", epochs=-5),
+            n_trials=1,
+        )
+    assert "another estimator" not in str(err.value)
+    assert "Give a value it accepts" in str(err.value)
 
 
 def test_a_space_shows_its_overrides():

@@ -46,6 +46,7 @@ from skthermal.model_selection._spaces import (
     combine_spaces,
     describe_space,
     search_space,
+    space_names,
     space_ranges,
     space_values,
 )
@@ -539,8 +540,8 @@ def _check_space_values(space, estimator):
                 hint = (
                     f" Is the space meant for another estimator? The built-in "
                     f"space of {type(owner).__name__} is {own!r}."
-                    if own is not None
-                    else ""
+                    if own is not None and own not in space_names(space)
+                    else " Give a value it accepts for this override."
                 )
                 raise ValueError(
                     f"The search space sets {key}={value!r}, which "

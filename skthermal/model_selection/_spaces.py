@@ -400,6 +400,17 @@ class PrefixedSpace:
         return f"{describe_space(self.space)} for step {self.prefix!r}"
 
 
+def space_names(space):
+    """The names of the built-in spaces that ``space`` is made of."""
+    if isinstance(space, SearchSpace):
+        return {space.name}
+    if isinstance(space, PrefixedSpace):
+        return space_names(space.space)
+    if isinstance(space, _CombinedSpace):
+        return set().union(*(space_names(part) for part in space.spaces))
+    return set()
+
+
 def space_values(space):
     """The values a space can set, by ``set_params`` key: every choice, every
     fixed value and the ends of every range of its built-in parts (a
