@@ -21,7 +21,7 @@ from sklearn.metrics import make_scorer, mean_squared_error
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
-from sklearn.utils._param_validation import InvalidParameterError
+from sklearn.utils._param_validation import InvalidParameterError, StrOptions
 
 optuna = pytest.importorskip("optuna")
 
@@ -535,35 +535,56 @@ def test_bad_draws_fail_trials_not_the_search(runs_data):
     assert result.best_params_ is None and result.best_estimator_ is None
 
 
-def test_a_value_the_estimator_refuses_is_named_before_any_trial(runs_data):
-    # A misspelt choice would fail every trial, found only at the end.
-    X, y, groups = runs_data
-    for space, message in (
-        (search_space("anfis", mf=["gausian"], epochs=2), "mf='gausian'"),
-        (search_space("anfis", init="fcm", n_clusters=(0, 5)), "n_clusters=0"),
-        (
-            {"anfisregressor": search_space("anfis", init="fcm", step_size=-1.0)},
-            "anfisregressor__step_size=-1.0",
-        ),
+def test_a_value_the_estimator_refuses_is_named_when_the_space_is_made():
+    # A misspelt choice, a fixed value or a range end the estimator refuses
+    # would fail every trial: the space refuses it at once, naming it.
+    for kwargs, message in (
+        ({"mf": ["gausian"], "epochs": 2}, "ANFISRegressor refuses mf='gausian'"),
+        ({"init": "fcm", "n_clusters": (0, 5)}, "refuses n_clusters=0"),
+        ({"init": "fcm", "step_size": -1.0}, "refuses step_size=-1.0"),
+        ({"epochs": -5}, "search_space('anfis', epochs=-5)"),
+        ({"step_size": "x"}, "step_size='x'"),
     ):
-        estimator = ANFISRegressor()
-        if isinstance(space, dict):
-            estimator = make_pipeline(StandardScaler(), ANFISRegressor())
-        callback = _StopAfter(1)
-        with pytest.raises(ValueError, match=re.escape(message) + ", which ANFIS"):
-            run_search(
-                estimator,
-                X,
-                y,
-                groups=groups,
-                space=space,
-                n_trials=1,
-                callbacks=[callback],
-            )
-        assert callback.seen == 0
+        with pytest.raises(ValueError, match=re.escape(message)):
+            search_space("anfis", **kwargs)
+    with pytest.raises(ValueError, match="FCMClusterPicker refuses scorer='pearsons'"):
+        search_space("fcm_picker", scorer="pearsons")
+    with pytest.raises(ValueError, match="GreyPSORegressor refuses calibration='lsq'"):
+        search_space("grey_pso", calibration=["varpro", "lsq"])
+    # Values the estimator takes are kept, a range given in floats included,
+    # and settings drawn into another parameter (the swarm's inertia) too.
+    assert search_space("anfis", epochs=(5.0, 20.0)).ranges["epochs"] == (5.0, 20.0)
+    assert search_space("gnnmci", inertia_start=0.9).ranges["inertia_start"] == 0.9
     # A log-scaled range from 0 is refused when the space is made.
     with pytest.raises(ValueError, match="epochs is searched on a log scale"):
         search_space("anfis", epochs=(0, 5))
+
+
+def test_a_value_another_estimator_refuses_is_named_before_any_trial(runs_data):
+    # A built-in space on a subclass that takes fewer values than the
+    # space's own estimator: run_search names the value before any trial.
+    X, y, groups = runs_data
+    callback = _StopAfter(1)
+    estimator = make_pipeline(StandardScaler(), _GaussianOnlyANFIS())
+    space = {"_gaussianonlyanfis": search_space("anfis", init="fcm", mf="gbell")}
+    with pytest.raises(ValueError, match=re.escape("_gaussianonlyanfis__mf='gbell'")):
+        run_search(
+            estimator,
+            X,
+            y,
+            groups=groups,
+            space=space,
+            n_trials=1,
+            callbacks=[callback],
+        )
+    assert callback.seen == 0
+
+
+class _GaussianOnlyANFIS(ANFISRegressor):
+    _parameter_constraints = {
+        **ANFISRegressor._parameter_constraints,
+        "mf": [StrOptions({"gaussian"})],
+    }
 
 
 class _StopAfter:
@@ -885,7 +906,11 @@ def test_a_study_records_every_range_and_the_version(runs_data, tmp_path, monkey
     defaults = dict(_spaces._REGISTRY["grey_pso"][1], alpha=(1e-3, 1e4))
     registry = dict(
         _spaces._REGISTRY,
-        grey_pso=(*_spaces._REGISTRY["grey_pso"][:1], defaults, "GreyPSORegressor"),
+        grey_pso=(
+            _spaces._REGISTRY["grey_pso"][0],
+            defaults,
+            _spaces._REGISTRY["grey_pso"][2],
+        ),
     )
     monkeypatch.setattr(_spaces, "_REGISTRY", registry)
     with pytest.raises(ValueError, match=r"search space ranges: ranges.alpha \[1e-06"):
@@ -959,13 +984,13 @@ def test_a_space_of_another_estimator_is_named():
             n_trials=1,
         )
     # Its own built-in space with a bad override: no "another estimator?".
-    with pytest.raises(ValueError, match="epochs=-5") as err:
+    with pytest.raises(ValueError, match="mf='gbell'") as err:
         run_search(
-            ANFISRegressor(),
+            _GaussianOnlyANFIS(),
             np.zeros((4, 2)),
             np.zeros(4),
             groups=[0, 0, 1, 1],
-            space=search_space("anfis", init="fcm", epochs=-5),
+            space=search_space("anfis", init="fcm", mf="gbell"),
             n_trials=1,
         )
     assert "another estimator" not in str(err.value)
@@ -1442,3 +1467,40 @@ def test_a_searched_setting_may_differ_before_the_first_trial(runs_data, tmp_pat
         **kwargs,
     )
     assert len(result.study.trials) == 1
+
+
+def test_the_best_trial_is_refitted_with_the_seed_it_was_scored_with(
+    runs_data, tmp_path
+):
+    # Workers may run with other seeds; a later call refitting the stored
+    # best trial (n_trials=0) refitted it with its own seed: another model
+    # than the one scored, silently.
+    X, y, groups = runs_data
+    storage = tmp_path / "seeds.db"
+    space = search_space("gnnmci", epochs=3, n_particles=(5, 8))
+
+    def search(seed, n_trials):
+        return run_search(
+            GNNMCIRegressor(random_state=seed),
+            X,
+            y,
+            groups=groups,
+            space=space,
+            n_trials=n_trials,
+            storage=storage,
+            study_name="s",
+            random_state=0,
+        )
+
+    first = search(1, 2)
+    assert first.best_trial_.user_attrs["skthermal_seeds"] == {"random_state": 1}
+    with pytest.warns(
+        UserWarning, match=r"scored with random_state=1 \(this search: 2\)"
+    ):
+        again = search(2, 0)
+    assert again.best_estimator_.random_state == 1
+    assert_allclose(again.best_estimator_.predict(X), first.best_estimator_.predict(X))
+    # The same seed: no warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        assert search(1, 0).best_estimator_.random_state == 1

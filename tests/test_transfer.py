@@ -206,8 +206,9 @@ def test_irregular_sampling_names_the_run():
     X.index = pd.MultiIndex.from_arrays(
         [X.index.get_level_values("run"), t], names=["run", "time_s"]
     )
-    with pytest.raises(ValueError, match="constant sampling.*run 'r1'"):
+    with pytest.raises(ValueError, match="constant sampling.*run 'r1'") as err:
         TransferFunctionRegressor(speed_column=2, max_iter=0).fit(X, y)
+    assert str(err.value).endswith("resample the run or pass dt=...")
 
 
 def test_bad_tau_bounds():
@@ -286,7 +287,13 @@ def test_a_gap_inside_predicted_rows_is_bridged_as_a_pause_is():
         pred = model.predict(holed)
     np.testing.assert_allclose(pred[:300], whole[:300], rtol=0, atol=1e-12)
     assert np.abs(pred[300:] - whole[400:]).max() < 0.02 * np.ptp(whole)
-    with pytest.raises(ValueError, match="constant sampling.*run 'r0'"):
+    # Fit names the hole as rows missing from the middle of the run (a block
+    # held out by a splitter over rows), not as jittered sampling.
+    with pytest.raises(
+        ValueError,
+        match=r"constant sampling.*run 'r0'.*1 gap\(s\) in a run otherwise sampled "
+        r"every 10 s, the first from time_s=2990 to 4000\. Rows are missing.*KFold",
+    ):
         TransferFunctionRegressor(speed_column=2, max_iter=0).fit(
             holed, y.loc[["r0"]].iloc[np.r_[0:300, 400 : len(run)]]
         )

@@ -68,6 +68,10 @@ ATTR_START = "worker_start"
 # settings than were scored.
 ATTR_PARAMS = "skthermal_params"
 ATTR_PARAMS_REPR = "skthermal_params_repr"
+# The seeds (``random_state``, ints or None) a trial's models were fitted
+# with: free to differ between workers, so the refit of the best trial takes
+# them from the trial, not from the refitting call.
+ATTR_SEEDS = "skthermal_seeds"
 
 
 def _import_optuna():
@@ -775,6 +779,7 @@ class _Objective:
         trial.set_user_attr(
             ATTR_PARAMS_REPR, {str(k): repr(v) for k, v in params.items()}
         )
+        trial.set_user_attr(ATTR_SEEDS, _seeds(self.estimator))
         if not params and not self.warned_empty:
             self.warned_empty = True
             warnings.warn(
@@ -864,6 +869,42 @@ def _estimator_kind(estimator):
 # Settings that do not change a trial's score (or differ per process): not
 # recorded.
 _FREE_SETTINGS = ("random_state", "n_jobs", "verbose")
+
+
+def _seeds(estimator):
+    """The estimator's seeds that a trial can record, ``{name: int or
+    None}`` (a ``RandomState`` instance cannot be recorded and is left
+    out)."""
+    out = {}
+    for name, value in estimator.get_params(deep=True).items():
+        if name.rsplit("__", 1)[-1] != "random_state":
+            continue
+        if value is None or isinstance(value, numbers.Integral):
+            out[name] = None if value is None else int(value)
+    return out
+
+
+def _seeds_of(trial, estimator):
+    """The seeds ``trial`` was scored with where they differ from the
+    ``estimator``'s, with a warning naming them; {} when they agree or the
+    trial recorded none (made by an older skthermal)."""
+    recorded = trial.user_attrs.get(ATTR_SEEDS)
+    if not isinstance(recorded, Mapping):
+        return {}
+    now = _seeds(estimator)
+    differ = {k: v for k, v in recorded.items() if k in now and now[k] != v}
+    if differ:
+        said = ", ".join(
+            f"{k}={v!r} (this search: {now[k]!r})" for k, v in differ.items()
+        )
+        warnings.warn(
+            f"The best trial (number {trial.number}) was scored with {said}: "
+            "another worker's seed. The best estimator is refitted with the "
+            "trial's seed, so that it is the model that was scored.",
+            UserWarning,
+            stacklevel=4,
+        )
+    return differ
 
 
 def _canonical(value):
@@ -1599,5 +1640,7 @@ def run_search(
     if best_trial is not None:
         best_params = _replay(space, best_trial)
         if refit:
-            best_estimator = clone(estimator).set_params(**best_params).fit(X, y)
+            seeds = _seeds_of(best_trial, estimator)
+            best_estimator = clone(estimator).set_params(**{**seeds, **best_params})
+            best_estimator.fit(X, y)
     return SearchResult(study, best_params, best_trial, best_estimator, scoring)

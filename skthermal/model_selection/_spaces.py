@@ -101,7 +101,7 @@ _PSO_RANGES = {
     "inertia_end": (0.1, 0.6),
 }
 
-# name -> (function, default ranges, estimator class name). A tuple is a
+# name -> (function, default ranges, estimator "module.Class"). A tuple is a
 # (low, high) range, a list the categorical choices, anything else a fixed
 # value that is set but not searched.
 _REGISTRY = {
@@ -115,7 +115,7 @@ _REGISTRY = {
             "epochs": (10, 200),
             "step_size": (0.01, 1.0),
         },
-        "ANFISRegressor",
+        "skthermal.fuzzy.ANFISRegressor",
     ),
     "grey_pso": (
         _grey_pso,
@@ -126,17 +126,17 @@ _REGISTRY = {
             "init": ["ls", "random"],
             **_PSO_RANGES,
         },
-        "GreyPSORegressor",
+        "skthermal.grey.GreyPSORegressor",
     ),
     "gnnmci": (
         _gnnmci,
         {**_PSO_RANGES, "velocity_clamp": (0.1, 3.0)},
-        "GNNMCIRegressor",
+        "skthermal.grey.GNNMCIRegressor",
     ),
     "fcm_picker": (
         _fcm_picker,
         {"n_clusters": (2, 8), "scorer": ["gm1n", "gm0n", "gra", "pearson"]},
-        "FCMClusterPicker",
+        "skthermal.selection.FCMClusterPicker",
     ),
 }
 
@@ -161,9 +161,38 @@ def _default_space_name(estimator):
     """The built-in space for an estimator's class, or None."""
     cls = type(estimator).__name__
     for name, (_, _, owner) in _REGISTRY.items():
-        if owner == cls:
+        if owner.rpartition(".")[2] == cls:
             return name
     return None
+
+
+def _check_override(name, key, spec):
+    """Refuse an override that the space's estimator would refuse in every
+    trial (a fixed value or a choice it does not take, a range ending outside
+    what it takes), naming the parameter: at once, not when a search runs."""
+    from importlib import import_module
+
+    from sklearn.utils._param_validation import (
+        InvalidParameterError,
+        validate_parameter_constraints,
+    )
+
+    module, _, cls = _REGISTRY[name][2].rpartition(".")
+    constraints = getattr(import_module(module), cls)._parameter_constraints
+    if key not in constraints:
+        return  # drawn into another parameter (e.g. the PSO's inertia)
+    values = list(spec) if isinstance(spec, list | tuple) else [spec]
+    for value in values:
+        if isinstance(spec, tuple) and isinstance(value, numbers.Real):
+            # The trial draws an int from a range given in floats.
+            value = int(value) if float(value).is_integer() else value
+        try:
+            validate_parameter_constraints({key: constraints[key]}, {key: value}, cls)
+        except InvalidParameterError as exc:
+            raise ValueError(
+                f"search_space({name!r}, {key}={spec!r}): {cls} refuses "
+                f"{key}={value!r}. {exc}"
+            ) from None
 
 
 # Parameters the built-in spaces draw on a log scale: a range must start
@@ -307,6 +336,7 @@ def search_space(name, *, prefix=None, **ranges):
     merged = dict(defaults)
     for key, spec in ranges.items():
         merged[key] = _check_spec(key, spec, defaults[key])
+        _check_override(name, key, merged[key])
     if prefix is not None and (not isinstance(prefix, str) or not prefix):
         raise ValueError(f"prefix must be a non-empty string, got {prefix!r}.")
     return SearchSpace(name, prefix, merged)

@@ -1235,10 +1235,31 @@ def run_sample_periods(
                 raise ValueError(
                     f"{regular} needs a constant sampling interval within each "
                     f"run, but the time_s steps of {where} range from "
-                    f"{steps.min():g} to {steps.max():g}; resample the run or "
-                    "pass dt=..."
+                    f"{steps.min():g} to {steps.max():g}"
+                    + _hole_hint(t[sl], steps, step, rtol)
                 )
     return np.where(np.isfinite(periods), periods, float(default))
+
+
+def _hole_hint(t, steps, step, rtol):
+    """The end of the irregular-sampling error: rows missing from the middle
+    of a regularly sampled run (a block held out of it, e.g. by a
+    cross-validation splitter over rows) are named as such; other jitter
+    gets the general remedy."""
+    long = steps > (1 + rtol) * step
+    regular = np.abs(steps[~long] - step) <= rtol * step
+    if long.any() and regular.all():
+        k = int(np.flatnonzero(long)[0])
+        return (
+            f": {int(long.sum())} gap(s) in a run otherwise sampled every "
+            f"{step:g} s, the first from time_s={t[k]:g} to {t[k + 1]:g}. "
+            "Rows are missing from the middle of the run: a block held out of "
+            "it (a cross-validation splitter over rows, such as KFold, does "
+            "this) or a logging pause. Give the parts on either side of a gap "
+            "their own run labels, or split over whole runs (GroupKFold with "
+            "groups=runs)."
+        )
+    return "; resample the run or pass dt=..."
 
 
 def fitted_sample_periods(X, groups, slices, dt, name, **kwargs):
