@@ -1280,6 +1280,25 @@ def test_time_in_another_unit_than_seconds_warns(scale, unit):
         validate_runs(_minimal_table(t * scale, runs))
 
 
+def test_minutes_at_a_logger_period_of_minutes_warn():
+    # Runs of 4 h logged every 2 min with time_s in minutes (steps of 2) were
+    # read as 4-minute runs logged every 2 s, silently.
+    t = np.tile(np.arange(0.0, 240.0, 2.0), 2)
+    runs = np.repeat(["A", "B"], t.size // 2)
+    with pytest.warns(UserWarning, match=r"every 2 s \(median step\).*in minutes\?"):
+        validate_runs(_minimal_table(t, runs))
+    with warnings.catch_warnings():  # the same times in seconds
+        warnings.simplefilter("error")
+        validate_runs(_minimal_table(t * 60.0, runs))
+        # A few rows one second apart are an example, not a logger's record.
+        validate_runs(_minimal_table([0.0, 1.0, 2.0], ["A"] * 3))
+
+
+def test_changes_of_an_empty_table_are_an_empty_table():
+    empty = _minimal_table([0.0, 15.0], ["A", "A"]).iloc[:0]
+    assert changes_since_start(empty).empty
+
+
 def test_thousands_separators_are_not_called_decimal_commas():
     # "1,250" rpm was called a decimal comma: following the advice gave 1.25.
     table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3)
@@ -1333,6 +1352,16 @@ def test_a_latin1_file_is_told_to_be_saved_as_utf8(tmp_path):
     with pytest.raises(
         ValueError, match=r"not UTF-8: line 3 holds the byte 0xb0 \('°'"
     ):
+        read_runs(path)
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-le", "utf-16-be"])
+def test_a_utf16_file_is_told_to_be_saved_as_utf8(tmp_path, encoding):
+    # A spreadsheet's "Unicode text" export: it was called cut off, its last
+    # line quoted as a stray zero byte.
+    path = tmp_path / "runs.csv"
+    path.write_bytes((_HEADER + "A,0,20.0,0.0\nA,15,20.5,1.0\n").encode(encoding))
+    with pytest.raises(ValueError, match=r"UTF-16 text, not UTF-8.*encoding='utf-16'"):
         read_runs(path)
 
 

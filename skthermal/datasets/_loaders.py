@@ -338,6 +338,22 @@ def _without_trailing_empty(df, header):
     return df
 
 
+def _check_utf16(path, data):
+    """Refuse UTF-16 text (a byte-order mark ``FF FE``/``FE FF``, or ASCII
+    text with every other byte zero, as spreadsheet "Unicode text" exports
+    write it), which would read as lines of stray zero bytes."""
+    head = data[:4096]
+    bom = head[:2] in (b"\xff\xfe", b"\xfe\xff")
+    even, odd = head[0::2], head[1::2]
+    zeros = max(even.count(0), odd.count(0)) >= 0.9 * min(len(even), len(odd)) > 0
+    if bom or zeros:
+        raise ValueError(
+            f"{path}: UTF-16 text, not UTF-8: run tables are UTF-8 CSV files. "
+            "Save it as 'CSV UTF-8', or convert it: pandas.read_csv(path, "
+            "encoding='utf-16') and skthermal.datasets.write_runs."
+        )
+
+
 def _read_csv(path, labels=None):
     data = _raw_bytes(path)
     if not data.strip():
@@ -345,6 +361,7 @@ def _read_csv(path, labels=None):
             f"{path}: empty file: it holds no run table (expected a CSV header "
             "line and rows)."
         )
+    _check_utf16(path, data)
     _check_complete(path, data)
     try:
         header = _check_header(path, data)

@@ -398,10 +398,12 @@ def _check_time(df, codes):
 # (a run of 1.5 h in ms lasts 62 days) ...
 _MAX_RUN_S = 60 * 86400.0
 _MAX_STEP_S = 6 * 3600.0
-# ... and runs all shorter than this, logged faster than every second, have
-# it in minutes (runs of up to 20 h).
+# ... and runs all shorter than this, logged every 10 s or faster, have it
+# in minutes (runs of up to 20 h logged every 10 min or faster; a table of
+# fewer than _MIN_STEPS steps is an example, not a logger's record).
 _SHORT_RUNS_S = 1200.0
-_FAST_STEP_S = 1.0
+_FAST_STEP_S = 10.0
+_MIN_STEPS = 30
 
 
 def _warn_odd_times(codes, times, late_start=True):
@@ -409,6 +411,8 @@ def _warn_odd_times(codes, times, late_start=True):
     time (most runs start after 0) or like another unit than seconds: every
     model reads it as seconds since the run's start, so the filters' time
     constants and a drift rate would be off by 60 or 1000 without a word."""
+    if not len(times):
+        return
     starts = np.r_[True, codes[1:] != codes[:-1]]
     first = times[starts]
     last = times[np.r_[starts[1:], True]]
@@ -433,7 +437,7 @@ def _warn_odd_times(codes, times, late_start=True):
     longest = float(length.max())
     if longest > _MAX_RUN_S or step > _MAX_STEP_S:
         unit = "milliseconds"
-    elif longest < _SHORT_RUNS_S and step < _FAST_STEP_S:
+    elif longest < _SHORT_RUNS_S and step <= _FAST_STEP_S and steps.size >= _MIN_STEPS:
         unit = "minutes"
     else:
         return
