@@ -136,6 +136,14 @@ def test_run_labels_with_spaces_can_be_chosen(capsys, tmp_path):
     assert status == 2 and "without commas" in err
 
 
+def test_simulate_refuses_a_segment_too_long_to_hold(capsys, tmp_path):
+    # It printed numpy's MemoryError traceback (894 GiB).
+    argv = ["simulate", "--preset", "spindle-rig", "--segment", "4000:1e9h"]
+    status, _, err = _run(capsys, *argv, "--out", tmp_path / "s.csv")
+    assert status == 2 and "more than one run holds" in err
+    assert "Traceback" not in err and not (tmp_path / "s.csv").exists()
+
+
 def test_simulate_writes_a_valid_run_table(workdir):
     from skthermal.datasets import read_runs
 

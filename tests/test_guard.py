@@ -318,6 +318,34 @@ def test_nan_is_an_error_naming_sensor_unless_hold(train, new_run):
     assert any("missing" in m for m in _messages(caught, SensorFaultWarning))
 
 
+def test_hold_makes_up_no_reading_of_a_sensor_dead_for_a_whole_run(train, new_run):
+    # A sensor unplugged for the whole run (or every sensor) was filled with
+    # the middle of its allowed range and the compensation computed from it
+    # reported as "clipped".
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    X_dead = new_run[0].copy()
+    X_dead["T2_C"] = np.nan
+    with pytest.raises(
+        ValueError,
+        match=r"sensor 'T2_C' reads no finite value in run 'r0' at time_s=0, nor in "
+        r"any other row of that run given to this call \(120 row\(s\)\)",
+    ):
+        guard.predict(X_dead)
+    with pytest.raises(ValueError, match=r"more sensor\(s\) alike"):
+        guard.predict(X_dead * np.nan)
+    # Dead from a later row on: held at its last good reading, as before.
+    X_late = new_run[0].copy()
+    X_late.iloc[30:, 1] = np.nan
+    checked, _ = _caught(guard.predict_checked, X_late)
+    assert (checked["action"].iloc[30:] == "held").all()
+    assert np.isfinite(checked["prediction"]).all()
+    # An input the model ignores (not among `inputs`) still gets a value.
+    ignoring = GuardedRegressor(LinearRegression(), mode="hold", inputs=["T1_C"])
+    ignoring.fit(X, y)
+    assert np.isfinite(_caught(ignoring.predict, X_dead)[0]).all()
+
+
 def _relative_hold_guard(train, new_run):
     """A guard in hold mode around a model of changes since the run start,
     and its predictions of the clean new run."""

@@ -239,6 +239,32 @@ def test_a_dict_key_a_file_cannot_hold_is_named(runs_data, tmp_path):
     assert not (tmp_path / "model.skops").exists()
 
 
+def test_a_function_a_file_cannot_give_back_is_named(runs_data, tmp_path):
+    # A lambda (or a function of the running script) was saved, and the file
+    # failed to load only on the controller, inside skops.
+    from sklearn.preprocessing import FunctionTransformer
+
+    X, y = runs_data
+
+    def local(z):
+        return z - 20.0
+
+    for func, why in (
+        (lambda z: z - 20.0, "is a lambda"),
+        (local, "is the function .*local, local to another function"),
+    ):
+        model = make_pipeline(FunctionTransformer(func), Ridge()).fit(X, y)
+        with pytest.raises(TypeError, match=r"Pipeline.steps\[0\]\[1\].func " + why):
+            save(model, tmp_path / "f.skops")
+    assert not (tmp_path / "f.skops").exists()
+    # A function of an importable module is saved, and loads.
+    model = make_pipeline(FunctionTransformer(np.log1p), Ridge()).fit(X - X.min(), y)
+    loaded = load(save(model, tmp_path / "f.skops"))
+    assert_array_equal(loaded.predict(X - X.min()), model.predict(X - X.min()))
+    with pytest.raises(IsADirectoryError, match="is a folder: give the file"):
+        save(model, tmp_path)
+
+
 def test_untrusted_type_refused(runs_data, tmp_path):
     X, y = runs_data
     model = make_pipeline(GRASelector(n_features_to_select=2), _Custom()).fit(X, y)

@@ -1060,3 +1060,17 @@ def test_a_run_label_is_one_label(vmc_b):
     for run in (None, np.nan, ["a", "b"], True):
         with pytest.raises(ValueError, match="run must be one run label"):
             vmc_b.simulate_drivers(t, np.zeros(5), np.full(5, 20.0), run=run)
+
+
+def test_a_duty_cycle_too_long_to_hold_or_not_a_sequence_is_named():
+    # A duration in the wrong unit asked numpy for 124 GiB (a MemoryError
+    # traceback, on the command line too); None failed inside iteration.
+    machine = ThermalMachine.from_preset("spindle-rig")
+    with pytest.raises(ValueError, match=r"lasts 1e\+12 s .*more than one run holds"):
+        machine.simulate([(1e12, 4000)], sample_period_s=60)
+    for duty in (None, "3600,4000", 5.0):
+        with pytest.raises(ValueError, match="A duty cycle is a sequence of segments"):
+            DutyCycle(duty)
+    # A long run that fits is simulated (400 days every hour).
+    long = machine.simulate([(400 * 86400, 0)], sample_period_s=3600, noise=False)
+    assert len(long) == 400 * 24 + 1

@@ -298,7 +298,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         flat-line, NaN or infinite) by the last good reading of the sensor
         in the run, and on a row with any fault predict the last good
         prediction of the run (the clipped prediction when the run has no
-        good row yet); predictions are clipped to the band.
+        good row yet); predictions are clipped to the band. A checked
+        sensor that reads NaN or infinity in every row of a run given to
+        the call is an error: there is no reading of it to hold.
 
     Attributes
     ----------
@@ -727,6 +729,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # reference for changes since the start, so a made-up value there
             # would offset the whole run.
             nxt = _next_good(fault, start)
+            self._refuse_unreadable(A, last, nxt, where)
             cols = np.arange(A.shape[1])
             ahead = A[np.maximum(nxt, 0), cols]
             fallback = np.where(
@@ -784,6 +787,28 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "action": action,
             "reason": reason,
         }
+
+    def _refuse_unreadable(self, A, last, nxt, where):
+        """Raise when a checked sensor reads no finite value in all the rows
+        of a run that this call holds: there is no reading of it to hold,
+        and any value put in its place would be made up. (An unchecked
+        input, one the model ignores, gets a value inside its range.)"""
+        dead = ~np.isfinite(A) & (last < 0) & (nxt < 0) & self.checked_inputs_
+        if not dead.any():
+            return
+        j = int(np.flatnonzero(dead.any(axis=0))[0])
+        row = int(np.flatnonzero(dead[:, j])[0])
+        others = int(dead.any(axis=0).sum()) - 1
+        raise ValueError(
+            f"mode='hold': sensor {self._sensor_names()[j]!r} reads no finite "
+            f"value {where.at(row)}, nor in any other row of that run given to "
+            f"this call ({int(dead[:, j].sum())} row(s)"
+            + (f"; {others} more sensor(s) alike" if others else "")
+            + "): there is no reading of it to hold, and a compensation computed "
+            "without it would rest on a made-up value. Repair the sensor, or use a "
+            "model fitted without it; on the controller, give predict the run's "
+            "rows from its start, so that a sensor that read earlier is held."
+        )
 
     def _input_limits(self):
         """The inputs' allowed ranges: the training ranges widened by

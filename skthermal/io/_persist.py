@@ -17,6 +17,7 @@ import importlib.util
 import json
 import os
 import sys
+import types
 import warnings
 import zipfile
 import zlib
@@ -195,8 +196,8 @@ _KEY_TYPES = (str, int, float)
 
 def _walk(obj, where, seen):
     """``(where, value)`` for ``obj`` and everything inside it that a skops
-    file holds: its attributes (skthermal and scikit-learn objects), lists,
-    tuples and dicts, recursively, each object once."""
+    file holds: its attributes (skthermal and scikit-learn objects, as they
+    pickle), lists, tuples and dicts, recursively, each object once."""
     if id(obj) in seen:
         return
     seen.add(id(obj))
@@ -206,7 +207,12 @@ def _walk(obj, where, seen):
     elif isinstance(obj, list | tuple):
         children = ((f"[{i}]", v) for i, v in enumerate(obj))
     elif type(obj).__module__.split(".")[0] in ("skthermal", "sklearn"):
-        children = ((f".{k}", v) for k, v in getattr(obj, "__dict__", {}).items())
+        # What pickling (and so skops) stores: an ANFISRegressor leaves out
+        # its epoch_callback.
+        state = obj.__getstate__() if hasattr(obj, "__getstate__") else None
+        if not isinstance(state, dict):
+            state = getattr(obj, "__dict__", {})
+        children = ((f".{k}", v) for k, v in state.items())
     else:
         return
     for name, value in children:
@@ -260,6 +266,44 @@ def _check_dict_keys(model):
     )
 
 
+def _unimportable(obj):
+    """Why a skops file could not give ``obj`` back (a lambda, a function
+    local to another, or a function or class of the running script or
+    notebook, ``__main__``), or None. skops stores a function or class by
+    its module and name and imports them when it loads."""
+    if isinstance(obj, types.FunctionType | types.MethodType | type):
+        target = obj.__func__ if isinstance(obj, types.MethodType) else obj
+        what = "class" if isinstance(obj, type) else "function"
+    elif type(obj).__module__ == "__main__":
+        target, what = type(obj), "class"
+    else:
+        return None
+    name = getattr(target, "__qualname__", repr(target))
+    if "<lambda>" in name:
+        return "a lambda"
+    if "<locals>" in name:
+        return f"the {what} {name}, local to another function"
+    if getattr(target, "__module__", None) == "__main__":
+        return f"the {what} {name}, defined in the running script or notebook"
+    return None
+
+
+def _check_importable(model):
+    """Raise a TypeError naming the first function or class inside ``model``
+    that a skops file stores but cannot give back on another machine."""
+    for where, obj in _walk(model, type(model).__name__, set()):
+        why = _unimportable(obj)
+        if why is not None:
+            raise TypeError(
+                f"Cannot save {type(model).__name__}: {where} is {why}, which a "
+                "skops file cannot give back (it stores a function or class by "
+                "its module and name, and loading imports them). Define it in a "
+                "module of your own that the machine loading the file can import "
+                "(e.g. my_transforms.py, installed beside skthermal), or use a "
+                "scikit-learn or skthermal transformer instead."
+            )
+
+
 def save(model, path, *, compress=True):
     """Save a fitted model to a skops file that loads without running code.
 
@@ -283,7 +327,11 @@ def save(model, path, *, compress=True):
         If skops (a dependency of skthermal) is missing from the environment.
     TypeError
         If the model holds a dict whose keys a skops file cannot hold (not
-        str, int or float); the message names the dict and the key.
+        str, int or float), or a function or class it cannot give back (a
+        lambda, a local function, one defined in the running script or
+        notebook); the message names where.
+    IsADirectoryError
+        If ``path`` is a folder.
 
     See Also
     --------
@@ -317,7 +365,13 @@ def save(model, path, *, compress=True):
     """
     sio = _skops_io()
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(
+            f"{path} is a folder: give the file to write, e.g. "
+            f"{os.path.join(path, 'model.skops')}."
+        )
     _check_dict_keys(model)
+    _check_importable(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(_without_requests(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}

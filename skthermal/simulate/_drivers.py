@@ -6,6 +6,7 @@ axis feed; an :class:`AmbientProfile` is the workshop air around the machine
 sampled on the simulation grid.
 """
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -106,6 +107,11 @@ class DutyCycle:
     segments: tuple = field(default_factory=tuple)
 
     def __init__(self, segments):
+        if isinstance(segments, str | bytes) or not isinstance(segments, Iterable):
+            raise ValueError(
+                "A duty cycle is a sequence of segments (duration_s, spindle_rpm"
+                f"[, feed_mm_min]), e.g. [(3600, 3000), (1800, 0)]; got {segments!r}."
+            )
         segs = []
         for i, seg in enumerate(segments):
             if not isinstance(seg, Segment):

@@ -135,6 +135,9 @@ STIFFNESS_LIMIT = 1e12
 # them.
 PLAUSIBLE_RPM = 1e5
 PLAUSIBLE_FEED_MM_MIN = 2e5
+# Samples of one simulated run (a year at 15 s, 23 days at 1 s): more is a
+# duration in the wrong unit, and would not fit in memory.
+MAX_SAMPLES = 2_000_000
 
 
 class ImplausibleDriverWarning(UserWarning):
@@ -1611,7 +1614,16 @@ class ThermalMachine:
         elif not isinstance(ambient, AmbientProfile):
             ambient = AmbientProfile(mean_C=_check_number(ambient, "ambient"))
         dt = _check_number(sample_period_s, "sample_period_s", positive=True)
-        n = int(round(duty.duration_s / dt))
+        n = int(round(duty.duration_s / dt)) if duty.duration_s / dt < 1e18 else 0
+        if not 0 < n <= MAX_SAMPLES and duty.duration_s >= dt:
+            raise ValueError(
+                f"The duty cycle lasts {duty.duration_s:g} s "
+                f"({duty.duration_s / 86400:.4g} days): sampled every {dt:g} s "
+                f"that is {duty.duration_s / dt:.4g} samples, more than one run "
+                f"holds ({MAX_SAMPLES:,}). Durations are in seconds: check "
+                "their unit, or sample less often (sample_period_s; --sample-period "
+                "on the command line)."
+            )
         if n < 1:
             raise ValueError(
                 f"The duty cycle ({duty.duration_s:g} s) is shorter than one sample "
