@@ -992,6 +992,34 @@ def test_a_run_column_renamed_by_a_column_transformer_is_named():
     assert "ColumnTransformer" not in str(err.value)
 
 
+def test_misnamed_run_and_time_levels_are_named():
+    # Levels named as a logger exports them were not read: the rows were
+    # one run 1 s apart, and a lag pipeline's predictions 8 µm off.
+    from skthermal.preprocessing import make_lag_pipeline
+
+    index = pd.MultiIndex.from_arrays(
+        [np.repeat(["a", "b"], 30), np.tile(np.arange(30) * 60.0, 2)],
+        names=["Run", "Time_s"],
+    )
+    X = pd.DataFrame({"T1_C": np.linspace(20, 25, 60)}, index=index)
+    with pytest.raises(
+        ValueError,
+        match=r"'Run' \(for 'run'\), 'Time_s' \(for 'time_s'\).*taken as one run "
+        r"and samples as 1 s apart",
+    ):
+        make_lag_pipeline().fit(X, np.arange(60.0))
+    X.index = X.index.set_names(["run", "time"])
+    with pytest.raises(
+        ValueError, match=r"'time' \(for 'time_s'\): .* so samples as 1 s"
+    ):
+        extract_runs(X)
+    X.index = X.index.set_names(["run", "time_s"])
+    assert extract_runs(X)[1].tolist() == ["a"] * 30 + ["b"] * 30
+    # Other names are not run labels or times: left alone.
+    X.index = X.index.set_names(["batch", "step"])
+    assert extract_runs(X)[1] is None
+
+
 def test_time_restarting_without_run_labels_points_at_a_misnamed_run_level():
     X = pd.DataFrame(
         {"T1_C": [1.0, 2.0, 3.0, 4.0]},
@@ -999,11 +1027,17 @@ def test_time_restarting_without_run_labels_points_at_a_misnamed_run_level():
             [["a", "a", "b", "b"], [0.0, 60.0, 0.0, 60.0]], names=["Run", "time_s"]
         ),
     )
-    X, groups = extract_runs(X)
+    # Models read X through extract_runs, which names the level at once.
+    with pytest.raises(
+        ValueError,
+        match=r"index has the level\(s\) 'Run' \(for 'run'\): .*taken as one run\. "
+        r"Rename them: X\.index = X\.index\.set_names\(\['run', 'time_s'\]\)",
+    ):
+        extract_runs(X)
     with pytest.raises(
         ValueError, match=r"No run labels were found .*'Run' is not read as them"
     ):
-        check_time_order(X, groups)
+        check_time_order(X, None)
     labelled = X.reset_index(level="Run", drop=True)
     with pytest.raises(ValueError, match="No run labels were found") as err:
         check_time_order(labelled, None)
@@ -1011,3 +1045,33 @@ def test_time_restarting_without_run_labels_points_at_a_misnamed_run_level():
     with pytest.raises(ValueError, match=r"in run 'a'") as err:
         check_time_order(labelled, np.array(["a", "a", "a", "a"]))
     assert "No run labels" not in str(err.value)
+
+
+def test_a_fit_on_times_in_another_unit_warns():
+    # read_runs and validate_runs warned; a fit on X with its own (run,
+    # time_s) index did not, and a lag pipeline's predictions moved by 8 µm.
+    from skthermal.preprocessing import LagFeatures
+
+    t = np.arange(0.0, 4 * 3600.0, 120.0)
+    index = pd.MultiIndex.from_arrays(
+        [np.repeat(["a", "b"], t.size), np.tile(t, 2)], names=["run", "time_s"]
+    )
+    X = pd.DataFrame({"T1_C": np.linspace(20, 25, 2 * t.size)}, index=index)
+    y = np.arange(2.0 * t.size)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LagFeatures(drivers=None).fit(X, y)
+    for scale, unit in ((1000.0, "milliseconds"), (1 / 60.0, "minutes")):
+        X.index = pd.MultiIndex.from_arrays(
+            [np.repeat(["a", "b"], t.size), np.tile(t * scale, 2)],
+            names=["run", "time_s"],
+        )
+        with pytest.warns(
+            UserWarning, match=rf"^time_s is read as seconds.*in {unit}\?"
+        ):
+            LagFeatures(drivers=None).fit(X, y)
+    # A fit on the later part of a run is no clock's time: not warned.
+    X.index = index
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LagFeatures(drivers=None).fit(X.iloc[10:], y[10:])

@@ -31,6 +31,7 @@ from skthermal.utils._runs import (
     check_labels,
     driver_lookalike,
     unreadable,
+    warn_odd_times,
 )
 from skthermal.utils._warnings import user_stacklevel
 
@@ -390,67 +391,7 @@ def _check_time(df, codes):
             f"{plain(df[RUN].iloc[j])!r}, row {j} has time_s {time[j]} after "
             f"time_s {time[i]} at row {i}."
         )
-    _warn_odd_times(c, t)
-
-
-# Thermal tests last hours to weeks and are logged every second to hours: a
-# run longer than this, or logged more slowly, has time_s in milliseconds
-# (a run of 1.5 h in ms lasts 62 days) ...
-_MAX_RUN_S = 60 * 86400.0
-_MAX_STEP_S = 6 * 3600.0
-# ... and runs all shorter than this, logged every 10 s or faster, have it
-# in minutes (runs of up to 20 h logged every 10 min or faster; a table of
-# fewer than _MIN_STEPS steps is an example, not a logger's record).
-_SHORT_RUNS_S = 1200.0
-_FAST_STEP_S = 10.0
-_MIN_STEPS = 30
-
-
-def _warn_odd_times(codes, times, late_start=True):
-    """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
-    time (most runs start after 0) or like another unit than seconds: every
-    model reads it as seconds since the run's start, so the filters' time
-    constants and a drift rate would be off by 60 or 1000 without a word."""
-    if not len(times):
-        return
-    starts = np.r_[True, codes[1:] != codes[:-1]]
-    first = times[starts]
-    last = times[np.r_[starts[1:], True]]
-    length = last - first
-    steps = np.diff(times)[~starts[1:]]
-    step = float(np.median(steps)) if steps.size else 0.0
-    # A run whose first sample is one period in (at 15 s, not 0) is fine.
-    late = first[first > 2 * step]
-    if late_start and late.size > 1 and 2 * late.size >= first.size:
-        warnings.warn(
-            f"Column 'time_s' is the time since each run's start, but "
-            f"{late.size} of the {first.size} runs do not start at 0 (they start "
-            f"at {late.min():g} to {late.max():g} s): a clock's time? Subtract "
-            "each run's first time. Models of runs read a run that does not "
-            "start at 0 as the later part of a run and say so when they predict "
-            "it.",
-            UserWarning,
-            stacklevel=user_stacklevel(),
-        )
-    if not steps.size:
-        return
-    longest = float(length.max())
-    if longest > _MAX_RUN_S or step > _MAX_STEP_S:
-        unit = "milliseconds"
-    elif longest < _SHORT_RUNS_S and step <= _FAST_STEP_S and steps.size >= _MIN_STEPS:
-        unit = "minutes"
-    else:
-        return
-    warnings.warn(
-        f"Column 'time_s' is read as seconds since each run's start: the runs "
-        f"last up to {longest:.4g} s ({longest / 3600:.3g} h), logged every "
-        f"{step:.4g} s (median step). Thermal tests last hours to weeks and are "
-        f"logged every second to hours: is time_s in {unit}? Convert it to seconds "
-        "(every time-aware model and the gap diagnosis read it so); if the "
-        "times are right, ignore this warning.",
-        UserWarning,
-        stacklevel=user_stacklevel(),
-    )
+    warn_odd_times(c, t)
 
 
 def validate_runs(
@@ -685,7 +626,7 @@ def warn_implausible(df, late_start=True):
     codes = pd.factorize(df[RUN])[0]
     order = np.argsort(codes, kind="stable")
     times = _as_float(df, [TIME])[:, 0]
-    _warn_odd_times(codes[order], times[order], late_start)
+    warn_odd_times(codes[order], times[order], late_start)
     _warn_air_unit(df)
 
 

@@ -42,6 +42,7 @@ from skthermal.utils._runs import (
     warn_pauses,
     warn_slow_periods,
     warn_target_columns,
+    warn_time_unit,
     warn_unlabelled_runs,
     warn_unnamed_drivers,
     within_run_steps,
@@ -657,6 +658,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         taus, powers = self._taus(), self._powers()
         X_raw, groups = extract_runs(X, groups)
         warn_target_columns(X_raw, y)
+        warn_time_unit(X_raw, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64)
         slices, labels = run_slices(groups, X_arr.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)

@@ -422,6 +422,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
             _warn_other_runs(groups, run_col.to_numpy(), "column")
     index = getattr(X, "index", None)
     names = getattr(index, "names", None)
+    _refuse_misnamed_levels(names)
     if names is not None and RUN_COLUMN in names:
         if groups is None:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
@@ -455,7 +456,86 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         check = check_finite_target if finite else check_target_rows
         check(y, X, groups, given_index=given_index)
         warn_target_columns(X, y)
+        warn_time_unit(X, groups)
     return X, groups
+
+
+def warn_time_unit(X, groups):
+    """In a fit, :func:`warn_odd_times`'s unit check of a ``time_s`` index
+    level (not its late-start check: a fit may take the later part of a
+    run)."""
+    import pandas as pd
+
+    t = row_times(X)
+    if t is None or t.size < 2:
+        return
+    codes = (
+        np.zeros(t.size, dtype=int)
+        if groups is None
+        else pd.factorize(pd.Series(np.asarray(groups, dtype=object)))[0]
+    )
+    order = np.argsort(codes, kind="stable")
+    warn_odd_times(codes[order], t[order], late_start=False)
+
+
+# Thermal tests last hours to weeks and are logged every second to hours: a
+# run longer than this, or logged more slowly, has time_s in milliseconds
+# (a run of 1.5 h in ms lasts 62 days) ...
+_MAX_RUN_S = 60 * 86400.0
+_MAX_STEP_S = 6 * 3600.0
+# ... and runs all shorter than this, logged every 10 s or faster, have it
+# in minutes (runs of up to 20 h logged every 10 min or faster; a table of
+# fewer than _MIN_STEPS steps is an example, not a logger's record).
+_SHORT_RUNS_S = 1200.0
+_FAST_STEP_S = 10.0
+_MIN_STEPS = 30
+
+
+def warn_odd_times(codes, times, late_start=True):
+    """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
+    time (most runs start after 0) or like another unit than seconds: every
+    model reads it as seconds since the run's start, so the filters' time
+    constants and a drift rate would be off by 60 or 1000 without a word."""
+    if not len(times):
+        return
+    starts = np.r_[True, codes[1:] != codes[:-1]]
+    first = times[starts]
+    last = times[np.r_[starts[1:], True]]
+    length = last - first
+    steps = np.diff(times)[~starts[1:]]
+    step = float(np.median(steps)) if steps.size else 0.0
+    # A run whose first sample is one period in (at 15 s, not 0) is fine.
+    late = first[first > 2 * step]
+    if late_start and late.size > 1 and 2 * late.size >= first.size:
+        warnings.warn(
+            f"Column 'time_s' is the time since each run's start, but "
+            f"{late.size} of the {first.size} runs do not start at 0 (they start "
+            f"at {late.min():g} to {late.max():g} s): a clock's time? Subtract "
+            "each run's first time. Models of runs read a run that does not "
+            "start at 0 as the later part of a run and say so when they predict "
+            "it.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
+    if not steps.size:
+        return
+    longest = float(length.max())
+    if longest > _MAX_RUN_S or step > _MAX_STEP_S:
+        unit = "milliseconds"
+    elif longest < _SHORT_RUNS_S and step <= _FAST_STEP_S and steps.size >= _MIN_STEPS:
+        unit = "minutes"
+    else:
+        return
+    warnings.warn(
+        f"time_s is read as seconds since each run's start: the runs "
+        f"last up to {longest:.4g} s ({longest / 3600:.3g} h), logged every "
+        f"{step:.4g} s (median step). Thermal tests last hours to weeks and are "
+        f"logged every second to hours: is time_s in {unit}? Convert it to seconds "
+        "(every time-aware model and the gap diagnosis read it so); if the "
+        "times are right, ignore this warning.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def warn_target_columns(X, y):
@@ -1132,6 +1212,42 @@ def check_time_order(X, groups):
     if t is None:
         return
     _check_increasing(t, groups, _unread_run_names(X))
+
+
+_RUN_SPELLINGS = r"(test_?)?run(_?(id|no|name|label))?"
+_TIME_SPELLINGS = r"time(_?s(ec(ond)?s?)?)?|t_?s|elapsed(_?s)?"
+
+
+def _refuse_misnamed_levels(names):
+    """Raise when index levels look like the run table's ``run`` and
+    ``time_s`` but are spelt otherwise (``Run``, ``Time_s``, ``run_id``):
+    their labels and times would not be read, and the rows taken as one run
+    1 s apart, silently."""
+    names = [n for n in (names or []) if isinstance(n, str)]
+    wrong = {}
+    for wanted, spellings in (
+        (RUN_COLUMN, _RUN_SPELLINGS),
+        (TIME_COLUMN, _TIME_SPELLINGS),
+    ):
+        if wanted in names:
+            continue
+        found = [n for n in names if re.fullmatch(spellings, n.lower())]
+        if found:
+            wrong[found[0]] = wanted
+    if wrong:
+        said = ", ".join(f"{k!r} (for {v!r})" for k, v in wrong.items())
+        fixed = [wrong.get(n, n) for n in names]
+        lost = {
+            RUN_COLUMN: "the rows would be taken as one run",
+            TIME_COLUMN: "samples as 1 s apart",
+        }
+        consequence = " and ".join(lost[v] for v in wrong.values())
+        raise ValueError(
+            f"X's index has the level(s) {said}: run labels and times are read "
+            f"only from levels named exactly {RUN_COLUMN!r} and {TIME_COLUMN!r}, "
+            f"so {consequence}. Rename them: X.index = "
+            f"X.index.set_names({fixed!r})."
+        )
 
 
 def _unread_run_names(X):
