@@ -1280,6 +1280,22 @@ def test_time_in_another_unit_than_seconds_warns(scale, unit):
         validate_runs(_minimal_table(t * scale, runs))
 
 
+def test_sensors_in_kelvin_warn():
+    # Only ambient_C was checked: kelvin in T*_C passed, and an ANFIS with
+    # shrunk intercepts trained worse on it without a word.
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3)
+    table["T1_C"] += 273.15
+    table["T2_C"] = table["T1_C"] - 273.15
+    with pytest.warns(
+        UserWarning, match=r"column\(s\) 'T1_C' never read below 200 \('T1_C': 293.15"
+    ):
+        validate_runs(table)
+    table["T1_C"] -= 273.15  # a structure at 20-22 °C
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(table)
+
+
 def test_minutes_at_a_logger_period_of_minutes_warn():
     # Runs of 4 h logged every 2 min with time_s in minutes (steps of 2) were
     # read as 4-minute runs logged every 2 s, silently.

@@ -1074,3 +1074,16 @@ def test_a_duty_cycle_too_long_to_hold_or_not_a_sequence_is_named():
     # A long run that fits is simulated (400 days every hour).
     long = machine.simulate([(400 * 86400, 0)], sample_period_s=3600, noise=False)
     assert len(long) == 400 * 24 + 1
+
+
+def test_workshop_air_in_another_unit_warns_where_it_is_made():
+    # AmbientProfile(mean_C=293) simulated silently; validate_runs warned
+    # for the same value in a table.
+    with pytest.warns(UserWarning, match=r"mean_C=293 lies outside .*in kelvin\?") as w:
+        AmbientProfile(mean_C=293.0)
+    assert w[0].filename == __file__  # the user's line, not the dataclass's
+    with pytest.warns(UserWarning, match=r"mean_C=80 .*in Fahrenheit\?"):
+        AmbientProfile(mean_C=80.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        AmbientProfile(mean_C=22.0)

@@ -24,9 +24,11 @@ from skthermal._naming import (
 from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import (
     ABSOLUTE_ZERO_C,
+    AIR_RANGE_C,
     DECIMAL_COMMA,
     DRIVER_RULE,
     MAX_MAGNITUDE,
+    air_unit_guess,
     check_frame,
     check_labels,
     driver_lookalike,
@@ -569,6 +571,7 @@ def check_run_table(
     )
     _check_ranges(df, everything, values)
     _warn_air_unit(df)
+    _warn_kelvin_sensors(df, everything, values)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
@@ -630,10 +633,6 @@ def warn_implausible(df, late_start=True):
     _warn_air_unit(df)
 
 
-# Workshop air outside this range (°C) is most likely in another unit.
-_AIR_RANGE_C = (-40.0, 60.0)
-
-
 def _warn_air_unit(df):
     """Warn when ``ambient_C`` lies outside what workshop air (or a climate
     chamber) reads in °C (Fahrenheit reads 60-90, kelvin about 293): the
@@ -644,22 +643,49 @@ def _warn_air_unit(df):
     air = air[np.isfinite(air)]
     if not air.size:
         return
-    low, high = _AIR_RANGE_C
+    low, high = AIR_RANGE_C
     if air.min() >= low and air.max() <= high:
         return
     k = int(np.argmax(np.abs(air - np.clip(air, low, high))))
-    guess = (
-        "in kelvin?"
-        if air[k] > 200
-        else "in Fahrenheit?"
-        if air[k] > high
-        else "another unit, or a faulty sensor?"
-    )
+    guess = air_unit_guess(air[k])
     warnings.warn(
         f"Column 'ambient_C' reads {air[k]:g} (range {air.min():g} to "
         f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air "
         f"and climate chambers: "
         f"{guess} It is read as °C (simulation, gap diagnosis).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+# No machine-tool structure reads this much in °C at every sample (bearings
+# run at 20-80 °C); kelvin reads from 250 up.
+_KELVIN_FLOOR = 200.0
+
+
+def _warn_kelvin_sensors(df, columns, values):
+    """Warn when temperature columns (``*_C``) never read below
+    ``_KELVIN_FLOOR``: kelvin under a °C header. Models take changes or
+    standardise, but not all: an ANFIS whose intercepts are shrunk, the
+    simulator and the gap diagnosis read the level."""
+    hot = []
+    for j, name in enumerate(columns):
+        if name == "ambient_C" or not _is_temperature(name):
+            continue
+        col = values[:, j]
+        col = col[np.isfinite(col)]
+        if col.size and col.min() > _KELVIN_FLOOR:
+            hot.append((name, col.min(), col.max()))
+    if not hot:
+        return
+    name, low, high = hot[0]
+    names = ", ".join(repr(h[0]) for h in hot[:3])
+    more = f" and {len(hot) - 3} more" if len(hot) > 3 else ""
+    warnings.warn(
+        f"Temperature column(s) {names}{more} never read below "
+        f"{_KELVIN_FLOOR:g} ({name!r}: {low:g} to {high:g}): no machine-tool "
+        "structure is that hot at every sample. In kelvin? Columns *_C are read "
+        "as °C: subtract 273.15.",
         UserWarning,
         stacklevel=user_stacklevel(),
     )

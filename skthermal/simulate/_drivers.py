@@ -6,6 +6,7 @@ axis feed; an :class:`AmbientProfile` is the workshop air around the machine
 sampled on the simulation grid.
 """
 
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
@@ -13,6 +14,8 @@ import numpy as np
 from sklearn.utils import check_random_state
 
 from skthermal._naming import shown
+from skthermal.utils._runs import AIR_RANGE_C, air_unit_guess
+from skthermal.utils._warnings import user_stacklevel
 
 
 def _check_number(value, name, *, positive=False, nonnegative=False):
@@ -284,6 +287,15 @@ class AmbientProfile:
             "start_hour",
         ):
             _check_number(getattr(self, name), f"AmbientProfile {name}")
+        low, high = AIR_RANGE_C
+        if not low <= self.mean_C <= high:
+            warnings.warn(
+                f"AmbientProfile mean_C={self.mean_C:g} lies outside the {low:g} "
+                f"to {high:g} °C of workshop air and climate chambers: "
+                f"{air_unit_guess(self.mean_C)} It is read as °C.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
         _check_number(self.noise_C, "AmbientProfile noise_C", nonnegative=True)
         _check_number(self.noise_tau_min, "AmbientProfile noise_tau_min", positive=True)
         events = tuple(

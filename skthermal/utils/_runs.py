@@ -491,6 +491,20 @@ _FAST_STEP_S = 10.0
 _MIN_STEPS = 30
 
 
+# Workshop air outside this range (°C) is most likely in another unit.
+AIR_RANGE_C = (-40.0, 60.0)
+
+
+def air_unit_guess(value):
+    """What an air temperature outside :data:`AIR_RANGE_C` most likely is,
+    as the end of a warning ("in kelvin?")."""
+    if value > 200:
+        return "in kelvin?"
+    if value > AIR_RANGE_C[1]:
+        return "in Fahrenheit?"
+    return "another unit, or a faulty sensor?"
+
+
 def warn_odd_times(codes, times, late_start=True):
     """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
     time (most runs start after 0) or like another unit than seconds: every

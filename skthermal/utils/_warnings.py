@@ -32,7 +32,9 @@ def user_stacklevel():
     level = 1
     while frame is not None:
         name = frame.f_code.co_filename
-        if not name.startswith(_INSIDE):
+        # A dataclass's generated __init__ (calling __post_init__) has no file.
+        generated = name == "<string>" and frame.f_code.co_name == "__init__"
+        if not name.startswith(_INSIDE) and not generated:
             return level
         frame = frame.f_back
         level += 1
