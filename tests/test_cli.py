@@ -1314,6 +1314,26 @@ def test_evaluate_names_the_run_and_time_of_a_non_finite_prediction(
         assert "Warning" not in err
 
 
+def test_evaluate_names_a_prediction_that_is_not_a_number(
+    capsys, tmp_path, predictions
+):
+    # It said only "could not convert string to float: 'oops'".
+    runs, table = predictions
+    full = pd.read_csv(runs)
+    full["pred_disp_y_um"] = table["pred_disp_y_um"].to_numpy().astype(object)
+    full.loc[(full["run"] == "V") & (full["time_s"] == 480.0), "pred_disp_y_um"] = (
+        "oops"
+    )
+    bad = tmp_path / "bad.csv"
+    full.to_csv(bad, index=False)
+    status, _, err = _run(capsys, "evaluate", "--runs", bad)
+    assert status == 2 and err.count("\n") == 1, err
+    assert (
+        "Column 'pred_disp_y_um' of " in err
+        and "holds 'oops' at run 'V', time_s 480.0 (1 such row(s))" in err
+    ), err
+
+
 def test_a_reader_that_closes_the_pipe_is_not_an_error():
     # skthermal gap-check --list-effects | head -1: the reader goes away.
     code = (

@@ -1296,6 +1296,14 @@ def test_sensors_in_kelvin_warn():
         validate_runs(table)
 
 
+def test_runs_that_start_before_zero_warn():
+    # A run from -5000 s passed silently; one from +3600 s was warned about.
+    t = np.arange(0.0, 4 * 3600.0, 60.0)
+    table = _minimal_table(np.r_[t - 5000.0, t], np.repeat(["A", "B"], t.size))
+    with pytest.warns(UserWarning, match=r"1 of the 2 runs start before 0 \(at -5000"):
+        validate_runs(table)
+
+
 def test_minutes_at_a_logger_period_of_minutes_warn():
     # Runs of 4 h logged every 2 min with time_s in minutes (steps of 2) were
     # read as 4-minute runs logged every 2 s, silently.

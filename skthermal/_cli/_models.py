@@ -596,7 +596,15 @@ def cmd_evaluate(args):
             data = df
         if target not in data.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
-        pred = data[col].to_numpy(dtype=float)
+        values = pd.to_numeric(data[col], errors="coerce")
+        text = np.flatnonzero(values.isna().to_numpy() & data[col].notna().to_numpy())
+        if text.size:
+            raise UserError(
+                f"Column {col!r} of {args.predictions or args.runs} holds "
+                f"{data[col].iloc[text[0]]!r} at {_row(data, int(text[0]))} "
+                f"({text.size} such row(s)): a prediction is a number in µm."
+            )
+        pred = values.to_numpy(dtype=float)
         found = _first_non_finite(pred, data, nan="missing (NaN)")
         if found is not None:
             i, kind, count = found

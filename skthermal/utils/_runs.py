@@ -520,7 +520,17 @@ def warn_odd_times(codes, times, late_start=True):
     step = float(np.median(steps)) if steps.size else 0.0
     # A run whose first sample is one period in (at 15 s, not 0) is fine.
     late = first[first > 2 * step]
-    if late_start and late.size > 1 and 2 * late.size >= first.size:
+    early = first[first < -2 * step]
+    if late_start and early.size:
+        warnings.warn(
+            f"Column 'time_s' is the time since each run's start, but "
+            f"{early.size} of the {first.size} runs start before 0 (at "
+            f"{early.min():g} to {early.max():g} s): subtract each run's first "
+            "time. Models of runs read the times as seconds since the start.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
+    elif late_start and late.size > 1 and 2 * late.size >= first.size:
         warnings.warn(
             f"Column 'time_s' is the time since each run's start, but "
             f"{late.size} of the {first.size} runs do not start at 0 (they start "
