@@ -1004,15 +1004,22 @@ def test_misnamed_run_and_time_levels_are_named():
     X = pd.DataFrame({"T1_C": np.linspace(20, 25, 60)}, index=index)
     with pytest.raises(
         ValueError,
-        match=r"'Run' \(for 'run'\), 'Time_s' \(for 'time_s'\).*taken as one run "
-        r"and samples as 1 s apart",
+        match=r"'Run' \(for 'run'\), 'Time_s' \(for 'time_s'\).*are taken as one "
+        r"run and samples as 1 s apart",
     ):
         make_lag_pipeline().fit(X, np.arange(60.0))
+    # A misspelt time level alone is a warning: static models need no times.
     X.index = X.index.set_names(["run", "time"])
-    with pytest.raises(
-        ValueError, match=r"'time' \(for 'time_s'\): .* so samples as 1 s"
+    with pytest.warns(
+        UserWarning, match=r"'time' \(for 'time_s'\): .* so samples as 1"
     ):
         extract_runs(X)
+    # A datetime index named "time" (pandas' habit) is left alone.
+    stamps = pd.Timestamp("2026-01-01") + pd.to_timedelta(np.arange(60), unit="min")
+    dated = pd.DataFrame({"T1_C": np.arange(60.0)}, index=pd.Index(stamps, name="time"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        extract_runs(dated)
     X.index = X.index.set_names(["run", "time_s"])
     assert extract_runs(X)[1].tolist() == ["a"] * 30 + ["b"] * 30
     # Other names are not run labels or times: left alone.

@@ -422,7 +422,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
             _warn_other_runs(groups, run_col.to_numpy(), "column")
     index = getattr(X, "index", None)
     names = getattr(index, "names", None)
-    _refuse_misnamed_levels(names)
+    _refuse_misnamed_levels(index)
     if names is not None and RUN_COLUMN in names:
         if groups is None:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
@@ -1242,12 +1242,14 @@ _RUN_SPELLINGS = r"(test_?)?run(_?(id|no|name|label))?"
 _TIME_SPELLINGS = r"time(_?s(ec(ond)?s?)?)?|t_?s|elapsed(_?s)?"
 
 
-def _refuse_misnamed_levels(names):
-    """Raise when index levels look like the run table's ``run`` and
-    ``time_s`` but are spelt otherwise (``Run``, ``Time_s``, ``run_id``):
-    their labels and times would not be read, and the rows taken as one run
-    1 s apart, silently."""
-    names = [n for n in (names or []) if isinstance(n, str)]
+def _refuse_misnamed_levels(index):
+    """Index levels spelt like the run table's ``run`` and ``time_s`` but
+    otherwise (``Run``, ``run_id``, ``Time_s``, ``time``) are not read: a
+    misspelt run level is an error (the rows would be taken as one run,
+    silently), a misspelt level of numeric times a warning (the samples
+    would be taken as 1 s apart; a static model does not need them, and a
+    datetime index named ``time`` is left alone)."""
+    names = list(getattr(index, "names", None) or [])
     wrong = {}
     for wanted, spellings in (
         (RUN_COLUMN, _RUN_SPELLINGS),
@@ -1255,23 +1257,34 @@ def _refuse_misnamed_levels(names):
     ):
         if wanted in names:
             continue
-        found = [n for n in names if re.fullmatch(spellings, n.lower())]
-        if found:
-            wrong[found[0]] = wanted
-    if wrong:
-        said = ", ".join(f"{k!r} (for {v!r})" for k, v in wrong.items())
-        fixed = [wrong.get(n, n) for n in names]
-        lost = {
-            RUN_COLUMN: "the rows would be taken as one run",
-            TIME_COLUMN: "samples as 1 s apart",
-        }
-        consequence = " and ".join(lost[v] for v in wrong.values())
-        raise ValueError(
-            f"X's index has the level(s) {said}: run labels and times are read "
-            f"only from levels named exactly {RUN_COLUMN!r} and {TIME_COLUMN!r}, "
-            f"so {consequence}. Rename them: X.index = "
-            f"X.index.set_names({fixed!r})."
-        )
+        found = [
+            n
+            for n in names
+            if isinstance(n, str) and re.fullmatch(spellings, n.lower())
+        ]
+        if not found:
+            continue
+        values = index.get_level_values(found[0])
+        if wanted == TIME_COLUMN and values.dtype.kind not in "iuf":
+            continue
+        wrong[found[0]] = wanted
+    if not wrong:
+        return
+    said = ", ".join(f"{k!r} (for {v!r})" for k, v in wrong.items())
+    fixed = [wrong.get(n, n) for n in names]
+    lost = {
+        RUN_COLUMN: "the rows are taken as one run",
+        TIME_COLUMN: "samples as 1 s apart",
+    }
+    message = (
+        f"X's index has the level(s) {said}: run labels and times are read only "
+        f"from levels named exactly {RUN_COLUMN!r} and {TIME_COLUMN!r}, so "
+        f"{' and '.join(lost[v] for v in wrong.values())}. Rename them: "
+        f"X.index = X.index.set_names({fixed!r})."
+    )
+    if RUN_COLUMN in wrong.values():
+        raise ValueError(message)
+    warnings.warn(message, UserWarning, stacklevel=user_stacklevel())
 
 
 def _unread_run_names(X):
