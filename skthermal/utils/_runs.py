@@ -422,7 +422,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
             _warn_other_runs(groups, run_col.to_numpy(), "column")
     index = getattr(X, "index", None)
     names = getattr(index, "names", None)
-    _refuse_misnamed_levels(index)
+    _check_level_names(index)
     if names is not None and RUN_COLUMN in names:
         if groups is None:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
@@ -1242,7 +1242,7 @@ _RUN_SPELLINGS = r"(test_?)?run(_?(id|no|name|label))?"
 _TIME_SPELLINGS = r"time(_?s(ec(ond)?s?)?)?|t_?s|elapsed(_?s)?"
 
 
-def _refuse_misnamed_levels(index):
+def _check_level_names(index):
     """Index levels spelt like the run table's ``run`` and ``time_s`` but
     otherwise (``Run``, ``run_id``, ``Time_s``, ``time``) are not read: a
     misspelt run level is an error (the rows would be taken as one run,
@@ -1297,7 +1297,7 @@ def _unread_run_names(X):
         for n in names
         if isinstance(n, str)
         and n != RUN_COLUMN
-        and re.fullmatch(r"(test_?)?run(_?(id|no|name|label))?", n.lower())
+        and re.fullmatch(_RUN_SPELLINGS, n.lower())
     ]
 
 
