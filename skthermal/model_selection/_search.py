@@ -902,7 +902,7 @@ def _seeds_of(trial, estimator):
             "another worker's seed. The best estimator is refitted with the "
             "trial's seed, so that it is the model that was scored.",
             UserWarning,
-            stacklevel=4,
+            stacklevel=user_stacklevel(),
         )
     return differ
 
