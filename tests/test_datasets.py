@@ -1121,6 +1121,14 @@ def test_csv_row_with_an_extra_field_names_the_line(tmp_path):
     path.write_text("run,time_s,T1_C\nr1,0,20,,\nr1,60,21,,\n")
     with pytest.raises(ValueError, match=r"line 2 .*trailing separators"):
         read_runs(path)
+    # A later line with an extra field: pandas' own parser error, "Expected
+    # 3 fields in line 11, saw 4", said without the remedy.
+    rows = "".join(f"r1,{60 * i},20\n" for i in range(9))
+    path.write_text("run,time_s,T1_C\n" + rows + "r1,540,20,7\nr1,600,21\n")
+    with pytest.raises(
+        ValueError, match=r"line 11 has 4 fields but the header has 3.*one field per"
+    ):
+        read_runs(path)
 
 
 def test_csv_duplicated_header_names(tmp_path):

@@ -13,7 +13,8 @@ Not kept, and why:
   the blocks that use the ``model`` or ``model.skops`` of those);
   dynamic_compensation.md (``X_train``, ``y_train``, ``X_all``); gap.md
   (``measured_runs``); gap_external.md (``sim.csv``, ``real.csv``);
-  model_selection.md (``search.py`` reads ``sys.argv[1]``, ``url``);
+  model_selection.md (``search.py`` reads ``sys.argv[1]``; a PostgreSQL
+  server);
   other_systems.md (``raw_ue``, ``temperature_C``, ``spindle_test``,
   ``feed_test``, ``combined_test``); own_machine.md (``my_rig_tests.csv``);
   run_tables.md (``tests.csv.gz``, ``tests.parquet``, ``heating``,

@@ -399,6 +399,9 @@ def _read_csv(path, labels=None):
             "or .parquet."
         ) from exc
     except pd.errors.ParserError as exc:
+        if re.search(r"Expected \d+ fields in line \d+", str(exc)):
+            n_header = _named_fields(_csv_fields(_first_line(data), path))
+            raise _long_line_error(path, data, n_header, exc) from None
         raise ValueError(f"{path}: not a well-formed CSV file: {exc}") from exc
 
 
