@@ -1082,3 +1082,20 @@ def test_a_fit_on_times_in_another_unit_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         LagFeatures(drivers=None).fit(X.iloc[10:], y[10:])
+
+
+def test_a_wrapper_says_the_time_unit_warning_once():
+    # LagRidgeCV said it once per candidate fit (five times on the gas
+    # furnace series).
+    from skthermal.preprocessing import LagRidgeCV
+
+    t = np.arange(0.0, 240.0, 2.0)  # 4 h logged every 2 min, in minutes
+    index = pd.MultiIndex.from_arrays(
+        [np.repeat(["a", "b"], t.size), np.tile(t, 2)], names=["run", "time_s"]
+    )
+    X = pd.DataFrame({"T1_C": np.sin(np.arange(2 * t.size) / 9.0)}, index=index)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        LagRidgeCV(drivers=None).fit(X, np.cos(np.arange(2 * t.size) / 9.0))
+    said = [w for w in caught if "time_s is read as seconds" in str(w.message)]
+    assert len(said) == 1

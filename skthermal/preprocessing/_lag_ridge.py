@@ -17,6 +17,7 @@ from skthermal.utils._runs import (
     LATE_START_WARNING,
     PAUSE_BRIDGE,
     REUSED_LABEL_WARNING,
+    TIME_UNIT_WARNING,
     check_positive_numbers,
     check_time_order,
     continued_runs,
@@ -147,6 +148,7 @@ _SAID_BY_LAG_RIDGE = (
     r"LagFeatures\.fit got",
     r"LagFeatures\.fit: drivers=",
     r"groups cut the rows into",
+    TIME_UNIT_WARNING,
 )
 
 

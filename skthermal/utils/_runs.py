@@ -551,7 +551,7 @@ def warn_odd_times(codes, times, late_start=True):
     else:
         return
     warnings.warn(
-        f"time_s is read as seconds since each run's start: the runs "
+        "time_s is read as seconds since each run's start: the runs "
         f"last up to {longest:.4g} s ({longest / 3600:.3g} h), logged every "
         f"{step:.4g} s (median step). Thermal tests last hours to weeks and are "
         f"logged every second to hours: is time_s in {unit}? Convert it to seconds "
@@ -2357,6 +2357,9 @@ TARGET_COLUMNS_WARNING = (
     r"X's column\(s\) .* equal the target y|X holds the displacement"
 )
 REUSED_LABEL_WARNING = r"Run .* given to .* has the label of a training run"
+# The unit warning of warn_odd_times, for a model that has said it for X as
+# given and fits inner models on the same times.
+TIME_UNIT_WARNING = r"time_s is read as seconds since each run's start"
 
 
 def continued_runs(
