@@ -140,7 +140,7 @@ def test_simulate_refuses_a_segment_too_long_to_hold(capsys, tmp_path):
     # It printed numpy's MemoryError traceback (894 GiB).
     argv = ["simulate", "--preset", "spindle-rig", "--segment", "4000:1e9h"]
     status, _, err = _run(capsys, *argv, "--out", tmp_path / "s.csv")
-    assert status == 2 and "more than one run holds" in err
+    assert status == 2 and "more than skthermal simulates in one run" in err
     assert "Traceback" not in err and not (tmp_path / "s.csv").exists()
 
 

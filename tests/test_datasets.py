@@ -1312,20 +1312,6 @@ def test_runs_that_start_before_zero_warn():
         validate_runs(table)
 
 
-def test_minutes_at_a_logger_period_of_minutes_warn():
-    # Runs of 4 h logged every 2 min with time_s in minutes (steps of 2) were
-    # read as 4-minute runs logged every 2 s, silently.
-    t = np.tile(np.arange(0.0, 240.0, 2.0), 2)
-    runs = np.repeat(["A", "B"], t.size // 2)
-    with pytest.warns(UserWarning, match=r"every 2 s \(median step\).*in minutes\?"):
-        validate_runs(_minimal_table(t, runs))
-    with warnings.catch_warnings():  # the same times in seconds
-        warnings.simplefilter("error")
-        validate_runs(_minimal_table(t * 60.0, runs))
-        # A few rows one second apart are an example, not a logger's record.
-        validate_runs(_minimal_table([0.0, 1.0, 2.0], ["A"] * 3))
-
-
 def test_changes_of_an_empty_table_are_an_empty_table():
     empty = _minimal_table([0.0, 15.0], ["A", "A"]).iloc[:0]
     assert changes_since_start(empty).empty

@@ -326,12 +326,18 @@ def test_hold_makes_up_no_reading_of_a_sensor_dead_for_a_whole_run(train, new_ru
     guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
     X_dead = new_run[0].copy()
     X_dead["T2_C"] = np.nan
-    with pytest.raises(
-        ValueError,
-        match=r"sensor 'T2_C' reads no finite value in run 'r0' at time_s=0, nor in "
-        r"any other row of that run given to this call \(120 row\(s\)\)",
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        pytest.raises(
+            ValueError,
+            match=r"sensor 'T2_C' reads no finite value in run 'r0' at time_s=0, nor "
+            r"in any other row of that run given to this call \(120 row\(s\)\)",
+        ),
     ):
+        warnings.simplefilter("always")
         guard.predict(X_dead)
+    # No warning first saying that a value was held.
+    assert not _messages(caught, SensorFaultWarning)
     with pytest.raises(ValueError, match=r"more sensor\(s\) alike"):
         guard.predict(X_dead * np.nan)
     # Dead from a later row on: held at its last good reading, as before.

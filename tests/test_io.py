@@ -1,5 +1,6 @@
 """Tests of skthermal.io: safe deployment files (skops) and version warnings."""
 
+import functools
 import json
 import pickle
 import re
@@ -249,12 +250,15 @@ def test_a_function_a_file_cannot_give_back_is_named(runs_data, tmp_path):
     def local(z):
         return z - 20.0
 
-    for func, why in (
-        (lambda z: z - 20.0, "is a lambda"),
-        (local, "is the function .*local, local to another function"),
+    for func, where, why in (
+        (lambda z: z - 20.0, "", "is a lambda"),
+        (local, "", "is the function .*local, local to another function"),
+        (functools.partial(lambda z, a: z - a, a=20.0), ".func", "is a lambda"),
     ):
         model = make_pipeline(FunctionTransformer(func), Ridge()).fit(X, y)
-        with pytest.raises(TypeError, match=r"Pipeline.steps\[0\]\[1\].func " + why):
+        with pytest.raises(
+            TypeError, match=r"Pipeline.steps\[0\]\[1\].func" + where + " " + why
+        ):
             save(model, tmp_path / "f.skops")
     assert not (tmp_path / "f.skops").exists()
     # A function of an importable module is saved, and loads.

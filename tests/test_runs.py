@@ -995,7 +995,7 @@ def test_a_run_column_renamed_by_a_column_transformer_is_named():
 def test_misnamed_run_and_time_levels_are_named():
     # Levels named as a logger exports them were not read: the rows were
     # one run 1 s apart, and a lag pipeline's predictions 8 µm off.
-    from skthermal.preprocessing import make_lag_pipeline
+    from skthermal.preprocessing import LagFeatures, make_lag_pipeline
 
     index = pd.MultiIndex.from_arrays(
         [np.repeat(["a", "b"], 30), np.tile(np.arange(30) * 60.0, 2)],
@@ -1004,22 +1004,20 @@ def test_misnamed_run_and_time_levels_are_named():
     X = pd.DataFrame({"T1_C": np.linspace(20, 25, 60)}, index=index)
     with pytest.raises(
         ValueError,
-        match=r"'Run' \(for 'run'\), 'Time_s' \(for 'time_s'\).*are taken as one "
-        r"run and samples as 1 s apart",
+        match=r"index has the level 'Run': .*taken as one run\. Rename it: "
+        r"X\.index = X\.index\.set_names\(\['run', 'Time_s'\]\)",
     ):
         make_lag_pipeline().fit(X, np.arange(60.0))
-    # A misspelt time level alone is a warning: static models need no times.
-    X.index = X.index.set_names(["run", "time"])
-    with pytest.warns(
-        UserWarning, match=r"'time' \(for 'time_s'\): .* so samples as 1"
-    ):
-        extract_runs(X)
-    # A datetime index named "time" (pandas' habit) is left alone.
-    stamps = pd.Timestamp("2026-01-01") + pd.to_timedelta(np.arange(60), unit="min")
-    dated = pd.DataFrame({"T1_C": np.arange(60.0)}, index=pd.Index(stamps, name="time"))
-    with warnings.catch_warnings():
+    # Labels given as groups: the level is not needed, no error.
+    assert extract_runs(X, groups=X.index.get_level_values(0))[1][0] == "a"
+    # A misspelt time level: a model that reads times says so where it says
+    # that it found none.
+    X.index = X.index.set_names(["run", "Time_s"])
+    with pytest.warns(UserWarning, match=r"index level 'Time_s' is not read as the"):
+        LagFeatures(drivers=None).fit(X)
+    with warnings.catch_warnings():  # a static use of X: nothing to say
         warnings.simplefilter("error")
-        extract_runs(dated)
+        extract_runs(X, y=np.arange(60.0))
     X.index = X.index.set_names(["run", "time_s"])
     assert extract_runs(X)[1].tolist() == ["a"] * 30 + ["b"] * 30
     # Other names are not run labels or times: left alone.
@@ -1037,8 +1035,8 @@ def test_time_restarting_without_run_labels_points_at_a_misnamed_run_level():
     # Models read X through extract_runs, which names the level at once.
     with pytest.raises(
         ValueError,
-        match=r"index has the level\(s\) 'Run' \(for 'run'\): .*taken as one run\. "
-        r"Rename them: X\.index = X\.index\.set_names\(\['run', 'time_s'\]\)",
+        match=r"index has the level 'Run': .*taken as one run\. "
+        r"Rename it: X\.index = X\.index\.set_names\(\['run', 'time_s'\]\)",
     ):
         extract_runs(X)
     with pytest.raises(
@@ -1054,34 +1052,26 @@ def test_time_restarting_without_run_labels_points_at_a_misnamed_run_level():
     assert "No run labels" not in str(err.value)
 
 
-def test_a_fit_on_times_in_another_unit_warns():
-    # read_runs and validate_runs warned; a fit on X with its own (run,
-    # time_s) index did not, and a lag pipeline's predictions moved by 8 µm.
+def test_a_fit_on_times_in_milliseconds_warns():
+    # read_runs and validate_runs warned; the fit of a model that reads times
+    # on X with its own (run, time_s) index did not, and a lag pipeline's
+    # predictions moved by 8 µm.
     from skthermal.preprocessing import LagFeatures
 
     t = np.arange(0.0, 4 * 3600.0, 120.0)
-    index = pd.MultiIndex.from_arrays(
-        [np.repeat(["a", "b"], t.size), np.tile(t, 2)], names=["run", "time_s"]
-    )
+    runs = np.repeat(["a", "b"], t.size)
+    index = pd.MultiIndex.from_arrays([runs, np.tile(t, 2)], names=["run", "time_s"])
     X = pd.DataFrame({"T1_C": np.linspace(20, 25, 2 * t.size)}, index=index)
-    y = np.arange(2.0 * t.size)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        LagFeatures(drivers=None).fit(X, y)
-    for scale, unit in ((1000.0, "milliseconds"), (1 / 60.0, "minutes")):
-        X.index = pd.MultiIndex.from_arrays(
-            [np.repeat(["a", "b"], t.size), np.tile(t * scale, 2)],
-            names=["run", "time_s"],
-        )
-        with pytest.warns(
-            UserWarning, match=rf"^time_s is read as seconds.*in {unit}\?"
-        ):
-            LagFeatures(drivers=None).fit(X, y)
-    # A fit on the later part of a run is no clock's time: not warned.
-    X.index = index
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        LagFeatures(drivers=None).fit(X.iloc[10:], y[10:])
+        LagFeatures(drivers=None).fit(X)
+        # A window of a run (an update, a later part) is no unit question.
+        LagFeatures(drivers=None).fit(X.iloc[10:20])
+    X.index = pd.MultiIndex.from_arrays(
+        [runs, np.tile(t * 1000.0, 2)], names=["run", "time_s"]
+    )
+    with pytest.warns(UserWarning, match=r"^time_s is read as seconds.*milliseconds\?"):
+        LagFeatures(drivers=None).fit(X)
 
 
 def test_a_wrapper_says_the_time_unit_warning_once():
@@ -1089,7 +1079,7 @@ def test_a_wrapper_says_the_time_unit_warning_once():
     # furnace series).
     from skthermal.preprocessing import LagRidgeCV
 
-    t = np.arange(0.0, 240.0, 2.0)  # 4 h logged every 2 min, in minutes
+    t = np.arange(0.0, 4 * 3600.0, 120.0) * 1000.0  # 4 h in milliseconds
     index = pd.MultiIndex.from_arrays(
         [np.repeat(["a", "b"], t.size), np.tile(t, 2)], names=["run", "time_s"]
     )

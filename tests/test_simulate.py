@@ -1066,14 +1066,22 @@ def test_a_duty_cycle_too_long_to_hold_or_not_a_sequence_is_named():
     # A duration in the wrong unit asked numpy for 124 GiB (a MemoryError
     # traceback, on the command line too); None failed inside iteration.
     machine = ThermalMachine.from_preset("spindle-rig")
-    with pytest.raises(ValueError, match=r"lasts 1e\+12 s .*more than one run holds"):
+    with pytest.raises(
+        ValueError, match=r"lasts 1e\+12 s .*more than skthermal simulates in one run"
+    ):
         machine.simulate([(1e12, 4000)], sample_period_s=60)
     for duty in (None, "3600,4000", 5.0):
         with pytest.raises(ValueError, match="A duty cycle is a sequence of segments"):
             DutyCycle(duty)
-    # A long run that fits is simulated (400 days every hour).
-    long = machine.simulate([(400 * 86400, 0)], sample_period_s=3600, noise=False)
-    assert len(long) == 400 * 24 + 1
+    # A test typed in milliseconds (8 h as 2.9e7 s) fits, but is warned about.
+    with pytest.warns(UserWarning, match=r"lasts 333.3 days.*in milliseconds\?"):
+        long = machine.simulate(
+            [(4 * 3600e3, 3000), (4 * 3600e3, 0)], sample_period_s=3600, noise=False
+        )
+    assert len(long) == 8 * 1000 + 1
+    with warnings.catch_warnings():  # four weeks: a long soak, not a unit slip
+        warnings.simplefilter("error")
+        machine.simulate([(28 * 86400, 0)], sample_period_s=3600, noise=False)
 
 
 def test_workshop_air_in_another_unit_warns_where_it_is_made():

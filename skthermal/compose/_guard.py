@@ -713,6 +713,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         start = run_first_rows(runs, n)
         first = start == np.arange(n)
         where = _Where(features, runs, self._sensor_names())
+        if self.mode == "hold":
+            self._refuse_unreadable(A, start, where)
         flags = self._input_flags(A, first, where)
         fault = np.logical_or.reduce(list(flags.values()))
         late = self._late_starts(runs, where, n)
@@ -731,7 +733,6 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # reference for changes since the start, so a made-up value there
             # would offset the whole run.
             nxt = _next_good(fault, start)
-            self._refuse_unreadable(A, last, nxt, where)
             cols = np.arange(A.shape[1])
             ahead = A[np.maximum(nxt, 0), cols]
             fallback = np.where(
@@ -790,12 +791,17 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "reason": reason,
         }
 
-    def _refuse_unreadable(self, A, last, nxt, where):
+    def _refuse_unreadable(self, A, start, where):
         """Raise when a checked sensor reads no finite value in all the rows
-        of a run that this call holds: there is no reading of it to hold,
-        and any value put in its place would be made up. (An unchecked
-        input, one the model ignores, gets a value inside its range.)"""
-        dead = ~np.isfinite(A) & (last < 0) & (nxt < 0) & self.checked_inputs_
+        of a run that this call holds (``start``: every row's run's first
+        row): there is no reading of it to hold, and any value put in its
+        place would be made up. (An unchecked input, one the model ignores,
+        gets a value inside its range.) Before any warning: none says that a
+        value was held."""
+        finite = np.isfinite(A)
+        read = np.zeros_like(finite)
+        np.logical_or.at(read, start, finite)
+        dead = ~read[start] & self.checked_inputs_
         if not dead.any():
             return
         j = int(np.flatnonzero(dead.any(axis=0))[0])

@@ -12,6 +12,7 @@ differ from the installed ones.
 """
 
 import copy
+import functools
 import importlib
 import importlib.util
 import json
@@ -206,6 +207,9 @@ def _walk(obj, where, seen):
         children = ((f"[{k!r}]", v) for k, v in obj.items())
     elif isinstance(obj, list | tuple):
         children = ((f"[{i}]", v) for i, v in enumerate(obj))
+    elif isinstance(obj, functools.partial):
+        children = [(".func", obj.func), (".args", obj.args)]
+        children += [(".keywords", obj.keywords)]
     elif type(obj).__module__.split(".")[0] in ("skthermal", "sklearn"):
         # What pickling (and so skops) stores: an ANFISRegressor leaves out
         # its epoch_callback.

@@ -40,6 +40,7 @@ from skthermal.utils._runs import (
     warn_no_time,
     warn_pauses,
     warn_slow_periods,
+    warn_time_unit,
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
@@ -1138,6 +1139,7 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         """
         bounds = self._check_tau_bounds()
         X_raw, groups = extract_runs(X, groups, y=y)
+        warn_time_unit(X_raw, groups)
         X, y = validate_data(
             self, X_raw, y, y_numeric=True, multi_output=True, dtype=np.float64
         )

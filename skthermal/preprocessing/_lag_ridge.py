@@ -29,6 +29,7 @@ from skthermal.utils._runs import (
     warn_gaps,
     warn_no_time,
     warn_pauses,
+    warn_time_unit,
     warn_unlabelled_runs,
     warn_unnamed_drivers,
 )
@@ -410,6 +411,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         slices, labels = run_slices(groups, n)
         self.n_fitted_runs_ = None if groups is None else len(slices)
         check_time_order(X_raw, groups)
+        warn_time_unit(X_raw, groups)
         # Once here, not once per candidate (silenced below).
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         # One BLAS thread: the CV is a loop of small ridge solves, which on

@@ -138,6 +138,9 @@ PLAUSIBLE_FEED_MM_MIN = 2e5
 # Samples of one simulated run (a year at 15 s, 23 days at 1 s): more is a
 # duration in the wrong unit, and would not fit in memory.
 MAX_SAMPLES = 2_000_000
+# A duty cycle longer than this (60 days, as the run tables' milliseconds
+# check) is most likely given in milliseconds.
+LONGEST_TEST_S = 60 * 86400.0
 
 
 class ImplausibleDriverWarning(UserWarning):
@@ -1619,10 +1622,18 @@ class ThermalMachine:
             raise ValueError(
                 f"The duty cycle lasts {duty.duration_s:g} s "
                 f"({duty.duration_s / 86400:.4g} days): sampled every {dt:g} s "
-                f"that is {duty.duration_s / dt:.4g} samples, more than one run "
-                f"holds ({MAX_SAMPLES:,}). Durations are in seconds: check "
-                "their unit, or sample less often (sample_period_s; --sample-period "
-                "on the command line)."
+                f"that is {duty.duration_s / dt:.4g} samples, more than skthermal "
+                f"simulates in one run ({MAX_SAMPLES:,}, for memory). Durations "
+                "are in seconds: check their unit, or sample less often "
+                "(sample_period_s; --sample-period on the command line)."
+            )
+        if duty.duration_s > LONGEST_TEST_S:
+            warnings.warn(
+                f"The duty cycle lasts {duty.duration_s / 86400:.4g} days: thermal "
+                "tests last hours to weeks. Durations are in seconds: are they in "
+                "milliseconds? The simulation goes on.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
             )
         if n < 1:
             raise ValueError(

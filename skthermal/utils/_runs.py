@@ -422,7 +422,8 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
             _warn_other_runs(groups, run_col.to_numpy(), "column")
     index = getattr(X, "index", None)
     names = getattr(index, "names", None)
-    _check_level_names(index)
+    if groups is None:  # the labels given otherwise, a level is not needed
+        _check_run_level(index)
     if names is not None and RUN_COLUMN in names:
         if groups is None:
             groups = index.get_level_values(RUN_COLUMN).to_numpy()
@@ -456,14 +457,14 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         check = check_finite_target if finite else check_target_rows
         check(y, X, groups, given_index=given_index)
         warn_target_columns(X, y)
-        warn_time_unit(X, groups)
     return X, groups
 
 
 def warn_time_unit(X, groups):
-    """In a fit, :func:`warn_odd_times`'s unit check of a ``time_s`` index
-    level (not its late-start check: a fit may take the later part of a
-    run)."""
+    """For the fit of a model that reads times: :func:`warn_odd_times`'s
+    milliseconds check of a ``time_s`` index level (not its late-start or
+    minutes checks: a fit may take the later part of a run, or a window of
+    it; :func:`warn_short_runs` judges short runs)."""
     import pandas as pd
 
     t = row_times(X)
@@ -475,7 +476,7 @@ def warn_time_unit(X, groups):
         else pd.factorize(pd.Series(np.asarray(groups, dtype=object)))[0]
     )
     order = np.argsort(codes, kind="stable")
-    warn_odd_times(codes[order], t[order], late_start=False)
+    warn_odd_times(codes[order], t[order], late_start=False, minutes=False)
 
 
 # Thermal tests last hours to weeks and are logged every second to hours: a
@@ -483,12 +484,10 @@ def warn_time_unit(X, groups):
 # (a run of 1.5 h in ms lasts 62 days) ...
 _MAX_RUN_S = 60 * 86400.0
 _MAX_STEP_S = 6 * 3600.0
-# ... and runs all shorter than this, logged every 10 s or faster, have it
-# in minutes (runs of up to 20 h logged every 10 min or faster; a table of
-# fewer than _MIN_STEPS steps is an example, not a logger's record).
+# ... and runs all shorter than this, logged faster than every second, have
+# it in minutes (runs of up to 20 h).
 _SHORT_RUNS_S = 1200.0
-_FAST_STEP_S = 10.0
-_MIN_STEPS = 30
+_FAST_STEP_S = 1.0
 
 
 # Workshop air outside this range (°C) is most likely in another unit.
@@ -505,11 +504,13 @@ def air_unit_guess(value):
     return "another unit, or a faulty sensor?"
 
 
-def warn_odd_times(codes, times, late_start=True):
+def warn_odd_times(codes, times, late_start=True, minutes=True):
     """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
     time (most runs start after 0) or like another unit than seconds: every
     model reads it as seconds since the run's start, so the filters' time
-    constants and a drift rate would be off by 60 or 1000 without a word."""
+    constants and a drift rate would be off by 60 or 1000 without a word.
+    ``minutes=False`` leaves out the minutes check (a fit may take a window
+    of a run, which says nothing of how long the runs are)."""
     if not len(times):
         return
     starts = np.r_[True, codes[1:] != codes[:-1]]
@@ -546,7 +547,7 @@ def warn_odd_times(codes, times, late_start=True):
     longest = float(length.max())
     if longest > _MAX_RUN_S or step > _MAX_STEP_S:
         unit = "milliseconds"
-    elif longest < _SHORT_RUNS_S and step <= _FAST_STEP_S and steps.size >= _MIN_STEPS:
+    elif minutes and longest < _SHORT_RUNS_S and step < _FAST_STEP_S:
         unit = "minutes"
     else:
         return
@@ -1242,49 +1243,43 @@ _RUN_SPELLINGS = r"(test_?)?run(_?(id|no|name|label))?"
 _TIME_SPELLINGS = r"time(_?s(ec(ond)?s?)?)?|t_?s|elapsed(_?s)?"
 
 
-def _check_level_names(index):
-    """Index levels spelt like the run table's ``run`` and ``time_s`` but
-    otherwise (``Run``, ``run_id``, ``Time_s``, ``time``) are not read: a
-    misspelt run level is an error (the rows would be taken as one run,
-    silently), a misspelt level of numeric times a warning (the samples
-    would be taken as 1 s apart; a static model does not need them, and a
-    datetime index named ``time`` is left alone)."""
+def _check_run_level(index):
+    """Raise when an index level looks like the run table's ``run`` but is
+    spelt otherwise (``Run``, ``run_id``) and no run labels are given
+    otherwise: its labels would not be read, and the rows taken as one run,
+    silently."""
     names = list(getattr(index, "names", None) or [])
-    wrong = {}
-    for wanted, spellings in (
-        (RUN_COLUMN, _RUN_SPELLINGS),
-        (TIME_COLUMN, _TIME_SPELLINGS),
-    ):
-        if wanted in names:
-            continue
-        found = [
-            n
-            for n in names
-            if isinstance(n, str) and re.fullmatch(spellings, n.lower())
-        ]
-        if not found:
-            continue
-        values = index.get_level_values(found[0])
-        if wanted == TIME_COLUMN and values.dtype.kind not in "iuf":
-            continue
-        wrong[found[0]] = wanted
-    if not wrong:
+    if RUN_COLUMN in names:
         return
-    said = ", ".join(f"{k!r} (for {v!r})" for k, v in wrong.items())
-    fixed = [wrong.get(n, n) for n in names]
-    lost = {
-        RUN_COLUMN: "the rows are taken as one run",
-        TIME_COLUMN: "samples as 1 s apart",
-    }
-    message = (
-        f"X's index has the level(s) {said}: run labels and times are read only "
-        f"from levels named exactly {RUN_COLUMN!r} and {TIME_COLUMN!r}, so "
-        f"{' and '.join(lost[v] for v in wrong.values())}. Rename them: "
-        f"X.index = X.index.set_names({fixed!r})."
+    found = [
+        n
+        for n in names
+        if isinstance(n, str) and re.fullmatch(_RUN_SPELLINGS, n.lower())
+    ]
+    if not found:
+        return
+    fixed = [RUN_COLUMN if n == found[0] else n for n in names]
+    raise ValueError(
+        f"X's index has the level {found[0]!r}: run labels are read only from a "
+        f"level (or column) named exactly {RUN_COLUMN!r} (or from groups=), so the "
+        "rows would be taken as one run. Rename it: X.index = "
+        f"X.index.set_names({fixed!r})."
     )
-    if RUN_COLUMN in wrong.values():
-        raise ValueError(message)
-    warnings.warn(message, UserWarning, stacklevel=user_stacklevel())
+
+
+def misnamed_time_level(X):
+    """The first index level of ``X`` spelt like ``time_s`` but otherwise
+    (``Time_s``, ``time``), holding numbers, or None: times a model that
+    reads them does not find."""
+    index = getattr(X, "index", None)
+    names = list(getattr(index, "names", None) or [])
+    if TIME_COLUMN in names:
+        return None
+    for n in names:
+        if isinstance(n, str) and re.fullmatch(_TIME_SPELLINGS, n.lower()):
+            if index.get_level_values(n).dtype.kind in "iuf":
+                return n
+    return None
 
 
 def _unread_run_names(X):
@@ -1568,11 +1563,18 @@ def warn_no_time(name, X, dt, time_constants=None):
         else "the time constants "
         f"({', '.join(f'{t:g}' for t in time_constants)} s) as that many rows"
     )
+    level = misnamed_time_level(X)
+    hint = (
+        f" X's index level {level!r} is not read as the times: if it holds "
+        "seconds since each run's start, name it 'time_s'."
+        if level is not None
+        else ""
+    )
     warnings.warn(
         f"{name}: X has no time_s (no time_s column or index level) and no "
         f"dt was given, so rows are taken as 1 s apart and {counted}. Pass "
         "dt=<sample period in s>, or a run table with its time_s "
-        "column (or the (run, time_s) index of skthermal.datasets.split_runs).",
+        "column (or the (run, time_s) index of skthermal.datasets.split_runs)." + hint,
         UserWarning,
         stacklevel=4,
     )
