@@ -1379,8 +1379,15 @@ def test_a_utf16_file_is_told_to_be_saved_as_utf8(tmp_path, encoding):
     # line quoted as a stray zero byte.
     path = tmp_path / "runs.csv"
     path.write_bytes((_HEADER + "A,0,20.0,0.0\nA,15,20.5,1.0\n").encode(encoding))
-    with pytest.raises(ValueError, match=r"UTF-16 text, not UTF-8.*encoding='utf-16'"):
+    with pytest.raises(
+        ValueError, match=rf"UTF-16 text, not UTF-8.*encoding='{encoding}'"
+    ):
         read_runs(path)
+    # A logger's file padded with zero bytes (a power loss) is no UTF-16.
+    path.write_bytes((_HEADER + "A,0,20.0,0.0\nA,15,20.5,1.0\n").encode() + bytes(8192))
+    with pytest.raises(ValueError) as err:
+        read_runs(path)
+    assert "UTF-16" not in str(err.value)
 
 
 @pytest.mark.parametrize("air, guess", [(80.0, "Fahrenheit"), (293.0, "kelvin")])

@@ -261,6 +261,16 @@ def test_a_function_a_file_cannot_give_back_is_named(runs_data, tmp_path):
         ):
             save(model, tmp_path / "f.skops")
     assert not (tmp_path / "f.skops").exists()
+
+    # A function of the running script loads only where a script defines it:
+    # saved, with a warning naming what load must trust.
+    def shift(z):
+        return z - 20.0
+
+    shift.__module__, shift.__qualname__ = "__main__", "shift"
+    model = make_pipeline(FunctionTransformer(shift), Ridge()).fit(X, y)
+    with pytest.warns(UserWarning, match=r"trusted=\['__main__.shift'\]"):
+        save(model, tmp_path / "f.skops")
     # A function of an importable module is saved, and loads.
     model = make_pipeline(FunctionTransformer(np.log1p), Ridge()).fit(X - X.min(), y)
     loaded = load(save(model, tmp_path / "f.skops"))

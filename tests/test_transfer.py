@@ -199,6 +199,21 @@ def test_speed_column_errors():
         TransferFunctionRegressor(speed_column=5).fit(X.to_numpy(), y)
 
 
+def test_a_period_that_changes_is_no_hole():
+    # A logger switching from 10 s to 5 s was told that rows were missing.
+    X, y = _heating_runs()
+    run = X.loc[["r0"]]
+    t = run.index.get_level_values("time_s").to_numpy().copy()
+    t[300:] = t[300] + (t[300:] - t[300]) / 2.0
+    run.index = pd.MultiIndex.from_arrays(
+        [run.index.get_level_values("run"), t], names=["run", "time_s"]
+    )
+    with pytest.raises(ValueError, match="constant sampling") as err:
+        TransferFunctionRegressor(speed_column=2, max_iter=0).fit(run, y.loc[["r0"]])
+    assert "Rows are missing" not in str(err.value)
+    assert str(err.value).endswith("resample the run or pass dt=...")
+
+
 def test_irregular_sampling_names_the_run():
     X, y = _heating_runs()
     t = X.index.get_level_values("time_s").to_numpy().copy()

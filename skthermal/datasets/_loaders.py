@@ -345,12 +345,17 @@ def _check_utf16(path, data):
     head = data[:4096]
     bom = head[:2] in (b"\xff\xfe", b"\xfe\xff")
     even, odd = head[0::2], head[1::2]
-    zeros = max(even.count(0), odd.count(0)) >= 0.9 * min(len(even), len(odd)) > 0
-    if bom or zeros:
+    n = min(len(even), len(odd))
+    # ASCII text in UTF-16: one byte of every pair zero, the other not (a
+    # file padded with zero bytes has both zero).
+    little = odd.count(0) >= 0.9 * n > 0 and even.count(0) <= 0.1 * n
+    big = even.count(0) >= 0.9 * n > 0 and odd.count(0) <= 0.1 * n
+    if bom or little or big:
+        encoding = "utf-16" if bom else "utf-16-le" if little else "utf-16-be"
         raise ValueError(
             f"{path}: UTF-16 text, not UTF-8: run tables are UTF-8 CSV files. "
             "Save it as 'CSV UTF-8', or convert it: pandas.read_csv(path, "
-            "encoding='utf-16') and skthermal.datasets.write_runs."
+            f"encoding={encoding!r}) and skthermal.datasets.write_runs."
         )
 
 

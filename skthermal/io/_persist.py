@@ -287,9 +287,35 @@ def _unimportable(obj):
         return "a lambda"
     if "<locals>" in name:
         return f"the {what} {name}, local to another function"
-    if getattr(target, "__module__", None) == "__main__":
-        return f"the {what} {name}, defined in the running script or notebook"
     return None
+
+
+def _warn_main(model):
+    """Warn for functions and classes of the running script or notebook
+    (``__main__``) inside ``model``: the file loads only where a script
+    defines them under the same name and ``load`` trusts them."""
+    for where, obj in _walk(model, type(model).__name__, set()):
+        if isinstance(obj, types.FunctionType | type):
+            target = obj
+        elif isinstance(obj, types.MethodType):
+            target = obj.__func__
+        elif type(obj).__module__ == "__main__":
+            target = type(obj)
+        else:
+            continue
+        if getattr(target, "__module__", None) != "__main__":
+            continue
+        name = f"__main__.{target.__qualname__}"
+        warnings.warn(
+            f"{where} is {name}, defined in the running script or notebook: the "
+            "file loads only in a script that defines it under the same name, "
+            f"with load(path, trusted=[{name!r}]). For a file that loads "
+            "anywhere, define it in a module of your own that the loading "
+            "machine can import.",
+            UserWarning,
+            stacklevel=3,
+        )
+        return
 
 
 def _check_importable(model):
@@ -331,9 +357,10 @@ def save(model, path, *, compress=True):
         If skops (a dependency of skthermal) is missing from the environment.
     TypeError
         If the model holds a dict whose keys a skops file cannot hold (not
-        str, int or float), or a function or class it cannot give back (a
-        lambda, a local function, one defined in the running script or
-        notebook); the message names where.
+        str, int or float), or a function it cannot give back (a lambda, a
+        function local to another); the message names where. A function or
+        class of the running script or notebook (``__main__``) is saved with
+        a warning: the file loads only where a script defines it.
     IsADirectoryError
         If ``path`` is a folder.
 
@@ -376,6 +403,7 @@ def save(model, path, *, compress=True):
         )
     _check_dict_keys(model)
     _check_importable(model)
+    _warn_main(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(_without_requests(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}

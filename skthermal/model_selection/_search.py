@@ -899,8 +899,9 @@ def _seeds_of(trial, estimator):
         )
         warnings.warn(
             f"The best trial (number {trial.number}) was scored with {said}: "
-            "another worker's seed. The best estimator is refitted with the "
-            "trial's seed, so that it is the model that was scored.",
+            "another seed (another worker's, or an earlier session's). The best "
+            "estimator is refitted with the trial's seed, so that it is the "
+            "model that was scored.",
             UserWarning,
             stacklevel=user_stacklevel(),
         )
