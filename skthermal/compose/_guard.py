@@ -815,7 +815,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             + "): there is no reading of it to hold, and a compensation computed "
             "without it would rest on a made-up value. Repair the sensor, or use a "
             "model fitted without it; on the controller, give predict the run's "
-            "rows from its start, so that a sensor that read earlier is held."
+            "rows from its start, so that a sensor that read earlier is held; in "
+            "a batch of runs, leave that run out."
         )
 
     def _input_limits(self):
