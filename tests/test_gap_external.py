@@ -236,6 +236,9 @@ def test_null_gain_and_offset_call_none(rng):
     assert calibrated < 0.5 * given
     text = report.to_markdown()
     assert "How much any added term could close" in text
+    # No greedy steps: no bare "(none)" line that reads as an empty How far.
+    assert len(report.steps) == 0 and "(greedy)" not in text
+    assert "\n(none)\n" not in text.split("## How far")[1].split("## Where")[0]
     data = json.loads(report.to_json())
     assert data["explainable"]["share"] >= 0
     assert {"lr_p_value", "whiteness_after"} <= set(data["ranking"][0])

@@ -663,8 +663,17 @@ class GapReport:
             "## How far",
             table(self.how_far),
             "",
-            table(self.steps),
-            "",
+            *(
+                [
+                    "Effects added one after another (greedy), with the held-out "
+                    "gap after each:",
+                    "",
+                    table(self.steps),
+                    "",
+                ]
+                if len(self.steps)
+                else []
+            ),
             "## Where: runs",
             table(where["runs"]),
             "",
