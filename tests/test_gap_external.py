@@ -1,6 +1,7 @@
 """Tests of the gap diagnosis between two run tables (skthermal.gap.diagnose_runs),
 its discrepancy terms and its structure-selection evidence."""
 
+import dataclasses
 import json
 import warnings
 
@@ -219,6 +220,17 @@ def test_sensor_lag_is_named(rng):
     )
     assert report.best_effect == "sensor_lag"
     assert report.ranking.iloc[0]["fitted"]["tau_s"] == pytest.approx(900, rel=0.3)
+    assert "also pass" not in report.verdict()
+    # A runner-up that passes the test alone is named beside the verdict (an
+    # independent truth: 'speed_convection' named, 'tool_growth' passing too).
+    ranking = report.ranking.copy()
+    ranking.loc[ranking["effect"] == "sensor_drift", ["explains", "shrink"]] = [
+        True,
+        0.51,
+    ]
+    both = dataclasses.replace(report, ranking=ranking)
+    assert both.verdict().startswith(report.verdict().split(" Not applicable")[0])
+    assert "Alone, 'sensor_drift' (51%) also pass(es) the test" in both.verdict()
 
 
 def test_null_gain_and_offset_call_none(rng):

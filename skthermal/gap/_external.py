@@ -664,7 +664,7 @@ class ExternalGapReport(GapReport):
         )
         if len(self.steps) > 1:
             text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
-        return text
+        return text + self._also_passes_text()
 
     def __repr__(self):
         return f"ExternalGapReport(best_effect={self.best_effect!r}): {self.verdict()}"
