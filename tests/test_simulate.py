@@ -699,6 +699,23 @@ def test_calibration_warns_when_a_parameter_ends_on_its_bound():
         machine.calibrate(runs, ["q.bearing_W"], channels=["T2_C"])
 
 
+def test_a_bound_reached_by_collinear_coefficients_is_said_so():
+    # Coefficients that shape a channel alike push each other to the bounds;
+    # the warning led with "check the units", which an independent check
+    # followed in vain (the heat inputs came back within 5% of the truth).
+    from skthermal.simulate._machine import _alike_text
+
+    params = ["k.z.nose", "k.z.tool", "q.bearing_W"]
+    x, lo, hi = np.array([-0.3, 0.2, 50.0]), np.full(3, -0.3), np.full(3, 100.0)
+    tol, dead = np.full(3, 1e-9), np.zeros(3, dtype=bool)
+    corr = np.array([[1.0, -0.99, 0.1], [-0.99, 1.0, 0.0], [0.1, 0.0, 1.0]])
+    text = _alike_text(params, x, lo, hi, tol, dead, corr)
+    assert "(k.z.nose with k.z.tool (r = -0.99))" in text
+    assert text.endswith("fit fewer parameters; else")
+    corr[0, 1] = corr[1, 0] = -0.5  # not alike: the old advice alone
+    assert _alike_text(params, x, lo, hi, tol, dead, corr) == ""
+
+
 # --- bad input ------------------------------------------------------------------
 
 

@@ -2557,6 +2557,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     # standard error is infinite.
     dead = ~np.any(J != 0, axis=0)
     std = np.full(len(params), np.inf)
+    corr = np.full((len(params), len(params)), np.nan)
     live = ~dead
     if live.any():
         try:
@@ -2569,6 +2570,9 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             A = shares.jacobian(res.x)[:, live]
             cov = A @ cov @ A.T
             std[live] = np.sqrt(np.clip(np.diag(cov)[live], 0, None))
+            scale = np.sqrt(np.clip(np.diag(cov), 0, None))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                corr = cov / np.outer(scale, scale)
         except np.linalg.LinAlgError:  # pragma: no cover - pinv rarely fails
             std[live] = np.nan
     if dead.any():
@@ -2590,11 +2594,16 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         if not d and (v - a <= t or b - v <= t)
     ]
     if ends:
+        alike = _alike_text(params, x, lo, hi, tol, dead, corr)
+        check = (
+            "check the units of the runs (speed in rpm, displacements in µm, "
+            "temperatures in °C) and the sketch's structure; if the value is "
+            "plausible, widen bounds=."
+        )
         warnings.warn(
             f"calibrate: {', '.join(ends)} ended on the bound of its range: the "
-            "fit wanted it further. Check the units of the runs (speed in rpm, "
-            "displacements in µm, temperatures in °C) and the sketch's "
-            "structure; if the value is plausible, widen bounds=.",
+            "fit wanted it further. "
+            + (f"{alike} {check}" if alike else check[0].upper() + check[1:]),
             UserWarning,
             stacklevel=4,
         )
@@ -2610,6 +2619,35 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         message=str(res.message),
     )
     return machine.with_params(dict(zip(params, x, strict=True))), result
+
+
+# Parameters whose estimates correlate this strongly move the fitted
+# channels alike: the runs hardly tell them apart.
+ALIKE_CORRELATION = 0.95
+
+
+def _alike_text(params, x, lo, hi, tol, dead, corr):
+    """For the parameters a calibration left on a bound, the others whose
+    estimates correlate with theirs beyond :data:`ALIKE_CORRELATION`, as a
+    sentence ("" when none): collinear coefficients push each other to the
+    bounds, which looks like a unit slip and is not one."""
+    pairs = []
+    for i, (v, a, b, t, d) in enumerate(zip(x, lo, hi, tol, dead, strict=True)):
+        if d or not (v - a <= t or b - v <= t):
+            continue
+        r = np.where(np.arange(len(params)) == i, np.nan, corr[i])
+        if not np.isfinite(r).any():
+            continue
+        j = int(np.nanargmax(np.abs(r)))
+        if abs(r[j]) >= ALIKE_CORRELATION:
+            pairs.append(f"{params[i]} with {params[j]} (r = {r[j]:+.2f})")
+    if not pairs:
+        return ""
+    return (
+        f"Its estimate moves with another's ({'; '.join(pairs)}): they shape the "
+        "fitted channels alike, so the runs hardly tell them apart and the pair "
+        "can run to the bounds. Fix one of them, or fit fewer parameters; else"
+    )
 
 
 # A part of a machine tool this much warmer than the air (K) is no machine's:
