@@ -1008,6 +1008,10 @@ def test_misnamed_run_and_time_levels_are_named():
         r"X\.index = X\.index\.set_names\(\['run', 'Time_s'\]\)",
     ):
         make_lag_pipeline().fit(X, np.arange(60.0))
+    for name in ("Run ID", "test_no", "Test"):
+        renamed = X.rename_axis(index=[name, "time_s"])
+        with pytest.raises(ValueError, match=rf"index has the level '{name}'"):
+            extract_runs(renamed)
     # Labels given as groups: the level is not needed, no error.
     assert extract_runs(X, groups=X.index.get_level_values(0))[1][0] == "a"
     # A misspelt time level: a model that reads times says so where it says

@@ -1239,7 +1239,12 @@ def check_time_order(X, groups):
     _check_increasing(t, groups, _unread_run_names(X))
 
 
-_RUN_SPELLINGS = r"(test_?)?run(_?(id|no|name|label))?"
+# Names of run labels in another spelling: "Run", "run_id", "Run ID",
+# "test_no", "Test" (compared in lower case).
+_RUN_SPELLINGS = (
+    r"(test[ _]?)?run([ _]?(id|no|nr|number|name|label))?"
+    r"|test([ _]?(id|no|nr|number|name|label))?"
+)
 _TIME_SPELLINGS = r"time(_?s(ec(ond)?s?)?)?|t_?s|elapsed(_?s)?"
 
 
