@@ -30,9 +30,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.utils._param_validation import (
     HasMethods,
     Interval,
-    InvalidParameterError,
     StrOptions,
-    validate_parameter_constraints,
     validate_params,
 )
 
@@ -45,6 +43,7 @@ from skthermal.model_selection._spaces import (
     _default_space_name,
     combine_spaces,
     describe_space,
+    refusal,
     search_space,
     space_names,
     space_ranges,
@@ -531,15 +530,9 @@ def _check_space_values(space, estimator):
     for key, values in space_values(space).items():
         owner_key, _, name = key.rpartition("__")
         owner = params.get(owner_key) if owner_key else estimator
-        constraints = getattr(owner, "_parameter_constraints", None)
-        if not constraints or name not in constraints:
-            continue
         for value in values:
-            try:
-                validate_parameter_constraints(
-                    {name: constraints[name]}, {name: value}, type(owner).__name__
-                )
-            except InvalidParameterError as exc:
+            exc = refusal(type(owner), name, value)
+            if exc is not None:
                 own = _default_space_name(owner)
                 hint = (
                     f" Is the space meant for another estimator? The built-in "

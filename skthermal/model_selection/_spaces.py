@@ -166,33 +166,57 @@ def _default_space_name(estimator):
     return None
 
 
+def refusal(owner, key, value):
+    """Why the estimator class ``owner`` refuses ``key=value`` (its
+    parameter constraints' message), or None; None too for a key it has no
+    constraint for (a setting drawn into another parameter, e.g. the PSO's
+    inertia)."""
+    from sklearn.utils._param_validation import (
+        InvalidParameterError,
+        validate_parameter_constraints,
+    )
+
+    constraints = getattr(owner, "_parameter_constraints", None) or {}
+    if key not in constraints:
+        return None
+    try:
+        validate_parameter_constraints(
+            {key: constraints[key]}, {key: value}, owner.__name__
+        )
+    except InvalidParameterError as exc:
+        return str(exc)
+    return None
+
+
+def _values_drawn(name, key, spec):
+    """The values the space ``name`` can set for ``key`` under ``spec``: the
+    choices, the fixed value, or the ends of the range, cast to int where the
+    space draws ints (its default range is of ints, as :func:`_int` does)."""
+    if isinstance(spec, list):
+        return list(spec)
+    if not isinstance(spec, tuple):
+        return [spec]
+    default = _REGISTRY[name][1][key]
+    if isinstance(default, tuple) and all(isinstance(v, int) for v in default):
+        return [int(v) for v in spec]
+    return list(spec)
+
+
 def _check_override(name, key, spec):
     """Refuse an override that the space's estimator would refuse in every
     trial (a fixed value or a choice it does not take, a range ending outside
     what it takes), naming the parameter: at once, not when a search runs."""
     from importlib import import_module
 
-    from sklearn.utils._param_validation import (
-        InvalidParameterError,
-        validate_parameter_constraints,
-    )
-
     module, _, cls = _REGISTRY[name][2].rpartition(".")
-    constraints = getattr(import_module(module), cls)._parameter_constraints
-    if key not in constraints:
-        return  # drawn into another parameter (e.g. the PSO's inertia)
-    values = list(spec) if isinstance(spec, list | tuple) else [spec]
-    for value in values:
-        if isinstance(spec, tuple) and isinstance(value, numbers.Real):
-            # The trial draws an int from a range given in floats.
-            value = int(value) if float(value).is_integer() else value
-        try:
-            validate_parameter_constraints({key: constraints[key]}, {key: value}, cls)
-        except InvalidParameterError as exc:
+    owner = getattr(import_module(module), cls)
+    for value in _values_drawn(name, key, spec):
+        why = refusal(owner, key, value)
+        if why is not None:
             raise ValueError(
                 f"search_space({name!r}, {key}={spec!r}): {cls} refuses "
-                f"{key}={value!r}. {exc}"
-            ) from None
+                f"{key}={value!r}. {why}"
+            )
 
 
 # Parameters the built-in spaces draw on a log scale: a range must start
@@ -454,7 +478,7 @@ def space_values(space):
     """
     if isinstance(space, SearchSpace):
         return {
-            space._key(k): list(v) if isinstance(v, list | tuple) else [v]
+            space._key(k): _values_drawn(space.name, k, v)
             for k, v in space.ranges.items()
         }
     if isinstance(space, PrefixedSpace):
