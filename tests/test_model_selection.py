@@ -554,10 +554,18 @@ def test_a_value_the_estimator_refuses_is_named_when_the_space_is_made():
     # Values the estimator takes are kept, a range given in floats included,
     # and settings drawn into another parameter (the swarm's inertia) too.
     assert search_space("anfis", epochs=(5.0, 20.0)).ranges["epochs"] == (5.0, 20.0)
-    # ... and run_search, which checks what the space draws (ints), agrees.
-    from skthermal.model_selection._spaces import space_values
-
-    assert space_values(search_space("anfis", epochs=(5.0, 20.0)))["epochs"] == [5, 20]
+    # ... and run_search, which checks what the space draws (ints), agrees:
+    # it refused epochs=2.0.
+    X = np.random.default_rng(0).normal(size=(40, 2))
+    result = run_search(
+        ANFISRegressor(),
+        X,
+        X.sum(axis=1),
+        groups=np.repeat([0, 1], 20),
+        space=search_space("anfis", init="fcm", epochs=(2.0, 3.0)),
+        n_trials=1,
+    )
+    assert result.best_params_["epochs"] in (2, 3)
     assert search_space("gnnmci", inertia_start=0.9).ranges["inertia_start"] == 0.9
     # A log-scaled range from 0 is refused when the space is made.
     with pytest.raises(ValueError, match="epochs is searched on a log scale"):
