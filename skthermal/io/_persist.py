@@ -270,59 +270,38 @@ def _check_dict_keys(model):
     )
 
 
-def _unimportable(obj):
-    """Why a skops file could not give ``obj`` back (a lambda, a function
-    local to another, or a function or class of the running script or
-    notebook, ``__main__``), or None. skops stores a function or class by
-    its module and name and imports them when it loads."""
-    if isinstance(obj, types.FunctionType | types.MethodType | type):
-        target = obj.__func__ if isinstance(obj, types.MethodType) else obj
-        what = "class" if isinstance(obj, type) else "function"
-    elif type(obj).__module__ == "__main__":
-        target, what = type(obj), "class"
-    else:
-        return None
-    name = getattr(target, "__qualname__", repr(target))
-    if "<lambda>" in name:
-        return "a lambda"
-    if "<locals>" in name:
-        return f"the {what} {name}, local to another function"
+def _code_of(obj):
+    """The function or class that a skops file stores ``obj`` by (its module
+    and name, imported when it loads): ``obj`` itself, a method's function,
+    or the class of an instance defined in the running script; else None."""
+    if isinstance(obj, types.MethodType):
+        return obj.__func__
+    if isinstance(obj, types.FunctionType | type):
+        return obj
+    if type(obj).__module__ == "__main__":
+        return type(obj)
     return None
 
 
-def _warn_main(model):
-    """Warn for functions and classes of the running script or notebook
-    (``__main__``) inside ``model``: the file loads only where a script
-    defines them under the same name and ``load`` trusts them."""
+def _check_code(model):
+    """Raise a TypeError naming the first lambda or local function (or
+    class) inside ``model``, which a skops file stores but cannot give back;
+    warn for one of the running script or notebook (``__main__``), which
+    loads only where a script defines it under the same name."""
+    main = None
     for where, obj in _walk(model, type(model).__name__, set()):
-        if isinstance(obj, types.FunctionType | type):
-            target = obj
-        elif isinstance(obj, types.MethodType):
-            target = obj.__func__
-        elif type(obj).__module__ == "__main__":
-            target = type(obj)
-        else:
+        target = _code_of(obj)
+        if target is None:
             continue
-        if getattr(target, "__module__", None) != "__main__":
-            continue
-        name = f"__main__.{target.__qualname__}"
-        warnings.warn(
-            f"{where} is {name}, defined in the running script or notebook: the "
-            "file loads only in a script that defines it under the same name, "
-            f"with load(path, trusted=[{name!r}]). For a file that loads "
-            "anywhere, define it in a module of your own that the loading "
-            "machine can import.",
-            UserWarning,
-            stacklevel=3,
+        name = getattr(target, "__qualname__", repr(target))
+        what = "class" if isinstance(target, type) else "function"
+        why = (
+            "a lambda"
+            if "<lambda>" in name
+            else f"the {what} {name}, local to another function"
+            if "<locals>" in name
+            else None
         )
-        return
-
-
-def _check_importable(model):
-    """Raise a TypeError naming the first function or class inside ``model``
-    that a skops file stores but cannot give back on another machine."""
-    for where, obj in _walk(model, type(model).__name__, set()):
-        why = _unimportable(obj)
         if why is not None:
             raise TypeError(
                 f"Cannot save {type(model).__name__}: {where} is {why}, which a "
@@ -332,6 +311,19 @@ def _check_importable(model):
                 "(e.g. my_transforms.py, installed beside skthermal), or use a "
                 "scikit-learn or skthermal transformer instead."
             )
+        if main is None and getattr(target, "__module__", None) == "__main__":
+            main = where, f"__main__.{name}"
+    if main is not None:
+        where, name = main
+        warnings.warn(
+            f"{where} is {name}, defined in the running script or notebook: the "
+            "file loads only in a script that defines it under the same name, "
+            f"with load(path, trusted=[{name!r}]). For a file that loads "
+            "anywhere, define it in a module of your own that the loading "
+            "machine can import.",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 def save(model, path, *, compress=True):
@@ -402,8 +394,7 @@ def save(model, path, *, compress=True):
             f"{os.path.join(path, 'model.skops')}."
         )
     _check_dict_keys(model)
-    _check_importable(model)
-    _warn_main(model)
+    _check_code(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(_without_requests(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}
