@@ -1093,3 +1093,13 @@ def test_a_wrapper_says_the_time_unit_warning_once():
         LagRidgeCV(drivers=None).fit(X, np.cos(np.arange(2 * t.size) / 9.0))
     said = [w for w in caught if "time_s is read as seconds" in str(w.message)]
     assert len(said) == 1
+    # Behind a guard, which fits it once: said once, not silenced.
+    from skthermal.compose import GuardedRegressor
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        GuardedRegressor(LagRidgeCV(drivers=None)).fit(
+            X, np.cos(np.arange(2 * t.size) / 9.0)
+        )
+    said = [w for w in caught if "time_s is read as seconds" in str(w.message)]
+    assert len(said) == 1

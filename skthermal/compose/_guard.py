@@ -34,7 +34,6 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
-    TIME_UNIT_WARNING,
     RunMemory,
     describe_unreadable,
     extract_runs,
@@ -473,7 +472,6 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         with warnings.catch_warnings():
             # Said above, for X as given.
             warnings.filterwarnings("ignore", message=TARGET_COLUMNS_WARNING)
-            warnings.filterwarnings("ignore", message=TIME_UNIT_WARNING)
             self.estimator_.fit(X_inner, y, **fit_params)
         self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
         self._output_names = target_names(y)

@@ -15,7 +15,6 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
-    TIME_UNIT_WARNING,
     changes_since_start,
     check_time_order,
     continued_runs,
@@ -195,7 +194,6 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         with warnings.catch_warnings():
             # Said above, for X as given.
             warnings.filterwarnings("ignore", message=TARGET_COLUMNS_WARNING)
-            warnings.filterwarnings("ignore", message=TIME_UNIT_WARNING)
             self.estimator_ = clone(self.estimator).fit(changes, dy, **fit_params)
         # Runs labelled in fit: predict warns when it gets rows without labels.
         self._fit_runs = None if groups is None else len(slices)
