@@ -706,14 +706,13 @@ def test_a_bound_reached_by_collinear_coefficients_is_said_so():
     from skthermal.simulate._machine import _alike_text
 
     params = ["k.z.nose", "k.z.tool", "q.bearing_W"]
-    x, lo, hi = np.array([-0.3, 0.2, 50.0]), np.full(3, -0.3), np.full(3, 100.0)
-    tol, dead = np.full(3, 1e-9), np.zeros(3, dtype=bool)
+    on_bound = np.array([True, False, False])  # k.z.nose at its low bound
     corr = np.array([[1.0, -0.99, 0.1], [-0.99, 1.0, 0.0], [0.1, 0.0, 1.0]])
-    text = _alike_text(params, x, lo, hi, tol, dead, corr)
+    text = _alike_text(params, on_bound, corr)
     assert "(k.z.nose with k.z.tool (r = -0.99))" in text
     assert text.endswith("fit fewer parameters; else")
     corr[0, 1] = corr[1, 0] = -0.5  # not alike: the old advice alone
-    assert _alike_text(params, x, lo, hi, tol, dead, corr) == ""
+    assert _alike_text(params, on_bound, corr) == ""
 
 
 # --- bad input ------------------------------------------------------------------

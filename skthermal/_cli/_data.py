@@ -30,7 +30,9 @@ from skthermal.simulate._machine import PLAUSIBLE_FEED_MM_MIN, PLAUSIBLE_RPM
 _HOURS = {"h": 1.0, "hr": 1.0, "min": 1 / 60, "m": 1 / 60, "s": 1 / 3600}
 # Longest duration accepted as a bare number (hours); longer needs a unit.
 BARE_HOURS_LIMIT = 48.0
-AIR_RANGE_C = (-50.0, 100.0)
+# Air the simulate command accepts (wider than the run tables' plausible
+# workshop air, utils._runs.AIR_RANGE_C, which only warns).
+ACCEPTED_AIR_C = (-50.0, 100.0)
 
 
 def parse_segments(specs):
@@ -85,8 +87,8 @@ def parse_segments(specs):
 
 def check_air(ambient, duration_s):
     """A UserError if the air of ``ambient`` (without its noise) leaves
-    :data:`AIR_RANGE_C` during the first ``duration_s`` seconds."""
-    low, high = AIR_RANGE_C
+    :data:`ACCEPTED_AIR_C` during the first ``duration_s`` seconds."""
+    low, high = ACCEPTED_AIR_C
     time_s = np.linspace(0.0, duration_s, 2001)
     air = replace(ambient, noise_C=0.0).sample(time_s)
     worst = int(np.argmax(np.maximum(air - high, low - air)))

@@ -662,9 +662,7 @@ class ExternalGapReport(GapReport):
             f"{percent(row['shrink'])} of the held-out gap above the noise floor "
             f"({evidence})."
         )
-        if len(self.steps) > 1:
-            text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
-        return text + self._also_passes_text()
+        return text + self._named_tail()
 
     def __repr__(self):
         return f"ExternalGapReport(best_effect={self.best_effect!r}): {self.verdict()}"

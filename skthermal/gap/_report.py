@@ -460,30 +460,31 @@ class GapReport:
                 f"{row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
                 f"{percent(row['shrink'])}"
             )
-        text += "."
+        return text + "." + self._named_tail()
+
+    def _named_tail(self):
+        """What a verdict naming an effect ends with, in both modes: the
+        effects the greedy steps added after it, and the other candidates
+        that pass the test alone (table 'Which effect') and are not among
+        the steps: the runs then do not single out the named effect."""
+        text = ""
         if len(self.steps) > 1:
             text += " Then also: " + ", ".join(self.steps["added"].iloc[1:]) + "."
-        return text + self._also_passes_text()
-
-    def _also_passes_text(self):
-        """A sentence naming the other candidates that pass the test alone
-        (table 'Which effect') and are not among the steps: the runs then
-        do not single out the named effect."""
         ranking = self.ranking
         if "explains" not in ranking or "effect" not in ranking:
-            return ""
+            return text
         added = set(self.steps["added"]) if "added" in self.steps else set()
         added.add(self.best_effect)
         rows = ranking[
             ranking["explains"].astype(bool) & ~ranking["effect"].isin(added)
         ]
         if not len(rows):
-            return ""
+            return text
         said = ", ".join(
             f"{e!r} ({percent(s)})"
             for e, s in zip(rows["effect"], rows["shrink"], strict=True)
         )
-        return (
+        return text + (
             f" Alone, {said} also pass(es) the test (table 'Which effect'): the "
             "runs do not single out one effect; weigh the ranking and the fitted "
             "parameters (one on its bound fits something else)."

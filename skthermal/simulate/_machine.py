@@ -2588,13 +2588,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     # unit slip (speed in krpm, displacements in mm) or a structure that
     # does not fit the runs, seldom a value just beyond the default range.
     tol = 1e-6 * np.maximum(np.abs(hi - lo), 1e-300)
+    at_low = ~dead & (x - lo <= tol)
+    on_bound = at_low | (~dead & (hi - x <= tol))
     ends = [
-        f"{k} = {v:.4g} ({'low' if v - a <= t else 'high'} bound)"
-        for k, v, a, b, t, d in zip(params, x, lo, hi, tol, dead, strict=True)
-        if not d and (v - a <= t or b - v <= t)
+        f"{params[i]} = {x[i]:.4g} ({'low' if at_low[i] else 'high'} bound)"
+        for i in np.flatnonzero(on_bound)
     ]
     if ends:
-        alike = _alike_text(params, x, lo, hi, tol, dead, corr)
+        alike = _alike_text(params, on_bound, corr)
         check = (
             "check the units of the runs (speed in rpm, displacements in µm, "
             "temperatures in °C) and the sketch's structure; if the value is "
@@ -2626,15 +2627,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
 ALIKE_CORRELATION = 0.95
 
 
-def _alike_text(params, x, lo, hi, tol, dead, corr):
-    """For the parameters a calibration left on a bound, the others whose
-    estimates correlate with theirs beyond :data:`ALIKE_CORRELATION`, as a
-    sentence ("" when none): collinear coefficients push each other to the
-    bounds, which looks like a unit slip and is not one."""
+def _alike_text(params, on_bound, corr):
+    """For the parameters a calibration left on a bound (``on_bound``), the
+    others whose estimates correlate with theirs (``corr``) beyond
+    :data:`ALIKE_CORRELATION`, as a sentence ("" when none): collinear
+    coefficients push each other to the bounds, which looks like a unit slip
+    and is not one."""
     pairs = []
-    for i, (v, a, b, t, d) in enumerate(zip(x, lo, hi, tol, dead, strict=True)):
-        if d or not (v - a <= t or b - v <= t):
-            continue
+    for i in np.flatnonzero(on_bound):
         r = np.where(np.arange(len(params)) == i, np.nan, corr[i])
         if not np.isfinite(r).any():
             continue

@@ -1256,11 +1256,7 @@ def _check_run_level(index):
     names = list(getattr(index, "names", None) or [])
     if RUN_COLUMN in names:
         return
-    found = [
-        n
-        for n in names
-        if isinstance(n, str) and re.fullmatch(_RUN_SPELLINGS, n.lower())
-    ]
+    found = _run_like(names)
     if not found:
         return
     fixed = [RUN_COLUMN if n == found[0] else n for n in names]
@@ -1291,7 +1287,11 @@ def _unread_run_names(X):
     """Index levels and columns of ``X`` named ``run`` in another case or
     spelling (``Run``, ``RUN``, ``run_id``): run labels that are not read."""
     names = list(getattr(getattr(X, "index", None), "names", None) or [])
-    names += list(getattr(X, "columns", []))
+    return _run_like(names + list(getattr(X, "columns", [])))
+
+
+def _run_like(names):
+    """The ``names`` that spell ``run`` otherwise (:data:`_RUN_SPELLINGS`)."""
     return [
         n
         for n in names
