@@ -797,6 +797,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         gets a value inside its range.) Before any warning: none says that a
         value was held."""
         finite = np.isfinite(A)
+        if finite.all():  # the usual call: nothing to look for
+            return
         read = np.zeros_like(finite)
         np.logical_or.at(read, start, finite)
         dead = ~read[start] & self.checked_inputs_
