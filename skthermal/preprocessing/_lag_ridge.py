@@ -648,6 +648,29 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         F = F[:, : self.n_lag_features_]
         return self.ridge_.predict(self.scaler_.transform(F))
 
+    def remember_runs(self, X, *, groups=None):
+        """Remember where the runs of ``X`` end, so the next call continues them.
+
+        For prediction on a stream: after :meth:`predict` of a block of rows,
+        call this with the same rows; the next block of a run (its label,
+        later ``time_s``) is then predicted as the whole run given at once
+        would be, at a cost that does not grow with the run's length. See
+        :meth:`LagFeatures.remember_runs` and
+        :class:`skthermal.compose.RunStream`, which does both calls.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+        groups : array-like of shape (n_samples,), optional
+
+        Returns
+        -------
+        self : LagRidgeCV
+        """
+        check_is_fitted(self, "ridge_")
+        self.lag_features_.remember_runs(X, groups=groups)
+        return self
+
 
 def make_lag_pipeline(
     time_constant_sets=None,

@@ -6,6 +6,7 @@ temperatures cannot represent that lag; first-order low-pass filters of the
 temperature changes (and of the spindle speed, the heat source) can.
 """
 
+import warnings
 from numbers import Real
 
 import numpy as np
@@ -27,6 +28,7 @@ from skthermal.utils._runs import (
     continued_steps,
     continued_values,
     driver_positions,
+    extend_memory,
     extract_runs,
     fitted_sample_periods,
     gap_periods,
@@ -698,12 +700,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         F = None
         if memory:
             F = self._compute(X_arr, slices, dts, times=row_times(X_raw))
-            # The filters' outputs: after the unfiltered temperatures, before
-            # the unfiltered drivers.
-            skip = n_temp if self.include_changes else 0
-            end = F.shape[1] - (
-                self.driver_indices_.size * powers.size if self.include_changes else 0
-            )
+            skip, end = self._state_columns(F.shape[1])
             for sl, lab in zip(slices, labels, strict=True):
                 if lab in memory:
                     memory[lab]["state"] = F[sl.stop - 1, skip:end].copy()
@@ -810,7 +807,20 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             time. Otherwise an array (or what ``set_output`` asks for).
         """
         check_is_fitted(self, "driver_indices_")
-        original = X
+        F, X_raw, groups, _ = self._continued(X, groups)
+        index = run_frame_index(X, X_raw, groups)
+        if index is None:
+            return F
+        import pandas as pd
+
+        return pd.DataFrame(
+            F, index=index, columns=self.get_feature_names_out(), copy=False
+        )
+
+    def _continued(self, X, groups):
+        """The features of ``X``, continuing the runs this model remembers;
+        with ``X`` and ``groups`` as :func:`extract_runs` returns them and
+        what :meth:`remember_runs` needs: ``(X_arr, slices, labels, cont)``."""
         X_raw, groups = extract_runs(X, groups)
         X_arr = validate_data(self, X_raw, dtype=np.float64, reset=False)
         warn_unlabelled_runs(
@@ -822,11 +832,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         slices, labels = run_slices(groups, X_arr.shape[0])
         # From the times (checked to increase), else the fitted period.
         dts = run_sample_periods(X_raw, groups, slices, self.sample_period_s_)
-        # Level 4: the caller of transform, which scikit-learn's set_output
+        # Level 5: the caller of transform, which scikit-learn's set_output
         # wraps.
-        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 4)
+        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 5)
         warn_slow_periods(
-            type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 4
+            type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 5
         )
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
@@ -838,9 +848,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             memory,
             # A step that a pipeline may call: the class alone, not a method.
             method=None,
-            stacklevel=4,
+            stacklevel=5,
         )
-        warn_pauses(type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 4)
+        warn_pauses(type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 5)
         bases = continued_values(cont, memory, "x_first")
         states = continued_values(cont, memory, "state")
         lasts = continued_values(cont, memory, "x_last")
@@ -848,14 +858,57 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         periods = gap_periods(dts, cont, self.sample_period_s_)
         dts = continued_steps(dts, slices, times, cont, memory)
         F = self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
-        index = run_frame_index(original, X_raw, groups)
-        if index is None:
-            return F
-        import pandas as pd
+        return F, X_raw, groups, (X_arr, slices, labels, cont)
 
-        return pd.DataFrame(
-            F, index=index, columns=self.get_feature_names_out(), copy=False
+    def remember_runs(self, X, *, groups=None):
+        """Remember where the runs of ``X`` end, so the next call continues them.
+
+        For prediction on a stream (a controller that passes each new block
+        of rows once): after transforming (or predicting) a block, call this
+        with the same rows. The next block of a run, under its label and
+        with later ``time_s``, then continues the filters from this block's
+        last row, as if the whole run had been given at once, at a cost
+        that does not grow with the run's length. A run not remembered
+        (a new label) starts at its first row, as in :meth:`transform`.
+        :class:`skthermal.compose.RunStream` does both calls.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+            Rows of one or more runs, with their run labels (a ``run``
+            column or index level, or ``groups``); rows without labels are
+            not remembered.
+        groups : array-like of shape (n_samples,), optional
+            Run label of every row.
+
+        Returns
+        -------
+        self : LagFeatures
+        """
+        check_is_fitted(self, "driver_indices_")
+        with warnings.catch_warnings():
+            # Said by the transform or predict call of the same rows.
+            warnings.simplefilter("ignore", UserWarning)
+            F, X_raw, _, (X_arr, slices, labels, cont) = self._continued(X, groups)
+        memory = self.run_states_
+        skip, end = self._state_columns(F.shape[1])
+        updated = extend_memory(memory, X_arr, slices, labels, X_raw, cont)
+        for sl, lab in zip(slices, updated, strict=True):
+            if lab is not None:
+                memory[lab]["state"] = F[sl.stop - 1, skip:end].copy()
+        return self
+
+    def _state_columns(self, n_columns):
+        """Where the filters' outputs are among ``n_columns`` features: after
+        the unfiltered temperatures, before the unfiltered drivers."""
+        n_temp = self.n_features_in_ - self.driver_indices_.size
+        skip = n_temp if self.include_changes else 0
+        end = n_columns - (
+            self.driver_indices_.size * self._powers().size
+            if self.include_changes
+            else 0
         )
+        return skip, end
 
     def fit_transform(self, X, y=None, *, groups=None):
         """Fit, then transform the same rows (with the same run labels).

@@ -34,7 +34,7 @@ POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
 # load in %, a feed override) are extras.
 DRIVER_LOOKALIKES = {
     "ambient_C": re.compile(
-        r"ambient(_?(air|temp|temperature|t))*"
+        r"(ambient|air|room|workshop|hall)(_?(air|temp|temperature|t))*"
         r"(_?(c|f|k|deg_?c|deg_?f|°c|°f|kelvin|celsius|fahrenheit))?_*"
     ),
     "spindle_rpm": re.compile(
@@ -1969,7 +1969,7 @@ def warn_unnamed_drivers(name, drivers, names, groups):
                 "the features hold temperatures only, no heat input. split_runs "
                 "keeps the sensor columns alone unless told: "
                 "split_runs(runs, sensors=[*sensor_columns(runs), "
-                "'spindle_rpm']). drivers=None says there are none (and "
+                "*driver_columns(runs)]). drivers=None says there are none (and "
                 "silences this).",
                 UserWarning,
                 stacklevel=user_stacklevel(),
@@ -2298,6 +2298,44 @@ def run_memory(X, slices, labels, frame):
         if names is not None:
             memory[lab]["names"] = names
     return memory
+
+
+def extend_memory(memory, X, slices, labels, frame, cont):
+    """Add the rows of a later call to a sequence model's run memory.
+
+    ``memory`` (a :class:`RunMemory` from :func:`run_memory`) is updated in
+    place: a run that continues a remembered one (``cont`` from
+    :func:`continued_runs`) keeps its first row, first time and period and
+    takes the new last row and time, its row count and largest step grown;
+    any other labelled run is remembered as :func:`run_memory` remembers a
+    training run (replacing what an earlier run of that label left).
+    Returns the labels updated, one per run (None for rows without labels,
+    which are never remembered); the model adds each run's end state.
+    """
+    new = run_memory(X, slices, labels, frame)
+    out = []
+    for lab, old_lab in zip(labels, cont, strict=True):
+        if lab is None:
+            out.append(None)
+            continue
+        entry = new[lab]
+        if old_lab is not None:
+            old = memory[old_lab]
+            merged = {
+                **old,
+                "n": old["n"] + entry["n"],
+                "x_last": entry["x_last"],
+                "t_last": entry["t_last"],
+            }
+            if "max_step" in old and entry["n"] < 3:
+                # A block of one or two rows shows no step of its own.
+                merged["max_step"] = old["max_step"]
+            elif "max_step" in old:
+                merged["max_step"] = np.maximum(old["max_step"], entry["max_step"])
+            entry = merged
+        memory[lab] = entry
+        out.append(lab)
+    return out
 
 
 # A run continued by its label alone (no times) whose first row steps from

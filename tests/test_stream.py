@@ -1,0 +1,184 @@
+"""RunStream: block-by-block prediction equals whole-run prediction."""
+
+import pickle
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from sklearn.linear_model import LinearRegression
+from sklearn.pipeline import make_pipeline
+
+from skthermal.compose import GuardedRegressor, RunStream, SensorFaultWarning
+from skthermal.linear_model import TransferFunctionRegressor
+from skthermal.preprocessing import LagFeatures, LagRidgeCV
+
+
+def _run(label, hours=6.0, period=60.0, seed=0):
+    """A run table of one run: a speed step and its rest, two sensors, a
+    displacement lagging them."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, hours * 3600, period)
+    rpm = np.where((t > 600) & (t < hours * 1800), 2000.0 + 1000 * seed, 0.0)
+    heat = np.cumsum(rpm) * period / 3e6
+    t1 = 20 + heat * np.exp(-t / 7200) + 0.01 * rng.standard_normal(t.size)
+    t2 = 20 + 0.5 * heat * np.exp(-t / 5000) + 0.01 * rng.standard_normal(t.size)
+    disp = 3 * (t1 - 20) + 2 * (t2 - 20) + 0.001 * rpm
+    return pd.DataFrame(
+        {
+            "run": label,
+            "time_s": t,
+            "spindle_rpm": rpm,
+            "T1_C": t1,
+            "T2_C": t2,
+            "disp_z_um": disp,
+        }
+    )
+
+
+@pytest.fixture(scope="module")
+def data():
+    train = pd.concat([_run("a", seed=0), _run("b", seed=1)], ignore_index=True)
+    X = train.drop(columns="disp_z_um")
+    lag = LagRidgeCV(time_constant_sets=[(), (900.0, 3600.0)]).fit(
+        X, train["disp_z_um"]
+    )
+    new = pd.concat([_run("c", seed=2), _run("d", seed=3)], ignore_index=True)
+    return X, train["disp_z_um"], lag, new.drop(columns="disp_z_um")
+
+
+def _blocks(table, sizes):
+    """Consecutive blocks of ``table``'s rows, of the sizes given in turn."""
+    out, start, k = [], 0, 0
+    while start < len(table):
+        size = sizes[k % len(sizes)]
+        out.append(table.iloc[start : start + size])
+        start += size
+        k += 1
+    return out
+
+
+@pytest.mark.parametrize("sizes", [[1], [7], [30, 1, 12]])
+def test_blocks_of_a_new_run_equal_the_whole_run(data, sizes):
+    # A controller passing each new block once had every block taken as a
+    # run of its own (tens of µm off), or had to pass the run so far.
+    _, _, model, new = data
+    run = new[new["run"] == "c"]
+    whole = model.predict(run)
+    stream = RunStream(model)
+    assert stream.incremental_
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no late-start warning per block
+        parts = [stream.predict(b) for b in _blocks(run, sizes)]
+    np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
+    # Each block alone, as before, restarts the run: far off.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        alone = np.concatenate([model.predict(b) for b in _blocks(run, [30])])
+    assert np.max(np.abs(alone - whole)) > 1.0
+
+
+def test_blocks_holding_several_runs(data):
+    _, _, model, new = data
+    whole = model.predict(new)
+    c, d = new[new["run"] == "c"], new[new["run"] == "d"]
+    stream = RunStream(model)
+    got = {"c": [], "d": []}
+    for start in range(0, len(c), 25):
+        block = pd.concat([c.iloc[start : start + 25], d.iloc[start : start + 25]])
+        y = stream.predict(block)
+        n = len(c.iloc[start : start + 25])
+        got["c"].append(y[:n])
+        got["d"].append(y[n:])
+    np.testing.assert_allclose(np.concatenate(got["c"] + got["d"]), whole, atol=1e-9)
+    assert stream.runs_ == ["c", "d"]
+
+
+def test_the_model_given_is_left_as_it_was(data):
+    _, _, model, new = data
+    known = set(model.lag_features_.run_states_)
+    RunStream(model).predict(new.iloc[:10])
+    assert set(model.lag_features_.run_states_) == known
+
+
+def test_a_training_run_continued_in_blocks(data):
+    # The later rows of a run seen in fit continue it, block by block.
+    X, y, _, _ = data
+    a = X[X["run"] == "a"]
+    cut = len(a) // 2
+    model = LagRidgeCV(time_constant_sets=[(900.0, 3600.0)]).fit(
+        a.iloc[:cut], y[: len(a)].iloc[:cut]
+    )
+    whole = model.predict(a)[cut:]
+    stream = RunStream(model)
+    parts = [stream.predict(b) for b in _blocks(a.iloc[cut:], [11])]
+    np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
+
+
+def test_lag_features_remember_runs(data):
+    X, _, _, new = data
+    lf = LagFeatures(time_constants=(600.0, 3600.0)).fit(X)
+    run = new[new["run"] == "d"]
+    whole = np.asarray(lf.transform(run))
+    parts = []
+    for block in _blocks(run, [13]):
+        parts.append(np.asarray(lf.transform(block)))
+        lf.remember_runs(block)
+    np.testing.assert_allclose(np.vstack(parts), whole, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: make_pipeline(LagFeatures(time_constants=(900.0,)), LinearRegression()),
+        lambda: TransferFunctionRegressor(),
+    ],
+    ids=["pipeline", "transfer-function"],
+)
+def test_other_models_get_the_run_so_far(data, make):
+    X, y, _, new = data
+    model = make().fit(X, y)
+    run = new[new["run"] == "c"]
+    whole = model.predict(run)
+    stream = RunStream(model)
+    assert not stream.incremental_
+    parts = [stream.predict(b) for b in _blocks(run, [40])]
+    np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
+
+
+def test_a_guard_warns_once_per_fault(data):
+    # Given the run so far, the guard sees a fault of an earlier block again
+    # in every later call: it is said once, and a new fault is said.
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    run = new[new["run"] == "c"].copy()
+    run.iloc[50, run.columns.get_loc("T1_C")] += 30.0  # a spike in block 2
+    run.iloc[250, run.columns.get_loc("T2_C")] += 30.0  # and in block 6
+    stream = RunStream(guard)
+    faults = []
+    for block in _blocks(run, [40]):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            stream.predict(block)
+        faults.append(sum(issubclass(w.category, SensorFaultWarning) for w in caught))
+    assert faults[1] >= 1 and faults[6] >= 1
+    assert sum(faults[2:6]) == 0 and sum(faults[7:]) == 0
+
+
+def test_a_stream_pickles_mid_run(data):
+    # A controller restarting reloads the stream and goes on with the run.
+    _, _, model, new = data
+    run = new[new["run"] == "c"]
+    whole = model.predict(run)
+    stream = RunStream(model)
+    first = stream.predict(run.iloc[:100])
+    again = pickle.loads(pickle.dumps(stream))
+    rest = again.predict(run.iloc[100:])
+    np.testing.assert_allclose(np.r_[first, rest], whole, atol=1e-9)
+
+
+def test_rows_without_run_labels_are_refused(data):
+    _, _, model, new = data
+    plain = new.drop(columns=["run"])
+    with pytest.raises(ValueError, match="RunStream needs every row's run label"):
+        RunStream(model).predict(plain.to_numpy())
