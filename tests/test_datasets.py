@@ -195,6 +195,10 @@ def test_naming_errors_list_every_bad_column(runs):
         ("ambient_T_C", "ambient_C"),
         ("spindle_rev_min", "spindle_rpm"),
         ("spindle_rpm_act", "spindle_rpm"),
+        # The workshop air by another name passed as an unrelated extra.
+        ("air_C", "ambient_C"),
+        ("room_temp_C", "ambient_C"),
+        ("Workshop_air_F", "ambient_C"),
     ],
 )
 def test_a_driver_in_another_unit_is_named(runs, bad, driver):
@@ -1302,6 +1306,25 @@ def test_sensors_in_kelvin_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         validate_runs(table)
+
+
+def test_sensors_in_fahrenheit_warn():
+    # Fahrenheit in T*_C passed without a word (68-72 read as °C), though no
+    # machine has every part 50 °C or more above freezing at every sample.
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3)
+    table["T2_C"] = table["T1_C"] + 30.0
+    celsius = table.copy()
+    for col in ("T1_C", "T2_C"):
+        table[col] = table[col] * 1.8 + 32.0
+    with pytest.warns(
+        UserWarning,
+        match=r"No temperature sensor \('T1_C', 'T2_C'\) ever reads below 50 "
+        r"\(the coldest, 'T1_C', from 68\): .* In Fahrenheit\?",
+    ):
+        validate_runs(table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(celsius)  # one hot part (50-52 °C) beside a cool one
 
 
 def test_runs_that_start_before_zero_warn():

@@ -661,6 +661,10 @@ def _warn_air_unit(df):
 # No machine-tool structure reads this much in °C at every sample (bearings
 # run at 20-80 °C); kelvin reads from 250 up.
 _KELVIN_FLOOR = 200.0
+# Workshop air reads 50-85 in Fahrenheit, and a machine has parts near it:
+# when every temperature sensor stays above this at every sample, the
+# readings are most likely in Fahrenheit.
+_FAHRENHEIT_FLOOR = 50.0
 
 
 def _warn_kelvin_sensors(df, columns, values):
@@ -677,6 +681,7 @@ def _warn_kelvin_sensors(df, columns, values):
         if col.size and col.min() > _KELVIN_FLOOR:
             hot.append((name, col.min(), col.max()))
     if not hot:
+        _warn_fahrenheit_sensors(columns, values)
         return
     name, low, high = hot[0]
     names = ", ".join(repr(h[0]) for h in hot[:3])
@@ -686,6 +691,33 @@ def _warn_kelvin_sensors(df, columns, values):
         f"{_KELVIN_FLOOR:g} ({name!r}: {low:g} to {high:g}): no machine-tool "
         "structure is that hot at every sample. In kelvin? Columns *_C are read "
         "as °C: subtract 273.15.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+def _warn_fahrenheit_sensors(columns, values):
+    """Warn when no temperature sensor (``T<name>_C``) ever reads below
+    :data:`_FAHRENHEIT_FLOOR`: a machine's structure holds parts near the
+    workshop air, which in Fahrenheit reads 50-85."""
+    temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
+    if not temps:
+        return
+    block = values[:, temps]
+    finite = np.isfinite(block)
+    if not finite.any() or block[finite].min() <= _FAHRENHEIT_FLOOR:
+        return
+    names = [columns[j] for j in temps]
+    coldest = int(np.argmin(np.where(finite, block, np.inf).min(axis=0)))
+    listed = ", ".join(repr(n) for n in names[:3])
+    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+    warnings.warn(
+        f"No temperature sensor ({listed}{more}) ever reads below "
+        f"{_FAHRENHEIT_FLOOR:g} (the coldest, {names[coldest]!r}, from "
+        f"{block[:, coldest][finite[:, coldest]].min():g}): a machine tool has "
+        "parts near the workshop air. In Fahrenheit? Columns *_C are read as "
+        "°C: convert with (F - 32) / 1.8. (A table of hot parts only, such as "
+        "a motor's windings, may ignore this.)",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
