@@ -329,6 +329,13 @@ def _one_case(kind, effect, seed, strength, preset, n_runs, hours, candidates, k
         "true_effect_how_far": how_far,
         "how_far_effect": fine.get("effect"),
         "how_far_shrink": float(fine["shrink"]) if fine else np.nan,
+        "how_far_p": float(fine["p_value"]) if fine else np.nan,
+        "how_far_share": float(fine.get("share_of_explainable", np.nan))
+        if fine
+        else np.nan,
+        "explainable_share": float(report.explainable.get("share", np.nan))
+        if report.explainable
+        else np.nan,
         "true_effect_rank": (
             int(list(ranking.index).index(effect)) + 1
             if true_row is not None
