@@ -127,17 +127,32 @@ def test_lag_features_remember_runs(data):
     np.testing.assert_allclose(np.vstack(parts), whole, atol=1e-9)
 
 
-@pytest.mark.parametrize(
-    "make",
-    [
-        lambda: make_pipeline(LagFeatures(time_constants=(900.0,)), LinearRegression()),
-        lambda: TransferFunctionRegressor(),
-    ],
-    ids=["pipeline", "transfer-function"],
-)
-def test_other_models_get_the_run_so_far(data, make):
+def test_transfer_function_remembers_runs(data):
     X, y, _, new = data
-    model = make().fit(X, y)
+    model = TransferFunctionRegressor().fit(X, y)
+    run = new[new["run"] == "c"]
+    whole = model.predict(run)
+    stream = RunStream(model)
+    assert stream.incremental_
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parts = [stream.predict(b) for b in _blocks(run, [1, 17])]
+    np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
+    # And a training run's later rows, block by block.
+    a = X[X["run"] == "a"]
+    cut = len(a) // 2
+    part = TransferFunctionRegressor().fit(a.iloc[:cut], y.iloc[:cut])
+    whole = part.predict(a)[cut:]
+    stream = RunStream(part)
+    got = np.concatenate([stream.predict(b) for b in _blocks(a.iloc[cut:], [9])])
+    np.testing.assert_allclose(got, whole, atol=1e-9)
+
+
+def test_other_models_get_the_run_so_far(data):
+    X, y, _, new = data
+    model = make_pipeline(LagFeatures(time_constants=(900.0,)), LinearRegression()).fit(
+        X, y
+    )
     run = new[new["run"] == "c"]
     whole = model.predict(run)
     stream = RunStream(model)

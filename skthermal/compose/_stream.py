@@ -35,9 +35,11 @@ class RunStream:
 
     - a model with a ``remember_runs`` method
       (:class:`~skthermal.preprocessing.LagRidgeCV`, what
-      :func:`~skthermal.preprocessing.make_lag_pipeline` returns, and
-      :class:`~skthermal.preprocessing.LagFeatures`) keeps each run's end
-      state: every block costs the same, however long the run;
+      :func:`~skthermal.preprocessing.make_lag_pipeline` returns,
+      :class:`~skthermal.preprocessing.LagFeatures` and
+      :class:`~skthermal.linear_model.TransferFunctionRegressor`) keeps
+      each run's end state: every block costs the same, however long the
+      run;
     - any other model (a Pipeline, a
       :class:`~skthermal.compose.GuardedRegressor`, a static model) is
       given each run's rows so far with the new ones and its predictions of

@@ -28,6 +28,7 @@ from skthermal.utils._runs import (
     continued_runs,
     continued_steps,
     continued_values,
+    extend_memory,
     extract_runs,
     fitted_sample_periods,
     gap_periods,
@@ -1252,6 +1253,18 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
         """
         check_is_fitted(self)
+        lags, _ = self._continued(X, groups)
+        # One row of lag coefficients per output.
+        coefs = self.coef_.reshape(-1, int(np.prod(self.coef_.shape[-2:])))
+        out = np.column_stack(
+            [F @ coef for F, coef in zip(lags, coefs, strict=True)]
+        ) + np.atleast_1d(self.intercept_)
+        return out[:, 0] if np.ndim(self.coef_) == 2 else out
+
+    def _continued(self, X, groups):
+        """The lag features of every output (a list) for ``X``, continuing
+        the runs this model remembers, and what :meth:`remember_runs` needs:
+        ``(X_raw, X, slices, labels, cont)``."""
         X_raw, groups = extract_runs(X, groups)
         X = validate_data(self, X_raw, reset=False, dtype=np.float64)
         warn_unlabelled_runs(
@@ -1261,16 +1274,22 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         dts, _ = self._intervals(X_raw, groups, slices, labels, self.sample_period_s_)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
-            type(self).__name__, X, slices, labels, run_times(X_raw, slices), memory
+            type(self).__name__,
+            X,
+            slices,
+            labels,
+            run_times(X_raw, slices),
+            memory,
+            stacklevel=4,
         )
         if self.dt is None:  # a given dt overrides the times, pauses too
             warn_pauses(
-                type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 3
+                type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 4
             )
             warn_slow_periods(
-                type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 3
+                type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 4
             )
-            warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
+            warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 4)
         bases = continued_values(cont, memory, "x_first")
         U = self._inputs(X, slices, bases)
         states = continued_values(cont, memory, "state")
@@ -1286,15 +1305,38 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         times = row_times(X_raw) if self.dt is None else None
         periods = gap_periods(dts, cont, self.sample_period_s_)
         dts = continued_steps(dts, slices, times, cont, memory)
-        coefs = self.coef_.reshape(-1, U.shape[1] * self.order)
-        out = np.column_stack(
-            [
-                F @ coef
-                for F, coef in zip(
-                    self._lag_states(U, dts, slices, states, times, previous, periods),
-                    coefs,
-                    strict=True,
-                )
-            ]
-        ) + np.atleast_1d(self.intercept_)
-        return out[:, 0] if np.ndim(self.coef_) == 2 else out
+        lags = self._lag_states(U, dts, slices, states, times, previous, periods)
+        return lags, (X_raw, X, slices, labels, cont)
+
+    def remember_runs(self, X, *, groups=None):
+        """Remember where the runs of ``X`` end, so the next call continues them.
+
+        For prediction on a stream: after :meth:`predict` of a block of rows,
+        call this with the same rows; the next block of a run (its label,
+        later ``time_s``) is then predicted as the whole run given at once
+        would be, at a cost that does not grow with the run's length.
+        :class:`skthermal.compose.RunStream` does both calls.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_features)
+            Rows of runs with their labels; rows without labels are not
+            remembered.
+        groups : array-like of shape (n_samples,), optional
+            Run label of every row.
+
+        Returns
+        -------
+        self : TransferFunctionRegressor
+        """
+        check_is_fitted(self)
+        with warnings.catch_warnings():
+            # Said by the predict call of the same rows.
+            warnings.simplefilter("ignore", UserWarning)
+            lags, (X_raw, X, slices, labels, cont) = self._continued(X, groups)
+        memory = self.run_states_
+        updated = extend_memory(memory, X, slices, labels, X_raw, cont)
+        for sl, lab in zip(slices, updated, strict=True):
+            if lab is not None:
+                memory[lab]["state"] = np.array([F[sl.stop - 1] for F in lags])
+        return self
