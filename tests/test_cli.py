@@ -551,6 +551,35 @@ def test_predict_names_a_model_file_it_cannot_use(capsys, workdir, tmp_path):
         assert "Traceback" not in err
 
 
+def test_a_run_with_a_dead_sensor_gets_no_prediction_the_others_do(
+    capsys, workdir, tmp_path
+):
+    # One run of the file with a sensor unplugged throughout made predict
+    # fail for every run of the file.
+    model = tmp_path / "guarded.joblib"
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "ridge"]
+    status, _, err = _run(capsys, *argv, "--guard", "hold", "--out", model)
+    assert status == 0, err
+    table = pd.read_csv(workdir / "tests.csv")
+    dead_run = table["run"].iloc[0]
+    table.loc[table["run"] == dead_run, "T05_C"] = np.nan
+    runs = tmp_path / "dead.csv"
+    table.to_csv(runs, index=False)
+    out = tmp_path / "pred.csv"
+    argv = ["predict", "--model", model, "--runs", runs, "--out", out]
+    status, text, err = _run(capsys, *argv)
+    assert status == 0, err
+    assert "1 of them without a prediction, action 'unavailable'" in text
+    assert f"'T05_C' reads no finite value in run '{dead_run}'" in err
+    pred = pd.read_csv(out)
+    mine = (pred["run"] == dead_run).to_numpy()
+    assert pred.loc[mine, "pred_disp_y_um"].isna().all()
+    assert (pred.loc[mine, "guard_action"] == "unavailable").all()
+    assert pred.loc[~mine, "pred_disp_y_um"].notna().all()
+    status, _, err = _run(capsys, "evaluate", "--runs", runs, "--model", model)
+    assert status == 2 and "The guard gives no prediction at run" in err, err
+
+
 def test_a_guarded_model_holds_a_spike_and_says_so(capsys, workdir):
     # Without a guard a 1e6 reading went through the lag filters into a
     # correction of -50 mm, silently.

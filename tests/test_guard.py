@@ -352,6 +352,33 @@ def test_hold_makes_up_no_reading_of_a_sensor_dead_for_a_whole_run(train, new_ru
     assert np.isfinite(_caught(ignoring.predict, X_dead)[0]).all()
 
 
+def test_a_run_with_a_dead_sensor_is_unavailable_in_a_batch(train):
+    # One run of a batch with a dead sensor made predict_checked raise for
+    # the whole batch: the good runs got no compensation either.
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    batch, _ = make_runs([1.5, 2.5, 2.0], seed=3)
+    dead = batch.copy()
+    dead.loc["r1", "T2_C"] = np.nan
+    with pytest.raises(ValueError, match=r"'T2_C' reads no finite value in run 'r1'"):
+        guard.predict(dead)  # predict has no way to say "no value"
+    checked, caught = _caught(guard.predict_checked, dead)
+    in_r1 = checked.index.get_level_values("run") == "r1"
+    assert checked["prediction"][in_r1].isna().all()
+    assert (checked["action"][in_r1] == "unavailable").all()
+    assert (checked["reason"][in_r1] == "no reading: T2_C").all()
+    assert not checked["ok"][in_r1].any()
+    # The other runs as if given alone.
+    alone = guard.predict_checked(batch.loc[["r0", "r2"]])
+    pd.testing.assert_frame_equal(checked[~in_r1], alone)
+    (message,) = _messages(caught, SensorFaultWarning)
+    assert "'T2_C' reads no finite value in run 'r1'" in message
+    assert "120 row(s) of the run(s) concerned" in message
+    # Every run dead: every row unavailable.
+    everything = guard.predict_checked(batch * np.nan)
+    assert (everything["action"] == "unavailable").all()
+
+
 def _relative_hold_guard(train, new_run):
     """A guard in hold mode around a model of changes since the run start,
     and its predictions of the clean new run."""

@@ -307,12 +307,15 @@ def _row(table, i):
     )
 
 
-def _first_non_finite(values, table, nan="NaN"):
+def _first_non_finite(values, table, nan="NaN", rows=None):
     """Row and value (``nan`` for NaN, else inf or -inf) of the first
     missing or infinite value of ``values`` (one or more per row of
-    ``table``), with the number of such rows; None when all are finite."""
+    ``table``), with the number of such rows; None when all are finite.
+    ``rows``: a mask of the rows to look at (default: all)."""
     values = np.asarray(values, dtype=float).reshape(len(table), -1)
     bad = ~np.isfinite(values).all(axis=1)
+    if rows is not None:
+        bad &= rows
     if not bad.any():
         return None
     i = int(np.flatnonzero(bad)[0])
@@ -394,7 +397,11 @@ def _predict(bundle, df, then, where="The run table"):
     for w in caught:
         if not _is_float_error(w):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    found = _first_non_finite(pred, df)
+    # A guard in hold mode gives no prediction for a run in which a sensor
+    # reads nothing (action "unavailable"), and says so: those rows stay
+    # empty in the output.
+    given = None if checked is None else checked["action"].to_numpy() != "unavailable"
+    found = _first_non_finite(pred, df, rows=given)
     if found is not None:
         i, kind, count = found
         raise UserError(
@@ -450,9 +457,16 @@ def cmd_predict(args):
         metadata=meta if meta is not None and len(meta) else None,
         allow_missing_sensors=True,
     )
+    lost = ""
+    if checked is not None and (checked["action"] == "unavailable").any():
+        runs = df.loc[(checked["action"] == "unavailable").to_numpy(), "run"]
+        lost = (
+            f" ({runs.nunique()} of them without a prediction, action "
+            "'unavailable': a sensor reads nothing there)"
+        )
     print(
         f"Predicted pred_{bundle['target']} (change since the start of each run) "
-        f"for {df['run'].nunique()} run(s); wrote {args.out}"
+        f"for {df['run'].nunique()} run(s){lost}; wrote {args.out}"
     )
     return 0
 
@@ -577,7 +591,16 @@ def cmd_evaluate(args):
             )
         if target not in df.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
-        pred, _ = _predict(bundle, df, "nothing was scored", f"--runs {args.runs}")
+        pred, checked = _predict(
+            bundle, df, "nothing was scored", f"--runs {args.runs}"
+        )
+        if checked is not None and (checked["action"] == "unavailable").any():
+            i = int(np.flatnonzero(checked["action"] == "unavailable")[0])
+            raise UserError(
+                f"The guard gives no prediction at {_row(df, i)} "
+                f"({checked['reason'].iloc[i]}: a sensor reads nothing in that "
+                "run), so nothing was scored; leave that run out of --runs."
+            )
         data = df
     else:
         if args.predictions:

@@ -686,7 +686,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning
             As :meth:`predict`.
         """
-        result = self._guard(X, groups)
+        result = self._guard(X, groups, unavailable=True)
         pred = np.asarray(result["prediction"], dtype=float)
         index = X.index if isinstance(X, pd.DataFrame) else None
         if pred.ndim == 1:
@@ -701,7 +701,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         return pd.DataFrame(columns, index=index)
 
-    def _guard(self, X, groups):
+    def _guard(self, X, groups, unavailable=False):
+        """The checked predictions of ``X``. With ``unavailable`` (hold mode,
+        :meth:`predict_checked`), the runs in which a checked sensor reads
+        nothing get no prediction (NaN, action ``"unavailable"``) instead of
+        an error for the whole call; the other runs are predicted alone."""
         check_is_fitted(self)
         features, runs = extract_runs(X, groups, finite=False)
         A = validate_data(
@@ -712,7 +716,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         first = start == np.arange(n)
         where = _Where(features, runs, self._sensor_names())
         if self.mode == "hold":
-            self._refuse_unreadable(A, start, where)
+            dead = self._unreadable(A, start)
+            if dead is not None and unavailable:
+                return self._without_dead_runs(X, groups, dead, where)
+            if dead is not None:
+                self._refuse_unreadable(dead, where)
         flags = self._input_flags(A, first, where)
         fault = np.logical_or.reduce(list(flags.values()))
         late = self._late_starts(runs, where, n)
@@ -789,35 +797,87 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "reason": reason,
         }
 
-    def _refuse_unreadable(self, A, start, where):
-        """Raise when a checked sensor reads no finite value in all the rows
-        of a run that this call holds (``start``: every row's run's first
-        row): there is no reading of it to hold, and any value put in its
-        place would be made up. (An unchecked input, one the model ignores,
-        gets a value inside its range.) Before any warning: none says that a
-        value was held."""
+    def _unreadable(self, A, start):
+        """Rows x inputs: a checked sensor that reads no finite value in all
+        the rows of the row's run that this call holds (``start``: every
+        row's run's first row), or None when there is none. There is no
+        reading of it to hold, and any value put in its place would be made
+        up. (An unchecked input, one the model ignores, gets a value inside
+        its range.)"""
         finite = np.isfinite(A)
         if finite.all():  # the usual call: nothing to look for
-            return
+            return None
         read = np.zeros_like(finite)
         np.logical_or.at(read, start, finite)
         dead = ~read[start] & self.checked_inputs_
-        if not dead.any():
-            return
+        return dead if dead.any() else None
+
+    def _dead_text(self, dead, where):
+        """``sensor 'T3_C' reads no finite value in run ... (n row(s); k more
+        sensor(s) alike)``, for the first sensor of ``dead`` (rows x inputs)."""
         j = int(np.flatnonzero(dead.any(axis=0))[0])
         row = int(np.flatnonzero(dead[:, j])[0])
         others = int(dead.any(axis=0).sum()) - 1
-        raise ValueError(
-            f"mode='hold': sensor {self._sensor_names()[j]!r} reads no finite "
-            f"value {where.at(row)}, nor in any other row of that run given to "
-            f"this call ({int(dead[:, j].sum())} row(s)"
+        return (
+            f"sensor {self._sensor_names()[j]!r} reads no finite value "
+            f"{where.at(row)}, nor in any other row of that run given to this "
+            f"call ({int(dead[:, j].sum())} row(s)"
             + (f"; {others} more sensor(s) alike" if others else "")
-            + "): there is no reading of it to hold, and a compensation computed "
-            "without it would rest on a made-up value. Repair the sensor, or use a "
-            "model fitted without it; on the controller, give predict the run's "
-            "rows from its start, so that a sensor that read earlier is held; in "
-            "a batch of runs, leave that run out."
+            + ")"
         )
+
+    def _refuse_unreadable(self, dead, where):
+        """Raise for the dead sensors of :meth:`_unreadable`, before any
+        warning: none says that a value was held."""
+        raise ValueError(
+            f"mode='hold': {self._dead_text(dead, where)}: there is no reading "
+            "of it to hold, and a compensation computed without it would rest "
+            "on a made-up value. Repair the sensor, or use a model fitted "
+            "without it; on the controller, give predict the run's rows from "
+            "its start, so that a sensor that read earlier is held; in a batch "
+            "of runs, leave that run out (predict_checked marks its rows "
+            "'unavailable' and predicts the others)."
+        )
+
+    def _without_dead_runs(self, X, groups, dead, where):
+        """:meth:`_guard` of the runs without a dead sensor; the rows of the
+        others get no prediction (NaN, not ok, action ``"unavailable"``),
+        with a :class:`SensorFaultWarning` naming the first."""
+        lost = dead.any(axis=1)
+        names = self._sensor_names()
+        warnings.warn(
+            f"mode='hold': {self._dead_text(dead, where)}: no compensation can "
+            f"be given for the {int(lost.sum())} row(s) of the run(s) concerned "
+            "(prediction NaN, action 'unavailable'); the other runs are "
+            "predicted.",
+            SensorFaultWarning,
+            stacklevel=4,
+        )
+        reason = np.array(
+            [
+                "no reading: " + ", ".join(names[j] for j in np.flatnonzero(row))
+                for row in dead
+            ],
+            dtype=object,
+        )
+        out = {
+            "bad": lost.copy(),
+            "action": np.where(lost, "unavailable", "").astype(object),
+            "reason": np.where(lost, reason, "").astype(object),
+        }
+        n_out = self.output_min_.size
+        out["prediction"] = np.full((lost.size, n_out), np.nan)
+        keep = np.flatnonzero(~lost)
+        if keep.size:
+            rows = X.iloc[keep] if hasattr(X, "iloc") else np.asarray(X)[keep]
+            labels = None if groups is None else np.asarray(groups)[keep]
+            part = self._guard(rows, labels)
+            out["prediction"][keep] = np.reshape(part["prediction"], (keep.size, -1))
+            for key in ("bad", "action", "reason"):
+                out[key][keep] = part[key]
+        if n_out == 1:  # as the wrapped model of one target predicts
+            out["prediction"] = out["prediction"][:, 0]
+        return out
 
     def _input_limits(self):
         """The inputs' allowed ranges: the training ranges widened by
