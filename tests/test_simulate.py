@@ -483,6 +483,53 @@ def test_initial_state_from_the_first_readings():
         rig.simulate_drivers(times, np.zeros(5), np.full(5, 20.0), initial="measured")
 
 
+def test_auto_starts_soaked_runs_at_the_air():
+    # "auto" read the sensors' calibration offsets of soaked runs as warmth:
+    # the bearing loss came out 26% low (within 1% from the air).
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    machine = rig.with_params({"sensor.offset_C": 0.5})
+    truth = machine.with_params({"q.bearing_W": 1.4 * rig.params["q.bearing_W"]})
+    runs = pd.concat(
+        [
+            truth.simulate(
+                DutyCycle([(3600, 0, 0), (3600, rpm, 0), (3600, 0, 0)]),
+                20.0,
+                sample_period_s=60,
+                run=f"r{i}",
+                random_state=i,
+            )
+            for i, rpm in enumerate([2500, 5000, 4000])
+        ],
+        ignore_index=True,
+    )
+    true = truth.params["q.bearing_W"]
+    fits = {
+        initial: machine.calibrate(
+            runs, ["q.bearing_W"], initial=initial, channels=rig.targets
+        )[1].params.iloc[0]
+        / true
+        - 1
+        for initial in ("ambient", "measured", "auto")
+    }
+    assert abs(fits["ambient"]) < 0.02 and abs(fits["auto"]) < 0.02
+    assert fits["measured"] < -0.15
+    # The estimate itself: readings within the offsets of the air stay at
+    # the air; a warm start is read as before.
+    rng = np.random.default_rng(0)
+    near = {s: 20.0 + 0.5 * rng.standard_normal() for s in machine.sensors}
+    soaked = machine.initial_from_readings(near, 20.0, p_soaked=0.5)
+    assert np.abs(soaked - 20.0).max() < 0.05
+    assert np.abs(machine.initial_from_readings(near, 20.0) - 20.0).max() > 0.3
+    warm = dict(zip(machine.sensors, 20.0 + 3.0 * rng.random(len(machine.sensors))))
+    np.testing.assert_allclose(
+        machine.initial_from_readings(warm, 20.0, p_soaked=0.5),
+        machine.initial_from_readings(warm, 20.0),
+        atol=1e-6,
+    )
+    with pytest.raises(ValueError, match=r"p_soaked must be in \[0, 1\)"):
+        machine.initial_from_readings(near, 20.0, p_soaked=1.0)
+
+
 def test_calibration_of_runs_that_start_warm():
     # Every run starts warm from earlier running; simulated from the air,
     # the calibration has to bend the bearing loss to its bound.

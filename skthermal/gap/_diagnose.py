@@ -566,9 +566,11 @@ def diagnose(
     """
     base_effects = tuple(machine.effects)
     candidates = candidate_list(candidates, EFFECTS, base_effects)
+    # "auto": from the first readings when a sensor reads the structure (an
+    # air sensor alone cannot tell a warm machine), a run whose readings a
+    # soaked machine explains as well starting at the air.
+    p_soaked = ThermalMachine.SOAKED_PRIOR if initial == "auto" else 0.0
     if initial == "auto":
-        # From the first readings when a sensor reads the structure (an air
-        # sensor alone cannot tell a warm machine).
         held = sensor_columns(machine, runs.columns, mapping)
         structure = set(machine.structure_sensors)
         initial = "measured" if structure.intersection(held) else "ambient"
@@ -586,7 +588,7 @@ def diagnose(
         raise too_few_runs(len(problem.runs), float(longest), block_hours)
     folds = heldout_folds(len(problem.runs), cv, [r.name for r in problem.runs])
     if initial == "measured":
-        problem = measured_initial(machine, problem)
+        problem = measured_initial(machine, problem, p_soaked=p_soaked)
     # The simulation as given: what the candidates are checked against, and
     # the first residuals of the "where" step.
     simulated = [predict_run(machine, problem, r) for r in problem.runs]
@@ -658,6 +660,7 @@ def diagnose(
             "fine": bool(fine),
             "base_effects": list(base_effects),
             "initial": initial,
+            "p_soaked": p_soaked if initial == "measured" else None,
         },
     )
     report.machines = machines

@@ -740,7 +740,7 @@ def predict_run(machine, problem, run, parts=False):
     return out
 
 
-def measured_initial(machine, problem):
+def measured_initial(machine, problem, p_soaked=0.0):
     """``problem`` with every run's initial node temperatures estimated from
     its first temperature readings (:attr:`MeasuredRun.start`) by
     :meth:`ThermalMachine.initial_from_readings`, with ``machine`` as given
@@ -749,9 +749,11 @@ def measured_initial(machine, problem):
     and its effects (:func:`run_initial`): an effect changes the states the
     machine passes through, so the temperatures of the nodes no sensor
     reads. Only the first readings enter the estimates, and nothing an
-    effect does later in a run."""
+    effect does later in a run. ``p_soaked``: the prior probability of a
+    soaked start (:meth:`ThermalMachine.initial_from_readings`)."""
     meta = dict(problem.meta)
     meta["initial_from"] = machine
+    meta["p_soaked"] = p_soaked
     # The prior of the initial states spans the runs' own speeds and feeds.
     meta["initial_ranges"] = {
         "max_rpm": max(float(np.max(np.abs(r.spindle_rpm))) for r in problem.runs),
@@ -778,6 +780,7 @@ def _estimate(problem, run, machine):
         spindle_rpm=run.spindle_rpm[:k],
         feed_mm_min=run.feed_mm_min[:k],
         **problem.meta["initial_ranges"],
+        p_soaked=problem.meta.get("p_soaked", 0.0),
         run=run.name,
     )
 

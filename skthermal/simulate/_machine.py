@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.special import expit
 from sklearn.utils import check_random_state
 
 from skthermal._naming import plain, shown, suggest
@@ -309,6 +310,11 @@ class ThermalMachine:
     >>> machine.effect_status()["sensor_drift"], len(machine.effects)
     (False, 5)
     """
+
+    #: Prior probability of a soaked start that ``initial="auto"`` gives
+    #: :meth:`initial_from_readings` (in :meth:`calibrate` and
+    #: ``skthermal.gap.diagnose``): test runs start soaked as often as warm.
+    SOAKED_PRIOR = 0.5
 
     def __init__(self, spec, params, effects=()):
         self.spec = spec
@@ -1162,14 +1168,14 @@ class ThermalMachine:
             trial machine of the fit), for runs that start warm; it needs a
             sensor on the structure (:attr:`structure_sensors`). ``"auto"``:
             ``"measured"`` when the runs hold such a sensor, else
-            ``"ambient"`` (the default of ``skthermal.gap.diagnose``). Runs
-            that start warm, calibrated from the air, take their warm
-            start's decay as physics: pass ``"auto"`` or ``"measured"`` for
-            them. On soaked runs the first readings cost: the sensors'
-            calibration offsets are read partly as temperatures (0.5 K
-            offsets on soaked ``spindle-rig`` runs: the bearing loss fitted
-            6% low from the temperature channels and 42% low from the
-            displacements with ``"auto"``, within 1.1% with ``"ambient"``).
+            ``"ambient"`` (the default of ``skthermal.gap.diagnose``), and a
+            run whose first readings a soaked machine explains as well (within
+            the sensors' offsets and noise of the air) starts soaked
+            (:meth:`initial_from_readings` with ``p_soaked`` of
+            :attr:`SOAKED_PRIOR`). Runs that start warm, calibrated from the
+            air, take their warm start's decay as physics: pass ``"auto"`` or
+            ``"measured"`` for them. On soaked runs ``"measured"`` costs: the
+            sensors' calibration offsets are read partly as temperatures.
         **least_squares_kw
             Passed to ``scipy.optimize.least_squares`` (e.g. ``max_nfev``); a
             keyword it does not take is a TypeError naming it.
@@ -1209,6 +1215,7 @@ class ThermalMachine:
         feed_mm_min=None,
         max_rpm=6000.0,
         max_feed_mm_min=0.0,
+        p_soaked=0.0,
         run="run1",
     ):
         """Node temperatures that match the first readings of a run.
@@ -1251,6 +1258,16 @@ class ThermalMachine:
             The fastest spindle speed and feed of the machine's duty (its
             range, not this run's: they set the shapes of the warm states of
             the prior, not their size; with neither, only the air moves it).
+        p_soaked : float in [0, 1), default=0.0
+            Prior probability that the machine is soaked at the start (every
+            node at the air), beside the warm states: the estimate is then
+            the posterior mean of that mixture, so readings that a soaked
+            machine explains as well as a warm one (within the sensors'
+            offsets and noise of the air) leave it at the air instead of
+            reading the sensors' calibration offsets as warmth. Test runs
+            often start soaked; ``calibrate(initial="auto")`` and
+            ``skthermal.gap.diagnose(initial="auto")`` take
+            :attr:`SOAKED_PRIOR`.
         run : label, default="run1"
             Named in error messages and warnings.
 
@@ -1335,16 +1352,23 @@ class ThermalMachine:
                 for j in range(n)
             ]
         )
+        if not 0.0 <= p_soaked < 1.0:
+            raise ValueError(f"p_soaked must be in [0, 1), got {p_soaked!r}.")
         P = self._state_prior(max_rpm, max_feed)
-        p = self._params
-        sigma2 = max(
-            p["sensor.offset_C"] ** 2
-            + p["sensor.noise_C"] ** 2
-            + p["sensor.quantization_C"] ** 2 / 12.0,
+        # Every sensor's own figures (else the machine's).
+        own = {s.name: k for k, s in enumerate(self.spec.sensors)}
+        pick = [own[c] for c in names]
+        sigma2 = np.maximum(
+            self._sensor_numbers("offset_C")[pick] ** 2
+            + self._sensor_numbers("noise_C")[pick] ** 2
+            + self._sensor_numbers("quantization_C")[pick] ** 2 / 12.0,
             READING_FLOOR_C**2,
         )
-        S = W @ P @ W.T + sigma2 * np.eye(len(names))
-        d = P @ W.T @ np.linalg.solve(S, m - r)
+        z = m - r
+        S = W @ P @ W.T + np.diag(sigma2)
+        d = P @ W.T @ np.linalg.solve(S, z)
+        if p_soaked > 0:
+            d = d * _warm_probability(z, S, sigma2, p_soaked)
         return air0 + d
 
     def _heating(self, names, ambient_C, time_s, spindle_rpm, feed_mm_min, run):
@@ -2307,6 +2331,17 @@ def _at_start(samples, t, name, run):
     return float(x.mean() - slope * (t.mean() - t[0]))
 
 
+def _warm_probability(z, S, sigma2, p_soaked):
+    """Posterior probability that readings ``z`` (above what a soaked machine
+    reads) come from a warm state, readings ~ N(0, S), rather than from a
+    soaked machine, readings ~ N(0, diag(sigma2)), with prior probability
+    ``p_soaked`` of the latter."""
+    _, logdet = np.linalg.slogdet(S)
+    warm = -0.5 * (z @ np.linalg.solve(S, z) + logdet)
+    soaked = -0.5 * (np.sum(z * z / sigma2) + np.sum(np.log(sigma2)))
+    return float(expit(warm - soaked + np.log((1.0 - p_soaked) / p_soaked)))
+
+
 def _check_span(rise, names, air0, where, after=None):
     """Refuse first readings (``rise``: K above the air ``air0``) that no
     machine tool gives; ``after``: what was taken out of them (the drivers'
@@ -2426,8 +2461,10 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         if c not in machine.targets and c not in machine.sensors:
             raise ValueError(f"The machine does not predict {c!r}.")
     structure = [c for c in machine.structure_sensors if c in runs.columns]
+    p_soaked = 0.0
     if isinstance(initial, str) and initial == "auto":
         initial = "measured" if structure else "ambient"
+        p_soaked = machine.SOAKED_PRIOR
     from_readings = isinstance(initial, str) and initial == "measured"
     # A text, a missing or an infinite value in a fitted channel or a driver
     # is named by its column, run, row and time.
@@ -2517,6 +2554,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
                     spindle_rpm=rpm[:k],
                     feed_mm_min=None if feed is None else feed[:k],
                     **prior_range,
+                    p_soaked=p_soaked,
                     run=run,
                 )
                 if from_readings
