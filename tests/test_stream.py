@@ -66,7 +66,7 @@ def test_blocks_of_a_new_run_equal_the_whole_run(data, sizes):
     run = new[new["run"] == "c"]
     whole = model.predict(run)
     stream = RunStream(model)
-    assert stream.incremental_
+    assert stream.mode_ == "incremental"
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no late-start warning per block
         parts = [stream.predict(b) for b in _blocks(run, sizes)]
@@ -133,7 +133,7 @@ def test_transfer_function_remembers_runs(data):
     run = new[new["run"] == "c"]
     whole = model.predict(run)
     stream = RunStream(model)
-    assert stream.incremental_
+    assert stream.mode_ == "incremental"
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parts = [stream.predict(b) for b in _blocks(run, [1, 17])]
@@ -156,7 +156,7 @@ def test_other_models_get_the_run_so_far(data):
     run = new[new["run"] == "c"]
     whole = model.predict(run)
     stream = RunStream(model)
-    assert not stream.incremental_
+    assert stream.mode_ == "history"
     parts = [stream.predict(b) for b in _blocks(run, [40])]
     np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
 
@@ -192,8 +192,96 @@ def test_a_stream_pickles_mid_run(data):
     np.testing.assert_allclose(np.r_[first, rest], whole, atol=1e-9)
 
 
-def test_rows_without_run_labels_are_refused(data):
+def test_blocks_need_run_labels_and_times(data):
+    # Without times a block given twice was taken as more of the run: the
+    # compensation was off by 1.6 µm for hundreds of rows, silently.
     _, _, model, new = data
-    plain = new.drop(columns=["run"])
+    stream = RunStream(model)
+    with pytest.raises(ValueError, match="RunStream needs the blocks as run tables"):
+        stream.predict(new.drop(columns=["run"]).to_numpy(), groups=new["run"])
     with pytest.raises(ValueError, match="RunStream needs every row's run label"):
-        RunStream(model).predict(plain.to_numpy())
+        stream.predict(new.drop(columns=["run"]))
+    with pytest.raises(ValueError, match="RunStream needs every row's time_s"):
+        stream.predict(new.drop(columns=["time_s"]))
+
+
+@pytest.mark.parametrize("how", ["incremental", "history"])
+def test_a_block_given_twice_or_out_of_order_is_refused(data, how):
+    X, y, lag, new = data
+    model = lag if how == "incremental" else GuardedRegressor(lag).fit(X, y)
+    run = new[new["run"] == "c"]
+    whole = model.predict(run)
+    stream = RunStream(model)
+    assert stream.mode_ == how
+    blocks = _blocks(run, [20])
+    got = [stream.predict(blocks[0]), stream.predict(blocks[1])]
+    # (The first block again would start the run anew: see below.)
+    for bad in (blocks[1], blocks[1].iloc[5:], blocks[0].iloc[3:]):
+        with pytest.raises(ValueError, match=r"Run 'c': the block starts at time_s="):
+            stream.predict(bad)
+    got += [stream.predict(b) for b in blocks[2:]]  # the stream goes on
+    np.testing.assert_allclose(np.concatenate(got), whole, atol=1e-9)
+    # The label again from its start: a new run, as the whole run alone.
+    again = [stream.predict(b) for b in _blocks(run, [33])]
+    np.testing.assert_allclose(np.concatenate(again), whole, atol=1e-9)
+
+
+def test_forget_frees_a_run(data):
+    X, y, _, new = data
+    guard = GuardedRegressor(TransferFunctionRegressor()).fit(X, y)
+    run = new[new["run"] == "c"]
+    stream = RunStream(guard)
+    stream.predict(run.iloc[:50])
+    assert stream.runs_ == ["c"]
+    stream.forget("c")
+    assert stream.runs_ == []
+    with pytest.raises(KeyError, match="The stream holds no run 'c'"):
+        stream.forget("c")
+    # Forgotten, its next block is a run that starts late.
+    with pytest.warns(UserWarning, match="start"):
+        stream.predict(run.iloc[50:60])
+    lag = RunStream(data[2])
+    lag.predict(run.iloc[:50])
+    lag.forget()
+    assert "c" not in lag.model_.lag_features_.run_states_
+
+
+def test_interleaved_rows_of_two_runs(data):
+    _, _, model, new = data
+    whole = model.predict(new)
+    stream = RunStream(model)
+    # Rows of c and d alternating, in time order: the predictions come back
+    # in the block's order.
+    mixed = new.sort_values(["time_s", "run"], kind="stable")
+    got = np.concatenate([stream.predict(b) for b in _blocks(mixed, [40])])
+    np.testing.assert_allclose(got, whole[mixed.index.to_numpy()], atol=1e-9)
+
+
+def test_static_models_get_the_new_rows_alone(data):
+    X, y, _, new = data
+    static = LinearRegression().fit(X.set_index(["run", "time_s"]), y)
+    table = new.set_index(["run", "time_s"])
+    stream = RunStream(static)
+    assert stream.mode_ == "static"
+    got = np.concatenate([stream.predict(b) for b in _blocks(table, [25])])
+    np.testing.assert_allclose(got, static.predict(table), atol=1e-9)
+    assert not stream._history
+
+
+def test_checked_predictions_of_a_guard_and_a_late_start_said_once(data):
+    X, y, lag, new = data
+    # (mode="hold" would differ at the start: a reading faulty from a run's
+    # first row takes the next good one, which a later block holds.)
+    guard = GuardedRegressor(lag, mode="clip").fit(X, y)
+    late = new[new["run"] == "c"].iloc[60:]  # a run given from 1 h on
+    whole = guard.predict_checked(late)
+    stream = RunStream(guard)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        parts = [stream.predict_checked(b) for b in _blocks(late, [30])]
+    checked = pd.concat(parts)
+    pd.testing.assert_frame_equal(checked, whole)
+    starts = [w for w in caught if "start" in str(w.message)]
+    assert len(starts) == 1, [str(w.message) for w in starts]
+    with pytest.raises(AttributeError, match="has no predict_checked"):
+        RunStream(lag).predict_checked(late)

@@ -34,7 +34,6 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
-    RunMemory,
     describe_unreadable,
     extract_runs,
     has_time_index,
@@ -42,6 +41,7 @@ from skthermal.utils._runs import (
     routed_runs,
     run_first_rows,
     run_slices,
+    sequence_models,
     target_names,
     unreadable,
 )
@@ -164,44 +164,6 @@ def _limits(low, high, margin):
     width = high - low
     scale = np.where(width > 0, width, np.maximum(np.abs(high), 1.0))
     return low - margin * scale, high + margin * scale
-
-
-def _estimators_in(value):
-    """The estimators an attribute holds: itself, or the items (or the
-    estimators in tuples such as pipeline steps) of a list, tuple or dict."""
-    if isinstance(value, BaseEstimator):
-        yield value
-    elif isinstance(value, list | tuple) or (
-        isinstance(value, dict) and not isinstance(value, RunMemory)
-    ):
-        for item in value.values() if isinstance(value, dict) else value:
-            if isinstance(item, BaseEstimator):
-                yield item
-            elif isinstance(item, tuple):
-                yield from (v for v in item if isinstance(v, BaseEstimator))
-
-
-def _sequence_models(estimator):
-    """``(class name, run memory)`` of every fitted sequence model inside
-    ``estimator`` (itself, pipeline steps, modules, ...), outermost first.
-
-    A sequence model reads the rows of a run in order from its start (grey
-    accumulation, lag filters, changes since the run start) and keeps what
-    continuing its labelled training runs needs in ``run_states_``, a
-    :class:`~skthermal.utils._runs.RunMemory`; static models keep none.
-    """
-    found, seen, todo = [], set(), [estimator]
-    while todo:
-        est = todo.pop(0)
-        if id(est) in seen:
-            continue
-        seen.add(id(est))
-        memory = getattr(est, "run_states_", None)
-        if isinstance(memory, RunMemory):
-            found.append((type(est).__name__, memory))
-        for value in vars(est).values():
-            todo.extend(_estimators_in(value))
-    return found
 
 
 def _continues(memory, label, t0):
@@ -1026,7 +988,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         reason = np.full(n, "", dtype=object)
         if where.times is None or n == 0:
             return reason
-        models = _sequence_models(self.estimator_)
+        models = sequence_models(self.estimator_)
         if not models:
             return reason  # a static model: any rows will do
         slices, labels = run_slices(runs, n)

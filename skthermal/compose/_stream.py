@@ -8,6 +8,7 @@ past between calls, so that predicting block by block gives what predicting
 the whole run at once gives.
 """
 
+import re
 import warnings
 from copy import deepcopy
 
@@ -15,23 +16,33 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
-from skthermal.utils._runs import extract_runs, run_slices
+from skthermal.compose._guard import RunStartWarning
+from skthermal.utils._runs import (
+    LATE_START_WARNING,
+    extract_runs,
+    row_times,
+    sequence_models,
+)
 
 
 class RunStream:
     """Predict runs block by block, continuing each run from the last block.
 
-    Give every block of rows as it comes, with its run label and ``time_s``
-    (a run table: ``run`` and ``time_s`` columns or index levels, as
-    :func:`skthermal.datasets.read_runs` and
-    :func:`skthermal.datasets.split_runs` give them; or ``groups``). The
-    rows of a run whose label an earlier block had continue that run: the
-    predictions equal those of the whole run given at once (up to
-    rounding). A label the stream has not seen starts a new run (a run seen
-    in the model's ``fit`` continues that one, as in the model's own
-    ``predict``).
+    Give every block of rows once, as it comes, with each row's run label
+    and ``time_s`` (a run table: ``run`` and ``time_s`` columns or index
+    levels, as :func:`skthermal.datasets.read_runs` and
+    :func:`skthermal.datasets.split_runs` give them). The rows of a run that
+    an earlier block had continue it: the predictions equal those of the
+    whole run given at once (up to rounding). A label the stream has not
+    seen starts a new run (a run seen in the model's ``fit`` continues that
+    one, as in the model's own ``predict``); a block that starts a known
+    label again at its first ``time_s`` (or at 0) starts that run anew. A
+    block that starts at or before the last ``time_s`` the stream has of its
+    run otherwise (given twice, out of order) is an error naming the run
+    and both times, before the model sees it. Rows of several runs may be
+    interleaved in a block; each run's rows must be in time order.
 
-    Two ways, chosen from the model:
+    Three ways, chosen from the model:
 
     - a model with a ``remember_runs`` method
       (:class:`~skthermal.preprocessing.LagRidgeCV`, what
@@ -40,30 +51,41 @@ class RunStream:
       :class:`~skthermal.linear_model.TransferFunctionRegressor`) keeps
       each run's end state: every block costs the same, however long the
       run;
-    - any other model (a Pipeline, a
-      :class:`~skthermal.compose.GuardedRegressor`, a static model) is
-      given each run's rows so far with the new ones and its predictions of
-      the new rows are returned: exact for every model, at a cost that
-      grows with the run (see the deployment docs' limits). A warning the
-      model raised for an earlier block is not raised again.
+    - a static model (no sequence model inside, not a guard) is given the
+      new rows alone;
+    - any other model (a Pipeline with a sequence step, a grey regressor, a
+      :class:`~skthermal.compose.GuardedRegressor`, whose jump and
+      flat-line checks read the rows before) is given each run's rows so
+      far with the new ones, and its predictions of the new rows are
+      returned: exact for every model, at a cost that grows with the run;
+      :meth:`forget` frees a finished run. A warning the model raised for
+      an earlier block (or, after a run's first block, about the run's
+      start) is not raised again.
+
+    One difference from the whole run remains, by design: a guard in
+    ``mode="hold"`` replaces a reading that is faulty from a run's first
+    row by the sensor's next good reading when the call holds one; block by
+    block the next reading is not there yet, so the stream's first blocks
+    clip it instead (or raise, for a sensor that has read nothing yet).
 
     Parameters
     ----------
     model : fitted estimator
-        The compensation model. The stream works on a copy (``copy=True``),
-        so the model given is left as it was.
+        The compensation model.
     copy : bool, default=True
-        Whether to work on a deep copy of ``model``.
+        Whether to work on a deep copy of ``model``. With ``False`` a model
+        that keeps run end states remembers the streamed runs itself: its
+        own ``predict`` then continues them, and a file it is saved to
+        holds them.
 
     Attributes
     ----------
     model_ : estimator
         The model the stream predicts with (with its remembered runs).
     runs_ : list
-        Labels of the runs the stream has seen, in order of appearance.
-    incremental_ : bool
-        Whether the model keeps each run's end state (constant cost per
-        block) rather than being given the run's rows so far.
+        Labels of the runs the stream holds, in order of appearance.
+    mode_ : {"incremental", "static", "history"}
+        Which of the three ways above the stream takes.
 
     Examples
     --------
@@ -88,8 +110,14 @@ class RunStream:
     def __init__(self, model, *, copy=True):
         check_is_fitted(model)
         self.model_ = deepcopy(model) if copy else model
-        self.incremental_ = callable(getattr(self.model_, "remember_runs", None))
+        if callable(getattr(self.model_, "remember_runs", None)):
+            self.mode_ = "incremental"
+        elif sequence_models(self.model_) or hasattr(self.model_, "predict_checked"):
+            self.mode_ = "history"
+        else:
+            self.mode_ = "static"
         self.runs_ = []
+        self._spans = {}  # label -> [first time_s, last time_s]
         self._history = {}
         self._said = set()
 
@@ -98,9 +126,9 @@ class RunStream:
 
         Parameters
         ----------
-        X : DataFrame or array-like of shape (n_samples, n_features)
-            The new rows, in time order within each run, with their run
-            labels (a ``run`` column or index level, or ``groups``).
+        X : DataFrame of shape (n_samples, n_features)
+            The new rows, with ``time_s`` and run labels (a ``run`` column or
+            index level, or ``groups``); each run's rows in time order.
         groups : array-like of shape (n_samples,), optional
             Run label of every row.
 
@@ -108,29 +136,111 @@ class RunStream:
         -------
         y_pred : ndarray of shape (n_samples,) or (n_samples, n_outputs)
         """
-        labels = _labels(X, groups)
-        self.runs_ += [lab for lab in pd.unique(labels) if lab not in self.runs_]
-        kwargs = {} if groups is None else {"groups": groups}
-        if self.incremental_:
-            y = self.model_.predict(X, **kwargs)
-            self.model_.remember_runs(X, **kwargs)
-            return y
-        return self._predict_with_history(X, groups, labels)
+        return self._call("predict", X, groups)
 
-    def _predict_with_history(self, X, groups, labels):
-        """The run's rows so far and the new ones given to the model; the
-        predictions of the new rows, and the warnings not said before."""
-        parts, new_rows, offset = [], [], 0
+    def predict_checked(self, X, *, groups=None):
+        """The guard's checked predictions of a block (a
+        :class:`~skthermal.compose.GuardedRegressor`'s
+        :meth:`~skthermal.compose.GuardedRegressor.predict_checked`: the
+        prediction and ``ok``, ``action``, ``reason`` per row), continuing
+        the runs of earlier blocks. Indexed like ``X``."""
+        if not hasattr(self.model_, "predict_checked"):
+            raise AttributeError(
+                f"{type(self.model_).__name__} has no predict_checked: wrap the "
+                "model in skthermal.compose.GuardedRegressor for checked "
+                "predictions."
+            )
+        return self._call("predict_checked", X, groups)
+
+    def forget(self, run=None):
+        """Forget a finished run (its label), or every run: what the stream
+        (and its model) holds of it is freed, and a later block of that
+        label starts a new run. Returns self."""
+        labels = list(self.runs_) if run is None else [run]
+        for lab in labels:
+            if lab not in self._spans:
+                raise KeyError(
+                    f"The stream holds no run {lab!r}; it holds {self.runs_}."
+                )
+            self._drop(lab)
+        return self
+
+    def _drop(self, lab):
+        self.runs_.remove(lab)
+        del self._spans[lab]
+        self._history.pop(lab, None)
+        if self.mode_ == "incremental" and hasattr(self.model_, "forget_runs"):
+            self.model_.forget_runs([lab])
+
+    def _call(self, method, X, groups):
+        labels, times = _labels_and_times(X, groups)
+        # Each run's rows together, in the order the runs first appear.
+        codes = pd.factorize(labels)[0]
+        order = np.argsort(codes, kind="stable")
+        if np.any(order != np.arange(order.size)):
+            X = X.iloc[order]
+            labels, times = labels[order], times[order]
+            groups = None if groups is None else np.asarray(groups)[order]
+        new = self._check_order(labels, times)
+        kwargs = {} if groups is None else {"groups": groups}
+        if self.mode_ == "history":
+            out = self._with_history(method, X, groups, labels, new)
+        else:
+            out = getattr(self.model_, method)(X, **kwargs)
+            if self.mode_ == "incremental":
+                self.model_.remember_runs(X, **kwargs)
+        for lab in pd.unique(labels):
+            mine = labels == lab
+            if lab not in self._spans:
+                self._spans[lab] = [times[mine][0], times[mine][-1]]
+                self.runs_.append(lab)
+            self._spans[lab][1] = times[mine][-1]
+        if np.any(order != np.arange(order.size)):
+            back = np.empty_like(order)
+            back[order] = np.arange(order.size)
+            out = out.iloc[back] if hasattr(out, "iloc") else np.asarray(out)[back]
+        return out
+
+    def _check_order(self, labels, times):
+        """The labels of the block's runs new to the stream. A known run
+        given again from its start restarts; one that does not start after
+        the stream's last time of it is an error."""
+        new = set()
+        for lab in pd.unique(labels):
+            t0 = times[labels == lab][0]
+            span = self._spans.get(lab)
+            if span is None:
+                new.add(lab)
+            elif t0 <= span[1]:
+                if t0 in (0.0, span[0]):  # the run again from its start
+                    self._drop(lab)
+                    new.add(lab)
+                    continue
+                raise ValueError(
+                    f"Run {lab!r}: the block starts at time_s={t0:g}, not after "
+                    f"the last row the stream has of that run (time_s="
+                    f"{span[1]:g}; the run from {span[0]:g}): a block given "
+                    "twice or out of order? Give each block once, in time "
+                    "order; a new run under the same label starts again at its "
+                    "first time_s (or forget(run) the old one)."
+                )
+        return new
+
+    def _with_history(self, method, X, groups, labels, new):
+        """The runs' rows so far and the new ones given to the model; its
+        output for the new rows, and the warnings not said before."""
+        parts, rows = [], []
+        offset = 0
         for lab in pd.unique(labels):
             mine = np.flatnonzero(labels == lab)
-            block = _rows(X, mine)
+            block = X.iloc[mine]
             past = self._history.get(lab)
-            whole = block if past is None else _stack(past, block)
-            parts.append((lab, whole))
+            whole = block if past is None else pd.concat([past, block])
             done = 0 if past is None else len(past)
-            new_rows.append((mine, offset + done + np.arange(mine.size)))
+            parts.append((lab, whole))
+            rows.append(offset + done + np.arange(mine.size))
             offset += len(whole)
-        stacked = _stack(*[w for _, w in parts]) if len(parts) > 1 else parts[0][1]
+        stacked = pd.concat([w for _, w in parts]) if len(parts) > 1 else parts[0][1]
         kwargs = {}
         if groups is not None:
             kwargs["groups"] = np.concatenate(
@@ -138,43 +248,48 @@ class RunStream:
             )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            y_all = np.asarray(self.model_.predict(stacked, **kwargs))
+            out = getattr(self.model_, method)(stacked, **kwargs)
+        started = all(lab not in new for lab, _ in parts)
         for w in caught:
             key = (w.category, str(w.message))
-            if key not in self._said:
+            late = started and (
+                issubclass(w.category, RunStartWarning)
+                or re.search(LATE_START_WARNING, str(w.message)) is not None
+            )
+            if key not in self._said and not late:
                 self._said.add(key)
                 warnings.warn_explicit(
                     w.message, w.category, w.filename, w.lineno, source=w.source
                 )
-        y = np.empty((len(labels),) + y_all.shape[1:], dtype=y_all.dtype)
-        for mine, rows in new_rows:
-            y[mine] = y_all[rows]
         for lab, whole in parts:
             self._history[lab] = whole
-        return y
+        rows = np.concatenate(rows)
+        if hasattr(out, "iloc"):
+            return out.iloc[rows].set_axis(X.index, axis=0)
+        return np.asarray(out)[rows]
 
 
-def _labels(X, groups):
-    """Every row's run label, or a ValueError saying how to give them."""
-    _, labels = extract_runs(X, groups, finite=False)
+def _labels_and_times(X, groups):
+    """Every row's run label and ``time_s``, or a ValueError saying how to
+    give them."""
+    if not isinstance(X, pd.DataFrame):
+        raise ValueError(
+            "RunStream needs the blocks as run tables (a DataFrame with 'run' "
+            "and 'time_s' columns or index levels): without each row's time_s, "
+            "a block given twice or out of order cannot be told from the next "
+            f"one. Got {type(X).__name__}."
+        )
+    X_raw, labels = extract_runs(X, groups, finite=False)
     if labels is None:
         raise ValueError(
             "RunStream needs every row's run label, to continue each run from "
-            "its last block: give X as a run table (a 'run' column or index "
-            "level, with 'time_s') or pass groups=."
+            "its last block: a 'run' column or index level, or groups=."
         )
-    labels = np.asarray(labels, dtype=object)
-    run_slices(labels, labels.size)  # a run's rows together, or an error
-    return labels
-
-
-def _rows(X, positions):
-    if isinstance(X, (pd.DataFrame, pd.Series)):
-        return X.iloc[positions]
-    return np.asarray(X)[positions]
-
-
-def _stack(*blocks):
-    if isinstance(blocks[0], (pd.DataFrame, pd.Series)):
-        return pd.concat(blocks)
-    return np.concatenate(blocks)
+    times = row_times(X_raw)
+    if times is None:
+        raise ValueError(
+            "RunStream needs every row's time_s (a 'time_s' column or index "
+            "level): without it, a block given twice or out of order cannot "
+            "be told from the next one."
+        )
+    return np.asarray(labels, dtype=object), np.asarray(times, dtype=float)

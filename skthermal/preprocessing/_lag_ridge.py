@@ -671,6 +671,13 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.lag_features_.remember_runs(X, groups=groups)
         return self
 
+    def forget_runs(self, labels):
+        """Forget the runs of ``labels`` (see
+        :meth:`LagFeatures.forget_runs`). Returns self."""
+        check_is_fitted(self, "ridge_")
+        self.lag_features_.forget_runs(labels)
+        return self
+
 
 def make_lag_pipeline(
     time_constant_sets=None,

@@ -15,6 +15,7 @@ import warnings
 from numbers import Integral, Real
 
 import numpy as np
+from sklearn.base import BaseEstimator
 from sklearn.utils._param_validation import InvalidParameterError
 
 from skthermal._naming import TARGET_PATTERN, plain, shown
@@ -2336,6 +2337,52 @@ def extend_memory(memory, X, slices, labels, frame, cont):
         memory[lab] = entry
         out.append(lab)
     return out
+
+
+def _estimators_in(value):
+    """The estimators an attribute holds: itself, or the items (or the
+    estimators in tuples such as pipeline steps) of a list, tuple or dict."""
+    if isinstance(value, BaseEstimator):
+        yield value
+    elif isinstance(value, list | tuple) or (
+        isinstance(value, dict) and not isinstance(value, RunMemory)
+    ):
+        for item in value.values() if isinstance(value, dict) else value:
+            if isinstance(item, BaseEstimator):
+                yield item
+            elif isinstance(item, tuple):
+                yield from (v for v in item if isinstance(v, BaseEstimator))
+
+
+def sequence_models(estimator):
+    """``(class name, run memory)`` of every fitted sequence model inside
+    ``estimator`` (itself, pipeline steps, modules, ...), outermost first.
+
+    A sequence model reads the rows of a run in order from its start (grey
+    accumulation, lag filters, changes since the run start) and keeps what
+    continuing its labelled training runs needs in ``run_states_``, a
+    :class:`RunMemory`; static models keep none.
+    """
+    found, seen, todo = [], set(), [estimator]
+    while todo:
+        est = todo.pop(0)
+        if id(est) in seen:
+            continue
+        seen.add(id(est))
+        memory = getattr(est, "run_states_", None)
+        if isinstance(memory, RunMemory):
+            found.append((type(est).__name__, memory))
+        for value in vars(est).values():
+            todo.extend(_estimators_in(value))
+    return found
+
+
+def drop_runs(memory, labels):
+    """Remove the runs of ``labels`` from a sequence model's run ``memory``
+    (labels it does not hold are ignored)."""
+    for lab in labels:
+        if lab in memory:
+            del memory[lab]
 
 
 # A run continued by its label alone (no times) whose first row steps from
