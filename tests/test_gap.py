@@ -211,6 +211,8 @@ def test_diagnose_names_the_withheld_effect(tool_report):
     others = report.ranking.iloc[1:]
     assert not others["explains"].any()
     assert "tool_growth" in report.verdict()
+    # Its parameter moved within its range: nothing said of a range's end.
+    assert top["on_bound"] == "" and "range's end" not in report.verdict()
     # How far, with the fine calibration: per regime, after stop is where
     # the tool grows.
     evidence = report.how_far_evidence

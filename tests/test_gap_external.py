@@ -233,6 +233,23 @@ def test_sensor_lag_is_named(rng):
     assert "Alone, 'sensor_drift' (51%) also pass(es) the test" in both.verdict()
 
 
+def test_a_named_effect_on_its_range_end_is_said(rng):
+    # A fitted parameter stopped by its range fits something else; the
+    # verdict did not say so (an independent truth's tool cooling named
+    # 'speed_convection').
+    sim, meas = _tables(rng, "sensor_lag")
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    assert report.best_effect == "sensor_lag"
+    assert report.ranking["on_bound"].iloc[0] == ""
+    assert "range's end" not in report.verdict()
+    evidence = dict(report.how_far_evidence, on_bound="tau_s = 7200 (the upper end)")
+    ended = dataclasses.replace(report, how_far_evidence=evidence)
+    assert (
+        "Its fitted tau_s = 7200 (the upper end) sits on its range's end"
+        in ended.verdict()
+    )
+
+
 def test_null_gain_and_offset_call_none(rng):
     sim, meas = _tables(rng, "null")
     report = diagnose_runs(sim, meas)

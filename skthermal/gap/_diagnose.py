@@ -19,6 +19,7 @@ from skthermal.gap._evidence import (
 )
 from skthermal.gap._problem import (
     EFFECT_PARAMETER,
+    EFFECT_RANGE,
     RESIDUAL_EFFECTS,
     apply_gains,
     build_problem,
@@ -46,6 +47,7 @@ from skthermal.gap._scores import (
     excess_shrink,
     gap_of,
     heldout_folds,
+    on_bound,
     order_candidates,
     rank_key,
     regime_gaps,
@@ -228,9 +230,12 @@ def _evaluate(
     regime_shrink = (1.0 - ra / rb.reindex(ra.index)).rename(candidate)
     param = EFFECT_PARAMETER.get(candidate)
     per_sensor = None
+    row["on_bound"] = ""
     if param is not None:
-        row["fitted"] = float(
-            np.median([f.values[param] for f in fits]) * ctx.reference[param]
+        ref = ctx.reference[param]
+        row["fitted"] = float(np.median([f.values[param] for f in fits]) * ref)
+        row["on_bound"] = on_bound(
+            {param: row["fitted"]}, {param: tuple(ref * b for b in EFFECT_RANGE)}
         )
     elif candidate in RESIDUAL_EFFECTS:
         # The drift rates' spread over the temperature channels in °C/h, as

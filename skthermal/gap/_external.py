@@ -63,6 +63,7 @@ from skthermal.gap._scores import (
     excess_shrink,
     gap_of,
     heldout_folds,
+    on_bound,
     order_candidates,
     rank_key,
     regime_gaps,
@@ -567,6 +568,7 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
             names = names[signals.is_temp] if names.size else range(rates.size)
             per_sensor = dict(zip(names, rates, strict=True))
     row["ruled_out"] = ruled_out(name, row["fitted"], per_sensor)
+    row["on_bound"] = on_bound(row["fitted"], TERMS[name].bounds)
     row["explains"] = (
         bool(shrink >= min_shrink and p < alpha)
         and beyond_noise(gap_b, floor2)
@@ -662,7 +664,7 @@ class ExternalGapReport(GapReport):
             f"{percent(row['shrink'])} of the held-out gap above the noise floor "
             f"({evidence})."
         )
-        return text + self._named_tail()
+        return text + self._bound_text(row) + self._named_tail()
 
     def __repr__(self):
         return f"ExternalGapReport(best_effect={self.best_effect!r}): {self.verdict()}"

@@ -76,6 +76,10 @@ MIN_SAMPLES = START_SAMPLES + 3
 # effect is a structural switch without a free parameter), and the effects
 # modelled on the residual instead of simulated: both owned by the effects.
 EFFECT_PARAMETER = {name: e.diagnosis_parameter for name, e in EFFECTS.items()}
+# How far the calibration may move a candidate's parameter: between these
+# multiples of the machine's value (the base's multipliers move less, see
+# calibrate).
+EFFECT_RANGE = (0.05, 20.0)
 RESIDUAL_EFFECTS = tuple(name for name, e in EFFECTS.items() if e.residual)
 
 
@@ -1011,7 +1015,9 @@ def calibrate(
             names.append(p)
     start = dict(start or {})
     x0 = np.log([start.get(n, 1.0) for n in names])
-    lo = np.array([np.log(0.25) if n in groups else np.log(0.05) for n in names])
+    lo = np.array(
+        [np.log(0.25) if n in groups else np.log(EFFECT_RANGE[0]) for n in names]
+    )
     hi = -lo
     x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
     sim_effects = [e for e in effects if e not in RESIDUAL_EFFECTS]

@@ -460,7 +460,7 @@ class GapReport:
                 f"{row['gap_before']:.3g} -> {row['gap_after']:.3g}, "
                 f"{percent(row['shrink'])}"
             )
-        return text + "." + self._named_tail()
+        return text + "." + self._bound_text(fine) + self._named_tail()
 
     def _named_tail(self):
         """What a verdict naming an effect ends with, in both modes: the
@@ -536,6 +536,19 @@ class GapReport:
             f" The held-out gap ({gap:.3g}) is within the noise (floor "
             f"{floor:.3g}, {gap / floor:.2f} times it): the simulation matches "
             "the measurement as far as the noise tells."
+        )
+
+    @staticmethod
+    def _bound_text(row):
+        """The verdict's sentence on a named effect whose fitted parameter
+        sits on an end of its range (``""`` when none does)."""
+        if not row.get("on_bound"):
+            return ""
+        return (
+            f" Its fitted {row['on_bound']} sits on its range's end, where the "
+            "range stopped it, not the runs: it may stand in for something "
+            "else, such as the same physics elsewhere or on another time "
+            "scale; weigh the other candidates that pass."
         )
 
     @staticmethod

@@ -47,6 +47,37 @@ MAX_DRIFT_C_PER_H = 0.1
 MAX_SENSOR_LAG_S = 3600.0
 
 
+# A fitted parameter within this relative distance (on a log scale) of an
+# end of its search range sits on that end.
+ON_BOUND_LOG = 0.02
+
+
+def on_bound(values, bounds):
+    """``"tau_s = 1200 (the lower end of 1200-28800)"`` for the parameters of
+    ``values`` (name -> fitted value) that sit on an end of their ``bounds``
+    (name -> (low, high), both positive), joined by "; "; ``""`` for none.
+    A parameter on its bound was stopped by the range, not by the data: the
+    term may stand in for something else.
+
+    Examples
+    --------
+    >>> from skthermal.gap._scores import on_bound
+    >>> on_bound({"tau_s": 1200.0, "exponent": 0.8},
+    ...          {"tau_s": (1200.0, 28800.0), "exponent": (0.5, 1.5)})
+    'tau_s = 1200 (the lower end of 1200-28800)'
+    """
+    said = []
+    for name, value in values.items():
+        low, high = bounds.get(name, (None, None))
+        if low is None or not (np.isfinite(value) and value > 0):
+            continue
+        for end, which in ((low, "lower"), (high, "upper")):
+            if abs(np.log(value / end)) <= ON_BOUND_LOG:
+                span = f"{low:g}-{high:g}"
+                said.append(f"{name} = {value:.4g} (the {which} end of {span})")
+    return "; ".join(said)
+
+
 def ruled_out(effect, fitted, rates=None):
     """Why the fitted value rules ``effect`` out as the explanation (``""``
     when it does not): a ``sensor_drift`` faster than
