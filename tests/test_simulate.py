@@ -483,25 +483,32 @@ def test_initial_state_from_the_first_readings():
         rig.simulate_drivers(times, np.zeros(5), np.full(5, 20.0), initial="measured")
 
 
-def test_auto_starts_soaked_runs_at_the_air():
-    # "auto" read the sensors' calibration offsets of soaked runs as warmth:
-    # the bearing loss came out 26% low (within 1% from the air).
-    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
-    machine = rig.with_params({"sensor.offset_C": 0.5})
-    truth = machine.with_params({"q.bearing_W": 1.4 * rig.params["q.bearing_W"]})
-    runs = pd.concat(
+def _rest_run_rest(truth, speeds, random_state=0, **kwargs):
+    """Runs of 1 h at rest, 1 h at each speed, 1 h at rest, every 60 s (the
+    i-th run's noise seeded i, with ``random_state=None``)."""
+    return pd.concat(
         [
             truth.simulate(
                 DutyCycle([(3600, 0, 0), (3600, rpm, 0), (3600, 0, 0)]),
                 20.0,
                 sample_period_s=60,
                 run=f"r{i}",
-                random_state=i,
+                random_state=i if random_state is None else random_state,
+                **kwargs,
             )
-            for i, rpm in enumerate([2500, 5000, 4000])
+            for i, rpm in enumerate(speeds)
         ],
         ignore_index=True,
     )
+
+
+def test_auto_starts_soaked_runs_at_the_air():
+    # "auto" read the sensors' calibration offsets of soaked runs as warmth:
+    # the bearing loss came out 26% low (within 1% from the air).
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    machine = rig.with_params({"sensor.offset_C": 0.5})
+    truth = machine.with_params({"q.bearing_W": 1.4 * rig.params["q.bearing_W"]})
+    runs = _rest_run_rest(truth, [2500, 5000, 4000], random_state=None)
     true = truth.params["q.bearing_W"]
     fits = {
         initial: machine.calibrate(
@@ -535,20 +542,7 @@ def test_calibration_of_runs_that_start_warm():
     # the calibration has to bend the bearing loss to its bound.
     rig = ThermalMachine.from_preset("spindle-rig", effects=[])
     truth = rig.with_params({"q.bearing_W": 1.4 * rig.params["q.bearing_W"]})
-    runs = pd.concat(
-        [
-            truth.simulate(
-                DutyCycle([(3600, 0, 0), (3600, rpm, 0), (3600, 0, 0)]),
-                20.0,
-                sample_period_s=60,
-                run=f"r{i}",
-                noise=False,
-                initial=_warm(truth),
-            )
-            for i, rpm in enumerate([2500, 5000])
-        ],
-        ignore_index=True,
-    )
+    runs = _rest_run_rest(truth, [2500, 5000], noise=False, initial=_warm(truth))
     true = truth.params["q.bearing_W"]
     _, soaked = rig.calibrate(runs, ["q.bearing_W"])
     # (No feed column: the axis never moved.)

@@ -23,12 +23,12 @@ from skthermal.preprocessing import exponential_filter
 from skthermal.utils._runs import (
     GAP_BRIDGE,
     PAUSE_BRIDGE,
+    ForgetRunsMixin,
     changes_since_start,
     check_positive_numbers,
     continued_runs,
     continued_steps,
     continued_values,
-    drop_runs,
     extend_memory,
     extract_runs,
     fitted_sample_periods,
@@ -560,7 +560,7 @@ def _triangular_factor(Kn, Kp):
     return R * np.where(np.diag(R) < 0, -1.0, 1.0)[:, None]
 
 
-class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
+class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
     """Thermal error as a sum of discrete transfer functions of the inputs.
 
     Every temperature sensor (as its change since the start of the run) and
@@ -1340,12 +1340,4 @@ class TransferFunctionRegressor(RegressorMixin, BaseEstimator):
         for sl, lab in zip(slices, updated, strict=True):
             if lab is not None:
                 memory[lab]["state"] = np.array([F[sl.stop - 1] for F in lags])
-        return self
-
-    def forget_runs(self, labels):
-        """Forget the runs of ``labels`` (their end states, kept by
-        :meth:`fit` or :meth:`remember_runs`): a later block under such a
-        label is then a run of its own. Labels not remembered are ignored.
-        Returns self."""
-        drop_runs(getattr(self, "run_states_", {}), labels)
         return self

@@ -22,13 +22,13 @@ from skthermal.utils._runs import (
     GAP_BRIDGE,
     GAP_STEPS,
     PAUSE_BRIDGE,
+    ForgetRunsMixin,
     changes_since_start,
     check_positive_numbers,
     continued_runs,
     continued_steps,
     continued_values,
     driver_positions,
-    drop_runs,
     extend_memory,
     extract_runs,
     fitted_sample_periods,
@@ -484,7 +484,7 @@ def _distinct_labels(values):
     return [repr(v) for v in values]
 
 
-class LagFeatures(TransformerMixin, BaseEstimator):
+class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
     """Causal lag features: temperatures and their low-pass filters.
 
     For every run (restarting at each run start) the transformer returns the
@@ -897,14 +897,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         for sl, lab in zip(slices, updated, strict=True):
             if lab is not None:
                 memory[lab]["state"] = F[sl.stop - 1, skip:end].copy()
-        return self
-
-    def forget_runs(self, labels):
-        """Forget the runs of ``labels`` (their end states, kept by
-        :meth:`fit` or :meth:`remember_runs`): a later block under such a
-        label is then a run of its own. Labels not remembered are ignored.
-        Returns self."""
-        drop_runs(getattr(self, "run_states_", {}), labels)
         return self
 
     def _state_columns(self, n_columns):

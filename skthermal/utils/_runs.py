@@ -2377,12 +2377,19 @@ def sequence_models(estimator):
     return found
 
 
-def drop_runs(memory, labels):
-    """Remove the runs of ``labels`` from a sequence model's run ``memory``
-    (labels it does not hold are ignored)."""
-    for lab in labels:
-        if lab in memory:
-            del memory[lab]
+class ForgetRunsMixin:
+    """``forget_runs`` for a sequence model that keeps its runs' end states
+    in ``run_states_`` (:func:`run_memory`, :func:`extend_memory`)."""
+
+    def forget_runs(self, labels):
+        """Forget the runs of ``labels`` (their end states, kept by ``fit``
+        or ``remember_runs``): a later block under such a label is then a
+        run of its own. Labels not remembered are ignored. Returns self."""
+        memory = getattr(self, "run_states_", {})
+        for lab in labels:
+            if lab in memory:
+                del memory[lab]
+        return self
 
 
 # A run continued by its label alone (no times) whose first row steps from
