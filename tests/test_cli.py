@@ -578,6 +578,11 @@ def test_a_run_with_a_dead_sensor_gets_no_prediction_the_others_do(
     assert pred.loc[~mine, "pred_disp_y_um"].notna().all()
     status, _, err = _run(capsys, "evaluate", "--runs", runs, "--model", model)
     assert status == 2 and "The guard gives no prediction at run" in err, err
+    # What predict wrote is scored without that run (it failed to score at all).
+    status, text, err = _run(capsys, "evaluate", "--runs", out)
+    assert status == 0, err
+    assert f"run(s) ['{dead_run}'] of {out} have no prediction" in text
+    assert f"| {dead_run} " not in text and " all " in text
 
 
 def test_a_guarded_model_holds_a_spike_and_says_so(capsys, workdir):

@@ -373,9 +373,13 @@ def test_a_run_with_a_dead_sensor_is_unavailable_in_a_batch(train):
     pd.testing.assert_frame_equal(checked[~in_r1], alone)
     (message,) = _messages(caught, SensorFaultWarning)
     assert "'T2_C' reads no finite value in run 'r1'" in message
-    assert "120 row(s) of the run(s) concerned" in message
-    # Every run dead: every row unavailable.
-    everything = guard.predict_checked(batch * np.nan)
+    assert "in run 'r1' at time_s=0, nor in any other row of that run" in message
+    assert "(120 row(s))" in message
+    assert "the 120 row(s) of the 1 run(s) with such a sensor" in message
+    assert "the other 2 run(s) are predicted" in message
+    # Every run dead: every row unavailable, and said so.
+    with pytest.warns(SensorFaultWarning, match="no run of the call can be"):
+        everything = guard.predict_checked(batch * np.nan)
     assert (everything["action"] == "unavailable").all()
 
 

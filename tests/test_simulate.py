@@ -535,6 +535,15 @@ def test_auto_starts_soaked_runs_at_the_air():
     )
     with pytest.raises(ValueError, match=r"p_soaked must be in \[0, 1\)"):
         machine.initial_from_readings(near, 20.0, p_soaked=1.0)
+    # The probability of a warm start, judged once, gives the same estimate.
+    w = machine.warm_probability(near, 20.0)
+    assert 0 <= w < 0.5 and machine.warm_probability(warm, 20.0) > 0.99
+    np.testing.assert_allclose(
+        machine.initial_from_readings(near, 20.0, warm=w),
+        machine.initial_from_readings(near, 20.0, p_soaked=0.5),
+    )
+    with pytest.raises(ValueError, match=r"warm must be in \[0, 1\]"):
+        machine.initial_from_readings(near, 20.0, warm=1.5)
 
 
 def test_calibration_of_runs_that_start_warm():

@@ -203,6 +203,8 @@ def test_blocks_need_run_labels_and_times(data):
         stream.predict(new.drop(columns=["run"]))
     with pytest.raises(ValueError, match="RunStream needs every row's time_s"):
         stream.predict(new.drop(columns=["time_s"]))
+    with pytest.raises(ValueError, match="The block given to RunStream holds no rows"):
+        stream.predict(new.iloc[:0])
 
 
 @pytest.mark.parametrize("how", ["incremental", "history"])
@@ -222,7 +224,10 @@ def test_a_block_given_twice_or_out_of_order_is_refused(data, how):
     got += [stream.predict(b) for b in blocks[2:]]  # the stream goes on
     np.testing.assert_allclose(np.concatenate(got), whole, atol=1e-9)
     # The label again from its start: a new run, as the whole run alone.
-    again = [stream.predict(b) for b in _blocks(run, [33])]
+    blocks = _blocks(run, [33])
+    with pytest.warns(UserWarning, match=r"Run 'c' starts again at time_s=0"):
+        again = [stream.predict(blocks[0])]
+    again += [stream.predict(b) for b in blocks[1:]]
     np.testing.assert_allclose(np.concatenate(again), whole, atol=1e-9)
 
 

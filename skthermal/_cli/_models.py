@@ -565,6 +565,32 @@ def _join_predictions(df, preds, col, runs_path, preds_path):
     return data
 
 
+def _without_unavailable(table, path):
+    """``table`` without the runs that ``skthermal predict`` gave no
+    prediction (``guard_action`` "unavailable": a guard in hold mode with a
+    sensor that reads nothing in the run), with a note naming them."""
+    from skthermal._naming import plain
+
+    if "guard_action" not in table.columns:
+        return table
+    lost = (table["guard_action"] == "unavailable").to_numpy()
+    if not lost.any():
+        return table
+    runs = pd.unique(table.loc[lost, "run"])
+    print(
+        f"Note: run(s) {[plain(r) for r in runs]} of {path} have no prediction "
+        "(guard_action 'unavailable': a sensor reads nothing there); they are "
+        "not scored."
+    )
+    keep = ~table["run"].isin(runs).to_numpy()
+    if not keep.any():
+        raise UserError(
+            f"No run of {path} has a prediction (every one 'unavailable'): "
+            "nothing to score."
+        )
+    return table.loc[keep]
+
+
 def cmd_evaluate(args):
     from skthermal._markdown import markdown_table
     from skthermal._run_changes import changes_since_first_row
@@ -613,10 +639,11 @@ def cmd_evaluate(args):
                     "its rows are joined to --runs on run and time_s."
                 )
             target, col = _prediction_column(preds, args.target, args.predictions)
+            preds = _without_unavailable(preds, args.predictions)
             data = _join_predictions(df, preds, col, args.runs, args.predictions)
         else:
             target, col = _prediction_column(df, args.target, args.runs)
-            data = df
+            data = _without_unavailable(df, args.runs)
         if target not in data.columns:
             raise UserError(f"{args.runs} has no measured {target!r} column.")
         values = pd.to_numeric(data[col], errors="coerce")

@@ -680,9 +680,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if self.mode == "hold":
             dead = self._unreadable(A, start)
             if dead is not None and unavailable:
-                return self._without_dead_runs(X, groups, dead, where)
+                return self._without_dead_runs(X, groups, dead, start, where)
             if dead is not None:
-                self._refuse_unreadable(dead, where)
+                self._refuse_unreadable(dead, start, where)
         flags = self._input_flags(A, first, where)
         fault = np.logical_or.reduce(list(flags.values()))
         late = self._late_starts(runs, where, n)
@@ -774,25 +774,27 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         dead = ~read[start] & self.checked_inputs_
         return dead if dead.any() else None
 
-    def _dead_text(self, dead, where):
+    def _dead_text(self, dead, start, where):
         """``sensor 'T3_C' reads no finite value in run ... (n row(s); k more
-        sensor(s) alike)``, for the first sensor of ``dead`` (rows x inputs)."""
+        sensor(s) alike)``, for the first sensor of ``dead`` (rows x inputs)
+        in its first run (``start``: every row's run's first row)."""
         j = int(np.flatnonzero(dead.any(axis=0))[0])
         row = int(np.flatnonzero(dead[:, j])[0])
         others = int(dead.any(axis=0).sum()) - 1
+        in_run = int(np.sum(dead[:, j] & (start == start[row])))
         return (
             f"sensor {self._sensor_names()[j]!r} reads no finite value "
             f"{where.at(row)}, nor in any other row of that run given to this "
-            f"call ({int(dead[:, j].sum())} row(s)"
+            f"call ({in_run} row(s)"
             + (f"; {others} more sensor(s) alike" if others else "")
             + ")"
         )
 
-    def _refuse_unreadable(self, dead, where):
+    def _refuse_unreadable(self, dead, start, where):
         """Raise for the dead sensors of :meth:`_unreadable`, before any
         warning: none says that a value was held."""
         raise ValueError(
-            f"mode='hold': {self._dead_text(dead, where)}: there is no reading "
+            f"mode='hold': {self._dead_text(dead, start, where)}: there is no reading "
             "of it to hold, and a compensation computed without it would rest "
             "on a made-up value. Repair the sensor, or use a model fitted "
             "without it; on the controller, give predict the run's rows from "
@@ -801,17 +803,23 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "'unavailable' and predicts the others)."
         )
 
-    def _without_dead_runs(self, X, groups, dead, where):
+    def _without_dead_runs(self, X, groups, dead, start, where):
         """:meth:`_guard` of the runs without a dead sensor; the rows of the
         others get no prediction (NaN, not ok, action ``"unavailable"``),
         with a :class:`SensorFaultWarning` naming the first."""
         lost = dead.any(axis=1)
         names = self._sensor_names()
+        n_runs, n_lost = np.unique(start).size, np.unique(start[lost]).size
+        rest = (
+            "no run of the call can be predicted"
+            if n_lost == n_runs
+            else f"the other {n_runs - n_lost} run(s) are predicted"
+        )
         warnings.warn(
-            f"mode='hold': {self._dead_text(dead, where)}: no compensation can "
-            f"be given for the {int(lost.sum())} row(s) of the run(s) concerned "
-            "(prediction NaN, action 'unavailable'); the other runs are "
-            "predicted.",
+            f"mode='hold': {self._dead_text(dead, start, where)}: no "
+            f"compensation can be given for the {int(lost.sum())} row(s) of the "
+            f"{n_lost} run(s) with such a sensor (prediction NaN, action "
+            f"'unavailable'); {rest}.",
             SensorFaultWarning,
             stacklevel=4,
         )

@@ -174,6 +174,11 @@ class RunStream:
 
     def _call(self, method, X, groups):
         labels, times = _labels_and_times(X, groups)
+        if not labels.size:
+            raise ValueError(
+                "The block given to RunStream holds no rows: give each block "
+                "when it has rows."
+            )
         # Each run's rows together, in the order the runs first appear.
         codes = pd.factorize(labels)[0]
         order = np.argsort(codes, kind="stable")
@@ -213,6 +218,13 @@ class RunStream:
                 new.add(lab)
             elif t0 <= span[1]:
                 if t0 in (0.0, span[0]):  # the run again from its start
+                    warnings.warn(
+                        f"Run {lab!r} starts again at time_s={t0:g}: taken as a "
+                        "new run under the same label; the stream's rows of the "
+                        f"earlier one (to time_s={span[1]:g}) are dropped.",
+                        UserWarning,
+                        stacklevel=4,
+                    )
                     self._drop(lab)
                     new.add(lab)
                     continue

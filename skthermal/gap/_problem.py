@@ -757,7 +757,6 @@ def measured_initial(machine, problem, p_soaked=0.0):
     soaked start (:meth:`ThermalMachine.initial_from_readings`)."""
     meta = dict(problem.meta)
     meta["initial_from"] = machine
-    meta["p_soaked"] = p_soaked
     # The prior of the initial states spans the runs' own speeds and feeds.
     meta["initial_ranges"] = {
         "max_rpm": max(float(np.max(np.abs(r.spindle_rpm))) for r in problem.runs),
@@ -766,6 +765,15 @@ def measured_initial(machine, problem, p_soaked=0.0):
         ),
     }
     meta["initial_cache"] = {}
+    # Whether each run starts warm is judged once, with the machine as
+    # given: every candidate starts the run alike (each from its own warm
+    # state).
+    judge = machine.warm_probability
+    meta["warm"] = {
+        run.name: _reading_call(judge, meta, run, p_soaked=p_soaked)
+        for run in problem.runs
+        if p_soaked > 0
+    }
     problem = replace(problem, meta=meta)
     runs = [
         replace(run, initial=_estimate(problem, run, machine)) for run in problem.runs
@@ -776,16 +784,25 @@ def measured_initial(machine, problem, p_soaked=0.0):
 def _estimate(problem, run, machine):
     """``machine``'s initial node temperatures of ``run`` from its first
     readings."""
+    meta = problem.meta
+    return _reading_call(
+        machine.initial_from_readings, meta, run, warm=meta["warm"].get(run.name)
+    )
+
+
+def _reading_call(method, meta, run, **kwargs):
+    """``method`` (of a machine: ``initial_from_readings``,
+    ``warm_probability``) on ``run``'s first readings and drivers."""
     k = len(next(iter(run.start.values())))
-    return machine.initial_from_readings(
+    return method(
         run.start,
         run.ambient_C[:k],
         time_s=run.time_s[:k],
         spindle_rpm=run.spindle_rpm[:k],
         feed_mm_min=run.feed_mm_min[:k],
-        **problem.meta["initial_ranges"],
-        p_soaked=problem.meta.get("p_soaked", 0.0),
+        **meta["initial_ranges"],
         run=run.name,
+        **kwargs,
     )
 
 

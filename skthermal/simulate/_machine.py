@@ -1216,6 +1216,7 @@ class ThermalMachine:
         max_rpm=6000.0,
         max_feed_mm_min=0.0,
         p_soaked=0.0,
+        warm=None,
         run="run1",
     ):
         """Node temperatures that match the first readings of a run.
@@ -1268,6 +1269,11 @@ class ThermalMachine:
             often start soaked; ``calibrate(initial="auto")`` and
             ``skthermal.gap.diagnose(initial="auto")`` take
             :attr:`SOAKED_PRIOR`.
+        warm : float in [0, 1], optional
+            The probability that the run starts warm, when already worked
+            out (:meth:`warm_probability`, e.g. with the machine as given,
+            so that every variant of it starts the run alike): used in
+            place of the one ``p_soaked`` gives.
         run : label, default="run1"
             Named in error messages and warnings.
 
@@ -1289,6 +1295,86 @@ class ThermalMachine:
         >>> T0.shape, bool(T0.max() > 20.0)
         ((9,), True)
         """
+        p_soaked = _check_p_soaked(p_soaked)
+        if warm is not None and not 0.0 <= warm <= 1.0:
+            raise ValueError(f"warm must be in [0, 1], got {warm!r}.")
+        air0, z, S, sigma2, P, W = self._reading_model(
+            readings,
+            ambient_C,
+            time_s,
+            spindle_rpm,
+            feed_mm_min,
+            max_rpm,
+            max_feed_mm_min,
+            run,
+        )
+        d = P @ W.T @ np.linalg.solve(S, z)
+        if warm is None and p_soaked > 0:
+            warm = _warm_probability(z, S, sigma2, p_soaked)
+        return air0 + d * (1.0 if warm is None else warm)
+
+    def warm_probability(
+        self,
+        readings,
+        ambient_C,
+        *,
+        time_s=None,
+        spindle_rpm=None,
+        feed_mm_min=None,
+        max_rpm=6000.0,
+        max_feed_mm_min=0.0,
+        p_soaked=None,
+        run="run1",
+    ):
+        """Posterior probability that a run starts warm rather than soaked.
+
+        The readings' likelihood under the warm states of
+        :meth:`initial_from_readings`'s prior against a soaked machine (every
+        node at the air, the readings off by the sensors' offsets and
+        noise), with prior probability ``p_soaked`` (default
+        :attr:`SOAKED_PRIOR`) of a soaked start. The arguments are those of
+        :meth:`initial_from_readings`.
+
+        Examples
+        --------
+        >>> from skthermal.simulate import ThermalMachine
+        >>> rig = ThermalMachine.from_preset("spindle-rig")
+        >>> warm = rig.warm_probability({"T1_C": 24.0, "T2_C": 23.5}, 20.0)
+        >>> soaked = rig.warm_probability({"T1_C": 20.05, "T2_C": 19.98}, 20.0)
+        >>> bool(warm > 0.99), bool(soaked < 0.5)
+        (True, True)
+        """
+        p_soaked = self.SOAKED_PRIOR if p_soaked is None else p_soaked
+        p_soaked = _check_p_soaked(p_soaked)
+        if p_soaked == 0:
+            return 1.0
+        _, z, S, sigma2, _, _ = self._reading_model(
+            readings,
+            ambient_C,
+            time_s,
+            spindle_rpm,
+            feed_mm_min,
+            max_rpm,
+            max_feed_mm_min,
+            run,
+        )
+        return _warm_probability(z, S, sigma2, p_soaked)
+
+    def _reading_model(
+        self,
+        readings,
+        ambient_C,
+        time_s,
+        spindle_rpm,
+        feed_mm_min,
+        max_rpm,
+        max_feed_mm_min,
+        run,
+    ):
+        """The first readings and their Gaussian model: the air at the
+        start, the readings above what a soaked machine reads ``z``, their
+        covariance under the warm states ``S``, the sensors' own variances
+        ``sigma2``, the state prior ``P`` and the reading matrix ``W``."""
         where = f"Run {run!r}: "
         if isinstance(readings, pd.DataFrame):
             readings = {c: readings[c].to_numpy() for c in readings.columns}
@@ -1352,8 +1438,6 @@ class ThermalMachine:
                 for j in range(n)
             ]
         )
-        if not 0.0 <= p_soaked < 1.0:
-            raise ValueError(f"p_soaked must be in [0, 1), got {p_soaked!r}.")
         P = self._state_prior(max_rpm, max_feed)
         # Every sensor's own figures (else the machine's).
         own = {s.name: k for k, s in enumerate(self.spec.sensors)}
@@ -1366,10 +1450,7 @@ class ThermalMachine:
         )
         z = m - r
         S = W @ P @ W.T + np.diag(sigma2)
-        d = P @ W.T @ np.linalg.solve(S, z)
-        if p_soaked > 0:
-            d = d * _warm_probability(z, S, sigma2, p_soaked)
-        return air0 + d
+        return air0, z, S, sigma2, P, W
 
     def _heating(self, names, ambient_C, time_s, spindle_rpm, feed_mm_min, run):
         """How much the sensors ``names`` warm over the samples of
@@ -2331,6 +2412,12 @@ def _at_start(samples, t, name, run):
     return float(x.mean() - slope * (t.mean() - t[0]))
 
 
+def _check_p_soaked(p_soaked):
+    if not 0.0 <= p_soaked < 1.0:
+        raise ValueError(f"p_soaked must be in [0, 1), got {p_soaked!r}.")
+    return float(p_soaked)
+
+
 def _warm_probability(z, S, sigma2, p_soaked):
     """Posterior probability that readings ``z`` (above what a soaked machine
     reads) come from a warm state, readings ~ N(0, S), rather than from a
@@ -2521,6 +2608,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     drivers = {run: _run_drivers(frame, run) for run, frame in groups}
     # The prior of the initial states spans the runs' own speeds and feeds.
     prior_range = {}
+    warm = {}
     if from_readings:
         prior_range = {
             "max_rpm": max(float(np.max(np.abs(d[1]))) for d in drivers.values()),
@@ -2529,6 +2617,23 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
                 for d in drivers.values()
             ),
         }
+        # With "auto", whether each run starts warm is judged once, with the
+        # machine as given: every trial machine starts the run alike.
+        if p_soaked > 0:
+            k = FIRST_READINGS
+            warm = {
+                run: machine.warm_probability(
+                    first[run],
+                    air[:k],
+                    time_s=t[:k],
+                    spindle_rpm=rpm[:k],
+                    feed_mm_min=None if feed is None else feed[:k],
+                    **prior_range,
+                    p_soaked=p_soaked,
+                    run=run,
+                )
+                for run, (t, rpm, air, feed) in drivers.items()
+            }
 
     # The prior of the initial states (initial="measured") depends on the
     # parameters of the network and its heat, not on the thermo-elastic
@@ -2554,7 +2659,7 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
                     spindle_rpm=rpm[:k],
                     feed_mm_min=None if feed is None else feed[:k],
                     **prior_range,
-                    p_soaked=p_soaked,
+                    warm=warm.get(run),
                     run=run,
                 )
                 if from_readings
