@@ -680,6 +680,15 @@ class GapReport:
             if "ruled_out" in ranking
             else []
         )
+        ruled_out += [
+            f"- `{effect}`: its fitted {which} sits on its range's end."
+            for effect, which in zip(
+                ranking["effect"],
+                ranking.get("on_bound", [""] * len(ranking)),
+                strict=True,
+            )
+            if which
+        ]
         ruled_out += [""] if ruled_out else []
         parts = [
             "# Sim-to-real gap report",
@@ -694,7 +703,11 @@ class GapReport:
             "errors per channel are in the channel's unit.",
             "",
             "## Which effect",
-            table(self.ranking.drop(columns="ruled_out", errors="ignore")),
+            table(self.ranking[[c for c in RANKING_SHOWN if c in self.ranking]]),
+            "",
+            "Every column (the likelihood-ratio test, information criteria, "
+            "whiteness and cross-correlations before and after): `ranking.csv`, "
+            "`report.ranking`.",
             "",
             *ruled_out,
             *([self._not_applicable_text("`{}`"), ""] if self.not_applicable else []),
@@ -1082,6 +1095,25 @@ def _gap_cell(v):
         # A term's fitted parameters, each as the other figures are.
         return ", ".join(f"{k}: {_gap_cell(x)}" for k, x in v.items())
     return str(v).replace("|", "/")
+
+
+# The columns of the ranking the Markdown report shows (the rest is in
+# ranking.csv): the held-out evidence that decides, the in-sample test and
+# the fitted value.
+RANKING_SHOWN = (
+    "effect",
+    "gap_before",
+    "gap_after",
+    "shrink",
+    "share_of_explainable",
+    "p_value",
+    "runs_improved",
+    "n_runs",
+    "lr_p_value",
+    "white_after",
+    "fitted",
+    "explains",
+)
 
 
 def gap_table(df):
