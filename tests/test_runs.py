@@ -385,7 +385,9 @@ def test_models_counting_rows_warn_about_gaps(name):
     keep = np.r_[0:20, 30:cut]  # 10 samples missing
     with pytest.warns(UserWarning, match=r"1 gap\(s\).*lasts 660 s.*counts rows"):
         model.fit(table.iloc[keep], y[keep])
-    with pytest.warns(UserWarning, match=r"continues 1860 s after its last training"):
+    with pytest.warns(
+        UserWarning, match=r"continues 1860 s after its last row the model knows"
+    ):
         model.predict(table.iloc[cut + 30 :])
     # The gap in the training run does not make its sampling period look
     # longer (its median step, not its mean one).

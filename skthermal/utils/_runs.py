@@ -1698,7 +1698,8 @@ def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
         if pause > GAP_STEPS * period:
             warnings.warn(
                 f"{name}: run {lab!r} continues {pause:g} s after its last "
-                f"training row (time_s={t1:g}), at a sampling period of "
+                f"row the model knows (time_s={t1:g}; from fit, or remembered "
+                f"from an earlier block), at a sampling period of "
                 f"{period:g} s. The model {bridged}, or predict the run "
                 "from its start.",
                 UserWarning,
