@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 from scipy.special import expit
 from sklearn.utils import check_random_state
 
@@ -1451,7 +1450,6 @@ class ThermalMachine:
         )
         z = m - r
         S = W @ P @ W.T + np.diag(sigma2)
-        _warn_unexplained(z, S, names, self._sensor_numbers("offset_C")[pick], where)
         return air0, z, S, sigma2, P, W
 
     def _heating(self, names, ambient_C, time_s, spindle_rpm, feed_mm_min, run):
@@ -2448,42 +2446,6 @@ def _check_span(rise, names, air0, where, after=None):
         f"{where}readings[{names[i]!r}] is {air0 + rise[i]:g}, {far[i]:g} K "
         f"from the air ({air0:g} °C): give temperatures in °C, as the air "
         f"(a machine tool runs within some {READING_SPAN_K:g} K of it)."
-    )
-
-
-# First readings further from every state of the machine than this
-# quantile of their chi-squared distance fit no state within the sensors'
-# declared offsets and noise.
-UNEXPLAINED_QUANTILE = 0.999
-
-
-def _warn_unexplained(z, S, names, offsets, where):
-    """Warn when the first readings (``z``: above what a soaked machine
-    reads; covariance ``S`` under the states of the prior and the sensors'
-    declared figures) fit no state of the machine: their squared
-    Mahalanobis distance beyond :data:`UNEXPLAINED_QUANTILE` of its
-    chi-squared distribution. Sensors off by more than their declared
-    calibration offsets are the usual cause; their offsets are then read as
-    warmth."""
-    k = z.size
-    if k < 2:
-        return
-    distance = float(z @ np.linalg.solve(S, z))
-    limit = float(stats.chi2.ppf(UNEXPLAINED_QUANTILE, k))
-    if distance <= limit:
-        return
-    declared = ", ".join(f"{o:g}" for o in np.unique(np.round(offsets, 4)))
-    warnings.warn(
-        f"{where}the first readings of {k} sensors fit no state of the machine "
-        f"within their declared offsets and noise (squared distance "
-        f"{distance:.3g}, {limit:.3g} at the {UNEXPLAINED_QUANTILE:.1%} level; "
-        f"offsets declared: {declared} °C). Are the sensors' calibration "
-        "offsets larger than declared? Then their offsets are read as warmth "
-        "and the initial state is off: declare the offsets (sensor.offset_C, "
-        "or a sensor's offset_C), or start runs known to be soaked from the "
-        "air (initial='ambient').",
-        UserWarning,
-        stacklevel=user_stacklevel(),
     )
 
 
