@@ -274,6 +274,7 @@ def cmd_gap_external(args):
     """``skthermal gap --simulated sim.csv --runs real.csv``: the gap between
     an external simulation's run table and the measured runs."""
     from skthermal.gap import diagnose_runs
+    from skthermal.gap._report import RANKING_DETAIL, RANKING_SHOWN
 
     log_progress(args.quiet)
     for option in ("preset", "machine", "effects", "initial"):
@@ -311,16 +312,11 @@ def cmd_gap_external(args):
     print(report.verdict())
     print(report.where_summary())
     shown = [
-        "effect",
-        "gap_before",
-        "gap_after",
-        "shrink",
-        "share_of_explainable",
-        "p_value",
-        "lr_p_value",
-        "explains",
+        c
+        for c in RANKING_SHOWN
+        if c not in RANKING_DETAIL and c in report.ranking.columns
     ]
-    return _show(report, [c for c in shown if c in report.ranking.columns], args.report)
+    return _show(report, shown, args.report)
 
 
 def cmd_gap(args):

@@ -1099,7 +1099,8 @@ def _gap_cell(v):
 
 # The columns of the ranking the Markdown report shows (the rest is in
 # ranking.csv): the held-out evidence that decides, the in-sample test and
-# the fitted value.
+# the fitted value; a terminal shows them without RANKING_DETAIL.
+RANKING_DETAIL = ("runs_improved", "n_runs", "white_after", "fitted")
 RANKING_SHOWN = (
     "effect",
     "gap_before",
