@@ -116,10 +116,14 @@ class RunStream:
             self.mode_ = "history"
         else:
             self.mode_ = "static"
-        self.runs_ = []
         self._spans = {}  # label -> [first time_s, last time_s]
         self._history = {}
         self._said = set()
+
+    @property
+    def runs_(self):
+        """Labels of the runs the stream holds, in order of appearance."""
+        return list(self._spans)
 
     def predict(self, X, *, groups=None):
         """Predict a block of rows, continuing the runs of earlier blocks.
@@ -166,7 +170,6 @@ class RunStream:
         return self
 
     def _drop(self, lab):
-        self.runs_.remove(lab)
         del self._spans[lab]
         self._history.pop(lab, None)
         if self.mode_ == "incremental" and hasattr(self.model_, "forget_runs"):
@@ -182,7 +185,8 @@ class RunStream:
         # Each run's rows together, in the order the runs first appear.
         codes = pd.factorize(labels)[0]
         order = np.argsort(codes, kind="stable")
-        if np.any(order != np.arange(order.size)):
+        reordered = bool(np.any(order != np.arange(order.size)))
+        if reordered:
             X = X.iloc[order]
             labels, times = labels[order], times[order]
             groups = None if groups is None else np.asarray(groups)[order]
@@ -196,11 +200,8 @@ class RunStream:
                 self.model_.remember_runs(X, **kwargs)
         for lab in pd.unique(labels):
             mine = labels == lab
-            if lab not in self._spans:
-                self._spans[lab] = [times[mine][0], times[mine][-1]]
-                self.runs_.append(lab)
-            self._spans[lab][1] = times[mine][-1]
-        if np.any(order != np.arange(order.size)):
+            self._spans.setdefault(lab, [times[mine][0], None])[1] = times[mine][-1]
+        if reordered:
             back = np.empty_like(order)
             back[order] = np.arange(order.size)
             out = out.iloc[back] if hasattr(out, "iloc") else np.asarray(out)[back]

@@ -769,11 +769,14 @@ def measured_initial(machine, problem, p_soaked=0.0):
     # given: every candidate starts the run alike (each from its own warm
     # state).
     judge = machine.warm_probability
-    meta["warm"] = {
-        run.name: _reading_call(judge, meta, run, p_soaked=p_soaked)
-        for run in problem.runs
+    meta["warm"] = (
+        {
+            run.name: _reading_call(judge, meta, run, p_soaked=p_soaked)
+            for run in problem.runs
+        }
         if p_soaked > 0
-    }
+        else {}
+    )
     problem = replace(problem, meta=meta)
     runs = [
         replace(run, initial=_estimate(problem, run, machine)) for run in problem.runs

@@ -1336,8 +1336,8 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
             warnings.simplefilter("ignore", UserWarning)
             lags, (X_raw, X, slices, labels, cont) = self._continued(X, groups)
         memory = self.run_states_
-        updated = extend_memory(memory, X, slices, labels, X_raw, cont)
-        for sl, lab in zip(slices, updated, strict=True):
+        extend_memory(memory, X, slices, labels, X_raw, cont)
+        for sl, lab in zip(slices, labels, strict=True):
             if lab is not None:
                 memory[lab]["state"] = np.array([F[sl.stop - 1] for F in lags])
         return self

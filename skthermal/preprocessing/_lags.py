@@ -893,8 +893,8 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
             F, X_raw, _, (X_arr, slices, labels, cont) = self._continued(X, groups)
         memory = self.run_states_
         skip, end = self._state_columns(F.shape[1])
-        updated = extend_memory(memory, X_arr, slices, labels, X_raw, cont)
-        for sl, lab in zip(slices, updated, strict=True):
+        extend_memory(memory, X_arr, slices, labels, X_raw, cont)
+        for sl, lab in zip(slices, labels, strict=True):
             if lab is not None:
                 memory[lab]["state"] = F[sl.stop - 1, skip:end].copy()
         return self

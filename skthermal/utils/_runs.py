@@ -2310,15 +2310,13 @@ def extend_memory(memory, X, slices, labels, frame, cont):
     :func:`continued_runs`) keeps its first row, first time and period and
     takes the new last row and time, its row count and largest step grown;
     any other labelled run is remembered as :func:`run_memory` remembers a
-    training run (replacing what an earlier run of that label left).
-    Returns the labels updated, one per run (None for rows without labels,
-    which are never remembered); the model adds each run's end state.
+    training run (replacing what an earlier run of that label left). Rows
+    without labels are never remembered; the model adds each run's end
+    state.
     """
     new = run_memory(X, slices, labels, frame)
-    out = []
     for lab, old_lab in zip(labels, cont, strict=True):
         if lab is None:
-            out.append(None)
             continue
         entry = new[lab]
         if old_lab is not None:
@@ -2336,8 +2334,6 @@ def extend_memory(memory, X, slices, labels, frame, cont):
                 merged["max_step"] = np.maximum(old["max_step"], entry["max_step"])
             entry = merged
         memory[lab] = entry
-        out.append(lab)
-    return out
 
 
 def _estimators_in(value):
