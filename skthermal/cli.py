@@ -430,6 +430,11 @@ def _add_search(sub):
     )
     p.add_argument("--runs", metavar="FILE", required=True, help="run table")
     p.add_argument(
+        "--train-runs",
+        metavar="LIST",
+        help="runs to search and refit on (default all): the others stay held out",
+    )
+    p.add_argument(
         "--model",
         required=True,
         metavar="NAME",
@@ -466,7 +471,8 @@ def _add_search(sub):
     p.add_argument(
         "--save-model",
         metavar="FILE",
-        help="save the best model, refitted on all runs (as 'skthermal fit')",
+        help="save the best model, refitted on all (--train-runs) runs (as "
+        "'skthermal fit')",
     )
     p.set_defaults(func="_models:cmd_search")
 

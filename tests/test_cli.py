@@ -698,6 +698,24 @@ def test_search_runs_a_small_study(capsys, workdir):
     assert err.count("No best trial") == 1
 
 
+def test_search_keeps_runs_out_with_train_runs(capsys, workdir, tmp_path):
+    # Searching on some runs meant writing a second table.
+    import joblib
+
+    pytest.importorskip("optuna")
+    model = tmp_path / "best.joblib"
+    search = ["search", "--runs", workdir / "tests.csv", "--model", "grey-pso"]
+    search += ["--sensors", "T05_C,T40_C", "--trials", "1", "--save-model", model]
+    status, text, err = _run(capsys, *search, "--train-runs", "I,IV,extra")
+    assert status == 0, err
+    assert "3-fold CV over 3 runs" in text
+    assert joblib.load(model)["train_runs"] == ["I", "IV", "extra"]
+    status, _, err = _run(capsys, *search, "--train-runs", "V")
+    assert status == 2 and "has 1 run among --train-runs; the search" in err, err
+    status, _, err = _run(capsys, *search, "--train-runs", "VI")
+    assert status == 2 and "run(s) ['VI'] are not in the table" in err, err
+
+
 def test_search_shows_no_password(capsys, workdir):
     # The banner printed the URL as given while the error below hid it.
     pytest.importorskip("optuna")
@@ -1346,6 +1364,20 @@ def test_evaluate_names_the_run_and_time_of_a_non_finite_prediction(
             err,
         ), err
         assert "Warning" not in err
+
+
+def test_evaluate_refuses_an_absurd_prediction(capsys, tmp_path, predictions):
+    # A prediction of 1e300 was scored: NSE 0.00 and 300-digit figures.
+    runs, table = predictions
+    table = table.copy()
+    table.loc[(table["run"] == "V") & (table["time_s"] == 480.0), "pred_disp_y_um"] = (
+        1e300
+    )
+    bad = tmp_path / "bad.csv"
+    table.to_csv(bad, index=False)
+    status, _, err = _run(capsys, "evaluate", "--runs", runs, "--predictions", bad)
+    assert status == 2 and err.count("\n") == 1, err
+    assert "holds 1e+300 at run 'V', time_s 480.0 (1 such row(s)): no " in err, err
 
 
 def test_evaluate_names_a_prediction_that_is_not_a_number(

@@ -1327,6 +1327,31 @@ def test_sensors_in_fahrenheit_warn():
         validate_runs(celsius)  # one hot part (50-52 °C) beside a cool one
 
 
+def test_readings_no_machine_gives_warn():
+    # One 1e6 °C reading passed without a word, and an unguarded model's
+    # prediction at that row was a correction of 1.4 m.
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(table)
+    hot = table.copy()
+    hot.loc[1, "T1_C"] = 1e6
+    with pytest.warns(
+        UserWarning,
+        match=r"Column 'T1_C' holds 1e\+06 at run 'A', time_s 15.0 \(row 1\): no "
+        r"machine tool reads a temperature beyond 500 °C",
+    ):
+        validate_runs(hot)
+    far = table.copy()
+    far["disp_y_um"] = [0.0, -2e4, 3e4]
+    with pytest.warns(
+        UserWarning,
+        match=r"'disp_y_um' holds -20000 at run 'A', time_s 15.0 \(row 1\) \(2 "
+        r"such rows in all\): .* beyond 10000 µm in magnitude",
+    ):
+        validate_runs(far)
+
+
 def test_runs_that_start_before_zero_warn():
     # A run from -5000 s passed silently; one from +3600 s was warned about.
     t = np.arange(0.0, 4 * 3600.0, 60.0)

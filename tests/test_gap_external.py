@@ -433,6 +433,47 @@ def test_a_gap_within_the_noise_names_no_effect(rng):
     assert "is within the noise (floor" in report.verdict()
 
 
+def test_a_glitch_does_not_swamp_the_noise_floor(pair):
+    # One glitch of one sample in one channel took the noise floor, and with
+    # it the verdict, from "3.1 times the noise floor" to "within the noise"
+    # without a word; in the simulated table it added millions of percent.
+    sim, meas = pair
+    clean = diagnose_runs(sim, meas, candidates=["sensor_lag"])
+    row = meas.index[meas["run"] == "r1"][30]
+    for table, label in ((meas, "measured"), (sim, "simulated")):
+        broken = table.copy()
+        broken.loc[row, "T2_C"] += 1e6
+        args = (sim, broken) if label == "measured" else (broken, meas)
+        with pytest.warns(
+            UserWarning, match=rf"of run 'r1' of the {label} table .* T2_C = "
+        ):
+            report = diagnose_runs(*args, candidates=["sensor_lag"])
+        assert report.noise_floor == pytest.approx(clean.noise_floor, rel=0.01)
+        np.testing.assert_allclose(
+            report.ranking["gap_before"], clean.ranking["gap_before"], rtol=0.01
+        )
+
+
+def test_blocks_shorter_than_a_few_samples_are_refused(pair):
+    # block_hours below a sampling period raised an AssertionError about
+    # duplicate block labels; a little above it, "Run 'r0[0-0 s]' has 0
+    # samples", a block that does not exist.
+    sim, meas = pair
+    one = meas["run"] == "r0"
+    for hours in (0.001, 0.1):
+        with pytest.raises(
+            ValueError,
+            match=r"block_hours=.* cuts run 'r0' \(120 samples, every 60 s\) "
+            r"into \d+ blocks; a block needs at least 8 samples: give "
+            r"block_hours of at least 0\.2\.",
+        ):
+            diagnose_runs(sim[sim["run"] == "r0"], meas[one], block_hours=hours)
+    report = diagnose_runs(
+        sim[sim["run"] == "r0"], meas[one], block_hours=0.2, candidates=["sensor_lag"]
+    )
+    assert report.ranking.shape[0] == 1
+
+
 def test_empty_tables_and_missing_values(pair):
     sim, meas = pair
     with pytest.raises(ValueError, match="simulated run table is empty"):

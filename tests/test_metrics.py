@@ -1,5 +1,7 @@
 """Tests of skthermal.metrics: hand-computed values, input checks and scorers."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -60,6 +62,21 @@ def test_nse_equals_r2_and_mean_prediction_scores_zero(rng):
         r2_score(y, p, multioutput="raw_values"),
     )
     assert nash_sutcliffe(y[:, 0], np.full(50, y[:, 0].mean())) == pytest.approx(0.0)
+
+
+def test_nse_falls_with_the_size_of_a_miss():
+    # One prediction of 1e300 scored 0.0 (better than a miss of 1e100), one
+    # of 1e160 -inf with numpy's overflow warning.
+    y = np.linspace(0.0, 5.0, 61)
+    scores = []
+    for miss in (10.0, 1e10, 1e100, 1e160, 1e300):
+        p = y.copy()
+        p[5] = miss
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            scores.append(nash_sutcliffe(y, p))
+    assert scores == sorted(scores, reverse=True) and scores[-2:] == [-np.inf] * 2
+    assert scores[2] == pytest.approx(1 - 1e200 / np.sum((y - y.mean()) ** 2))
 
 
 def test_pearson_matches_numpy_and_sign(rng):

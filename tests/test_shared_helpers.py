@@ -118,3 +118,29 @@ def test_make_sensor_groups_rejects_too_few_samples():
         random_state=0,
     )
     assert runs.shape == (12, 4) and truth.tolist() == [0]
+
+
+def test_find_spikes_takes_single_sample_glitches_only():
+    from skthermal.utils._spikes import find_spikes, repair_spikes
+
+    rng = np.random.default_rng(0)
+    t = np.arange(600.0)
+    smooth = 5.0 * (1.0 - np.exp(-t / 150.0)) + rng.normal(0, 0.02, t.size)
+    y = np.column_stack([smooth] * 5)
+    y[300, 0] += 3.0  # a glitch
+    y[300:, 1] += 3.0  # a step that stays
+    y[300:, 2] += 0.5 * (t[300:] - 300.0)  # a change of slope
+    y[:, 3] = np.round(y[:, 3] / 0.1) * 0.1  # quantised readings
+    y[0, 4] += 3.0  # the first sample has one neighbour
+    found = find_spikes(y)
+    assert list(zip(*np.nonzero(found), strict=True)) == [(300, 0)]
+    # A glitch in a channel that is otherwise constant at its quantum.
+    flat = np.full(50, 20.0)
+    flat[::7] += 0.1
+    flat[20] = 70.0
+    assert np.flatnonzero(find_spikes(flat)).tolist() == [20]
+    assert not find_spikes(np.zeros((2, 3))).any()
+    with pytest.warns(UserWarning, match=r"T1_C = 7\.\d+ at time_s 300 \(\+3\.0"):
+        fixed = repair_spikes(y, ["T1_C", "b", "c", "d", "e"], t, "r1")
+    assert fixed[300, 0] == pytest.approx(0.5 * (y[299, 0] + y[301, 0]))
+    assert np.array_equal(np.delete(fixed, 300, 0), np.delete(y, 300, 0))

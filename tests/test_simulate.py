@@ -989,6 +989,24 @@ def test_calibration_flags_time_in_hours():
         machine.calibrate(runs.assign(time_s=runs["time_s"] / 3600), ["q.bearing_W"])
 
 
+def test_calibration_repairs_a_glitch_and_flags_air_in_fahrenheit():
+    # One 1e6 µm sample drove the bearing loss to its bound without a word;
+    # air in Fahrenheit passed as °C.
+    truth = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = truth.simulate(DutyCycle([(7200, 4000)]), sample_period_s=120, noise=False)
+    broken = runs.copy()
+    broken.loc[20, "disp_ch1_um"] = 1e6
+    model = truth.with_params({"q.bearing_W": 0.7 * truth.params["q.bearing_W"]})
+    kw = {"channels": ["disp_ch1_um"], "initial": "ambient"}
+    _, clean = model.calibrate(runs, ["q.bearing_W"], **kw)
+    with pytest.warns(UserWarning, match=r"disp_ch1_um = 1e\+06 at time_s 2400"):
+        _, result = model.calibrate(broken, ["q.bearing_W"], **kw)
+    np.testing.assert_allclose(result.params, clean.params, rtol=1e-3)
+    fahrenheit = runs.assign(ambient_C=runs["ambient_C"] * 1.8 + 32)
+    with pytest.warns(UserWarning, match=r"ambient_C' reads .* in Fahrenheit\?"):
+        model.calibrate(fahrenheit, ["q.bearing_W"], **kw)
+
+
 def test_a_channel_that_barely_moves_does_not_bend_the_calibration():
     # disp_x of this test is noise around zero (0.4 µm against 19 and 4.5
     # µm): scaled by its own spread, it weighed as much as disp_y and the fit

@@ -231,6 +231,23 @@ def test_a_block_given_twice_or_out_of_order_is_refused(data, how):
     np.testing.assert_allclose(np.concatenate(again), whole, atol=1e-9)
 
 
+def test_a_label_of_another_type_is_said(data):
+    # Run 1 given on as "1" restarted the run, said only as a late start.
+    _, _, lag, new = data
+    run = new[new["run"] == "c"].assign(run=1)
+    stream = RunStream(lag)
+    stream.predict(run.iloc[:10])
+    with pytest.warns(UserWarning, match=r"Run '1' \(str\) is new to the stream, "):
+        stream.predict(run.iloc[10:20].assign(run="1"))
+    assert stream.runs_ == [1, "1"]
+    stream = RunStream(lag)
+    stream.predict(run.iloc[:10])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        stream.predict(run.iloc[10:20].assign(run=1.0))  # equal to 1: run 1
+    assert stream.runs_ == [1]
+
+
 def test_forget_frees_a_run(data):
     X, y, _, new = data
     guard = GuardedRegressor(TransferFunctionRegressor()).fit(X, y)

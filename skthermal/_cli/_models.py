@@ -27,6 +27,7 @@ from skthermal._cli._common import (
     run_mask,
     write_table,
 )
+from skthermal.utils._runs import MAX_MAGNITUDE
 
 MODEL_FORMAT = "skthermal-model"
 
@@ -664,6 +665,14 @@ def cmd_evaluate(args):
                 "prediction); every scored row needs one: predict that run again "
                 "or leave it out."
             )
+        huge = np.flatnonzero(np.abs(pred) > MAX_MAGNITUDE)
+        if huge.size:
+            raise UserError(
+                f"Column {col!r} of {args.predictions or args.runs} holds "
+                f"{pred[huge[0]]:g} at {_row(data, int(huge[0]))} ({huge.size} "
+                f"such row(s)): no thermal error comes near {MAX_MAGNITUDE:g} µm, "
+                "a broken model or a corrupt file."
+            )
     labels = data["run"].to_numpy()
     table = score_runs(data[target], pred, labels)
     mean = {"run": "mean", "n_samples": int(table["n_samples"].sum())}
@@ -679,7 +688,10 @@ def cmd_evaluate(args):
     table = pd.concat([table, pd.DataFrame([mean]), pooled], ignore_index=True)
     shown = table.copy()
     for c in METRIC_COLUMNS:
-        shown[c] = [f"{v:.2f}" if np.isfinite(v) else "—" for v in table[c]]
+        shown[c] = [
+            "—" if not np.isfinite(v) else f"{v:.2f}" if abs(v) < 1e6 else f"{v:.3g}"
+            for v in table[c]
+        ]
     caption = (
         f"{target}: measured vs predicted change since the start of each run "
         "(residual: max |error|; mean row: the mean over runs, each counting "
@@ -726,6 +738,7 @@ def cmd_search(args):
     optuna = require("optuna", extra="optuna", command="search")
     df = read_table(args.runs)
     target = pick_target(df, args.target, args.runs)
+    df = df[run_mask(df, args.train_runs)]
     if args.sensors:
         sensors = read_sensor_list(args.sensors, df)
         X, y, groups = split_runs(df, sensors=sensors, targets=target)
@@ -740,8 +753,9 @@ def cmd_search(args):
     n_runs = len(pd.unique(groups))
     if n_runs < 2:
         raise UserError(
-            f"{args.runs} has {n_runs} run; the search cross-validates over runs "
-            "and needs at least 2."
+            f"{args.runs} has {n_runs} run"
+            + (" among --train-runs" if args.train_runs else "")
+            + "; the search cross-validates over runs and needs at least 2."
         )
     study_name = args.study_name
     if args.storage and not study_name:

@@ -216,6 +216,17 @@ class RunStream:
             t0 = times[labels == lab][0]
             span = self._spans.get(lab)
             if span is None:
+                like = [k for k in self._spans if str(k) == str(lab)]
+                if like:
+                    warnings.warn(
+                        f"Run {lab!r} ({type(lab).__name__}) is new to the "
+                        f"stream, which holds run {like[0]!r} "
+                        f"({type(like[0]).__name__}): labels of another type are "
+                        "another run, which starts at this block's first row. "
+                        "Give the labels of every block one type.",
+                        UserWarning,
+                        stacklevel=4,
+                    )
                 new.add(lab)
             elif t0 <= span[1]:
                 if t0 in (0.0, span[0]):  # the run again from its start

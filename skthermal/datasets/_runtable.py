@@ -24,15 +24,14 @@ from skthermal._naming import (
 from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import (
     ABSOLUTE_ZERO_C,
-    AIR_RANGE_C,
     DECIMAL_COMMA,
     DRIVER_RULE,
     MAX_MAGNITUDE,
-    air_unit_guess,
     check_frame,
     check_labels,
     driver_lookalike,
     unreadable,
+    warn_air_unit,
     warn_odd_times,
 )
 from skthermal.utils._warnings import user_stacklevel
@@ -572,6 +571,7 @@ def check_run_table(
     _check_ranges(df, everything, values)
     _warn_air_unit(df)
     _warn_kelvin_sensors(df, everything, values)
+    _warn_impossible_readings(df, everything, values)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
@@ -634,28 +634,10 @@ def warn_implausible(df, late_start=True):
 
 
 def _warn_air_unit(df):
-    """Warn when ``ambient_C`` lies outside what workshop air (or a climate
-    chamber) reads in °C (Fahrenheit reads 60-90, kelvin about 293): the
-    simulator and the gap diagnosis take it as °C."""
-    if "ambient_C" not in df.columns:
-        return
-    air = _as_float(df, ["ambient_C"])[:, 0]
-    air = air[np.isfinite(air)]
-    if not air.size:
-        return
-    low, high = AIR_RANGE_C
-    if air.min() >= low and air.max() <= high:
-        return
-    k = int(np.argmax(np.abs(air - np.clip(air, low, high))))
-    guess = air_unit_guess(air[k])
-    warnings.warn(
-        f"Column 'ambient_C' reads {air[k]:g} (range {air.min():g} to "
-        f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air "
-        f"and climate chambers: "
-        f"{guess} It is read as °C (simulation, gap diagnosis).",
-        UserWarning,
-        stacklevel=user_stacklevel(),
-    )
+    """Warn when ``ambient_C`` is in another unit than °C
+    (:func:`~skthermal.utils._runs.warn_air_unit`)."""
+    if "ambient_C" in df.columns:
+        warn_air_unit(_as_float(df, ["ambient_C"])[:, 0])
 
 
 # No machine-tool structure reads this much in °C at every sample (bearings
@@ -694,6 +676,42 @@ def _warn_kelvin_sensors(df, columns, values):
         UserWarning,
         stacklevel=user_stacklevel(),
     )
+
+
+# Hotter than any machine-tool structure or its sensors (°C), and a larger
+# thermal error than any machine tool shows (µm): a glitch or a corrupt value.
+_HOTTEST_C = 500.0
+_LARGEST_ERROR_UM = 10_000.0
+
+
+def _warn_impossible_readings(df, columns, values):
+    """Warn naming the column, run and row of the first temperature above
+    :data:`_HOTTEST_C` and the first displacement beyond
+    :data:`_LARGEST_ERROR_UM` in magnitude: no machine reads that, and a
+    model without a guard passes such a reading on to its correction."""
+    for kind, limit, unit, test in (
+        ("temperature", _HOTTEST_C, "°C", _is_temperature),
+        ("thermal displacement", _LARGEST_ERROR_UM, "µm in magnitude", _is_target),
+    ):
+        for j, name in enumerate(columns):
+            if not test(name):
+                continue
+            col = values[:, j]
+            with np.errstate(invalid="ignore"):
+                bad = np.flatnonzero(np.abs(col) > limit)
+            if not bad.size:
+                continue
+            warnings.warn(
+                f"Column {name!r} holds {col[bad[0]]:g} at {_where(df, bad[0])}"
+                + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
+                + f": no machine tool reads a {kind} beyond {limit:g} {unit}. A "
+                "glitch or a corrupt value? A model without a guard "
+                "(skthermal.compose.GuardedRegressor; skthermal fit --guard) "
+                "passes it on to its prediction.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+            break
 
 
 def _warn_fahrenheit_sensors(columns, values):

@@ -30,6 +30,7 @@ from skthermal.gap._evidence import (
 )
 from skthermal.gap._problem import (
     START_SAMPLES,
+    USED_FOR,
     MeasuredRun,
     Problem,
     block_spans,
@@ -82,6 +83,7 @@ from skthermal.utils._runs import (
     driver_lookalike_hint,
     warn_short_runs,
 )
+from skthermal.utils._spikes import repair_spikes
 from skthermal.utils._threads import with_single_threaded_blas
 from skthermal.utils._warnings import user_stacklevel
 
@@ -300,8 +302,22 @@ def _align(
                     f"simulated{where}; simulate the measured drivers."
                 )
             drivers[col] = m
-        y_meas = channel_values(meas, channels, t, name, "measured")
-        y_sim = channel_values(sim, sim_cols, ts, name, "simulated")
+        y_meas = repair_spikes(
+            channel_values(meas, channels, t, name, "measured"),
+            channels,
+            t,
+            name,
+            "measured",
+            USED_FOR,
+        )
+        y_sim = repair_spikes(
+            channel_values(sim, sim_cols, ts, name, "simulated"),
+            sim_cols,
+            ts,
+            name,
+            "simulated",
+            USED_FOR,
+        )
         if not same:
             y_sim = np.column_stack(
                 [np.interp(t, ts, y_sim[:, c]) for c in range(y_sim.shape[1])]
@@ -352,7 +368,7 @@ def _align(
                     driver_initial=driver_initial,
                 )
             )
-    noise = pooled_noise([frame for _, frame in meas_runs], channels)
+    noise = pooled_noise([row[3][:, keep] for row in out])
     return runs, channels, sim_cols, noise
 
 

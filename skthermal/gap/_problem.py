@@ -29,6 +29,7 @@ from skthermal.utils._runs import (
     is_clock_dtype,
     warn_short_runs,
 )
+from skthermal.utils._spikes import repair_spikes
 from skthermal.utils._warnings import user_stacklevel
 
 
@@ -68,6 +69,8 @@ def base_groups(machine):
 # first few compared samples, on both sides: relative to one sample, that
 # sample's noise would offset the whole run.
 START_SAMPLES = 5
+# What a glitch's repair is for, in its warning.
+USED_FOR = "the diagnosis (its gap and noise floor)"
 # The fewest samples a run (or block) needs in both modes: the start
 # reference and a few changes after it.
 MIN_SAMPLES = START_SAMPLES + 3
@@ -500,7 +503,8 @@ def build_problem(
         t = frame["time_s"].to_numpy(float)
         check_length(t.size, name)
         check_times(t, name)
-        read.append((name, frame, t, channel_values(frame, channels, t, name)))
+        y = channel_values(frame, channels, t, name)
+        read.append((name, frame, t, repair_spikes(y, channels, t, name, "", USED_FOR)))
     warn_implausible(runs)
     warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)
@@ -541,7 +545,7 @@ def build_problem(
                 )
             )
     Y = np.vstack([r.y for r in prepared])
-    noise = pooled_noise([frame for _, frame in frames], channels)
+    noise = pooled_noise([y[:, keep] for *_, y in read])
     scale, weight = group_scales(Y, is_disp)
     return Problem(prepared, channels, sim_channels, is_disp, scale, weight, noise)
 
@@ -602,6 +606,19 @@ def block_spans(t, name, block_hours):
     if block_hours is None or t[-1] - t[0] <= 1.5 * block_hours * 3600.0:
         return [(0, t.size, name)]
     n_blocks = int(round((t[-1] - t[0]) / (block_hours * 3600.0)))
+    if t.size < MIN_SAMPLES * n_blocks:
+        period = float(np.median(np.diff(t)))
+        # Blocks that hold MIN_SAMPLES however the span's division rounds
+        # (from 10 samples on), rounded up to 3 digits.
+        hours = (MIN_SAMPLES + 4) * period / 3600.0
+        digits = 2 - int(np.floor(np.log10(hours)))
+        need = np.ceil(hours * 10.0**digits) / 10.0**digits
+        raise ValueError(
+            f"block_hours={block_hours:g} ({block_hours * 3600.0:g} s) cuts run "
+            f"{name!r} ({t.size} samples, every {period:g} s) into {n_blocks} "
+            f"blocks; a block needs at least {MIN_SAMPLES} samples: give "
+            f"block_hours of at least {need:.3g}."
+        )
     edges = np.linspace(0, t.size, n_blocks + 1).astype(int)
     pairs = list(zip(edges[:-1], edges[1:], strict=True))
     bounds = [t[a] - t[0] for a, _ in pairs] + [t[-1] - t[0]]
@@ -615,7 +632,7 @@ def block_spans(t, name, block_hours):
         if close and all(float(x) < float(y) for x, y in zip(shown, shown[1:])):
             break
     else:
-        shown, unit = [f"{b:g}" for b in bounds], "s"
+        shown, unit = [f"{b:.12g}" for b in bounds], "s"
     labels = [f"{name}[{shown[k]}-{shown[k + 1]} {unit}]" for k in range(len(pairs))]
     if len(set(labels)) != len(labels):
         raise AssertionError(f"Duplicate block labels: {labels}")
@@ -652,15 +669,11 @@ def _hours(seconds, decimals):
     return text.rstrip("0").rstrip(".") if "." in text else text
 
 
-def pooled_noise(frames, channels):
+def pooled_noise(runs):
     """White-noise level of every channel, pooled over the runs' full-rate
-    measurements (``frames``: one DataFrame per run)."""
-    return np.sqrt(
-        np.mean(
-            [noise_floor(frame[channels].to_numpy(float)) ** 2 for frame in frames],
-            axis=0,
-        )
-    )
+    measurements (``runs``: one ``(n, channels)`` array per run, glitches
+    repaired)."""
+    return np.sqrt(np.mean([noise_floor(y) ** 2 for y in runs], axis=0))
 
 
 def group_scales(Y, is_disp):

@@ -246,10 +246,15 @@ def nash_sutcliffe(
     w = _sample_weights(sample_weight, y_true.shape[0])
     e = y_true - y_pred
     d = y_true - _weighted_mean(y_true, w)
-    # One scale for both sums per output: their ratio is unchanged.
-    _, scale = _unit_columns(np.vstack([e, d]))
-    sse = _weighted_mean(_unit_columns(e, scale)[0] ** 2, w)
-    sst = _weighted_mean(_unit_columns(d, scale)[0] ** 2, w)
+    # Each sum of squares on its own scale, and the ratio of the scales
+    # squared apart: with one scale for both, errors of 1e300 left the
+    # spread of the measured values underflowing to 0, a score of 0.
+    e, e_scale = _unit_columns(e)
+    d, d_scale = _unit_columns(d)
+    sse = _weighted_mean(e**2, w)
+    sst = _weighted_mean(d**2, w)
+    with np.errstate(over="ignore"):
+        sse = sse * (e_scale / d_scale) ** 2  # inf beyond float range: -inf
     return _aggregate(_ratio_score(sse, sst, force_finite), weights)
 
 

@@ -56,8 +56,10 @@ from skthermal.utils._runs import (
     check_run_label,
     check_unique_columns,
     is_clock_dtype,
+    warn_air_unit,
     warn_short_runs,
 )
+from skthermal.utils._spikes import repair_spikes
 from skthermal.utils._threads import (
     single_threaded_blas,
     with_single_threaded_blas,
@@ -2582,15 +2584,25 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         if from_readings
         else {}
     )
+    drivers = {run: _run_drivers(frame, run) for run, frame in groups}
+    warn_air_unit(
+        np.concatenate([d[2] for d in drivers.values()]), "simulation, calibration"
+    )
     measured = []
     for run, frame in groups:
-        y = frame[channels].to_numpy(float, copy=True)
+        # A glitch of one sample would pull the fit towards it.
+        y = repair_spikes(
+            frame[channels].to_numpy(float, copy=True),
+            channels,
+            drivers[run][0],
+            run,
+            used_for="the calibration",
+        )
         # Every channel is compared as its change since the start of the
         # run: displacements start at zero in the simulation, and a sensor's
         # calibration offset is not physics (compared as read, it would bend
         # the fitted parameters).
-        y -= y[0]
-        measured.append(y)
+        measured.append(y - y[0])
     # Each channel scaled by its own spread, so that every channel carrying
     # a signal has its say, but by no less than a quarter of the root mean
     # square spread of its kind (displacements, temperatures): scaled by its
@@ -2605,7 +2617,6 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             scale[kind] = np.maximum(spread[kind], floor)
     scale = np.where(scale > 0, scale, 1.0)
 
-    drivers = {run: _run_drivers(frame, run) for run, frame in groups}
     # The prior of the initial states spans the runs' own speeds and feeds.
     prior_range = {}
     warm = {}

@@ -505,6 +505,29 @@ def air_unit_guess(value):
     return "another unit, or a faulty sensor?"
 
 
+def warn_air_unit(air, used_by="simulation, gap diagnosis"):
+    """Warn when the workshop air readings ``air`` (``ambient_C``, any
+    shape) lie outside what workshop air (or a climate chamber) reads in °C
+    (Fahrenheit reads 60-90, kelvin about 293): ``used_by`` takes them as
+    °C."""
+    air = np.asarray(air, dtype=float).ravel()
+    air = air[np.isfinite(air)]
+    if not air.size:
+        return
+    low, high = AIR_RANGE_C
+    if air.min() >= low and air.max() <= high:
+        return
+    k = int(np.argmax(np.abs(air - np.clip(air, low, high))))
+    warnings.warn(
+        f"Column 'ambient_C' reads {air[k]:g} (range {air.min():g} to "
+        f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air "
+        f"and climate chambers: {air_unit_guess(air[k])} It is read as °C "
+        f"({used_by}).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
 def warn_odd_times(codes, times, late_start=True, minutes=True):
     """Warn when ``time_s`` (sorted by run ``codes``) looks like a clock's
     time (most runs start after 0) or like another unit than seconds: every
