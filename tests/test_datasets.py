@@ -643,6 +643,24 @@ def test_read_validates(tmp_path, runs):
     assert "T1_K" in read_runs(path, validate=False).columns
 
 
+@pytest.mark.parametrize(
+    "names, hint",
+    [
+        (["T_sp_front_C"], "('T_sp_front_C' -> 'Tsp_front_C'?)"),
+        (["t1_c", "t2_c"], "('t1_c' -> 'T1_C', 't2_c' -> 'T2_C'?)"),
+        (["Disp_Z_um"], "('Disp_Z_um' -> 'disp_Z_um'?)"),
+        (["s_ram_ue"], "('s_ram_ue' -> 'Sram_ue'?)"),
+        (["disp_x_mm"], "e.g. 'disp_y_um'"),  # another unit: no rename
+    ],
+)
+def test_a_name_off_by_its_separators_gets_its_rename(runs, names, hint):
+    # 'T_sp_front_C' was refused with the rule alone.
+    table = runs.drop(columns=["T1_C"]).assign(**dict.fromkeys(names, 20.0))
+    with pytest.raises(ValueError) as info:
+        validate_runs(table)
+    assert str(info.value).endswith(hint + "."), str(info.value)
+
+
 def test_write_validates(tmp_path, runs):
     path = tmp_path / "runs.csv"
     with pytest.raises(ValueError, match="'disp_y' looks like a displacement"):

@@ -1007,6 +1007,23 @@ def test_calibration_repairs_a_glitch_and_flags_air_in_fahrenheit():
         model.calibrate(fahrenheit, ["q.bearing_W"], **kw)
 
 
+def test_calibration_names_a_dead_channel_and_an_index_of_runs():
+    # A dead probe calibrated silently; run labels in the index were called
+    # missing.
+    rig = ThermalMachine.from_preset("spindle-rig", effects=[])
+    runs = rig.simulate(DutyCycle([(3600, 4000)]), sample_period_s=120, noise=False)
+    with pytest.warns(UserWarning, match=r"\['disp_ch1_um'\] are constant on every"):
+        rig.calibrate(
+            runs.assign(disp_ch1_um=0.0),
+            ["q.bearing_W"],
+            channels=["disp_ch1_um", "disp_ch2_um"],
+        )
+    with pytest.raises(
+        ValueError, match=r"\['run', 'time_s'\] are levels of its index: runs.re"
+    ):
+        rig.calibrate(runs.set_index(["run", "time_s"]), ["q.bearing_W"])
+
+
 def test_a_channel_that_barely_moves_does_not_bend_the_calibration():
     # disp_x of this test is noise around zero (0.4 µm against 19 and 4.5
     # µm): scaled by its own spread, it weighed as much as disp_y and the fit

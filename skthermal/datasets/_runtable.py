@@ -192,6 +192,30 @@ def _looks_like(name):
     return None
 
 
+# A column that breaks a naming rule only in its separators or case:
+# (kind, its start to drop, its end to drop, the rule's start and end, valid).
+_RENAMES = (
+    ("a temperature sensor", "t", "_c", "T", "_C", _is_temperature),
+    ("a strain sensor", "s", "_ue", "S", "_ue", _is_strain),
+    ("a displacement", "disp", "_um", "disp_", "_um", _is_target),
+)
+
+
+def _renamed(name, kind):
+    """The name ``name`` (meant for ``kind``) has under its naming rule when
+    only its separators or the case of its marks are off (``T_sp_front_C``:
+    ``Tsp_front_C``), else None."""
+    lower = name.strip().lower()
+    for meant, head, tail, start, end, valid in _RENAMES:
+        if kind != meant or not (lower.startswith(head) and lower.endswith(tail)):
+            continue
+        core = name.strip()[len(head) : len(name.strip()) - len(tail)]
+        core = re.sub(r"[^A-Za-z0-9]+", "_", core).strip("_")
+        candidate = f"{start}{core}{end}"
+        return candidate if core and valid(candidate) else None
+    return None
+
+
 def _where(df, pos):
     """``run 'a', time_s 30.0 (row 2)`` for the row at position ``pos``."""
     parts = []
@@ -227,14 +251,21 @@ def check_column_names(columns, *, table="Run table", exempt=()):
             broken.setdefault(hit, []).append(name)
     problems = []
     for (kind, expected), names in broken.items():
+        renames = {n: _renamed(n, kind) for n in names[:4]}
+        renames = {n: r for n, r in renames.items() if r is not None}
+        hint = ""
+        if renames:
+            hint = " (" + ", ".join(f"{n!r} -> {r!r}" for n, r in renames.items())
+            hint += "?)"
         if len(names) == 1:
-            problems.append(f"{names[0]!r} looks like {kind} but {expected}")
+            problems.append(f"{names[0]!r} looks like {kind} but {expected}{hint}")
             continue
         shown = ", ".join(repr(n) for n in names[:4])
         more = f" and {len(names) - 4} more" if len(names) > 4 else ""
         kinds = kind[2:] + "s" if kind.startswith("a ") else kind
         problems.append(
-            f"{shown}{more} ({len(names)} columns) look like {kinds} but {expected}"
+            f"{shown}{more} ({len(names)} columns) look like {kinds} but "
+            f"{expected}{hint}"
         )
     if problems:
         raise ValueError(

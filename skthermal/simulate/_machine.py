@@ -2512,7 +2512,15 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
 
     check_unique_columns(runs)
     if "run" not in runs.columns:
-        raise ValueError("The run table has no 'run' column.")
+        levels = [n for n in runs.index.names if n in ("run", "time_s")]
+        raise ValueError(
+            "The run table has no 'run' column"
+            + (
+                f"; {levels} are levels of its index: runs.reset_index()."
+                if "run" in levels
+                else "."
+            )
+        )
     if len(runs) == 0:
         raise ValueError("The run table is empty (no rows).")
     # A row without a label would be left out of every run (groupby drops
@@ -2603,6 +2611,21 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         # calibration offset is not physics (compared as read, it would bend
         # the fitted parameters).
         measured.append(y - y[0])
+    dead = [
+        c
+        for c, flat in zip(
+            channels, np.all([np.ptp(y, axis=0) == 0 for y in measured], axis=0)
+        )
+        if flat
+    ]
+    if dead:
+        warnings.warn(
+            f"calibrate: the channel(s) {dead} are constant on every run (a "
+            "dead or unplugged probe?): the fit takes them as a machine that "
+            "does not move there; leave them out (channels=).",
+            UserWarning,
+            stacklevel=4,
+        )
     # Each channel scaled by its own spread, so that every channel carrying
     # a signal has its say, but by no less than a quarter of the root mean
     # square spread of its kind (displacements, temperatures): scaled by its
