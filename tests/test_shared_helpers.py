@@ -121,7 +121,7 @@ def test_make_sensor_groups_rejects_too_few_samples():
 
 
 def test_find_spikes_takes_single_sample_glitches_only():
-    from skthermal.utils._spikes import find_spikes, repair_spikes
+    from skthermal.utils._faults import find_spikes, repair_spikes
 
     rng = np.random.default_rng(0)
     t = np.arange(600.0)

@@ -43,7 +43,6 @@ from skthermal.gap._problem import (
     check_times,
     drift_table,
     driver_values,
-    flat_columns,
     floor_squared,
     group_scales,
     is_channel,
@@ -77,13 +76,13 @@ from skthermal.gap._terms import (
     Signals,
     flexible_heldout,
 )
+from skthermal.utils._faults import flat_columns, repair_spikes
 from skthermal.utils._runs import (
     check_labels,
     check_unique_columns,
     driver_lookalike_hint,
     warn_short_runs,
 )
-from skthermal.utils._spikes import repair_spikes
 from skthermal.utils._threads import with_single_threaded_blas
 from skthermal.utils._warnings import user_stacklevel
 

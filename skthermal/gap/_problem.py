@@ -21,6 +21,7 @@ from scipy.optimize import least_squares
 from skthermal._naming import closest, shown, suggest
 from skthermal.datasets._runtable import check_column_names, warn_implausible
 from skthermal.simulate import EFFECTS
+from skthermal.utils._faults import flat_columns, repair_spikes
 from skthermal.utils._runs import (
     MAX_MAGNITUDE,
     check_labels,
@@ -29,7 +30,6 @@ from skthermal.utils._runs import (
     is_clock_dtype,
     warn_short_runs,
 )
-from skthermal.utils._spikes import repair_spikes
 from skthermal.utils._warnings import user_stacklevel
 
 
@@ -306,11 +306,6 @@ def check_channel_names(channels):
             f"Channel(s) {twice} are given more than once in channels=; give "
             "each compared channel once."
         )
-
-
-def flat_columns(Y):
-    """Columns of ``Y`` that do not change (to rounding)."""
-    return np.ptp(Y, axis=0) <= 1e-12 * np.maximum(1.0, np.max(np.abs(Y), axis=0))
 
 
 def measured_varying(Ys, channels, explicit, stacklevel=5):

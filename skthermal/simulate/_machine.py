@@ -48,6 +48,7 @@ from skthermal.simulate._spec import (
     parameter_entry,
     parameter_range,
 )
+from skthermal.utils._faults import flat_columns, repair_spikes
 from skthermal.utils._runs import (
     ABSOLUTE_ZERO_C,
     check_finite_columns,
@@ -59,7 +60,6 @@ from skthermal.utils._runs import (
     warn_air_unit,
     warn_short_runs,
 )
-from skthermal.utils._spikes import repair_spikes
 from skthermal.utils._threads import (
     single_threaded_blas,
     with_single_threaded_blas,
@@ -2611,13 +2611,8 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         # calibration offset is not physics (compared as read, it would bend
         # the fitted parameters).
         measured.append(y - y[0])
-    dead = [
-        c
-        for c, flat in zip(
-            channels, np.all([np.ptp(y, axis=0) == 0 for y in measured], axis=0)
-        )
-        if flat
-    ]
+    flat = np.all([flat_columns(y) for y in measured], axis=0)
+    dead = [c for c, f in zip(channels, flat, strict=True) if f]
     if dead:
         warnings.warn(
             f"calibrate: the channel(s) {dead} are constant on every run (a "

@@ -1,4 +1,4 @@
-"""Single-sample glitches of measured channels.
+"""Faults of measured channels: single-sample glitches and dead probes.
 
 A data logger's glitch (a bad conversion, a loose plug for one sample, a
 corrupt line of a file) puts one sample far from its neighbours. Thermal
@@ -24,6 +24,12 @@ SPIKE_FACTOR = 10.0
 # The usual step: the root mean square of the smallest 90% of a channel's
 # absolute first differences (a glitch makes two large ones).
 _STEP_SHARE = 0.9
+
+
+def flat_columns(Y):
+    """Columns of ``Y`` (``(n, k)``) that do not change (to rounding): a dead
+    or unplugged probe when it holds for every run."""
+    return np.ptp(Y, axis=0) <= 1e-12 * np.maximum(1.0, np.max(np.abs(Y), axis=0))
 
 
 def find_spikes(y):
