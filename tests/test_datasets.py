@@ -649,7 +649,13 @@ def test_read_validates(tmp_path, runs):
         (["T_sp_front_C"], "('T_sp_front_C' -> 'Tsp_front_C'?)"),
         (["t1_c", "t2_c"], "('t1_c' -> 'T1_C', 't2_c' -> 'T2_C'?)"),
         (["Disp_Z_um"], "('Disp_Z_um' -> 'disp_Z_um'?)"),
+        (
+            ["DISP_Z_UM", "disp-x-um"],
+            "('DISP_Z_UM' -> 'disp_z_um', 'disp-x-um' -> 'disp_x_um'?)",
+        ),
+        (["T-1-C"], "('T-1-C' -> 'T1_C'?)"),
         (["s_ram_ue"], "('s_ram_ue' -> 'Sram_ue'?)"),
+        (["S05"], "e.g. 'Sram1_ue'"),  # dropped from the sensors before
         (["disp_x_mm"], "e.g. 'disp_y_um'"),  # another unit: no rename
     ],
 )
@@ -1357,17 +1363,22 @@ def test_readings_no_machine_gives_warn():
     with pytest.warns(
         UserWarning,
         match=r"Column 'T1_C' holds 1e\+06 at run 'A', time_s 15.0 \(row 1\): no "
-        r"machine tool reads a temperature beyond 500 °C",
+        r"machine tool reads a temperature above 500 °C",
     ):
         validate_runs(hot)
     far = table.copy()
-    far["disp_y_um"] = [0.0, -2e4, 3e4]
+    far["disp_y_um"] = [0.0, 1.0, 2e4]
+    far = pd.concat([far, far], ignore_index=True).assign(run=["A"] * 3 + ["B"] * 3)
     with pytest.warns(
         UserWarning,
-        match=r"'disp_y_um' holds -20000 at run 'A', time_s 15.0 \(row 1\) \(2 "
-        r"such rows in all\): .* beyond 10000 µm in magnitude",
+        match=r"'disp_y_um' holds 20000 at run 'A', time_s 30.0 \(row 2\) \(2 "
+        r"such rows in all\): .* further from its median than 10000 µm",
     ):
         validate_runs(far)
+    # A probe read with an offset of 10 mm is no fault.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(table.assign(disp_y_um=table["disp_y_um"] + 10_500.0))
 
 
 def test_runs_that_start_before_zero_warn():

@@ -77,6 +77,12 @@ def test_nse_falls_with_the_size_of_a_miss():
             scores.append(nash_sutcliffe(y, p))
     assert scores == sorted(scores, reverse=True) and scores[-2:] == [-np.inf] * 2
     assert scores[2] == pytest.approx(1 - 1e200 / np.sum((y - y.mean()) ** 2))
+    # No error scores 1, however tiny the values or large an unweighted miss.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert nash_sutcliffe(1e-200 * y, 1e-200 * y) == 1.0
+        miss = y + np.r_[1e200, np.zeros(60)]
+        assert nash_sutcliffe(y, miss, sample_weight=np.r_[0, np.ones(60)]) == 1.0
 
 
 def test_pearson_matches_numpy_and_sign(rng):

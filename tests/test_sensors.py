@@ -624,6 +624,17 @@ def test_extractor_run_label_and_strip_spots():
     assert len(strip.spots_) == 2
 
 
+def test_correct_fbg_strain_refuses_series_in_another_order():
+    # A temperature log sorted otherwise than the strain file was paired by
+    # position: [0, 38.64, 112.48] instead of [0, 12.72, 17.44].
+    raw = pd.Series([0.0, 30.0, 52.0])
+    temp = pd.Series([20.0, 22.0, 24.0])
+    with pytest.raises(ValueError, match="raw_ue and temperature_C are pandas obj"):
+        correct_fbg_strain(raw, temp.iloc[::-1])
+    got = correct_fbg_strain(raw, temp)
+    np.testing.assert_allclose(got, [0.0, 12.72, 17.44])
+
+
 def test_fbg_groups_with_a_reference_temperature_warn():
     # They were ignored without a word.
     with pytest.warns(UserWarning, match="groups are not used with a reference_C"):

@@ -120,27 +120,54 @@ def test_make_sensor_groups_rejects_too_few_samples():
     assert runs.shape == (12, 4) and truth.tolist() == [0]
 
 
-def test_find_spikes_takes_single_sample_glitches_only():
-    from skthermal.utils._faults import find_spikes, repair_spikes
+def test_find_spikes_takes_glitches_only():
+    from skthermal.utils._faults import find_spikes, flat_columns, repair_spikes
 
     rng = np.random.default_rng(0)
     t = np.arange(600.0)
     smooth = 5.0 * (1.0 - np.exp(-t / 150.0)) + rng.normal(0, 0.02, t.size)
-    y = np.column_stack([smooth] * 5)
+    y = np.column_stack([smooth] * 8)
     y[300, 0] += 3.0  # a glitch
     y[300:, 1] += 3.0  # a step that stays
     y[300:, 2] += 0.5 * (t[300:] - 300.0)  # a change of slope
-    y[:, 3] = np.round(y[:, 3] / 0.1) * 0.1  # quantised readings
-    y[0, 4] += 3.0  # the first sample has one neighbour
-    found = find_spikes(y)
-    assert list(zip(*np.nonzero(found), strict=True)) == [(300, 0)]
-    # A glitch in a channel that is otherwise constant at its quantum.
+    y[:, 3] = np.round(y[:, 3] / 0.1) * 0.1  # quantised readings: flicker
+    y[0, 4] += 3.0  # the first sample
+    y[300, 5] += 3.0  # two in a row, of either sign
+    y[301, 5] -= 3.0
+    y[::20, 6] += 3.0  # a periodic excursion: the channel's own
+    y[450, 7] -= 3.0  # at a driver's change: a real event
+    drivers = np.where(t < 450, 0.0, 2000.0)
+    found = find_spikes(y, drivers)
+    assert list(zip(*np.nonzero(found), strict=True)) == [
+        (0, 4),
+        (300, 0),
+        (300, 5),
+        (301, 5),
+    ]
+    assert find_spikes(y)[450, 7]  # without the drivers, a glitch
+    # A run that starts running rises fastest at its first sample.
+    assert not find_spikes(y, drivers, running=drivers > -1)[0].any()
+    # A quantised reading's rare flicker is none; on a reading that never
+    # changes, a glitch is not told by its size, and the channel is dead.
     flat = np.full(50, 20.0)
-    flat[::7] += 0.1
+    flat[20] = 20.125
+    assert not find_spikes(flat).any()
     flat[20] = 70.0
-    assert np.flatnonzero(find_spikes(flat)).tolist() == [20]
+    assert flat_columns(flat[:, None]) and not flat_columns(y[:, :1])
     assert not find_spikes(np.zeros((2, 3))).any()
+    # A spindle start: the probe's instant centrifugal step, then growth of
+    # the other sign. Its samples around the step do not agree.
+    u = (t >= 300).astype(float)
+    growth = 3.0 * (1.0 - np.exp(-np.clip(t - 300.0, 0, None) / 20.0))
+    assert not find_spikes(-2.0 * u + growth).any()
     with pytest.warns(UserWarning, match=r"T1_C = 7\.\d+ at time_s 300 \(\+3\.0"):
-        fixed = repair_spikes(y, ["T1_C", "b", "c", "d", "e"], t, "r1")
+        fixed = repair_spikes(y, ["T1_C", *"bcdefgh"], t, "r1", drivers=drivers)
+    # On a straight line between the samples around them.
     assert fixed[300, 0] == pytest.approx(0.5 * (y[299, 0] + y[301, 0]))
-    assert np.array_equal(np.delete(fixed, 300, 0), np.delete(y, 300, 0))
+    np.testing.assert_allclose(
+        fixed[300:302, 5], y[299, 5] + (y[302, 5] - y[299, 5]) * np.r_[1, 2] / 3
+    )
+    assert fixed[0, 4] == y[1, 4]
+    keep = np.ones(600, dtype=bool)
+    keep[[0, 300, 301]] = False
+    assert np.array_equal(fixed[keep], y[keep])

@@ -241,6 +241,10 @@ def test_a_label_of_another_type_is_said(data):
         stream.predict(run.iloc[10:20].assign(run="1"))
     assert stream.runs_ == [1, "1"]
     stream = RunStream(lag)
+    stream.predict(run.iloc[:10].assign(run=1.0))
+    with pytest.warns(UserWarning, match=r"Run '1' \(str\) .* holds run 1\.0 \("):
+        stream.predict(run.iloc[10:20].assign(run="1"))
+    stream = RunStream(lag)
     stream.predict(run.iloc[:10])
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -87,6 +87,22 @@ def test_decomposition_matches_pandas_inputs_by_their_index():
         decompose_turning_error([], D_pp=[])
 
 
+def test_pandas_inputs_of_other_lengths_or_order_are_refused():
+    # Series paired by position: the same labels in another order gave
+    # slopes [0.0, -0.1] instead of [0.1, 0.0]; two lengths were called
+    # "different indexes" over two identical heads.
+    L = pd.Series([10.0, 20.0, 30.0, 10.0, 20.0])
+    d = pd.Series([1.0, 2.0, 3.0, 5.0, 5.0])
+    parts = [1, 1, 1, 2, 2]
+    with pytest.raises(ValueError, match="L_mm and d_um are pandas objects with dif"):
+        fit_error_lines(L, d.iloc[::-1], parts)
+    lines = fit_error_lines(L, d, parts)
+    np.testing.assert_allclose(lines["a_um_per_mm"], [0.1, 0.0], atol=1e-12)
+    des = pd.Series([40.0, 41.0, 42.0])
+    with pytest.raises(ValueError, match=r"D_des and D_pp have 3 and 2 parts"):
+        decompose_turning_error(des, D_pp=pd.Series([40.001, 41.001]))
+
+
 def test_error_lines_by_hand():
     L = np.tile([10.0, 20.0, 30.0, 40.0], 2)
     d = np.r_[0.5 * L[:4] + 2.0, -0.1 * L[4:] + 1.0]

@@ -287,6 +287,11 @@ def test_adaptive_compensation_errors():
         adaptive_compensation(unnamed, runs)
     res = adaptive_compensation(unnamed, runs, sensors=["T1_C"], update=False)
     assert res.n_updates == 0
+    # A two-axis model died inside numpy (shapes (50,) and (100,)).
+    both = runs.assign(disp_z_um=2.0 * runs["disp_y_um"])
+    two = UpdateRegressor().fit(both[["T1_C"]], both[["disp_y_um", "disp_z_um"]])
+    with pytest.raises(ValueError, match=r"predicts 2 outputs; .* one model per ax"):
+        adaptive_compensation(two, both)
 
 
 @pytest.fixture(scope="module")

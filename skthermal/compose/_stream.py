@@ -216,7 +216,7 @@ class RunStream:
             t0 = times[labels == lab][0]
             span = self._spans.get(lab)
             if span is None:
-                like = [k for k in self._spans if str(k) == str(lab)]
+                like = [k for k in self._spans if _as_text(k) == _as_text(lab)]
                 if like:
                     warnings.warn(
                         f"Run {lab!r} ({type(lab).__name__}) is new to the "
@@ -291,6 +291,13 @@ class RunStream:
         if hasattr(out, "iloc"):
             return out.iloc[rows].set_axis(X.index, axis=0)
         return np.asarray(out)[rows]
+
+
+def _as_text(label):
+    """A run label as a table would write it (``1.0`` as ``1``)."""
+    if isinstance(label, float | np.floating) and float(label).is_integer():
+        return str(int(label))
+    return str(label)
 
 
 def _labels_and_times(X, groups):

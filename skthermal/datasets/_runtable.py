@@ -183,11 +183,15 @@ def _looks_like(name):
         return "a displacement", _RULES["target"]
     if (
         (lower[:1] == "t" and last in _TEMPERATURE_UNITS)
-        or re.match(r"[Tt][0-9]", name)
+        or re.match(r"[Tt][^A-Za-z0-9]*[0-9]", name)
         or lower.startswith("temp")
     ):
         return "a temperature sensor", _RULES["temperature"]
-    if (lower[:1] == "s" and last in _STRAIN_UNITS) or lower.startswith("strain"):
+    if (
+        (lower[:1] == "s" and last in _STRAIN_UNITS)
+        or lower.startswith("strain")
+        or re.fullmatch(r"[Ss][0-9]+", name)
+    ):
         return "a strain sensor", _RULES["strain"]
     return None
 
@@ -205,12 +209,14 @@ def _renamed(name, kind):
     """The name ``name`` (meant for ``kind``) has under its naming rule when
     only its separators or the case of its marks are off (``T_sp_front_C``:
     ``Tsp_front_C``), else None."""
-    lower = name.strip().lower()
+    norm = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
+    lower = norm.lower()
     for meant, head, tail, start, end, valid in _RENAMES:
         if kind != meant or not (lower.startswith(head) and lower.endswith(tail)):
             continue
-        core = name.strip()[len(head) : len(name.strip()) - len(tail)]
-        core = re.sub(r"[^A-Za-z0-9]+", "_", core).strip("_")
+        core = norm[len(head) : len(norm) - len(tail)].strip("_")
+        if norm.isupper():  # DISP_Z_UM: disp_z_um
+            core = core.lower()
         candidate = f"{start}{core}{end}"
         return candidate if core and valid(candidate) else None
     return None
@@ -656,12 +662,16 @@ def warn_implausible(df, late_start=True):
     :func:`validate_runs` (the gap diagnosis reads its own columns): a
     ``time_s`` like a clock's or in another unit (``late_start=False``:
     runs that start after 0 are not warned about, e.g. measured runs whose
-    simulation starts before them), workshop air in another unit."""
+    simulation starts before them), workshop air in another unit, readings no
+    machine gives."""
     codes = pd.factorize(df[RUN])[0]
     order = np.argsort(codes, kind="stable")
     times = _as_float(df, [TIME])[:, 0]
     warn_odd_times(codes[order], times[order], late_start)
     _warn_air_unit(df)
+    read = [c for c in df.columns if _is_temperature(c) or _is_target(c)]
+    values = df[read].apply(pd.to_numeric, errors="coerce")
+    _warn_impossible_readings(df, read, values.to_numpy(dtype=float))
 
 
 def _warn_air_unit(df):
@@ -710,32 +720,41 @@ def _warn_kelvin_sensors(df, columns, values):
 
 
 # Hotter than any machine-tool structure or its sensors (°C), and a larger
-# thermal error than any machine tool shows (µm): a glitch or a corrupt value.
+# thermal error than any machine tool shows (µm, away from the column's
+# median: a probe may read with an offset): a glitch or a corrupt value.
 _HOTTEST_C = 500.0
 _LARGEST_ERROR_UM = 10_000.0
 
 
 def _warn_impossible_readings(df, columns, values):
     """Warn naming the column, run and row of the first temperature above
-    :data:`_HOTTEST_C` and the first displacement beyond
-    :data:`_LARGEST_ERROR_UM` in magnitude: no machine reads that, and a
-    model without a guard passes such a reading on to its correction."""
+    :data:`_HOTTEST_C` and the first displacement further than
+    :data:`_LARGEST_ERROR_UM` from its column's median: no machine reads
+    that, and a model without a guard passes such a reading on to its
+    correction."""
     for kind, limit, unit, test in (
-        ("temperature", _HOTTEST_C, "°C", _is_temperature),
-        ("thermal displacement", _LARGEST_ERROR_UM, "µm in magnitude", _is_target),
+        ("temperature above", _HOTTEST_C, "°C", _is_temperature),
+        (
+            "thermal displacement further from its median than",
+            _LARGEST_ERROR_UM,
+            "µm",
+            _is_target,
+        ),
     ):
         for j, name in enumerate(columns):
             if not test(name):
                 continue
             col = values[:, j]
-            with np.errstate(invalid="ignore"):
-                bad = np.flatnonzero(np.abs(col) > limit)
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # all NaN
+                level = 0.0 if test is _is_temperature else np.nanmedian(col)
+                bad = np.flatnonzero(np.abs(col - level) > limit)
             if not bad.size:
                 continue
             warnings.warn(
                 f"Column {name!r} holds {col[bad[0]]:g} at {_where(df, bad[0])}"
                 + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
-                + f": no machine tool reads a {kind} beyond {limit:g} {unit}. A "
+                + f": no machine tool reads a {kind} {limit:g} {unit}. A "
                 "glitch or a corrupt value? A model without a guard "
                 "(skthermal.compose.GuardedRegressor; skthermal fit --guard) "
                 "passes it on to its prediction.",

@@ -499,7 +499,25 @@ def build_problem(
         check_length(t.size, name)
         check_times(t, name)
         y = channel_values(frame, channels, t, name)
-        read.append((name, frame, t, repair_spikes(y, channels, t, name, "", USED_FOR)))
+        drivers = {
+            col: driver_values(frame, col, name)
+            for col in ("spindle_rpm", "ambient_C", "feed_mm_min")
+            if col in frame
+        }
+        running = (drivers["spindle_rpm"] != 0) | (
+            drivers.get("feed_mm_min", np.zeros(t.size)) != 0
+        )
+        y = repair_spikes(
+            y,
+            channels,
+            t,
+            name,
+            "",
+            USED_FOR,
+            np.column_stack(list(drivers.values())),
+            running,
+        )
+        read.append((name, frame, t, y))
     warn_implausible(runs)
     warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)

@@ -322,6 +322,15 @@ def adaptive_compensation(
         model, runs, target, sensors, relative
     )
     named = getattr(model, "feature_names_in_", None) is not None
+    first = X[:1] if not named else pd.DataFrame(X[:1], columns=sensors)
+    outputs = np.shape(np.asarray(model.predict(first)))
+    if len(outputs) == 2 and outputs[1] > 1:
+        raise ValueError(
+            f"The model predicts {outputs[1]} outputs; "
+            "adaptive_compensation replays one axis (target="
+            f"{target!r}) against its own threshold: fit one model per axis "
+            "(e.g. UpdateRegressor().fit(X, Y[target])) and replay each."
+        )
 
     def frame(rows):
         return pd.DataFrame(X[rows], columns=sensors) if named else X[rows]

@@ -253,8 +253,10 @@ def nash_sutcliffe(
     d, d_scale = _unit_columns(d)
     sse = _weighted_mean(e**2, w)
     sst = _weighted_mean(d**2, w)
-    with np.errstate(over="ignore"):
-        sse = sse * (e_scale / d_scale) ** 2  # inf beyond float range: -inf
+    with np.errstate(over="ignore", invalid="ignore"):
+        # inf beyond float range (a score of -inf); no error is no error,
+        # however small the spread.
+        sse = np.where(sse > 0, sse * (e_scale / d_scale) ** 2, 0.0)
     return _aggregate(_ratio_score(sse, sst, force_finite), weights)
 
 

@@ -23,6 +23,7 @@ from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import STRAIN_PATTERN, TEMPERATURE_PATTERN
 from skthermal._run_changes import changes_since_first_row
+from skthermal.utils._aligned import common_index
 from skthermal.utils._runs import (
     check_finite_columns,
     check_frame,
@@ -89,6 +90,10 @@ def correct_fbg_strain(
     [0.0, 12.72, 17.44]
     """
     k = _number(sensitivity_ue_per_C, "sensitivity_ue_per_C")
+    common_index(
+        {"raw_ue": raw_ue, "temperature_C": temperature_C, "groups": groups},
+        item="samples",
+    )
     try:
         raw = np.asarray(raw_ue, dtype=float)
         temp = np.asarray(temperature_C, dtype=float)

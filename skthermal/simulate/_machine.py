@@ -2599,12 +2599,15 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
     measured = []
     for run, frame in groups:
         # A glitch of one sample would pull the fit towards it.
+        t, rpm, air, feed = drivers[run]
         y = repair_spikes(
             frame[channels].to_numpy(float, copy=True),
             channels,
-            drivers[run][0],
+            t,
             run,
             used_for="the calibration",
+            drivers=np.column_stack([rpm, air] + ([] if feed is None else [feed])),
+            running=(rpm != 0) | (False if feed is None else feed != 0),
         )
         # Every channel is compared as its change since the start of the
         # run: displacements start at zero in the simulation, and a sensor's

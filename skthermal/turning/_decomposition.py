@@ -19,6 +19,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils._param_validation import Interval, validate_params
 
 from skthermal._naming import plain, shown
+from skthermal.utils._aligned import common_index
 from skthermal.utils._runs import check_labels, label_array
 
 _UNITS = {"mm": 1000.0, "um": 1.0}
@@ -117,7 +118,7 @@ def decompose_turning_error(D_des, *, D_omw=None, D_omc=None, D_pp=None, unit="m
     given = {"D_omw": D_omw, "D_omc": D_omc, "D_pp": D_pp}
     if all(v is None for v in given.values()):
         raise ValueError("Give at least one measured diameter: D_omw, D_omc or D_pp.")
-    index = _common_index({"D_des": D_des, **given})
+    index = common_index({"D_des": D_des, **given}, item="parts")
     arrays = {"D_des": _series(D_des, "D_des", scale)}
     arrays.update({k: _series(v, k, scale) for k, v in given.items() if v is not None})
     # A number applies to every part; sequences give one diameter per part
@@ -181,26 +182,6 @@ def _check_plausible(measured, designed, name, unit):
     )
 
 
-def _common_index(values):
-    """The index shared by the pandas inputs among ``values`` (None without
-    any): the parts are matched by position, so pandas inputs indexed
-    differently (other parts, or the same parts in another order) are an
-    error instead of a silent mismatch."""
-    indexed = {k: v.index for k, v in values.items() if isinstance(v, pd.Series)}
-    if not indexed:
-        return None
-    (first, index), *others = indexed.items()
-    for name, other in others:
-        if not index.equals(other):
-            raise ValueError(
-                f"{first} and {name} are pandas Series with different indexes "
-                f"({list(index[:3])}... and {list(other[:3])}...): the parts are "
-                "matched by position; reindex them to the same parts in the "
-                f"same order (e.g. {name}.reindex({first}.index))."
-            )
-    return index
-
-
 def _coolant_flags(column):
     """The ``coolant`` column as booleans: True/False or 1/0 only (a string
     such as "False" or "no", or a missing value, is an error: ``astype(bool)``
@@ -248,6 +229,7 @@ def fit_error_lines(L_mm, d_um, groups=None):
     >>> (lines.round(6) + 0.0).to_dict("list")
     {'a_um_per_mm': [0.1, 0.0], 'b_um': [0.0, 5.0]}
     """
+    common_index({"L_mm": L_mm, "d_um": d_um, "groups": groups}, item="points")
     arrays = []
     for name, values in (("L_mm", L_mm), ("d_um", d_um)):
         try:

@@ -16,80 +16,169 @@ import numpy as np
 
 from skthermal.utils._warnings import user_stacklevel
 
-# A glitch stands further than this from both neighbours, in units of the
-# channel's usual step from one sample to the next. Gaussian noise alone
+# A glitch stands further than this from the samples around it, in units of
+# the channel's usual step from one sample to the next. Gaussian noise alone
 # does not get there (about 11 standard deviations of the noise on both
 # sides at once).
 SPIKE_FACTOR = 10.0
 # The usual step: the root mean square of the smallest 90% of a channel's
 # absolute first differences (a glitch makes two large ones).
 _STEP_SHARE = 0.9
+# The samples around a glitch agree with each other: they differ by at most
+# this share of the glitch's height (a step followed by a fast rise, a
+# change of slope, is no glitch).
+_AGREE = 0.5
+# A fault is rare: more glitches than this in a channel (2, or 1% of its
+# samples) are its own behaviour, e.g. a periodic excursion.
+_RARE_COUNT, _RARE_SHARE = 2, 0.01
+# The longest glitch, in samples.
+_WIDTHS = (1, 2)
 
 
 def flat_columns(Y):
-    """Columns of ``Y`` (``(n, k)``) that do not change (to rounding): a dead
-    or unplugged probe when it holds for every run."""
-    return np.ptp(Y, axis=0) <= 1e-12 * np.maximum(1.0, np.max(np.abs(Y), axis=0))
+    """Columns of ``Y`` (``(n, k)``) that do not change (to rounding) but for
+    a rare glitch (2 samples at most, a quarter of them in short runs): a
+    dead or unplugged probe when it holds for every run. (On a reading that
+    never changes, a glitch cannot be told by its size: the usual step is
+    the glitch's own.)"""
+    Y = np.asarray(Y, dtype=float)
+    level = np.median(Y, axis=0)
+    off = np.abs(Y - level) > 1e-12 * np.maximum(1.0, np.abs(level))
+    return off.sum(axis=0) <= min(_RARE_COUNT, (Y.shape[0] - 1) // 4)
 
 
-def find_spikes(y):
+def _usual_step(y):
+    """Root mean square of the smallest 90% of each column's absolute first
+    differences, leaving out at least the two of one glitch."""
+    a = np.sort(np.abs(np.diff(y, axis=0)), axis=0)
+    m = a.shape[0]
+    keep = max(1, min(int(np.floor(_STEP_SHARE * m)), m - 2))
+    return np.sqrt(np.mean(a[:keep] ** 2, axis=0)), a
+
+
+def _driver_changes(drivers, n):
+    """Samples at which a driver changes between the samples around them (a
+    step of the speed or feed, a jump of the air beyond its usual step)."""
+    near = np.zeros(n, dtype=bool)
+    if drivers is None:
+        return near
+    D = np.asarray(drivers, dtype=float).reshape(n, -1)
+    step, _ = _usual_step(D)
+    moved = np.any(np.abs(np.diff(D, axis=0)) > SPIKE_FACTOR * step, axis=1)
+    near[:-1] |= moved
+    near[1:] |= moved
+    return near
+
+
+def find_spikes(y, drivers=None, running=None):
     """Samples of ``y`` (``(n,)`` or ``(n, k)``, one column per channel)
-    that are single-sample glitches, as a boolean array of ``y``'s shape.
+    that are glitches of one or two samples, as a boolean array of ``y``'s
+    shape.
 
-    A sample is a glitch when it stands away from both its neighbours, on the
-    same side, by more than :data:`SPIKE_FACTOR` times the channel's usual
-    step from one sample to the next: the root mean square of the smallest
-    90% of its absolute first differences, and no less than the smallest
-    nonzero one (the quantum of readings that mostly do not change). A step
-    that stays, a change of slope and a fast rise are not glitches; nor is
-    the first or the last sample, which has one neighbour.
+    A glitch stands away from the samples around it by more than
+    :data:`SPIKE_FACTOR` times the channel's usual step from one sample to
+    the next (the root mean square of the smallest 90% of its absolute first
+    differences), while those samples agree with each other (for the first
+    and the last sample, the two after or before it). A step that stays, a
+    change of slope and a fast rise are no glitches; nor is a quantised
+    reading's flicker (the usual step is at least the channel's quantum, its
+    smallest nonzero step). Faults are rare: more than 2 such samples (or 1%
+    of them) in a channel are its own behaviour (a periodic excursion), and
+    none is taken. (A glitch on a reading that never changes is not found:
+    its quantum is the glitch's own step; :func:`flat_columns` takes such a
+    channel as a dead probe.)
+
+    Parameters
+    ----------
+    y : array-like of shape (n,) or (n, k)
+        One run of the channels.
+    drivers : array-like of shape (n,) or (n, j), optional
+        The run's drivers (speed, feed, air): a sample at which one changes
+        (a short spindle burst, a door opened for one sampling period) is a
+        real event, not a glitch.
+    running : array-like of bool of shape (n,), optional
+        Whether a heat source (the spindle, a feed axis) runs at each
+        sample: a run that starts running rises fastest at its first
+        sample, which is then not judged.
     """
     y = np.asarray(y, dtype=float)
     flat = y.ndim == 1
     y2 = y[:, None] if flat else y
+    n = y2.shape[0]
     mask = np.zeros(y2.shape, dtype=bool)
-    m = y2.shape[0] - 1
-    if m < 2:
+    if n < 3:
         return mask[:, 0] if flat else mask
-    d = np.diff(y2, axis=0)
-    a = np.sort(np.abs(d), axis=0)
-    # At least the two steps of one glitch are left out of the usual step.
-    keep = max(1, min(int(np.floor(_STEP_SHARE * m)), m - 2))
-    step = np.sqrt(np.mean(a[:keep] ** 2, axis=0))
+    step, a = _usual_step(y2)
     quantum = np.where(a > 0, a, np.inf).min(axis=0)
-    step = np.maximum(step, np.where(np.isfinite(quantum), quantum, 0.0))
-    left, right = d[:-1], -d[1:]
-    mask[1:-1] = (np.sign(left) == np.sign(right)) & (
-        np.minimum(np.abs(left), np.abs(right)) > SPIKE_FACTOR * step
-    )
+    quantum = np.where(np.isfinite(quantum), quantum, 0.0)
+    moving = _driver_changes(drivers, n)
+    # How far every candidate stands out, and where: (rows, height) per kind.
+    tests = []
+    for width in _WIDTHS:
+        if n < width + 2:
+            break
+        before, after = y2[: n - width - 1], y2[width + 1 :]
+        block = np.stack([y2[1 + j : n - width + j] for j in range(width)])
+        low = np.min(np.minimum(np.abs(block - before), np.abs(block - after)), 0)
+        low = np.where(np.abs(after - before) <= _AGREE * low, low, 0.0)
+        calm = ~np.any([moving[1 + j : n - width + j] for j in range(width)], 0)
+        for j in range(width):
+            tests.append((slice(1 + j, n - width + j), low * calm[:, None]))
+    # The first and the last sample, against the two samples after (before)
+    # them, which agree.
+    for row, one, two in ((0, 1, 2), (n - 1, n - 2, n - 3)):
+        height = np.abs(y2[row] - y2[one])
+        height = np.where(np.abs(y2[one] - y2[two]) <= _AGREE * height, height, 0.0)
+        calm = not (moving[row] or moving[one])
+        if row == 0 and running is not None and np.asarray(running)[0]:
+            calm = False
+        tests.append((slice(row, row + 1), (height * calm)[None]))
+    floor = SPIKE_FACTOR * np.maximum(step, quantum)
+    for rows, height in tests:
+        mask[rows] |= height > floor
+    # Many: a behaviour of the channel (a periodic excursion), not a fault.
+    mask[:, mask.sum(axis=0) > max(_RARE_COUNT, _RARE_SHARE * n)] = False
     return mask[:, 0] if flat else mask
 
 
-def repair_spikes(y, columns, time_s, run, table="", used_for="the comparison"):
-    """``y`` (``(n, len(columns))``, one run) with every single-sample
-    glitch (:func:`find_spikes`) replaced by the mean of its neighbours,
-    and a warning naming the column, the run, the time and the value of
-    each (the first few). ``y`` itself is not changed; it is returned as
-    it is when there is none."""
-    mask = find_spikes(y)
+def repair_spikes(
+    y,
+    columns,
+    time_s,
+    run,
+    table="",
+    used_for="the comparison",
+    drivers=None,
+    running=None,
+):
+    """``y`` (``(n, len(columns))``, one run) with every glitch
+    (:func:`find_spikes`, ``drivers`` and ``running`` the run's) replaced by
+    a straight line between the samples around it (the nearest one at a
+    run's end), and a warning naming the column, the run, the time and the
+    value of each (the first few). ``y`` itself is not changed; it is
+    returned as it is when there is none."""
+    mask = find_spikes(y, drivers, running)
     if not mask.any():
         return y
     out = np.array(y, dtype=float, copy=True)
-    rows, cols = np.nonzero(mask)
-    out[rows, cols] = 0.5 * (out[rows - 1, cols] + out[rows + 1, cols])
+    rows = np.arange(out.shape[0])
+    for c in np.flatnonzero(mask.any(axis=0)):
+        bad = mask[:, c]
+        out[bad, c] = np.interp(rows[bad], rows[~bad], out[~bad, c])
     where = f"run {run!r}" + (f" of the {table} table" if table else "")
+    found, cols = np.nonzero(mask)
     listed = [
         f"{columns[c]} = {y[r, c]:g} at time_s {time_s[r]:g} "
-        f"({y[r, c] - out[r, c]:+.3g} from its neighbours' mean)"
-        for r, c in zip(rows[:5], cols[:5], strict=True)
+        f"({y[r, c] - out[r, c]:+.3g} from the samples around it)"
+        for r, c in zip(found[:5], cols[:5], strict=True)
     ]
-    more = f" and {rows.size - 5} more" if rows.size > 5 else ""
+    more = f" and {found.size - 5} more" if found.size > 5 else ""
     warnings.warn(
-        f"{rows.size} sample(s) of {where} stand far from both neighbouring "
-        f"samples (over {SPIKE_FACTOR:g} times the channel's usual step from "
-        f"one sample to the next): {'; '.join(listed)}{more}. Glitches? "
-        f"Each is taken as the mean of its neighbours for {used_for}; "
-        "clean or drop them in the table to silence this.",
+        f"{found.size} sample(s) of {where} stand far from the samples "
+        f"around them, which agree (over {SPIKE_FACTOR:g} times the channel's "
+        f"usual step from one sample to the next), where no driver changes: "
+        f"{'; '.join(listed)}{more}. Glitches? Each is taken on a straight "
+        f"line between the samples around it for {used_for}.",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
