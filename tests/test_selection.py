@@ -337,6 +337,10 @@ def test_too_few_samples_for_gm1n_says_how_many():
     X = rng.normal(size=(8, 10)).cumsum(axis=0)
     with pytest.raises(ValueError, match="10 input series need at least 12 samples"):
         GreyInfluenceSelector().fit(X, X[:, 0])
+    # The picker names the scorers without that limit (more image spots
+    # than frames is common).
+    with pytest.raises(ValueError, match=r"samples in 1 run\(s\)\. scorer='pearson'"):
+        FCMClusterPicker(n_clusters=2).fit(X, X[:, 0], groups=np.zeros(8))
 
 
 def test_non_increasing_time_is_named():

@@ -172,6 +172,13 @@ def test_transform_errors(stack):
     ext.fit(stack)
     with pytest.raises(ValueError, match="fitted on 12x16"):
         ext.transform(stack[:, :10])
+    # A flattened stack was taken as one image and time_s blamed.
+    with pytest.raises(
+        ValueError,
+        match=r"is one image, but time_s holds 7 .*"
+        r"stack\.reshape\(-1, 12, 16\)",
+    ):
+        ext.transform(stack[0], time_s=np.arange(7.0))
     with pytest.raises(ValueError, match="fewer than frame_average"):
         ext.transform(stack[:1])
     with pytest.raises(ValueError, match="increase strictly"):

@@ -168,13 +168,21 @@ class FCMClusterPicker(RunAwareSelector):
         else:
             est = clone(self.scorer)
         y = Y[:, 0] if Y.shape[1] == 1 else Y
-        if groups is not None and accepts_groups(est.fit):
-            est.fit(X, y, groups=groups)
-        else:
-            with warnings.catch_warnings():
-                # This picker has just said that the rows are one run.
-                warnings.filterwarnings("ignore", message=r".*carry no run labels")
-                est.fit(X, y)
+        try:
+            if groups is not None and accepts_groups(est.fit):
+                est.fit(X, y, groups=groups)
+            else:
+                with warnings.catch_warnings():
+                    # This picker has just said that the rows are one run.
+                    warnings.filterwarnings("ignore", message=r".*carry no run labels")
+                    est.fit(X, y)
+        except ValueError as exc:
+            if "too few samples" not in str(exc) or not isinstance(self.scorer, str):
+                raise
+            raise ValueError(
+                f"{exc} scorer='pearson' (or 'gra') scores the sensors without "
+                "that limit, e.g. the many spots of a thermal image."
+            ) from exc
         scores = _fitted_scores(est)
         if scores.shape != (X.shape[1],):
             raise ValueError(

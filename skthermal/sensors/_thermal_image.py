@@ -522,6 +522,14 @@ class VirtualSensorExtractor:
             column per virtual sensor, then the ``extra`` columns.
         """
         self._check_fitted()
+        if np.ndim(stack) == 2 and time_s is not None and np.size(time_s) > 1:
+            h, w = self.image_shape_
+            raise ValueError(
+                f"The stack of shape {np.shape(stack)} is one image, but time_s "
+                f"holds {np.size(time_s)} times: give the frames as (n_frames, "
+                f"height, width), e.g. a flattened (n_frames, n_pixels) stack as "
+                f"stack.reshape(-1, {h}, {w})."
+            )
         frames = _as_stack(stack)
         if frames.shape[1:] != self.image_shape_:
             raise ValueError(
