@@ -12,6 +12,7 @@ from skthermal.fuzzy._cmeans import fuzzy_cmeans
 from skthermal.selection._base import RunAwareSelector
 from skthermal.selection._grey import GRASelector, GreyInfluenceSelector
 from skthermal.utils._runs import accepts_groups, changes_since_start
+from skthermal.utils._warnings import user_stacklevel
 
 
 def _pearson_scores(X, Y, slices):
@@ -51,7 +52,8 @@ class FCMClusterPicker(RunAwareSelector):
     Parameters
     ----------
     n_clusters : int, default=5
-        Number of sensor groups, hence of sensors kept.
+        Number of sensor groups, hence of sensors kept (all of them, with a
+        warning, when X has fewer).
     scorer : {"gm1n", "gm0n", "gra", "pearson"} or selector, default="gm1n"
         How a group's representative is chosen: the grey influence
         (:class:`GreyInfluenceSelector` with GM(1,N) or GM(0,N)), the grey
@@ -86,7 +88,7 @@ class FCMClusterPicker(RunAwareSelector):
     labels_ : ndarray of shape (n_features_in_,)
         Group of every sensor (its largest membership). Groups are numbered by
         decreasing score of their representative.
-    memberships_ : ndarray of shape (n_features_in_, n_clusters)
+    memberships_ : ndarray of shape (n_features_in_, n_groups)
         Fuzzy membership of every sensor in every group.
     representatives_ : ndarray of shape (n_groups,)
         Index of the kept sensor of each group, in group order.
@@ -192,11 +194,18 @@ class FCMClusterPicker(RunAwareSelector):
 
     def _fit_runs(self, X, Y, groups, slices):
         n_features = X.shape[1]
-        if self.n_clusters > n_features:
-            raise ValueError(
-                f"n_clusters={self.n_clusters} exceeds the number of sensors: X "
-                f"has {n_features} feature(s)."
+        n_clusters = self.n_clusters
+        if n_clusters > n_features:
+            # As the other selectors (and scikit-learn's SelectKBest): all
+            # are kept, with a warning.
+            warnings.warn(
+                f"n_clusters={n_clusters}, but X has only {n_features} "
+                "sensor(s): every sensor is a group of its own, and all are "
+                "kept.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
             )
+            n_clusters = n_features
         scores = self._score_sensors(X, Y, groups, slices)
         if self.features == "series":
             Z = changes_since_start(X, slices)
@@ -212,7 +221,7 @@ class FCMClusterPicker(RunAwareSelector):
             points = (scores / (top if top > 0 else 1.0))[:, None]
         result = fuzzy_cmeans(
             points,
-            self.n_clusters,
+            n_clusters,
             m=self.m,
             tol=self.tol,
             max_iter=self.max_iter,
@@ -221,14 +230,14 @@ class FCMClusterPicker(RunAwareSelector):
         )
         hard = result.labels
         reps, clusters = [], []
-        for c in range(self.n_clusters):
+        for c in range(n_clusters):
             members = np.flatnonzero(hard == c)
             if members.size:
                 reps.append(members[np.argmax(scores[members])])
                 clusters.append(c)
-        if len(reps) < self.n_clusters:
+        if len(reps) < n_clusters:
             warnings.warn(
-                f"{self.n_clusters - len(reps)} of {self.n_clusters} sensor groups "
+                f"{n_clusters - len(reps)} of {n_clusters} sensor groups "
                 "ended up empty; keeping one sensor for each of the "
                 f"{len(reps)} others. Lower n_clusters.",
                 UserWarning,
@@ -236,10 +245,10 @@ class FCMClusterPicker(RunAwareSelector):
             )
         reps = np.asarray(reps)
         order = np.argsort(-scores[reps], kind="stable")
-        relabel = np.empty(self.n_clusters, dtype=int)
+        relabel = np.empty(n_clusters, dtype=int)
         kept = np.asarray(clusters)[order]
-        empty = [c for c in range(self.n_clusters) if c not in clusters]
-        relabel[np.r_[kept, empty].astype(int)] = np.arange(self.n_clusters)
+        empty = [c for c in range(n_clusters) if c not in clusters]
+        relabel[np.r_[kept, empty].astype(int)] = np.arange(n_clusters)
         self.scores_ = scores
         self.n_iter_ = result.n_iter
         self.labels_ = relabel[hard]
