@@ -1,13 +1,13 @@
-"""Faults of measured channels: single-sample glitches and dead probes.
+"""Faults of measured channels: glitches and dead probes.
 
-A data logger's glitch (a bad conversion, a loose plug for one sample, a
-corrupt line of a file) puts one sample far from its neighbours. Thermal
-signals do not jump away and back within one sample, so such a sample is
-told from the signal by its two neighbours. Left in, one glitch blows up
-what a comparison takes as the noise of the channel, or pulls a calibration
-towards it; the readers that compare samples (the gap diagnosis,
-``ThermalMachine.calibrate``) take it as the mean of its neighbours and say
-so.
+A data logger's glitch (a bad conversion, a loose plug for a sample or two,
+a corrupt line of a file) puts one or two samples far from the samples
+around them. Thermal signals do not jump away and back within a sample or
+two, so such samples are told from the signal by the samples around them.
+Left in, one glitch blows up what a comparison takes as the noise of the
+channel, or pulls a calibration towards it; the readers that compare samples
+(the gap diagnosis, ``ThermalMachine.calibrate``) take it on a straight line
+between the samples around it and say so.
 """
 
 import warnings
