@@ -147,6 +147,14 @@ def test_find_spikes_takes_glitches_only():
     assert find_spikes(y)[450, 7]  # without the drivers, a glitch
     # A run that starts running rises fastest at its first sample.
     assert not find_spikes(y, drivers, running=drivers > -1)[0].any()
+    # Next to a driver's change, a reading stored as 0 is still a glitch;
+    # a quantised air's flicker is no change.
+    zero = 22.0 + 0.2 * smooth  # a sensor at 22-23 °C
+    zero[450] = 0.0
+    assert np.flatnonzero(find_spikes(zero, drivers)).tolist() == [450]
+    air = np.where(t < 200, 21.0, 21.1)
+    zero[200] = 0.0
+    assert 200 in np.flatnonzero(find_spikes(zero, air=air))
     # A quantised reading's rare flicker is none; on a reading that never
     # changes, a glitch is not told by its size, and the channel is dead.
     flat = np.full(50, 20.0)

@@ -309,8 +309,9 @@ def _align(
             name,
             "measured",
             USED_FOR,
-            np.column_stack(list(drivers.values())),
+            np.column_stack([drivers["spindle_rpm"], drivers["feed_mm_min"]]),
             (drivers["spindle_rpm"] != 0) | (drivers["feed_mm_min"] != 0),
+            drivers["ambient_C"],
         )
         y_sim = repair_spikes(
             channel_values(sim, sim_cols, ts, name, "simulated"),
@@ -319,8 +320,9 @@ def _align(
             name,
             "simulated",
             USED_FOR,
-            np.column_stack(sim_drivers),
+            np.column_stack([sim_drivers[0], sim_drivers[2]]),
             (sim_drivers[0] != 0) | (sim_drivers[2] != 0),
+            sim_drivers[1],
         )
         if not same:
             y_sim = np.column_stack(

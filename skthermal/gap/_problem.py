@@ -499,13 +499,12 @@ def build_problem(
         check_length(t.size, name)
         check_times(t, name)
         y = channel_values(frame, channels, t, name)
-        drivers = {
-            col: driver_values(frame, col, name)
-            for col in ("spindle_rpm", "ambient_C", "feed_mm_min")
-            if col in frame
-        }
-        running = (drivers["spindle_rpm"] != 0) | (
-            drivers.get("feed_mm_min", np.zeros(t.size)) != 0
+        steps = np.column_stack(
+            [
+                driver_values(frame, col, name)
+                for col in ("spindle_rpm", "feed_mm_min")
+                if col in frame
+            ]
         )
         y = repair_spikes(
             y,
@@ -514,8 +513,9 @@ def build_problem(
             name,
             "",
             USED_FOR,
-            np.column_stack(list(drivers.values())),
-            running,
+            steps,
+            np.any(steps != 0, axis=1),
+            driver_values(frame, "ambient_C", name),
         )
         read.append((name, frame, t, y))
     warn_implausible(runs)

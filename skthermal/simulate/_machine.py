@@ -2606,8 +2606,9 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             t,
             run,
             used_for="the calibration",
-            drivers=np.column_stack([rpm, air] + ([] if feed is None else [feed])),
+            drivers=np.column_stack([rpm] + ([] if feed is None else [feed])),
             running=(rpm != 0) | (False if feed is None else feed != 0),
+            air=air,
         )
         # Every channel is compared as its change since the start of the
         # run: displacements start at zero in the simulation, and a sensor's

@@ -56,21 +56,28 @@ def _usual_step(y):
     return np.sqrt(np.mean(a[:keep] ** 2, axis=0)), a
 
 
-def _driver_changes(drivers, n):
-    """Samples at which a driver changes between the samples around them (a
-    step of the speed or feed, a jump of the air beyond its usual step)."""
+def _driver_changes(drivers, air, n):
+    """Samples next to a change of a driver: any step of the speed or feed
+    (``drivers``), a jump of the workshop air (``air``) beyond
+    :data:`SPIKE_FACTOR` times its usual step and its quantum (a door
+    opened, not the flicker of a quantised reading)."""
     near = np.zeros(n, dtype=bool)
-    if drivers is None:
-        return near
-    D = np.asarray(drivers, dtype=float).reshape(n, -1)
-    step, _ = _usual_step(D)
-    moved = np.any(np.abs(np.diff(D, axis=0)) > SPIKE_FACTOR * step, axis=1)
+    moved = np.zeros(n - 1, dtype=bool)
+    if drivers is not None:
+        D = np.asarray(drivers, dtype=float).reshape(n, -1)
+        moved |= np.any(np.diff(D, axis=0) != 0, axis=1)
+    if air is not None:
+        A = np.asarray(air, dtype=float).reshape(n, -1)
+        step, a = _usual_step(A)
+        quantum = np.where(a > 0, a, np.inf).min(axis=0)
+        floor = np.maximum(step, np.where(np.isfinite(quantum), quantum, 0.0))
+        moved |= np.any(np.abs(np.diff(A, axis=0)) > SPIKE_FACTOR * floor, axis=1)
     near[:-1] |= moved
     near[1:] |= moved
     return near
 
 
-def find_spikes(y, drivers=None, running=None):
+def find_spikes(y, drivers=None, running=None, air=None):
     """Samples of ``y`` (``(n,)`` or ``(n, k)``, one column per channel)
     that are glitches of one or two samples, as a boolean array of ``y``'s
     shape.
@@ -79,7 +86,10 @@ def find_spikes(y, drivers=None, running=None):
     :data:`SPIKE_FACTOR` times the channel's usual step from one sample to
     the next (the root mean square of the smallest 90% of its absolute first
     differences), while those samples agree with each other (for the first
-    and the last sample, the two after or before it). A step that stays, a
+    and the last sample, the two after or before it); next to a change of a
+    driver, where a short event can be real, it must also lie outside the
+    rest of the run by more than :data:`SPIKE_FACTOR` times the rest's span
+    (and a first or last sample is not judged there). A step that stays, a
     change of slope and a fast rise are no glitches; nor is a quantised
     reading's flicker (the usual step is at least the channel's quantum, its
     smallest nonzero step). Faults are rare: more than 2 such samples (or 1%
@@ -93,13 +103,18 @@ def find_spikes(y, drivers=None, running=None):
     y : array-like of shape (n,) or (n, k)
         One run of the channels.
     drivers : array-like of shape (n,) or (n, j), optional
-        The run's drivers (speed, feed, air): a sample at which one changes
-        (a short spindle burst, a door opened for one sampling period) is a
-        real event, not a glitch.
+        The run's step-like drivers (speed, feed): a sample next to a change
+        of one (a short spindle burst within a sampling period) may be a
+        real event, and is a glitch only when it lies far outside the rest
+        of the run (a reading stored as 0, a dropped line).
     running : array-like of bool of shape (n,), optional
         Whether a heat source (the spindle, a feed axis) runs at each
         sample: a run that starts running rises fastest at its first
-        sample, which is then not judged.
+        sample, which is then judged in the same way.
+    air : array-like of shape (n,), optional
+        The workshop air: a jump of it (a door opened for a sampling
+        period, beyond its usual step and quantum) counts as a change of a
+        driver.
     """
     y = np.asarray(y, dtype=float)
     flat = y.ndim == 1
@@ -111,7 +126,7 @@ def find_spikes(y, drivers=None, running=None):
     step, a = _usual_step(y2)
     quantum = np.where(a > 0, a, np.inf).min(axis=0)
     quantum = np.where(np.isfinite(quantum), quantum, 0.0)
-    moving = _driver_changes(drivers, n)
+    moving = _driver_changes(drivers, air, n)
     # How far every candidate stands out, and where: (rows, height) per kind.
     tests = []
     for width in _WIDTHS:
@@ -123,7 +138,7 @@ def find_spikes(y, drivers=None, running=None):
         low = np.where(np.abs(after - before) <= _AGREE * low, low, 0.0)
         calm = ~np.any([moving[1 + j : n - width + j] for j in range(width)], 0)
         for j in range(width):
-            tests.append((slice(1 + j, n - width + j), low * calm[:, None]))
+            tests.append((slice(1 + j, n - width + j), low, calm[:, None]))
     # The first and the last sample, against the two samples after (before)
     # them, which agree.
     for row, one, two in ((0, 1, 2), (n - 1, n - 2, n - 3)):
@@ -132,10 +147,20 @@ def find_spikes(y, drivers=None, running=None):
         calm = not (moving[row] or moving[one])
         if row == 0 and running is not None and np.asarray(running)[0]:
             calm = False
-        tests.append((slice(row, row + 1), (height * calm)[None]))
+        # Next to a driver's change not judged: a run's first or last sample
+        # there may be the first of a new regime, with nothing after it.
+        tests.append((slice(row, row + 1), height[None] * calm, np.array([[True]])))
     floor = SPIKE_FACTOR * np.maximum(step, quantum)
-    for rows, height in tests:
-        mask[rows] |= height > floor
+    # Next to a driver's change, only a sample outside the rest of the run
+    # (its two highest and lowest samples left out) by more than
+    # SPIKE_FACTOR times the rest's span: a reading stored as 0, a line of
+    # 1e6; a short real event there (a door opened, a spindle burst within
+    # a sampling period) stays within a few spans.
+    ranked = np.sort(y2, axis=0)
+    lo, hi = (ranked[2], ranked[-3]) if n >= 6 else (ranked[0], ranked[-1])
+    wild = np.maximum(lo - y2, y2 - hi) > SPIKE_FACTOR * np.maximum(hi - lo, floor)
+    for rows, height, calm in tests:
+        mask[rows] |= (height > floor) & (calm | wild[rows])
     # Many: a behaviour of the channel (a periodic excursion), not a fault.
     mask[:, mask.sum(axis=0) > max(_RARE_COUNT, _RARE_SHARE * n)] = False
     return mask[:, 0] if flat else mask
@@ -150,14 +175,16 @@ def repair_spikes(
     used_for="the comparison",
     drivers=None,
     running=None,
+    air=None,
 ):
     """``y`` (``(n, len(columns))``, one run) with every glitch
-    (:func:`find_spikes`, ``drivers`` and ``running`` the run's) replaced by
+    (:func:`find_spikes`, ``drivers``, ``running`` and ``air`` the run's)
+    replaced by
     a straight line between the samples around it (the nearest one at a
     run's end), and a warning naming the column, the run, the time and the
     value of each (the first few). ``y`` itself is not changed; it is
     returned as it is when there is none."""
-    mask = find_spikes(y, drivers, running)
+    mask = find_spikes(y, drivers, running, air)
     if not mask.any():
         return y
     out = np.array(y, dtype=float, copy=True)
@@ -176,7 +203,7 @@ def repair_spikes(
     warnings.warn(
         f"{found.size} sample(s) of {where} stand far from the samples "
         f"around them, which agree (over {SPIKE_FACTOR:g} times the channel's "
-        f"usual step from one sample to the next), where no driver changes: "
+        f"usual step from one sample to the next): "
         f"{'; '.join(listed)}{more}. Glitches? Each is taken on a straight "
         f"line between the samples around it for {used_for}.",
         UserWarning,
