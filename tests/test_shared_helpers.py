@@ -149,7 +149,7 @@ def test_find_spikes_takes_glitches_only():
     assert not find_spikes(y, drivers, running=drivers > -1)[0].any()
     # Next to a driver's change, a reading stored as 0 is still a glitch;
     # a quantised air's flicker is no change.
-    zero = 22.0 + 0.2 * smooth  # a sensor at 22-23 °C
+    zero = 22.0 + 2.0 * smooth  # a sensor at 22-32 °C
     zero[450] = 0.0
     assert np.flatnonzero(find_spikes(zero, drivers)).tolist() == [450]
     air = np.where(t < 200, 21.0, 21.1)

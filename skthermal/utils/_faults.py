@@ -31,6 +31,11 @@ _AGREE = 0.5
 # A fault is rare: more glitches than this in a channel (2, or 1% of its
 # samples) are its own behaviour, e.g. a periodic excursion.
 _RARE_COUNT, _RARE_SHARE = 2, 0.01
+# Next to a change of a driver, a glitch lies outside the rest of the run
+# by more than this many times the rest's span (a short real event there,
+# a door opened or a spindle burst within a sampling period, stays within
+# it in 2.95 M samples of an independent check).
+_WILD = 2.0
 # The longest glitch, in samples.
 _WIDTHS = (1, 2)
 
@@ -88,8 +93,8 @@ def find_spikes(y, drivers=None, running=None, air=None):
     differences), while those samples agree with each other (for the first
     and the last sample, the two after or before it); next to a change of a
     driver, where a short event can be real, it must also lie outside the
-    rest of the run by more than :data:`SPIKE_FACTOR` times the rest's span
-    (and a first or last sample is not judged there). A step that stays, a
+    rest of the run by more than twice the rest's span (and a first or last
+    sample is not judged there). A step that stays, a
     change of slope and a fast rise are no glitches; nor is a quantised
     reading's flicker (the usual step is at least the channel's quantum, its
     smallest nonzero step). Faults are rare: more than 2 such samples (or 1%
@@ -152,13 +157,11 @@ def find_spikes(y, drivers=None, running=None, air=None):
         tests.append((slice(row, row + 1), height[None] * calm, np.array([[True]])))
     floor = SPIKE_FACTOR * np.maximum(step, quantum)
     # Next to a driver's change, only a sample outside the rest of the run
-    # (its two highest and lowest samples left out) by more than
-    # SPIKE_FACTOR times the rest's span: a reading stored as 0, a line of
-    # 1e6; a short real event there (a door opened, a spindle burst within
-    # a sampling period) stays within a few spans.
+    # (its two highest and lowest samples left out) by more than _WILD
+    # times the rest's span: a reading stored as 0, a line of 1e6.
     ranked = np.sort(y2, axis=0)
     lo, hi = (ranked[2], ranked[-3]) if n >= 6 else (ranked[0], ranked[-1])
-    wild = np.maximum(lo - y2, y2 - hi) > SPIKE_FACTOR * np.maximum(hi - lo, floor)
+    wild = np.maximum(lo - y2, y2 - hi) > _WILD * np.maximum(hi - lo, floor)
     for rows, height, calm in tests:
         mask[rows] |= (height > floor) & (calm | wild[rows])
     # Many: a behaviour of the channel (a periodic excursion), not a fault.
