@@ -160,6 +160,7 @@ def test_find_spikes_takes_glitches_only():
     flat = np.full(50, 20.0)
     flat[20] = 20.125
     assert not find_spikes(flat).any()
+    assert not flat_columns(flat[:, None])  # a flicker is a change
     flat[20] = 70.0
     assert flat_columns(flat[:, None]) and not flat_columns(y[:, :1])
     assert not find_spikes(np.zeros((2, 3))).any()

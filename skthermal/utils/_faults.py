@@ -42,14 +42,18 @@ _WIDTHS = (1, 2)
 
 def flat_columns(Y):
     """Columns of ``Y`` (``(n, k)``) that do not change (to rounding) but for
-    a rare glitch (2 samples at most, a quarter of them in short runs): a
-    dead or unplugged probe when it holds for every run. (On a reading that
-    never changes, a glitch cannot be told by its size: the usual step is
-    the glitch's own.)"""
+    a rare glitch (at most 2 samples, a quarter of them in short runs, each
+    more than 1% of the reading's level away from it): a dead or unplugged
+    probe when it holds for every run. (On a reading that never changes, a
+    glitch cannot be told by its size: the usual step is the glitch's own. A
+    quantised reading's flicker is a change.)"""
     Y = np.asarray(Y, dtype=float)
     level = np.median(Y, axis=0)
-    off = np.abs(Y - level) > 1e-12 * np.maximum(1.0, np.abs(level))
-    return off.sum(axis=0) <= min(_RARE_COUNT, (Y.shape[0] - 1) // 4)
+    size = np.maximum(1.0, np.abs(level))
+    off = np.abs(Y - level) > 1e-12 * size
+    glitch = np.abs(Y - level) > 0.01 * size
+    rare = off.sum(axis=0) <= min(_RARE_COUNT, (Y.shape[0] - 1) // 4)
+    return ~off.any(axis=0) | (rare & ~np.any(off & ~glitch, axis=0))
 
 
 def _usual_step(y):
