@@ -638,6 +638,17 @@ def test_a_glitch_does_not_swamp_the_noise_floor(rig_runs):
         report = diagnose(rig, broken, **kw)
     assert report.noise_floor == pytest.approx(clean.noise_floor, rel=0.01)
     assert report.verdict() == clean.verdict()
+    # At the first sample of a run that starts turning: the initial state
+    # read from it was 4 K off and the held-out gap 36 times larger.
+    broken = runs.copy()
+    broken.loc[broken.index[broken["run"] == "r1"][0], "T3_C"] += 30.0
+    with pytest.warns(UserWarning, match=r"run 'r1' .* T3_C = .* at time_s 0 "):
+        report = diagnose(rig, broken, **kw)
+    assert report.best_effect == clean.best_effect == "sensor_lag"
+    np.testing.assert_allclose(
+        report.ranking["gap_before"], clean.ranking["gap_before"], rtol=0.05
+    )
+    np.testing.assert_allclose(report.initial_states, clean.initial_states, atol=0.05)
 
 
 def test_a_short_run_and_datetime_times(rig_runs):

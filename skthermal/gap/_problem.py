@@ -498,7 +498,7 @@ def build_problem(
         t = frame["time_s"].to_numpy(float)
         check_length(t.size, name)
         check_times(t, name)
-        y = channel_values(frame, channels, t, name)
+        y = read_y = channel_values(frame, channels, t, name)
         steps = np.column_stack(
             [
                 driver_values(frame, col, name)
@@ -517,7 +517,11 @@ def build_problem(
             np.any(steps != 0, axis=1),
             driver_values(frame, "ambient_C", name),
         )
+        if y is not read_y:
+            # Repaired: the first readings (initial states) read it too.
+            frame = frame.assign(**dict(zip(channels, y.T, strict=True)))
         read.append((name, frame, t, y))
+    frames = [(name, frame) for name, frame, *_ in read]
     warn_implausible(runs)
     warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)

@@ -97,8 +97,9 @@ def find_spikes(y, drivers=None, running=None, air=None):
     differences), while those samples agree with each other (for the first
     and the last sample, the two after or before it); next to a change of a
     driver, where a short event can be real, it must also lie outside the
-    rest of the run by more than twice the rest's span (and a first or last
-    sample is not judged there). A step that stays, a
+    rest of the run by more than twice the rest's span (so must a first
+    sample where the run starts running; a last sample there is not
+    judged). A step that stays, a
     change of slope and a fast rise are no glitches; nor is a quantised
     reading's flicker (the usual step is at least the channel's quantum, its
     smallest nonzero step). Faults are rare: more than 2 such samples (or 1%
@@ -119,7 +120,7 @@ def find_spikes(y, drivers=None, running=None, air=None):
     running : array-like of bool of shape (n,), optional
         Whether a heat source (the spindle, a feed axis) runs at each
         sample: a run that starts running rises fastest at its first
-        sample, which is then judged in the same way.
+        sample, which is then judged as next to a driver's change.
     air : array-like of shape (n,), optional
         The workshop air: a jump of it (a door opened for a sampling
         period, beyond its usual step and quantum) counts as a change of a
@@ -156,9 +157,11 @@ def find_spikes(y, drivers=None, running=None, air=None):
         calm = not (moving[row] or moving[one])
         if row == 0 and running is not None and np.asarray(running)[0]:
             calm = False
-        # Next to a driver's change not judged: a run's first or last sample
-        # there may be the first of a new regime, with nothing after it.
-        tests.append((slice(row, row + 1), height[None] * calm, np.array([[True]])))
+        if row == n - 1 and not calm:
+            # The last sample at a driver's change may be the first of a new
+            # regime, with nothing after it: not judged.
+            height = np.zeros_like(height)
+        tests.append((slice(row, row + 1), height[None], np.array([[calm]])))
     floor = SPIKE_FACTOR * np.maximum(step, quantum)
     # Next to a driver's change, only a sample outside the rest of the run
     # (its two highest and lowest samples left out) by more than _WILD
