@@ -1002,6 +1002,17 @@ def test_calibration_repairs_a_glitch_and_flags_air_in_fahrenheit():
     with pytest.warns(UserWarning, match=r"disp_ch1_um = 1e\+06 at time_s 2400"):
         _, result = model.calibrate(broken, ["q.bearing_W"], **kw)
     np.testing.assert_allclose(result.params, clean.params, rtol=1e-3)
+    # A first reading 30 K off, read for the run's initial state.
+    first = runs.copy()
+    first.loc[0, "T1_C"] += 30.0
+    with pytest.warns(UserWarning, match=r"T1_C = .* at time_s 0 "):
+        _, result = model.calibrate(
+            first, ["q.bearing_W"], channels=["disp_ch1_um"], initial="measured"
+        )
+    _, clean = model.calibrate(
+        runs, ["q.bearing_W"], channels=["disp_ch1_um"], initial="measured"
+    )
+    np.testing.assert_allclose(result.params, clean.params, rtol=0.01)
     fahrenheit = runs.assign(ambient_C=runs["ambient_C"] * 1.8 + 32)
     with pytest.warns(UserWarning, match=r"ambient_C' reads .* in Fahrenheit\?"):
         model.calibrate(fahrenheit, ["q.bearing_W"], **kw)

@@ -2139,6 +2139,12 @@ def _as_slice(index):
     return index
 
 
+def _finite(column):
+    """Whether a run-table column holds a finite number on every row."""
+    values = pd.to_numeric(column, errors="coerce").to_numpy(float)
+    return bool(np.all(np.isfinite(values)))
+
+
 def _run_drivers(frame, run):
     """Driver arrays of one run of a run table, with clear errors."""
     for col in ("time_s", "spindle_rpm", "ambient_C"):
@@ -2586,23 +2592,24 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             {run: np.ptp(f["time_s"].to_numpy(float)) for run, f in groups},
             4,
         )
-    # The first readings of every run (initial="measured").
-    first = (
-        {run: machine.first_readings(frame, run=run) for run, frame in groups}
-        if from_readings
-        else {}
-    )
     drivers = {run: _run_drivers(frame, run) for run, frame in groups}
     warn_air_unit(
         np.concatenate([d[2] for d in drivers.values()]), "simulation, calibration"
     )
-    measured = []
+    # A glitch of a sample or two would pull the fit towards it, or a run's
+    # initial state from its first readings: the fitted channels and the
+    # (finite) sensors the first readings read are repaired.
+    readers = [s for s in machine.sensors if s in runs.columns and s not in channels]
+    repaired = []
     for run, frame in groups:
-        # A glitch of one sample would pull the fit towards it.
         t, rpm, air, feed = drivers[run]
+        columns = [
+            *channels,
+            *(c for c in readers if _finite(frame[c])),
+        ]
         y = repair_spikes(
-            frame[channels].to_numpy(float, copy=True),
-            channels,
+            frame[columns].to_numpy(float, copy=True),
+            columns,
             t,
             run,
             used_for="the calibration",
@@ -2610,6 +2617,17 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             running=(rpm != 0) | (False if feed is None else feed != 0),
             air=air,
         )
+        repaired.append((run, frame.assign(**dict(zip(columns, y.T, strict=True)))))
+    groups = repaired
+    # The first readings of every run (initial="measured").
+    first = (
+        {run: machine.first_readings(frame, run=run) for run, frame in groups}
+        if from_readings
+        else {}
+    )
+    measured = []
+    for run, frame in groups:
+        y = frame[channels].to_numpy(float)
         # Every channel is compared as its change since the start of the
         # run: displacements start at zero in the simulation, and a sensor's
         # calibration offset is not physics (compared as read, it would bend

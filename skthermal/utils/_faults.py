@@ -190,8 +190,8 @@ def repair_spikes(
     """``y`` (``(n, len(columns))``, one run) with every glitch
     (:func:`find_spikes`, ``drivers``, ``running`` and ``air`` the run's)
     replaced by
-    a straight line between the samples around it (the nearest one at a
-    run's end), and a warning naming the column, the run, the time and the
+    a straight line between the samples around it (through the two nearest
+    at a run's end), and a warning naming the column, the run, the time and the
     value of each (the first few). ``y`` itself is not changed; it is
     returned as it is when there is none."""
     mask = find_spikes(y, drivers, running, air)
@@ -201,7 +201,17 @@ def repair_spikes(
     rows = np.arange(out.shape[0])
     for c in np.flatnonzero(mask.any(axis=0)):
         bad = mask[:, c]
-        out[bad, c] = np.interp(rows[bad], rows[~bad], out[~bad, c])
+        good = rows[~bad]
+        out[bad, c] = np.interp(rows[bad], good, out[good, c])
+        # At a run's ends, on the line through the two nearest good samples.
+        for ends, pair in (
+            (rows[bad] < good[0], good[:2]),
+            (rows[bad] > good[-1], good[-2:]),
+        ):
+            if ends.any() and pair.size == 2:
+                slope = (out[pair[1], c] - out[pair[0], c]) / (pair[1] - pair[0])
+                at = rows[bad][ends]
+                out[at, c] = out[pair[0], c] + slope * (at - pair[0])
     where = f"run {run!r}" + (f" of the {table} table" if table else "")
     found, cols = np.nonzero(mask)
     listed = [
