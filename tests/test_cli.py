@@ -709,6 +709,7 @@ def test_search_keeps_runs_out_with_train_runs(capsys, workdir, tmp_path):
     status, text, err = _run(capsys, *search, "--train-runs", "I,IV,extra")
     assert status == 0, err
     assert "3-fold CV over 3 runs" in text
+    assert "refitted on runs I, IV, extra)" in text
     assert joblib.load(model)["train_runs"] == ["I", "IV", "extra"]
     status, _, err = _run(capsys, *search, "--train-runs", "V")
     assert status == 2 and "has 1 run among --train-runs; the search" in err, err

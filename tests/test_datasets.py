@@ -1358,12 +1358,13 @@ def test_readings_no_machine_gives_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         validate_runs(table)
-    hot = table.copy()
+    hot = table.assign(T2_C=table["T1_C"])
     hot.loc[1, "T1_C"] = 1e6
+    hot.loc[2, "T2_C"] = 900.0
     with pytest.warns(
         UserWarning,
-        match=r"Column 'T1_C' holds 1e\+06 at run 'A', time_s 15.0 \(row 1\): no "
-        r"machine tool reads a temperature above 500 °C",
+        match=r"Column 'T1_C' holds 1e\+06 at run 'A', time_s 15.0 \(row 1\), and "
+        r"so do 'T2_C': no machine tool reads a temperature above 500 °C",
     ):
         validate_runs(hot)
     far = table.copy()

@@ -1024,11 +1024,19 @@ def test_calibration_names_a_dead_channel_and_an_index_of_runs():
     rig = ThermalMachine.from_preset("spindle-rig", effects=[])
     runs = rig.simulate(DutyCycle([(3600, 4000)]), sample_period_s=120, noise=False)
     with pytest.warns(UserWarning, match=r"\['disp_ch1_um'\] are constant on every"):
-        rig.calibrate(
+        _, dead = rig.calibrate(
             runs.assign(disp_ch1_um=0.0),
             ["q.bearing_W"],
             channels=["disp_ch1_um", "disp_ch2_um"],
         )
+    # A glitch on the dead probe (which tells nothing of its size) is left out.
+    glitch = runs.assign(disp_ch1_um=0.0)
+    glitch.loc[10, "disp_ch1_um"] = 25.0
+    with pytest.warns(UserWarning, match=r"\['disp_ch1_um'\] are constant on every"):
+        _, result = rig.calibrate(
+            glitch, ["q.bearing_W"], channels=["disp_ch1_um", "disp_ch2_um"]
+        )
+    np.testing.assert_allclose(result.params, dead.params, rtol=1e-6)
     with pytest.raises(
         ValueError, match=r"\['run', 'time_s'\] are levels of its index: runs.re"
     ):

@@ -792,6 +792,7 @@ def cmd_search(args):
             study_name=study_name,
             random_state=args.seed,
         )
+    runs = [str(r) for r in pd.unique(groups)]
     trials = result.trials_dataframe()
     done = int((trials["state"] == "COMPLETE").sum()) if len(trials) else 0
     failed = [t for t in result.study.trials if t.state.name == "FAIL"]
@@ -817,6 +818,7 @@ def cmd_search(args):
             "best_params": {k: _plain(v) for k, v in best.items()},
             "n_trials": len(trials),
             # The URL without its password: this file is shared.
+            "train_runs": runs,
             "storage": None if args.storage is None else safe_url(args.storage),
             "study_name": study_name,
         }
@@ -835,12 +837,15 @@ def cmd_search(args):
                 "estimator": result.best_estimator_,
                 "sensors": sensors,
                 "target": target,
-                "train_runs": [str(r) for r in pd.unique(groups)],
+                "train_runs": runs,
                 "skthermal_version": __version__,
             },
             args.save_model,
         )
-        print(f"Wrote {args.save_model} (best parameters, refitted on all runs)")
+        print(
+            f"Wrote {args.save_model} (best parameters, refitted on "
+            + ("all runs)" if not args.train_runs else f"runs {', '.join(runs)})")
+        )
     return 0
 
 

@@ -741,6 +741,7 @@ def _warn_impossible_readings(df, columns, values):
             _is_target,
         ),
     ):
+        found = []
         for j, name in enumerate(columns):
             if not test(name):
                 continue
@@ -749,19 +750,23 @@ def _warn_impossible_readings(df, columns, values):
                 warnings.simplefilter("ignore", RuntimeWarning)  # all NaN
                 level = 0.0 if test is _is_temperature else np.nanmedian(col)
                 bad = np.flatnonzero(np.abs(col - level) > limit)
-            if not bad.size:
-                continue
-            warnings.warn(
-                f"Column {name!r} holds {col[bad[0]]:g} at {_where(df, bad[0])}"
-                + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
-                + f": no machine tool reads a {kind} {limit:g} {unit}. A "
-                "glitch or a corrupt value? A model without a guard "
-                "(skthermal.compose.GuardedRegressor; skthermal fit --guard) "
-                "passes it on to its prediction.",
-                UserWarning,
-                stacklevel=user_stacklevel(),
-            )
-            break
+            if bad.size:
+                found.append((name, col, bad))
+        if not found:
+            continue
+        name, col, bad = found[0]
+        others = [repr(f[0]) for f in found[1:]]
+        warnings.warn(
+            f"Column {name!r} holds {col[bad[0]]:g} at {_where(df, bad[0])}"
+            + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
+            + (f", and so do {', '.join(others)}" if others else "")
+            + f": no machine tool reads a {kind} {limit:g} {unit}. A glitch or a "
+            "corrupt value? A model without a guard "
+            "(skthermal.compose.GuardedRegressor; skthermal fit --guard) passes "
+            "it on to its prediction.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
 
 
 def _warn_fahrenheit_sensors(columns, values):

@@ -2639,10 +2639,13 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         warnings.warn(
             f"calibrate: the channel(s) {dead} are constant on every run (a "
             "dead or unplugged probe?): the fit takes them as a machine that "
-            "does not move there; leave them out (channels=).",
+            "does not move there, a glitch or two on them left out; leave them "
+            "out (channels=).",
             UserWarning,
             stacklevel=4,
         )
+        for y in measured:  # constant: no change since the start
+            y[:, flat] = 0.0
     # Each channel scaled by its own spread, so that every channel carrying
     # a signal has its say, but by no less than a quarter of the root mean
     # square spread of its kind (displacements, temperatures): scaled by its
