@@ -17,7 +17,8 @@ import numpy as np
 from skthermal.utils._warnings import user_stacklevel
 
 # A glitch stands further than this from the samples around it, in units of
-# the channel's usual step from one sample to the next. Gaussian noise alone
+# the channel's usual step from one sample to the next (or of its quantum,
+# the larger). Gaussian noise alone
 # does not get there (about 11 standard deviations of the noise on both
 # sides at once).
 SPIKE_FACTOR = 10.0
@@ -92,21 +93,20 @@ def find_spikes(y, drivers=None, running=None, air=None):
     shape.
 
     A glitch stands away from the samples around it by more than
-    :data:`SPIKE_FACTOR` times the channel's usual step from one sample to
-    the next (the root mean square of the smallest 90% of its absolute first
-    differences), while those samples agree with each other (for the first
-    and the last sample, the two after or before it); next to a change of a
-    driver, where a short event can be real, it must also lie outside the
-    rest of the run by more than twice the rest's span (so must a first
-    sample where the run starts running; a last sample there is not
-    judged). A step that stays, a
-    change of slope and a fast rise are no glitches; nor is a quantised
-    reading's flicker (the usual step is at least the channel's quantum, its
-    smallest nonzero step). Faults are rare: more than 2 such samples (or 1%
-    of them) in a channel are its own behaviour (a periodic excursion), and
-    none is taken. (A glitch on a reading that never changes is not found:
-    its quantum is the glitch's own step; :func:`flat_columns` takes such a
-    channel as a dead probe.)
+    :data:`SPIKE_FACTOR` times the larger of the channel's usual step from
+    one sample to the next (the root mean square of the smallest 90% of its
+    absolute first differences) and its quantum (its smallest nonzero step),
+    while those samples agree with each other (for the first and the last
+    sample, the two after or before it). Next to a change of a driver, where
+    a short event can be real, it must also lie outside the rest of the run
+    by more than twice the rest's span (so must a first sample where the run
+    starts running; a last sample there is not judged). A step that stays, a
+    change of slope, a fast rise and a quantised reading's flicker are no
+    glitches. Faults are rare: more than 2 such samples (or 1% of them) in a
+    channel are its own behaviour (a periodic excursion), and none is taken.
+    (A glitch on a reading that never changes is not found: its quantum is
+    the glitch's own step; :func:`flat_columns` takes such a channel as a
+    dead probe.)
 
     Parameters
     ----------
@@ -137,7 +137,8 @@ def find_spikes(y, drivers=None, running=None, air=None):
     quantum = np.where(a > 0, a, np.inf).min(axis=0)
     quantum = np.where(np.isfinite(quantum), quantum, 0.0)
     moving = _driver_changes(drivers, air, n)
-    # How far every candidate stands out, and where: (rows, height) per kind.
+    # How far every candidate stands out, where, and whether no driver
+    # changes there: (rows, height, calm) per kind.
     tests = []
     for width in _WIDTHS:
         if n < width + 2:
@@ -189,11 +190,10 @@ def repair_spikes(
 ):
     """``y`` (``(n, len(columns))``, one run) with every glitch
     (:func:`find_spikes`, ``drivers``, ``running`` and ``air`` the run's)
-    replaced by
-    a straight line between the samples around it (through the two nearest
-    at a run's end), and a warning naming the column, the run, the time and the
-    value of each (the first few). ``y`` itself is not changed; it is
-    returned as it is when there is none."""
+    replaced by a straight line between the samples around it (through the
+    two nearest at a run's end), and a warning naming the column, the run,
+    the time and the value of each (the first few). ``y`` itself is not
+    changed; it is returned as it is when there is none."""
     mask = find_spikes(y, drivers, running, air)
     if not mask.any():
         return y
