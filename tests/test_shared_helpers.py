@@ -170,7 +170,7 @@ def test_find_spikes_takes_glitches_only():
     growth = 3.0 * (1.0 - np.exp(-np.clip(t - 300.0, 0, None) / 20.0))
     assert not find_spikes(-2.0 * u + growth).any()
     with pytest.warns(UserWarning, match=r"T1_C = 7\.\d+ at time_s 300 \(\+3\.0"):
-        fixed = repair_spikes(y, ["T1_C", *"bcdefgh"], t, "r1", drivers=drivers)
+        fixed = repair_spikes(y, ["T1_C", *"bcdefgh"], t, "r1", spindle_rpm=drivers)
     # On a straight line between the samples around them.
     assert fixed[300, 0] == pytest.approx(0.5 * (y[299, 0] + y[301, 0]))
     np.testing.assert_allclose(

@@ -250,7 +250,7 @@ def _align(
             step_after = np.r_[np.diff(t), 0.0][at]
             in_gap = step_after > 1.5 * float(np.median(np.diff(t))) + tol
             inside &= ~(in_gap & (ts > t[at] + tol))
-        drivers, sim_drivers = {}, []
+        drivers, sim_drivers = {}, {}
         for col in ("spindle_rpm", "ambient_C", "feed_mm_min"):
             in_m, in_s = col in meas.columns, col in sim.columns
             m = driver_values(meas, col, name, "measured") if in_m else np.zeros(t.size)
@@ -259,7 +259,7 @@ def _align(
                 if in_s
                 else np.zeros(ts.size)
             )
-            sim_drivers.append(sim_d)
+            sim_drivers[col] = sim_d
             tol_d = 1e-3 * max(1.0, float(np.max(np.abs(m))))
             if col == "ambient_C":
                 tol_d = max(tol_d, 0.05)  # the air as logged, quantised
@@ -309,9 +309,7 @@ def _align(
             name,
             "measured",
             USED_FOR,
-            np.column_stack([drivers["spindle_rpm"], drivers["feed_mm_min"]]),
-            (drivers["spindle_rpm"] != 0) | (drivers["feed_mm_min"] != 0),
-            drivers["ambient_C"],
+            **drivers,
         )
         y_sim = repair_spikes(
             channel_values(sim, sim_cols, ts, name, "simulated"),
@@ -320,9 +318,7 @@ def _align(
             name,
             "simulated",
             USED_FOR,
-            np.column_stack([sim_drivers[0], sim_drivers[2]]),
-            (sim_drivers[0] != 0) | (sim_drivers[2] != 0),
-            sim_drivers[1],
+            **sim_drivers,
         )
         if not same:
             y_sim = np.column_stack(

@@ -499,13 +499,6 @@ def build_problem(
         check_length(t.size, name)
         check_times(t, name)
         y = read_y = channel_values(frame, channels, t, name)
-        steps = np.column_stack(
-            [
-                driver_values(frame, col, name)
-                for col in ("spindle_rpm", "feed_mm_min")
-                if col in frame
-            ]
-        )
         y = repair_spikes(
             y,
             channels,
@@ -513,9 +506,11 @@ def build_problem(
             name,
             "",
             USED_FOR,
-            steps,
-            np.any(steps != 0, axis=1),
-            driver_values(frame, "ambient_C", name),
+            **{
+                col: driver_values(frame, col, name)
+                for col in ("spindle_rpm", "feed_mm_min", "ambient_C")
+                if col in frame
+            },
         )
         if y is not read_y:
             # Repaired: the first readings (initial states) read it too.

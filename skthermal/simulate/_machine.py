@@ -2613,9 +2613,9 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
             t,
             run,
             used_for="the calibration",
-            drivers=np.column_stack([rpm] + ([] if feed is None else [feed])),
-            running=(rpm != 0) | (False if feed is None else feed != 0),
-            air=air,
+            spindle_rpm=rpm,
+            feed_mm_min=feed,
+            ambient_C=air,
         )
         repaired.append((run, frame.assign(**dict(zip(columns, y.T, strict=True)))))
     groups = repaired

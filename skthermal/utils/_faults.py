@@ -57,13 +57,18 @@ def flat_columns(Y):
     return ~off.any(axis=0) | (rare & ~np.any(off & ~glitch, axis=0))
 
 
-def _usual_step(y):
-    """Root mean square of the smallest 90% of each column's absolute first
-    differences, leaving out at least the two of one glitch."""
+def _scales(y):
+    """Each column's usual step (the root mean square of the smallest 90% of
+    its absolute first differences, leaving out at least the two of one
+    glitch) and its quantum (its smallest nonzero step; 0 for none)."""
     a = np.sort(np.abs(np.diff(y, axis=0)), axis=0)
     m = a.shape[0]
     keep = max(1, min(int(np.floor(_STEP_SHARE * m)), m - 2))
-    return np.sqrt(np.mean(a[:keep] ** 2, axis=0)), a
+    quantum = np.where(a > 0, a, np.inf).min(axis=0)
+    return (
+        np.sqrt(np.mean(a[:keep] ** 2, axis=0)),
+        np.where(np.isfinite(quantum), quantum, 0.0),
+    )
 
 
 def _driver_changes(drivers, air, n):
@@ -78,9 +83,7 @@ def _driver_changes(drivers, air, n):
         moved |= np.any(np.diff(D, axis=0) != 0, axis=1)
     if air is not None:
         A = np.asarray(air, dtype=float).reshape(n, -1)
-        step, a = _usual_step(A)
-        quantum = np.where(a > 0, a, np.inf).min(axis=0)
-        floor = np.maximum(step, np.where(np.isfinite(quantum), quantum, 0.0))
+        floor = np.maximum(*_scales(A))
         moved |= np.any(np.abs(np.diff(A, axis=0)) > SPIKE_FACTOR * floor, axis=1)
     near[:-1] |= moved
     near[1:] |= moved
@@ -133,9 +136,7 @@ def find_spikes(y, drivers=None, running=None, air=None):
     mask = np.zeros(y2.shape, dtype=bool)
     if n < 3:
         return mask[:, 0] if flat else mask
-    step, a = _usual_step(y2)
-    quantum = np.where(a > 0, a, np.inf).min(axis=0)
-    quantum = np.where(np.isfinite(quantum), quantum, 0.0)
+    step, quantum = _scales(y2)
     moving = _driver_changes(drivers, air, n)
     # How far every candidate stands out, where, and whether no driver
     # changes there: (rows, height, calm) per kind.
@@ -184,17 +185,24 @@ def repair_spikes(
     run,
     table="",
     used_for="the comparison",
-    drivers=None,
-    running=None,
-    air=None,
+    *,
+    spindle_rpm=None,
+    feed_mm_min=None,
+    ambient_C=None,
 ):
     """``y`` (``(n, len(columns))``, one run) with every glitch
-    (:func:`find_spikes`, ``drivers``, ``running`` and ``air`` the run's)
-    replaced by a straight line between the samples around it (through the
-    two nearest at a run's end), and a warning naming the column, the run,
-    the time and the value of each (the first few). ``y`` itself is not
-    changed; it is returned as it is when there is none."""
-    mask = find_spikes(y, drivers, running, air)
+    (:func:`find_spikes`, with the run's drivers as given: the speed and feed
+    step, the spindle or a feed axis runs where they are not 0) replaced by
+    a straight line between the samples around it (through the two nearest
+    at a run's end), and a warning naming the column, the run, the time and
+    the value of each (the first few). ``y`` itself is not changed; it is
+    returned as it is when there is none."""
+    steps = [d for d in (spindle_rpm, feed_mm_min) if d is not None]
+    drivers = running = None
+    if steps:
+        drivers = np.column_stack(steps)
+        running = np.any(drivers != 0, axis=1)
+    mask = find_spikes(y, drivers, running, ambient_C)
     if not mask.any():
         return y
     out = np.array(y, dtype=float, copy=True)
