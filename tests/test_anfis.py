@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from sklearn.base import clone
+from sklearn.metrics import r2_score
 from sklearn.model_selection import GroupKFold, cross_validate
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
@@ -1023,6 +1024,32 @@ def test_grey_anfis_warns_of_centred_inputs():
         # one signed input among others (a feed's direction) is no cause
         feed = np.where((t // 20) % 2 == 0, 1.0, -1.0)
         model.fit(np.c_[T, T[:, :1], feed], y)
+
+
+def test_grey_anfis_warns_of_readings_with_an_offset():
+    # Absolute readings accumulate into a ramp in time: an independent check
+    # got 54-77 µm held out with free intercepts on °C or kelvin readings (3
+    # µm on changes since the run start, 16 for predicting zero) without a
+    # word.
+    t = np.tile(np.arange(100.0), 3)
+    level = np.repeat([1.0, 0.6, 1.4], 100)[:, None]
+    T = level * np.c_[5 * (1 - np.exp(-t / 30)), 3 * (1 - np.exp(-t / 50))]
+    y = 3 * T[:, 0] + T[:, 1]
+    groups = np.repeat([0, 1, 2], 100)
+    model = ANFISRegressor(
+        grey=True, epochs=10, penalize_intercepts=False, random_state=0
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"input 'x2' \(and 1 more\) starts its runs at 29\d \(median over "
+        r"the runs\) and moves .* within a run: readings with an offset",
+    ):
+        model.fit(T + 293.15, y, groups=groups)
+    kelvin = r2_score(y, model.predict(T + 293.15, groups=groups))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.fit(T, y, groups=groups)  # changes since the run start
+    assert r2_score(y, model.predict(T, groups=groups)) > max(kelvin, 0.9)
 
 
 def test_a_step_far_too_small_for_the_inputs_warns():

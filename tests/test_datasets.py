@@ -1332,6 +1332,34 @@ def test_sensors_in_kelvin_warn():
         validate_runs(table)
 
 
+def test_one_run_in_kelvin_warns_naming_the_run():
+    # The kelvin check took whole columns: a logger set to kelvin for one
+    # test put that run 273 above the others without a word (an ANFIS then
+    # missed it by 500 µm), and workshop air in kelvin named no run.
+    table = pd.concat(
+        [
+            _minimal_table([0.0, 15.0, 30.0], [run] * 3).assign(
+                T1_C=lambda t, run=run: t["T1_C"] + (273.15 if run == "B" else 0.0)
+            )
+            for run in ("A", "B", "C")
+        ],
+        ignore_index=True,
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"'T1_C' never read below 200 in run\(s\) 'B', and below it in the "
+        r"other runs \('T1_C': 293.15 to .* there, 20 to .* elsewhere\): those "
+        r"runs logged in kelvin\?",
+    ):
+        validate_runs(table)
+    air = table.assign(ambient_C=np.where(table["run"] == "C", 294.0, 21.0))
+    air["T1_C"] = np.tile(np.linspace(20.0, 22.0, 3), 3)
+    with pytest.warns(
+        UserWarning, match=r"'ambient_C' reads 294 at run 'C', time_s 0.0 \(row 6\)"
+    ):
+        validate_runs(air)
+
+
 def test_sensors_in_fahrenheit_warn():
     # Fahrenheit in T*_C passed without a word (68-72 read as °C), though no
     # machine has every part 50 °C or more above freezing at every sample.

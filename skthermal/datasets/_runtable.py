@@ -607,7 +607,7 @@ def check_run_table(
     )
     _check_ranges(df, everything, values)
     _warn_air_unit(df)
-    _warn_kelvin_sensors(df, everything, values)
+    _warn_kelvin_sensors(df, everything, values, codes)
     _warn_impossible_readings(df, everything, values)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
@@ -678,7 +678,9 @@ def _warn_air_unit(df):
     """Warn when ``ambient_C`` is in another unit than °C
     (:func:`~skthermal.utils._runs.warn_air_unit`)."""
     if "ambient_C" in df.columns:
-        warn_air_unit(_as_float(df, ["ambient_C"])[:, 0])
+        warn_air_unit(
+            _as_float(df, ["ambient_C"])[:, 0], where=lambda pos: _where(df, pos)
+        )
 
 
 # No machine-tool structure reads this much in °C at every sample (bearings
@@ -690,21 +692,32 @@ _KELVIN_FLOOR = 200.0
 _FAHRENHEIT_FLOOR = 50.0
 
 
-def _warn_kelvin_sensors(df, columns, values):
+def _warn_kelvin_sensors(df, columns, values, codes):
     """Warn when temperature columns (``*_C``) never read below
     ``_KELVIN_FLOOR``: kelvin under a °C header. Models take changes or
     standardise, but not all: an ANFIS whose intercepts are shrunk, the
-    simulator and the gap diagnosis read the level."""
-    hot = []
+    simulator and the gap diagnosis read the level. A column that does so
+    in some runs only (``codes``: every row's run) is warned about naming
+    those runs: a logger set to kelvin for one test puts that run some 273
+    above the others, which no model of levels can take."""
+    hot, some = [], []
     for j, name in enumerate(columns):
         if name == "ambient_C" or not _is_temperature(name):
             continue
         col = values[:, j]
-        col = col[np.isfinite(col)]
-        if col.size and col.min() > _KELVIN_FLOOR:
-            hot.append((name, col.min(), col.max()))
+        finite = np.isfinite(col)
+        if not finite.any():
+            continue
+        run_min = pd.Series(col[finite]).groupby(codes[finite]).min()
+        if (run_min > _KELVIN_FLOOR).all():
+            hot.append((name, col[finite].min(), col[finite].max()))
+        elif (run_min > _KELVIN_FLOOR).any():
+            some.append((name, run_min.index[run_min > _KELVIN_FLOOR], col, finite))
+    if some:
+        _warn_kelvin_runs(df, codes, some)
     if not hot:
-        _warn_fahrenheit_sensors(columns, values)
+        if not some:
+            _warn_fahrenheit_sensors(columns, values)
         return
     name, low, high = hot[0]
     names = ", ".join(repr(h[0]) for h in hot[:3])
@@ -714,6 +727,31 @@ def _warn_kelvin_sensors(df, columns, values):
         f"{_KELVIN_FLOOR:g} ({name!r}: {low:g} to {high:g}): no machine-tool "
         "structure is that hot at every sample. In kelvin? Columns *_C are read "
         "as °C: subtract 273.15.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+def _warn_kelvin_runs(df, codes, some):
+    """The warning of :func:`_warn_kelvin_sensors` for columns that read
+    above the kelvin floor at every sample of some runs only: ``some`` holds
+    ``(column, hot run codes, values, finite)``."""
+    name, runs, col, finite = some[0]
+    labels = df[RUN].to_numpy()
+    first = {c: int(np.flatnonzero(codes == c)[0]) for c in runs}
+    named = ", ".join(repr(plain(labels[first[c]])) for c in list(runs)[:3])
+    more_runs = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
+    inside = finite & np.isin(codes, runs)
+    outside = finite & ~np.isin(codes, runs)
+    names = ", ".join(repr(s[0]) for s in some[:3])
+    more = f" and {len(some) - 3} more" if len(some) > 3 else ""
+    warnings.warn(
+        f"Temperature column(s) {names}{more} never read below "
+        f"{_KELVIN_FLOOR:g} in run(s) {named}{more_runs}, and below it in the "
+        f"other runs ({name!r}: {col[inside].min():g} to {col[inside].max():g} "
+        f"there, {col[outside].min():g} to {col[outside].max():g} elsewhere): "
+        "those runs logged in kelvin? Columns *_C are read as °C: subtract "
+        "273.15 from those runs' readings.",
         UserWarning,
         stacklevel=user_stacklevel(),
     )

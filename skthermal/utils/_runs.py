@@ -505,23 +505,26 @@ def air_unit_guess(value):
     return "another unit, or a faulty sensor?"
 
 
-def warn_air_unit(air, used_by="simulation, gap diagnosis"):
+def warn_air_unit(air, used_by="simulation, gap diagnosis", where=None):
     """Warn when the workshop air readings ``air`` (``ambient_C``, any
     shape) lie outside what workshop air (or a climate chamber) reads in °C
     (Fahrenheit reads 60-90, kelvin about 293): ``used_by`` takes them as
-    °C."""
+    °C. ``where``: a function of a position in the flattened ``air`` that
+    says where that reading is (``"run 'a', time_s 30 (row 2)"``)."""
     air = np.asarray(air, dtype=float).ravel()
-    air = air[np.isfinite(air)]
-    if not air.size:
+    finite = np.flatnonzero(np.isfinite(air))
+    if not finite.size:
         return
     low, high = AIR_RANGE_C
-    if air.min() >= low and air.max() <= high:
+    values = air[finite]
+    if values.min() >= low and values.max() <= high:
         return
-    k = int(np.argmax(np.abs(air - np.clip(air, low, high))))
+    k = int(np.argmax(np.abs(values - np.clip(values, low, high))))
+    at = "" if where is None else f" at {where(int(finite[k]))}"
     warnings.warn(
-        f"Column 'ambient_C' reads {air[k]:g} (range {air.min():g} to "
-        f"{air.max():g}), outside the {low:g} to {high:g} °C of workshop air "
-        f"and climate chambers: {air_unit_guess(air[k])} It is read as °C "
+        f"Column 'ambient_C' reads {values[k]:g}{at} (range {values.min():g} to "
+        f"{values.max():g}), outside the {low:g} to {high:g} °C of workshop air "
+        f"and climate chambers: {air_unit_guess(values[k])} It is read as °C "
         f"({used_by}).",
         UserWarning,
         stacklevel=user_stacklevel(),
