@@ -1408,6 +1408,18 @@ def test_readings_no_machine_gives_warn():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         validate_runs(table.assign(disp_y_um=table["disp_y_um"] + 10_500.0))
+    # Nanometres under a *_um header: the warning named the run's first
+    # reading (0, the likeliest value) a glitch, with no word of the unit.
+    t = np.arange(0.0, 3600.0, 60.0)
+    nm = _minimal_table(t, ["A"] * t.size)
+    nm["disp_y_um"] = -30_000.0 * (1 - np.exp(-t / 900.0)) + 5000.0 * np.sin(t / 600)
+    with pytest.warns(
+        UserWarning,
+        match=r"'disp_y_um' holds 0 at .*: .* In another unit\? Columns \*_um are "
+        r"read as µm \(nanometres: divide by 1000\)",
+    ) as caught:
+        validate_runs(nm)
+    assert not any("glitch" in str(w.message) for w in caught)
 
 
 def test_runs_that_start_before_zero_warn():

@@ -459,6 +459,25 @@ def test_a_glitch_does_not_swamp_the_noise_floor(pair):
         )
 
 
+@pytest.mark.parametrize("factor", [1e3, 1e-3, -1.0])
+def test_a_unit_slip_taken_up_by_the_base_gain_is_said(pair, factor):
+    # Displacements in nm under a *_um header (1000 times the simulation):
+    # the base gain took the factor up and the verdict read "the simulation
+    # matches the measurement as far as the noise tells", the factor nowhere.
+    sim, meas = pair  # measured = 1.1 x simulated + offsets
+    slipped = meas.assign(disp_z_um=meas["disp_z_um"] * factor)
+    gain = re.escape(f"{1.1 * factor:.2g}")
+    with pytest.warns(
+        UserWarning,
+        match=rf"fits the measurement only scaled \('disp_z_um' by {gain}: "
+        r"the base gain .* a unit slip",
+    ):
+        diagnose_runs(sim, slipped, candidates=["sensor_lag"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        diagnose_runs(sim, meas, candidates=["sensor_lag"])  # gains of 1.1
+
+
 def test_blocks_shorter_than_a_few_samples_are_refused(pair):
     # block_hours below a sampling period raised an AssertionError about
     # duplicate block labels; a little above it, "Run 'r0[0-0 s]' has 0

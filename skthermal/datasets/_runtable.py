@@ -762,6 +762,9 @@ def _warn_kelvin_runs(df, codes, some):
 # median: a probe may read with an offset): a glitch or a corrupt value.
 _HOTTEST_C = 500.0
 _LARGEST_ERROR_UM = 10_000.0
+# Share of a column's readings beyond those limits above which they are
+# taken for another unit rather than glitches.
+_UNIT_SHARE = 0.05
 
 
 def _warn_impossible_readings(df, columns, values):
@@ -770,13 +773,20 @@ def _warn_impossible_readings(df, columns, values):
     :data:`_LARGEST_ERROR_UM` from its column's median: no machine reads
     that, and a model without a guard passes such a reading on to its
     correction."""
-    for kind, limit, unit, test in (
-        ("temperature above", _HOTTEST_C, "°C", _is_temperature),
+    for kind, limit, unit, test, other_unit in (
+        (
+            "temperature above",
+            _HOTTEST_C,
+            "°C",
+            _is_temperature,
+            "Columns *_C are read as °C (millidegrees: divide by 1000)",
+        ),
         (
             "thermal displacement further from its median than",
             _LARGEST_ERROR_UM,
             "µm",
             _is_target,
+            "Columns *_um are read as µm (nanometres: divide by 1000)",
         ),
     ):
         found = []
@@ -789,19 +799,26 @@ def _warn_impossible_readings(df, columns, values):
                 level = 0.0 if test is _is_temperature else np.nanmedian(col)
                 bad = np.flatnonzero(np.abs(col - level) > limit)
             if bad.size:
-                found.append((name, col, bad))
+                found.append((name, col, bad, level))
         if not found:
             continue
-        name, col, bad = found[0]
+        name, col, bad, level = found[0]
+        k = bad[np.argmax(np.abs(col[bad] - level))]  # the farthest
         others = [repr(f[0]) for f in found[1:]]
+        # Beyond a few glitches: a whole stretch in another unit.
+        many = bad.size > max(2, _UNIT_SHARE * np.isfinite(col).sum())
+        cause = (
+            f"In another unit? {other_unit}."
+            if many
+            else "A glitch or a corrupt value?"
+        )
         warnings.warn(
-            f"Column {name!r} holds {col[bad[0]]:g} at {_where(df, bad[0])}"
+            f"Column {name!r} holds {col[k]:g} at {_where(df, k)}"
             + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
             + (f", and so do {', '.join(others)}" if others else "")
-            + f": no machine tool reads a {kind} {limit:g} {unit}. A glitch or a "
-            "corrupt value? A model without a guard "
-            "(skthermal.compose.GuardedRegressor; skthermal fit --guard) passes "
-            "it on to its prediction.",
+            + f": no machine tool reads a {kind} {limit:g} {unit}. {cause} A "
+            "model without a guard (skthermal.compose.GuardedRegressor; "
+            "skthermal fit --guard) passes it on to its prediction.",
             UserWarning,
             stacklevel=user_stacklevel(),
         )

@@ -473,6 +473,43 @@ def _varying_channels(aligned, channels, sim_cols, explicit):
     return keep
 
 
+# A base gain this far from one (either way) that does most of the
+# calibration's work is a unit slip or a simulation off by that factor.
+_SCALE_SLIP = 10.0
+
+
+def _warn_scale_slips(channels, gain, as_given, calibrated):
+    """Warn naming the channels whose simulation fits the measurement only
+    after the base gain (calibrated on all runs) scales it by
+    :data:`_SCALE_SLIP` or more, or flips its sign, while that gain removes
+    most of the gap: the base takes the factor up, and the verdict would
+    then say nothing of it (nm under a ``_um`` header read as "the
+    simulation matches")."""
+
+    def rms(residuals):
+        return np.sqrt(
+            sum(np.sum(r * r, axis=0) for r in residuals)
+            / max(sum(r.shape[0] for r in residuals), 1)
+        )
+
+    before, after = rms(as_given), rms(calibrated)
+    scaled = (np.abs(gain) >= _SCALE_SLIP) | (np.abs(gain) <= 1 / _SCALE_SLIP)
+    slip = (scaled | (gain < 0)) & (after < 0.5 * before)
+    if not slip.any():
+        return
+    text = ", ".join(f"{channels[c]!r} by {gain[c]:.3g}" for c in np.flatnonzero(slip))
+    warnings.warn(
+        f"The simulation fits the measurement only scaled ({text}: the base "
+        "gain of the channel, calibrated on all runs, which removes most of "
+        "its gap): a unit slip (nm or mm under a *_um header, K or mK in a "
+        "*_C column), a sign convention of the axis, or a simulation off by "
+        "that factor? The diagnosis takes the factor as part of the base and "
+        "judges the effects on what is left.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
 def _kinds(channels, sim_cols):
     """Which compared channels are displacements: by the measured column's
     name (the run-table contract), else the simulated one's; a channel named
@@ -876,6 +913,7 @@ def diagnose_runs(
     ]  # prediction minus measurement
     base_all = Base().fit(signals, all_idx)
     calibrated = _residuals(signals, base_all.apply(signals, all_idx), all_idx)
+    _warn_scale_slips(channels, base_all.gains_[:, 0], as_given, calibrated)
 
     # Which: the base held out, then every candidate.
     base_R, _ = _heldout(signals, folds, lambda train: Base())
