@@ -622,6 +622,10 @@ def _clock_indexed(table, kind):
         "timedelta": pd.to_timedelta(t, unit="s"),
         "datetime": pd.Timestamp("2024-05-02") + pd.to_timedelta(t, unit="s"),
         "text": t.astype(str).astype(object).where(t != 120.0, "2 min"),
+        # what read_parquet(dtype_backend="pyarrow") gives for a duration
+        "arrow duration": pd.Series(pd.to_timedelta(t, unit="s")).astype(
+            "duration[us][pyarrow]"
+        ),
     }[kind]
     return frame.set_axis(
         pd.MultiIndex.from_arrays(
@@ -636,6 +640,10 @@ def _clock_indexed(table, kind):
         ("timedelta", r"'time_s' index level holds timedelta64\[\w+\] values.*seconds"),
         ("datetime", r"'time_s' index level holds datetime64\[\w+\] values.*seconds"),
         ("text", r"'time_s' index level is not numeric: row 2 holds '2 min'"),
+        (
+            "arrow duration",
+            r"'time_s' index level holds duration\[us\]\[pyarrow\] values.*seconds",
+        ),
     ],
 )
 def test_clock_times_in_the_index_are_an_error_as_in_a_column(kind, message):

@@ -2095,6 +2095,9 @@ def is_clock_dtype(dtype):
     return bool(
         pd.api.types.is_datetime64_any_dtype(dtype)
         or pd.api.types.is_timedelta64_dtype(dtype)
+        # pyarrow durations (pd.ArrowDtype(pa.duration(...))), which the
+        # checks above do not take for timedeltas
+        or getattr(dtype, "kind", None) in ("m", "M")
     )
 
 
