@@ -265,6 +265,86 @@ def test_flat_auto_uses_training_stretches(train):
     assert not [w for w in caught if issubclass(w.category, GuardWarning)]
 
 
+# --- logging gaps and other sampling periods ---------------------------------
+
+
+def _resampled(X, keep):
+    """``X`` with only the rows ``keep`` (a boolean mask) of its runs."""
+    return X[np.asarray(keep)]
+
+
+def test_a_logging_gap_in_training_does_not_widen_the_jump_limit(train, new_run):
+    # The step across one 30-min gap of one training run became the sensor's
+    # largest step: spikes up to 1-2 °C then passed as ok.
+    X, y = train
+    t = X.index.get_level_values("time_s").to_numpy()
+    run = X.index.get_level_values("run").to_numpy()
+    gap = (run == "r1") & (t > 1200) & (t <= 3000)  # 30 min of r1 not logged
+    clean = GuardedRegressor(LinearRegression()).fit(X, y)
+    gapped = GuardedRegressor(LinearRegression()).fit(X[~gap], y[~gap])
+    assert gapped.sample_period_ == 30.0
+    np.testing.assert_allclose(gapped.input_max_step_, clean.input_max_step_, rtol=0.5)
+    X_new = new_run[0].copy()
+    X_new.iloc[60, 2] += 8 * clean.input_max_step_[2]  # a spike of T3_C
+    for guard in (clean, gapped):
+        checked, _ = _caught(guard.predict_checked, X_new)
+        assert checked["reason"].iloc[60] == "jump: T3_C"
+
+
+def test_the_first_reading_after_a_logging_gap_is_no_jump(train, new_run):
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    X_new = new_run[0]
+    t = X_new.index.get_level_values("time_s").to_numpy()
+    paused = _resampled(X_new, (t < 600) | (t > 2400))  # 30 min not logged
+    checked, caught = _caught(guard.predict_checked, paused)
+    assert checked["ok"].all(), checked["reason"][~checked["ok"]]
+    # A sensor back far off after the gap is still flagged (the range takes
+    # over where the time allows a sensor to move that far).
+    broken = paused.copy()
+    row = int(np.flatnonzero(paused.index.get_level_values("time_s") > 2400)[0])
+    broken.iloc[row, 0] += 100 * guard.input_max_step_[0]
+    checked, _ = _caught(guard.predict_checked, broken)
+    assert "T1_C" in checked["reason"].iloc[row]
+
+
+def test_logging_faster_than_in_training_flat_lines_as_late_in_time(train):
+    # The window counted samples of training: a run logged three times as
+    # fast flat-lined after a third of the time, and hold froze the
+    # compensation for hours.
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), flat=20).fit(X, y)
+    fast, _ = make_runs([2.0], seed=4, n=360, period=10.0)
+    fast.iloc[120:, 2] = fast.iloc[120, 2]  # T3_C stuck from time_s=1200
+    checked, _ = _caught(guard.predict_checked, fast)
+    flagged = checked["reason"].str.contains("flat-line: T3_C").to_numpy()
+    # 20 samples of 30 s = 600 s = 60 samples of 10 s: rows 120..179
+    assert not flagged[:179].any() and flagged[179:].all()
+
+
+def test_update_samples_taken_sparsely_are_no_spike(train):
+    from skthermal.linear_model import UpdateRegressor
+
+    X, y = train
+    guard = GuardedRegressor(UpdateRegressor(alpha=1.0)).fit(X, y)
+    sparse, y_sparse = make_runs([2.0], seed=5, n=12, period=600.0)
+    guard.partial_fit(sparse, y_sparse)  # every 10 min: no spike
+    spike = sparse.copy()
+    spike.iloc[6, 1] += 50.0
+    with pytest.raises(ValueError, match=r"sensor spike \(1 of 4: 'T2_C'"):
+        guard.partial_fit(spike, y_sparse)
+
+
+def test_rows_out_of_time_order_are_an_error_not_sensor_faults(train, new_run):
+    X, y = train
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    shuffled = new_run[0].sample(frac=1.0, random_state=0)
+    with pytest.raises(ValueError, match=r"time_s must increase strictly within a run"):
+        guard.predict_checked(shuffled)
+    with pytest.raises(ValueError, match=r"time_s must increase strictly within a run"):
+        GuardedRegressor(LinearRegression()).fit(X.iloc[::-1], y.iloc[::-1])
+
+
 # --- a slow drift -----------------------------------------------------------
 
 

@@ -34,11 +34,13 @@ from skthermal.utils._runs import (
     RUN_COLUMN,
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
+    check_time_order,
     describe_unreadable,
     extract_runs,
     has_time_index,
     pass_runs,
     routed_runs,
+    row_times,
     run_first_rows,
     run_slices,
     sequence_models,
@@ -84,7 +86,7 @@ _MAX_SPAN = 4
 _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
 
 
-def _steps(A, first, bad=None):
+def _steps(A, first, bad=None, periods=None):
     """Change of every column since its last earlier reading in the same run
     that is not ``bad`` (missing or out of range; None: since the previous
     row), and over how many rows (0 and 1 where the run has no such reading
@@ -93,14 +95,22 @@ def _steps(A, first, bad=None):
     A step measured from a faulty reading says nothing of the reading after
     it: the row after an out-of-range spike, or after a run's faulty first
     reading, is judged against the last good one (a controller passing the
-    run so far knows it then)."""
+    run so far knows it then).
+
+    With ``periods`` (every row's time since the run's previous row, in
+    sampling periods of training; :func:`_periods`), the span is at most
+    :data:`_MAX_SPAN` rows plus the time the rows leave out: a logging gap
+    counts in full, what a sensor may move grows with it."""
+    n = A.shape[0]
+    rows = np.arange(n)
     if bad is None or not bad.any():
         d = np.zeros_like(A)
         d[1:] = A[1:] - A[:-1]
         d[first] = 0.0
-        return d, np.ones(A.shape, dtype=int)
-    n = A.shape[0]
-    rows = np.arange(n)
+        span = np.ones(A.shape)
+        if periods is not None:
+            span = np.maximum(span, np.where(first, 1.0, periods)[:, None])
+        return d, span
     start = np.maximum.accumulate(np.where(first, rows, 0))
     last = _last_good(bad, start)
     prev = np.full_like(last, -1)
@@ -109,7 +119,47 @@ def _steps(A, first, bad=None):
     cols = np.arange(A.shape[1])
     known = prev >= 0
     d = np.where(known, A - A[np.maximum(prev, 0), cols], 0.0)
-    return d, np.where(known, rows[:, None] - prev, 1)
+    count = np.where(known, rows[:, None] - prev, 1)
+    span = np.minimum(count, _MAX_SPAN).astype(float)
+    if periods is not None:
+        # Time since the last good reading, in periods, beyond its rows.
+        elapsed = np.cumsum(np.where(first, 0.0, periods))
+        since = elapsed[:, None] - elapsed[np.maximum(prev, 0)]
+        span += np.where(known, np.maximum(since - count, 0.0), 0.0)
+    return d, span
+
+
+def _faster(periods, first):
+    """Per row, how many times faster than in training its run is logged
+    (the run's median time step in this call; at least 1)."""
+    run = np.cumsum(first) - 1
+    out = np.ones(periods.shape)
+    for r in np.unique(run):
+        mine = (run == r) & ~first
+        if mine.any():
+            out[run == r] = max(1.0, 1.0 / max(float(np.median(periods[mine])), 1e-9))
+    return out
+
+
+def _median_period(times, first):
+    """The median time step within runs (s), NaN without times."""
+    if times is None or times.size < 2:
+        return np.nan
+    dt = np.diff(times)[~first[1:]]
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    return float(np.median(dt)) if dt.size else np.nan
+
+
+def _periods(times, first, period):
+    """Every row's time since its run's previous row in sampling periods of
+    training (``period`` s; 1 at a run's first row), or None without times
+    or a period."""
+    if times is None or not np.isfinite(period) or period <= 0:
+        return None
+    out = np.ones(times.shape)
+    out[1:] = np.diff(times) / period
+    out[first] = 1.0
+    return out
 
 
 def _odd_first_readings(jump, step, first):
@@ -234,13 +284,16 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         ``jump`` times the largest change of that input in training is a
         jump. After readings that are missing, or out of range by a jump
         (a spike), the change is taken from the last good one (the limit
-        times the samples in between, at most 4). None: no jump check.
-        Assumes the sampling period of training.
+        times the samples in between, at most 4). With times (``time_s``)
+        the limit grows with the time a logging gap leaves out, in sampling
+        periods of training; a run logged faster is judged per sample (a
+        stricter limit). None: no jump check.
     flat : int, "auto" or None, default="auto"
-        Samples of unchanged reading after which a sensor that moved in
-        training counts as flat-lined. ``"auto"``: per input, three times
-        the longest stretch of unchanged readings in a training run, at
-        least 10.
+        Samples of unchanged reading (at the sampling period of training: a
+        run logged faster takes as much time, in more samples) after which
+        a sensor that moved in training counts as flat-lined. ``"auto"``:
+        per input, three times the longest stretch of unchanged readings in
+        a training run, at least 10.
         None: no flat-line check.
     output_span : float, default=0.25
         Width of the plausible prediction band beyond the training output
@@ -274,7 +327,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Largest training value of every input.
     input_max_step_ : ndarray of shape (n_features_in_,)
         Largest change of every input from one sample to the next within a
-        training run.
+        training run, per ``sample_period_`` (a step over a logging gap, or
+        in a run logged more slowly, divided by the periods it spans).
+    sample_period_ : float
+        The median time step of the training runs (s), from their
+        ``time_s``; NaN without times (steps are then per row).
     input_max_unchanged_ : ndarray of shape (n_features_in_,)
         Longest stretch of identical consecutive readings within a training
         run, in samples (1 when every reading differed from the last).
@@ -423,6 +480,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         # Training data must be complete: named errors (column, run, time).
         features, runs = extract_runs(X, groups, y=y)
+        check_time_order(features, runs)
         A, Y = validate_data(
             self, features, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
@@ -435,7 +493,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             # Said above, for X as given.
             warnings.filterwarnings("ignore", message=TARGET_COLUMNS_WARNING)
             self.estimator_.fit(X_inner, y, **fit_params)
-        self._fit_ranges(A, np.asarray(Y, dtype=float).reshape(A.shape[0], -1), runs)
+        self._fit_ranges(
+            A,
+            np.asarray(Y, dtype=float).reshape(A.shape[0], -1),
+            runs,
+            row_times(features),
+        )
         self._output_names = target_names(y)
         return self
 
@@ -470,15 +533,25 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             raise ValueError("inputs is empty: name at least one input to check.")
         return mask
 
-    def _fit_ranges(self, A, Y, runs, update=False):
+    def _fit_ranges(self, A, Y, runs, times=None, update=False):
         """The training ranges; with ``update``, widened to hold new samples
-        too (a range only grows: the model has now seen those conditions)."""
+        too (a range only grows: the model has now seen those conditions).
+
+        With ``times``, the steps are per sampling period of training (the
+        median time step; set in ``fit``): a step over a logging gap, or in a
+        run logged more slowly, is divided by the periods it spans, so it
+        does not widen the jump limit."""
         start = run_first_rows(runs, A.shape[0])
         first = start == np.arange(A.shape[0])
+        if not update:
+            self.sample_period_ = _median_period(times, first)
+        step, span = _steps(
+            A, first, periods=_periods(times, first, self.sample_period_)
+        )
         found = {
             "input_min_": A.min(axis=0),
             "input_max_": A.max(axis=0),
-            "input_max_step_": np.abs(_steps(A, first)[0]).max(axis=0),
+            "input_max_step_": (np.abs(step) / span).max(axis=0),
             "input_max_unchanged_": _unchanged(A, first).max(axis=0) + 1,
             "output_min_": Y.min(axis=0),
             "output_max_": Y.max(axis=0),
@@ -518,6 +591,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         first = not hasattr(self, "estimator_")
         features, runs = extract_runs(X, groups, y=y)
+        check_time_order(features, runs)
+        times = row_times(features)
         A, Y = validate_data(
             self,
             features,
@@ -532,7 +607,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             self.estimator_ = clone(self.estimator)
             self._output_names = target_names(y)
         else:
-            self._refuse_faulty_update(A, features, runs)
+            self._refuse_faulty_update(A, features, runs, times)
         X_inner, kwargs = routed_runs(
             self, "partial_fit", self.estimator_.partial_fit, X, groups, {}
         )
@@ -543,10 +618,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 f"y has {Y.shape[1]} output(s); the guard was fitted on "
                 f"{self.output_min_.size}."
             )
-        self._fit_ranges(A, Y, runs, update=not first)
+        self._fit_ranges(A, Y, runs, times, update=not first)
         return self
 
-    def _refuse_faulty_update(self, A, features, runs):
+    def _refuse_faulty_update(self, A, features, runs, times=None):
         """Raise when new samples hold a spike: a step over ``jump`` times
         both the largest step in training and the new samples' own typical
         (median) step. An update must not learn from a faulty sensor, nor
@@ -557,8 +632,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return
         n = A.shape[0]
         first = run_first_rows(runs, n) == np.arange(n)
+        periods = _periods(times, first, self._period())
         with np.errstate(invalid="ignore"):
-            step = np.abs(_steps(A, first)[0])
+            step, span = _steps(A, first, periods=periods)
+            # Per sampling period of training: update samples taken every
+            # 10 minutes, or across a pause, are no spike.
+            step = np.abs(step) / span
             typical = (
                 np.nanmedian(step, axis=0)
                 if np.isfinite(step).any()
@@ -670,12 +749,14 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         an error for the whole call; the other runs are predicted alone."""
         check_is_fitted(self)
         features, runs = extract_runs(X, groups, finite=False)
+        check_time_order(features, runs)
         A = validate_data(
             self, features, reset=False, dtype=np.float64, ensure_all_finite=False
         )
         n = A.shape[0]
         start = run_first_rows(runs, n)
         first = start == np.arange(n)
+        periods = _periods(row_times(features), first, self._period())
         where = _Where(features, runs, self._sensor_names())
         if self.mode == "hold":
             dead = self._unreadable(A, start)
@@ -683,7 +764,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 return self._without_dead_runs(X, groups, dead, start, where)
             if dead is not None:
                 self._refuse_unreadable(dead, start, where)
-        flags = self._input_flags(A, first, where)
+        flags = self._input_flags(A, first, where, periods)
         fault = np.logical_or.reduce(list(flags.values()))
         late = self._late_starts(runs, where, n)
 
@@ -865,7 +946,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return [f"x{j}" for j in range(self.n_features_in_)]
         return [str(c) for c in names]
 
-    def _input_flags(self, A, first, where):
+    def _period(self):
+        """The sampling period of training (s), NaN when unknown."""
+        return getattr(self, "sample_period_", np.nan)
+
+    def _input_flags(self, A, first, where, periods=None):
         """Boolean (n, p) matrices per fault kind, warned about as found."""
         finite = np.isfinite(A)
         # A reading beyond MAX_MAGNITUDE is as wrong as NaN or inf: the wrapped
@@ -891,7 +976,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
             if self.jump is not None:
                 flags["jump"], step = self._jumps(
-                    A, first, flags["missing"], flags["range"] & self.checked_inputs_
+                    A,
+                    first,
+                    flags["missing"],
+                    flags["range"] & self.checked_inputs_,
+                    periods,
                 )
                 # An odd first reading is the fault, not the step from it.
                 odd = _odd_first_readings(flags["jump"], step, first)
@@ -903,7 +992,14 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 else:
                     window = np.full(A.shape[1], self.flat)
                 moved = self.input_max_ > self.input_min_
-                flags["flat"] = moved & (_unchanged(A, first) + 1 >= window)
+                # The window is in samples of training: a run logged faster
+                # takes as long to flat-line, in more samples.
+                faster = (
+                    np.ones(A.shape[0]) if periods is None else _faster(periods, first)
+                )
+                flags["flat"] = moved & (
+                    _unchanged(A, first) + 1 >= window * faster[:, None]
+                )
         for kind in ("range", "jump", "flat"):
             if kind in flags:
                 flags[kind] &= self.checked_inputs_
@@ -964,7 +1060,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
         return flags
 
-    def _jumps(self, A, first, missing, out):
+    def _jumps(self, A, first, missing, out, periods=None):
         """Jump flags (n, p) and the steps they were judged on.
 
         A step is taken from the sensor's last reading in the run that is
@@ -978,9 +1074,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
 
         def judge(bad):
-            step, rows = _steps(A, first, bad)
+            step, span = _steps(A, first, bad, periods)
             step = np.abs(step)
-            return np.isfinite(step) & (step > base * np.minimum(rows, _MAX_SPAN)), step
+            return np.isfinite(step) & (step > base * span), step
 
         jump, step = judge(missing)
         spike = out & (jump | first[:, None])
