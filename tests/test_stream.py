@@ -78,6 +78,28 @@ def test_blocks_of_a_new_run_equal_the_whole_run(data, sizes):
     assert np.max(np.abs(alone - whole)) > 1.0
 
 
+def test_a_logger_that_switches_period_is_no_pause_at_every_row(data):
+    # Logged at 20 s, then at 120 s: row by row every later row was warned
+    # about as a pause (with a period creeping from 20 s), a new message each
+    # time, hundreds in a run; the predictions were right.
+    _, _, model, _ = data
+    fast = _run("e", hours=1.0, period=20.0, seed=2)
+    slow = _run("e", hours=3.0, period=120.0, seed=2)
+    run = pd.concat([fast, slow[slow["time_s"] >= 3600]], ignore_index=True)
+    run = run.drop(columns="disp_z_um")
+    stream = RunStream(model)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        parts = [stream.predict(b) for b in _blocks(run, [1])]
+    pauses = [
+        w for w in caught if "continues 120 s after its last row" in str(w.message)
+    ]
+    assert 1 <= len(pauses) <= 10
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        np.testing.assert_allclose(np.concatenate(parts), model.predict(run), atol=1e-9)
+
+
 def test_blocks_holding_several_runs(data):
     _, _, model, new = data
     whole = model.predict(new)

@@ -2344,7 +2344,8 @@ def extend_memory(memory, X, slices, labels, frame, cont):
     state.
     """
     new = run_memory(X, slices, labels, frame)
-    for lab, old_lab in zip(labels, cont, strict=True):
+    t = row_times(frame)
+    for sl, lab, old_lab in zip(slices, labels, cont, strict=True):
         if lab is None:
             continue
         entry = new[lab]
@@ -2356,6 +2357,8 @@ def extend_memory(memory, X, slices, labels, frame, cont):
                 "x_last": entry["x_last"],
                 "t_last": entry["t_last"],
             }
+            if t is not None:
+                merged.update(_recent_period(old, t[sl]))
             if "max_step" in old and entry["n"] < 3:
                 # A block of one or two rows shows no step of its own.
                 merged["max_step"] = old["max_step"]
@@ -2363,6 +2366,28 @@ def extend_memory(memory, X, slices, labels, frame, cont):
                 merged["max_step"] = np.maximum(old["max_step"], entry["max_step"])
             entry = merged
         memory[lab] = entry
+
+
+# Time steps a continued run's remembered sampling period is the median of:
+# the run's latest, so that a logger that switches to another period is
+# taken at its new period after a few blocks instead of warned about as a
+# pause at every row.
+_RECENT_STEPS = 15
+
+
+def _recent_period(state, times):
+    """``{"recent_steps", "period"}`` of a remembered run (``state``)
+    continued by rows at ``times``: the latest :data:`_RECENT_STEPS` time
+    steps, the step from the remembered last row included, and their
+    median."""
+    recent = state.get("recent_steps")
+    if recent is None:
+        period = memory_period(state)
+        recent = np.array([period]) if np.isfinite(period) else np.zeros(0)
+    steps = np.diff(np.r_[state["t_last"], times])
+    recent = np.r_[recent, steps[np.isfinite(steps)]][-_RECENT_STEPS:]
+    period = float(np.median(recent)) if recent.size else np.nan
+    return {"recent_steps": recent, "period": period}
 
 
 def _estimators_in(value):
