@@ -38,6 +38,7 @@ from skthermal.utils._runs import (
     run_sample_periods,
     run_slices,
     run_times,
+    warn_dt_against_times,
     warn_gaps,
     warn_no_time,
     warn_pauses,
@@ -49,8 +50,9 @@ from skthermal.utils._threads import single_threaded_blas
 from skthermal.utils._warnings import user_stacklevel
 
 # Relative spread of the sampling interval tolerated within one run: the exact
-# discretisation below assumes a constant step.
-_DT_RTOL = 0.01
+# discretisation below assumes a constant step (the median one), and a
+# logger's clock jitters by a few percent.
+_DT_RTOL = 0.05
 # Least ratio of the two time constants of an input with order=2. Two lags
 # of nearly equal time constants are nearly the same column: their
 # difference, with huge opposite gains, approximates the derivative of a
@@ -770,9 +772,11 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         one step per run); in ``predict``, the median step of each run (the
         filters then follow the times, gaps included), a run without times
         taking the fitted ``period``."""
-        if self.dt is not None:
-            return np.full(len(slices), float(self.dt)), float(self.dt)
         name = type(self).__name__
+        if self.dt is not None:
+            if period is None:
+                warn_dt_against_times(name, X_raw, slices, labels, float(self.dt))
+            return np.full(len(slices), float(self.dt)), float(self.dt)
         if period is None:
             kwargs = {"labels": labels, "regular": name, "rtol": _DT_RTOL}
             return fitted_sample_periods(X_raw, groups, slices, None, name, **kwargs)

@@ -1442,7 +1442,38 @@ def _hole_hint(t, steps, step, rtol):
             "their own run labels, or split over whole runs (GroupKFold with "
             "groups=runs); or resample the run."
         )
-    return "; resample the run or pass dt=..."
+    return (
+        "; resample the run onto a regular time grid (dt=... takes every step "
+        "as dt, gaps and changes of the period too)"
+    )
+
+
+def warn_dt_against_times(name, X, slices, labels, dt, rtol=0.1):
+    """Warn, naming the run, when a model given ``dt`` fits rows whose
+    ``time_s`` steps differ from it by more than ``rtol``: the model takes
+    every step as ``dt``, so a gap, a change of the logging period or
+    times in another unit go through as regular steps."""
+    t = row_times(X)
+    if t is None or not len(slices):
+        return
+    steps, run, _, _ = within_run_steps(t, slices, medians=False)
+    off = np.abs(steps - dt) > rtol * dt
+    if not off.any():
+        return
+    k = int(np.flatnonzero(off)[0])
+    lab = labels[run[k]] if labels is not None else None
+    where = "a run" if lab is None else f"run {lab!r}"
+    mine = steps[run == run[k]]
+    warnings.warn(
+        f"{name}: dt={dt:g} is given, but the time_s steps of {where} range "
+        f"from {mine.min():g} to {mine.max():g} s ({int(off.sum())} step(s) "
+        f"more than {rtol:.0%} off dt in all): the model takes every step as "
+        "dt, so gaps, a change of the logging period or times in another unit "
+        "go through as regular steps. Resample the runs onto a grid of dt, or "
+        "leave dt=None to read the times.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def fitted_sample_periods(X, groups, slices, dt, name, **kwargs):
@@ -1835,14 +1866,27 @@ def warn_slow_periods(name, X, slices, labels, period, stacklevel=5):
     constants are in seconds is sampled over :data:`SLOW_PERIOD_FACTOR`
     times more slowly than its training runs (``period``, s): most likely
     ``time_s`` logged in milliseconds, which the filters read as a thousand
-    times slower dynamics. A faster run is fine (every row's step is
-    used)."""
+    times slower dynamics; or as many times faster: minutes or hours (a
+    faster run is filtered as given, every row's step used, but a logger 60
+    times faster than the training runs' is rarer than a unit slip)."""
     t = row_times(X)
     if t is None or period is None or not (np.isfinite(period) and period > 0):
         return
     ratio = _median_periods(t, slices) / period
     worst = _worst_run(ratio, labels, SLOW_PERIOD_FACTOR)
     if worst is None:
+        fast = _worst_run(1.0 / ratio, labels, SLOW_PERIOD_FACTOR)
+        if fast is not None:
+            r, where = fast
+            warnings.warn(
+                f"{name}: {where} is sampled every {ratio[r] * period:g} s, the "
+                f"training runs every {period:g} s ({1 / ratio[r]:.3g} times "
+                "faster). The time constants are in seconds: is its time_s in "
+                "minutes or hours? A run really sampled this fast is filtered "
+                "as given.",
+                UserWarning,
+                stacklevel=stacklevel,
+            )
         return
     r, where = worst
     warnings.warn(
