@@ -20,6 +20,16 @@ from skthermal.preprocessing._lags import lowpass_steps, run_steps
 DATA = Path(__file__).parents[1].parent / "shared" / "data"
 
 
+def test_durations_as_times_or_dt_are_refused():
+    # A timedelta times= or dt= was read as integer ticks, silently.
+    U = np.ones((4, 1))
+    t = pd.to_timedelta([0, 60, 120, 180], unit="s")
+    with pytest.raises(ValueError, match=r"times holds timedelta64"):
+        exponential_filter(U, 600.0, 60.0, times=t)
+    with pytest.raises(ValueError, match=r"dt holds timedelta64\[ms\]"):
+        exponential_filter(U, 600.0, np.timedelta64(60000, "ms"))
+
+
 def test_filter_steady_state_and_restart():
     U = np.r_[np.full(5, 3.0), np.full(5, 7.0)]
     slices = [slice(0, 5), slice(5, 10)]

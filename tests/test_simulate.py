@@ -789,6 +789,13 @@ def test_bad_duty_cycles(segments, match):
 def test_bad_drivers_name_the_problem(vmc_b):
     t = np.arange(5) * 30.0
     ok = np.full(5, 20.0)
+    # Durations were read as ticks: a 2 h run became 7e9 s, silently.
+    for clock in (
+        pd.to_timedelta(t, unit="s"),
+        pd.Series(pd.to_timedelta(t, unit="s")).astype("duration[ns][pyarrow]"),
+    ):
+        with pytest.raises(ValueError, match=r"time_s holds .* \(time stamps or"):
+            vmc_b.simulate_drivers(clock, np.zeros(5), ok)
     with pytest.raises(ValueError, match=r"negative: -5 in run 'x' at row 2"):
         vmc_b.simulate_drivers(t, [0, 0, -5, 0, 0], ok, run="x")
     with pytest.raises(ValueError, match=r"ambient_C is NaN or infinite in run 'x'"):

@@ -33,6 +33,7 @@ from skthermal.utils._runs import (
     extract_runs,
     fitted_sample_periods,
     gap_periods,
+    refuse_clock_values,
     row_times,
     run_feature_names_in,
     run_frame_index,
@@ -183,6 +184,7 @@ def exponential_filter(
             f"slices must cover every row of U ({U.shape[0]}) exactly once, as "
             "run_slices gives them."
         )
+    refuse_clock_values(dt, "dt")
     dts = np.asarray(dt, dtype=float)
     if dts.ndim > 1 or (dts.ndim == 1 and dts.size != len(slices)):
         raise ValueError(
@@ -225,6 +227,7 @@ def exponential_filter(
     # share it are filtered together along the time axis.
     uniq, which = np.unique(np.broadcast_to(taus, (U2.shape[1],)), return_inverse=True)
     if times is not None:
+        refuse_clock_values(times, "times")
         times = np.asarray(times, dtype=float).ravel()
         if times.shape[0] != U2.shape[0]:
             raise ValueError(

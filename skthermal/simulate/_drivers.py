@@ -14,7 +14,7 @@ import numpy as np
 from sklearn.utils import check_random_state
 
 from skthermal._naming import shown
-from skthermal.utils._runs import AIR_RANGE_C, air_unit_guess
+from skthermal.utils._runs import AIR_RANGE_C, air_unit_guess, refuse_clock_values
 from skthermal.utils._warnings import user_stacklevel
 
 
@@ -55,7 +55,9 @@ def _hours(value, name, *, positive=True):
 
 def _float_array(value, name):
     """``value`` as a float array; a ValueError naming ``name`` for an
-    integer beyond the largest float (``np.asarray`` raises OverflowError)."""
+    integer beyond the largest float (``np.asarray`` raises OverflowError)
+    or for time stamps and durations (read as ticks otherwise)."""
+    refuse_clock_values(value, name)
     try:
         return np.asarray(value, dtype=float)
     except OverflowError:

@@ -680,6 +680,35 @@ def _check_feature_columns(X, columns, y):
     )
 
 
+def refuse_clock_values(
+    value, what, hint="t.dt.total_seconds() or (t - t[0]) / pd.Timedelta(seconds=1)"
+):
+    """Raise a ValueError naming ``what`` when ``value`` (an array, a
+    Series or a scalar) holds datetimes or durations (numpy, pandas,
+    pyarrow or :mod:`datetime`): converted to numbers they become integer
+    ticks (nanoseconds, microseconds), with no error. ``hint``: how to get
+    seconds."""
+    import datetime
+
+    import pandas as pd
+
+    kind = getattr(value, "dtype", None)
+    if kind is None:
+        if isinstance(
+            value, datetime.timedelta | datetime.datetime | np.timedelta64
+        ) or isinstance(value, np.datetime64):
+            kind = type(value).__name__
+        elif isinstance(value, list | tuple) and value:
+            return refuse_clock_values(pd.Series(list(value)), what, hint)
+    elif not is_clock_dtype(kind):
+        kind = None
+    if kind is not None:
+        raise ValueError(
+            f"{what} holds {kind} values (time stamps or durations), which as "
+            f"numbers would be integer ticks; give seconds as numbers, e.g. {hint}."
+        )
+
+
 def _time_seconds(values, what):
     """``time_s`` values (a column or index level, named by ``what``) as
     float seconds; a ValueError names what it holds when that is not
@@ -687,13 +716,13 @@ def _time_seconds(values, what):
     microseconds, with no error) or text."""
     import pandas as pd
 
+    refuse_clock_values(
+        values,
+        what,
+        "the seconds since the start of each run, "
+        "(t - t.groupby(run).transform('first')).dt.total_seconds()",
+    )
     kind = values.dtype
-    if is_clock_dtype(kind):
-        raise ValueError(
-            f"{what} holds {kind} values; it must hold the seconds since the "
-            "start of each run as numbers, e.g. "
-            "(t - t.groupby(run).transform('first')).dt.total_seconds()."
-        )
     if pd.api.types.is_numeric_dtype(kind):
         return np.asarray(values, dtype=float)
     raw = np.asarray(values, dtype=object)
