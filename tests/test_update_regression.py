@@ -371,6 +371,14 @@ def test_rmse_levels_errors():
         rmse_levels(y, {"m": {"a": y}}, ["a"])
     with pytest.raises(ValueError, match="NaN"):
         rmse_levels(y, {"m": {"a": [np.nan, 1, 1, 1]}}, g)
+    # Models keyed "1", "2" for batches 1, 2 (or the other way round): no
+    # model's own batch was left out, silently.
+    with pytest.raises(
+        ValueError, match=r"model '1' \(str\) is labelled like batch 1 \(int\)"
+    ):
+        rmse_levels(y, {"m": {"1": y, "2": y}}, [1, 1, 2, 2], include_self=False)
+    with pytest.warns(UserWarning, match=r"no model is labelled like a batch"):
+        rmse_levels(y, {"m": {"x": y}}, g, include_self=False)
 
 
 def test_cross_batch_rmse(data):

@@ -16,6 +16,7 @@ import pandas as pd
 from sklearn.base import clone
 
 from skthermal.utils._runs import check_labels, run_slices
+from skthermal.utils._warnings import user_stacklevel
 
 RMSELevels = namedtuple("RMSELevels", ["per_batch", "per_model", "per_method"])
 RMSELevels.__doc__ = """The three levels of 004 eq. 16.
@@ -149,6 +150,8 @@ def rmse_levels(y_true, predictions, groups, *, include_self=True):
     if not include_self:
         models = level1.index.get_level_values("model").to_numpy()
         own = models[:, None] == np.asarray(batches, dtype=object)[None, :]
+        if not own.any():
+            _no_own_batch(models, batches)
         masked = level1.mask(own)
     level2 = masked.mean(axis=1).unstack("model")
     level2 = level2.reindex(index=list(predictions))
@@ -156,6 +159,29 @@ def rmse_levels(y_true, predictions, groups, *, include_self=True):
     level3 = level2.mean(axis=1).to_frame("rmse")
     level3.index.name = "method"
     return RMSELevels(level1, level2, level3)
+
+
+def _no_own_batch(models, batches):
+    """``include_self=False`` with no model labelled like a batch: an error
+    when the labels match as text (1 against "1": the key types differ),
+    else a warning that nothing is left out."""
+    text = {str(b): b for b in batches}
+    like = [(m, text[str(m)]) for m in models if str(m) in text]
+    if like:
+        m, b = like[0]
+        raise ValueError(
+            f"include_self=False: model {m!r} ({type(m).__name__}) is labelled "
+            f"like batch {b!r} ({type(b).__name__}) only as text, so no model's "
+            "own batch would be left out. Label the models with the batch "
+            "labels themselves."
+        )
+    warnings.warn(
+        f"include_self=False, but no model is labelled like a batch (models "
+        f"{list(models[:3])!r}..., batches {list(batches[:3])!r}...): nothing is "
+        "left out of the means.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def cross_batch_rmse(estimators, X, y, groups, *, include_self=True):
