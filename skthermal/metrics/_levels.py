@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
+from skthermal._naming import plain
 from skthermal.utils._runs import check_labels, run_slices
 from skthermal.utils._warnings import user_stacklevel
 
@@ -165,8 +166,8 @@ def _no_own_batch(models, batches):
     """``include_self=False`` with no model labelled like a batch: an error
     when the labels match as text (1 against "1": the key types differ),
     else a warning that nothing is left out."""
-    text = {str(b): b for b in batches}
-    like = [(m, text[str(m)]) for m in models if str(m) in text]
+    text = {str(plain(b)): plain(b) for b in batches}
+    like = [(plain(m), text[str(plain(m))]) for m in models if str(plain(m)) in text]
     if like:
         m, b = like[0]
         raise ValueError(
