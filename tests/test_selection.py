@@ -142,6 +142,31 @@ def test_grey_influence_ranks_driving_sensors_first():
     assert sel.coef_.shape == (1, 5) and np.isfinite(sel.development_coef_[0])
 
 
+@pytest.mark.parametrize(
+    "selector",
+    [GreyInfluenceSelector(n_features_to_select=2), FCMClusterPicker(n_clusters=2)],
+)
+def test_a_gap_in_the_times_is_said_by_the_grey_selectors(selector):
+    # The accumulation counts rows: one 30-min logging pause moved a sensor
+    # to the top of the ranking, without a word (the grey regressors warn).
+    rng = np.random.default_rng(0)
+    t = np.arange(240) * 30.0
+    drivers = np.c_[1 - np.exp(-t / 1800), 1 - np.exp(-t / 4000)] * [4.0, 2.0]
+    X = np.c_[drivers, rng.normal(0, 0.05, (240, 2))]
+    y = drivers @ [5.0, 3.0]
+    keep = (t < 3000) | (t >= 4800)
+    frame = pd.DataFrame(
+        X[keep],
+        columns=["T1_C", "T2_C", "T3_C", "T4_C"],
+        index=pd.MultiIndex.from_arrays(
+            [np.full(keep.sum(), "r1"), t[keep]], names=["run", "time_s"]
+        ),
+    )
+    with pytest.warns(UserWarning, match=r"1 gap\(s\) in time_s.*counts rows"):
+        clone(selector).fit(frame, y[keep])
+    GRASelector(n_features_to_select=2).fit(frame, y[keep])  # compares rows
+
+
 def test_selection_size_and_threshold():
     rng = np.random.default_rng(1)
     X = rng.normal(size=(50, 6)).cumsum(axis=0)

@@ -28,6 +28,7 @@ from skthermal.utils._runs import (
     run_slices,
     target_names,
     unreadable,
+    warn_row_gaps,
     warn_target_columns,
     warn_unlabelled_runs,
 )
@@ -95,6 +96,12 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         tags.transformer_tags.preserves_dtype = ["float64", "float32"]
         return tags
 
+    def _counts_rows(self):
+        """Whether the scores count rows, not seconds (a grey model's
+        accumulation): ``fit`` then warns of gaps in the runs' times and of
+        runs sampled at other periods, which change the scores."""
+        return False
+
     @_fit_context(prefer_skip_nested_validation=True)
     def fit(self, X, y, *, groups=None):
         """Score the sensors and choose the ones to keep.
@@ -115,6 +122,9 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         """
         X, groups = extract_runs(X, groups, finite=False)
         check_time_order(X, groups)
+        if self._counts_rows():
+            slices, labels = run_slices(groups, _num_samples(X))
+            warn_row_gaps(type(self).__name__, X, slices, labels, stacklevel=4)
         # Rows without run labels are one run: a scaler in front that outputs
         # numpy drops the run index, and every run's changes and
         # accumulations would run on across the boundaries, silently.

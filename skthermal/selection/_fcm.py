@@ -139,6 +139,9 @@ class FCMClusterPicker(RunAwareSelector):
         "random_state": ["random_state"],
     }
 
+    def _counts_rows(self):
+        return isinstance(self.scorer, str) and self.scorer in ("gm1n", "gm0n")
+
     def __init__(
         self,
         n_clusters=5,

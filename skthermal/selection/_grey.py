@@ -97,6 +97,9 @@ class GreyInfluenceSelector(ScoreSelector):
         "alpha": [Interval(Real, 0, None, closed="left")],
     }
 
+    def _counts_rows(self):
+        return True
+
     def __init__(
         self, method="gm1n", *, n_features_to_select=None, threshold=None, alpha=0.0
     ):
