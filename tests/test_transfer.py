@@ -253,6 +253,26 @@ def test_irregular_sampling_names_the_run():
     assert str(err.value).endswith("gaps and changes of the period too)")
 
 
+def test_training_runs_too_short_for_a_thermal_model_warn():
+    # Fitted on runs of 3-10 samples (a few minutes), the model predicted up
+    # to 140 mm on a whole run, without a word.
+    from skthermal.grey import GreyPSORegressor
+
+    X, y = _heating_runs()
+    first = X.groupby(level="run").cumcount().to_numpy() < 10  # 90 s per run
+    for model in (
+        TransferFunctionRegressor(speed_column=2, max_iter=0),
+        GreyPSORegressor(alpha=0.0),
+    ):
+        with pytest.warns(
+            UserWarning, match=r"the longest run \('r\d'\) lasts 90 s of time_s"
+        ):
+            model.fit(X[first], y[first])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        TransferFunctionRegressor(speed_column=2, max_iter=0).fit(X, y)
+
+
 def test_bad_tau_bounds():
     X, y = _heating_runs()
     with pytest.raises(ValueError, match="tau_bounds"):

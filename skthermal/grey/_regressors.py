@@ -42,9 +42,11 @@ from skthermal.utils._runs import (
     run_times,
     warn_absolute_target,
     warn_row_gaps,
+    warn_short_runs,
     warn_unlabelled_runs,
 )
 from skthermal.utils._threads import single_threaded_blas
+from skthermal.utils._warnings import user_stacklevel
 
 
 def _rms(A):
@@ -104,6 +106,16 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         X, y = validate_data(self, X, y, y_numeric=True, dtype=np.float64)
         y = np.asarray(y, dtype=float)
         check_run_lengths(slices, labels, type(self).__name__)
+        spans = run_times(frame, slices)
+        if spans is not None:
+            warn_short_runs(
+                type(self).__name__,
+                {
+                    "the unlabelled run" if lab is None else lab: t1 - t0
+                    for (t0, t1), lab in zip(spans, labels, strict=True)
+                },
+                stacklevel=user_stacklevel(),
+            )
         warn_unlabelled_runs(
             type(self).__name__, None, groups, X.shape[0], X=frame, stacklevel=5
         )

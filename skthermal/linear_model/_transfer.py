@@ -33,6 +33,7 @@ from skthermal.utils._runs import (
     extract_runs,
     fitted_sample_periods,
     gap_periods,
+    has_time_index,
     row_times,
     run_memory,
     run_sample_periods,
@@ -42,6 +43,7 @@ from skthermal.utils._runs import (
     warn_gaps,
     warn_no_time,
     warn_pauses,
+    warn_short_runs,
     warn_slow_periods,
     warn_time_unit,
     warn_unlabelled_runs,
@@ -1159,6 +1161,14 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         self.speed_columns_ = self._speed_positions()
         warn_no_time(type(self).__name__, X_raw, self.dt)
         dts, self.sample_period_s_ = self._intervals(X_raw, groups, slices, labels)
+        if self.dt is not None or has_time_index(X_raw):
+            spans = [(sl.stop - sl.start - 1) * d for sl, d in zip(slices, dts)]
+            names = ["the unlabelled run" if lab is None else lab for lab in labels]
+            warn_short_runs(
+                type(self).__name__,
+                dict(zip(names, spans, strict=True)),
+                stacklevel=user_stacklevel(),
+            )
         if bounds is None:
             longest = max((sl.stop - sl.start) * d for sl, d in zip(slices, dts))
             # A lag much slower than the longest run cannot be told from a

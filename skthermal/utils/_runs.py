@@ -1695,8 +1695,10 @@ def warn_short_runs(who, spans, stacklevel=3):
         return
     warnings.warn(
         f"{who}: the longest run ({label!r}) lasts {longest:g} s of time_s. "
-        "Thermal drift builds up over hours; time_s must be in seconds (a "
-        "run logged in hours or minutes reads as a few seconds).",
+        "Thermal drift builds up over hours: runs this short do not determine "
+        "a thermal model (fitted on them, it extrapolates on longer runs), or "
+        "time_s is not in seconds (a run logged in hours or minutes reads as "
+        "a few seconds).",
         UserWarning,
         stacklevel=stacklevel,
     )
