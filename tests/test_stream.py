@@ -100,6 +100,24 @@ def test_a_logger_that_switches_period_is_no_pause_at_every_row(data):
         np.testing.assert_allclose(np.concatenate(parts), model.predict(run), atol=1e-9)
 
 
+@pytest.mark.parametrize("kind", ["lag", "transfer"])
+def test_a_run_logged_more_slowly_than_training_streams_as_whole(data, kind):
+    # Trained at 60 s, a run logged every 180 s: block by block every step
+    # was taken as a gap against the training period (filtered as a ramp),
+    # whole as regular steps: up to 0.5 µm apart, without a word.
+    X, y, lag, _ = data
+    model = (
+        lag
+        if kind == "lag"
+        else TransferFunctionRegressor(speed_column="spindle_rpm").fit(X, y)
+    )
+    slow = _run("s", hours=6.0, period=180.0, seed=2).drop(columns="disp_z_um")
+    whole = model.predict(slow)
+    stream = RunStream(model)
+    parts = [stream.predict(b) for b in _blocks(slow, [7])]
+    np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
+
+
 def test_blocks_holding_several_runs(data):
     _, _, model, new = data
     whole = model.predict(new)

@@ -1318,7 +1318,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         ]
         # A given dt overrides the index's times, also across pauses.
         times = row_times(X_raw) if self.dt is None else None
-        periods = gap_periods(dts, cont, self.sample_period_s_)
+        periods = gap_periods(dts, cont, self.sample_period_s_, memory)
         dts = continued_steps(dts, slices, times, cont, memory)
         lags = self._lag_states(U, dts, slices, states, times, previous, periods)
         return lags, (X_raw, X, slices, labels, cont)

@@ -859,7 +859,7 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
         states = continued_values(cont, memory, "state")
         lasts = continued_values(cont, memory, "x_last")
         times = row_times(X_raw)
-        periods = gap_periods(dts, cont, self.sample_period_s_)
+        periods = gap_periods(dts, cont, self.sample_period_s_, memory)
         dts = continued_steps(dts, slices, times, cont, memory)
         F = self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
         return F, X_raw, groups, (X_arr, slices, labels, cont)

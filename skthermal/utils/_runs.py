@@ -1950,12 +1950,19 @@ def continued_values(cont, memory, key):
     return [None if lab is None else memory[lab][key] for lab in cont]
 
 
-def gap_periods(dts, cont, fitted):
-    """The period against which each predicted run's steps are gaps: the
-    fitted sampling period for a run that continues a training run (a block
-    of a few rows cannot tell it), else the run's own period ``dts``."""
+def gap_periods(dts, cont, fitted, memory=None):
+    """The period against which each predicted run's steps are gaps: for a
+    run that continues a remembered one (a block of a few rows cannot tell
+    it), that run's remembered period (``memory``: a training run's median
+    step, a streamed run's latest steps), else the fitted sampling period;
+    for any other run its own period ``dts``. So a run logged more slowly
+    than the training runs is filtered alike whole and block by block."""
     periods = np.array(dts, dtype=float)
-    periods[[c is not None for c in cont]] = fitted
+    for r, lab in enumerate(cont):
+        if lab is None:
+            continue
+        own = np.nan if memory is None else memory_period(memory[lab])
+        periods[r] = own if np.isfinite(own) else fitted
     return periods
 
 
