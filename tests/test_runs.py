@@ -1029,6 +1029,18 @@ def test_misnamed_run_and_time_levels_are_named():
     X.index = X.index.set_names(["run", "Time_s"])
     with pytest.warns(UserWarning, match=r"index level 'Time_s' is not read as the"):
         LagFeatures(drivers=None).fit(X)
+    # Fitted with times and given the misspelt level in predict: the rows
+    # were taken at the training period, a gap as one step, silently.
+    from skthermal.linear_model import TransferFunctionRegressor
+
+    fitted = LagFeatures(drivers=None).fit(X.rename_axis(index=["run", "time_s"]))
+    for model in (fitted, TransferFunctionRegressor(max_iter=0)):
+        if model is not fitted:
+            model.fit(X.rename_axis(index=["run", "time_s"]), np.arange(60.0))
+        with pytest.warns(
+            UserWarning, match=r"X has no time_s; its index level 'Time_s' is not"
+        ):
+            (model.transform if model is fitted else model.predict)(X)
     with warnings.catch_warnings():  # a static use of X: nothing to say
         warnings.simplefilter("error")
         extract_runs(X, y=np.arange(60.0))

@@ -41,6 +41,7 @@ from skthermal.utils._runs import (
     run_times,
     warn_dt_against_times,
     warn_gaps,
+    warn_misnamed_time,
     warn_no_time,
     warn_pauses,
     warn_short_runs,
@@ -1305,6 +1306,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
                 type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 4
             )
             warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 4)
+            warn_misnamed_time(type(self).__name__, X_raw, self.sample_period_s_, 4)
         bases = continued_values(cont, memory, "x_first")
         U = self._inputs(X, slices, bases)
         states = continued_values(cont, memory, "state")

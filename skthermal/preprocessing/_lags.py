@@ -42,6 +42,7 @@ from skthermal.utils._runs import (
     run_slices,
     run_times,
     warn_gaps,
+    warn_misnamed_time,
     warn_no_time,
     warn_pauses,
     warn_slow_periods,
@@ -842,6 +843,8 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
         warn_slow_periods(
             type(self).__name__, X_raw, slices, labels, self.sample_period_s_, 5
         )
+        if self.dt is None:
+            warn_misnamed_time(type(self).__name__, X_raw, self.sample_period_s_, 5)
         memory = getattr(self, "run_states_", {})
         cont = continued_runs(
             type(self).__name__,

@@ -1339,6 +1339,24 @@ def misnamed_time_level(X):
     return None
 
 
+def warn_misnamed_time(name, X, period, stacklevel=4):
+    """Warn in ``predict`` when ``X`` has no ``time_s`` but an index level
+    spelt like it (:func:`misnamed_time_level`): the model takes its rows
+    ``period`` s apart (its training period), so a gap in them is one
+    step."""
+    level = misnamed_time_level(X)
+    if level is None or has_time_index(X):
+        return
+    warnings.warn(
+        f"{name}: X has no time_s; its index level {level!r} is not read as "
+        f"the times, so the rows are taken {period:g} s apart (the training "
+        "period) and a gap in them as one step. If it holds seconds since each "
+        "run's start, name it 'time_s'.",
+        UserWarning,
+        stacklevel=stacklevel,
+    )
+
+
 def _unread_run_names(X):
     """Index levels and columns of ``X`` named ``run`` in another case or
     spelling (``Run``, ``RUN``, ``run_id``): run labels that are not read."""
