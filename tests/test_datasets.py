@@ -1302,7 +1302,13 @@ def _minimal_table(times, runs):
 
 
 @pytest.mark.parametrize(
-    "scale, unit", [(1000.0, "milliseconds"), (1 / 60.0, "minutes")]
+    "scale, unit",
+    [
+        (1000.0, "milliseconds"),
+        (1 / 60.0, "minutes"),
+        # "minutes?" before: converted as minutes, still 60 times off
+        (1 / 3600.0, r"hours \(or minutes\)"),
+    ],
 )
 def test_time_in_another_unit_than_seconds_warns(scale, unit):
     # A logger's milliseconds or minutes under the time_s header went through

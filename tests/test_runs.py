@@ -442,6 +442,10 @@ def test_models_counting_rows_warn_about_another_sampling_period(name):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         model.predict(table.assign(run="same period"))
+    # Several runs off: the warning named one of them only.
+    two = pd.concat([sparse, table.iloc[1::3].assign(run="every 3rd row")])
+    with pytest.warns(UserWarning, match=r"every 4th row' \(and 1 more run alike\)"):
+        model.predict(two)
     # In fit, runs logged at other periods than the others.
     both = pd.concat([table.iloc[:cut], sparse])
     y_both = np.r_[y[:cut], y[::4]]

@@ -575,7 +575,9 @@ def warn_odd_times(codes, times, late_start=True, minutes=True):
     if longest > _MAX_RUN_S or step > _MAX_STEP_S:
         unit = "milliseconds"
     elif minutes and longest < _SHORT_RUNS_S and step < _FAST_STEP_S:
-        unit = "minutes"
+        # A run of hours logged every few seconds: in hours, a few "s" long
+        # and logged every thousandths; in minutes, some hundreds long.
+        unit = "hours (or minutes)" if longest < _SHORT_RUNS_S / 60 else "minutes"
     else:
         return
     warnings.warn(
@@ -1852,10 +1854,14 @@ def _worst_run(score, labels, limit):
     """``(index, name for messages)`` of the run with the largest ``score``
     (non-finite scores count as 0), or None when none exceeds ``limit``."""
     score = np.where(np.isfinite(score), score, 0.0)
-    if not (score > limit).any():
+    off = int((score > limit).sum())
+    if not off:
         return None
     r = int(np.argmax(score))
-    return r, "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
+    where = "the unlabelled run" if labels[r] is None else f"run {labels[r]!r}"
+    if off > 1:
+        where += f" (and {off - 1} more run{'s' if off > 2 else ''} alike)"
+    return r, where
 
 
 def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
