@@ -50,6 +50,22 @@ def shown(value):
     return text
 
 
+def compact(value):
+    """A figure for report tables: two decimals, but three significant
+    digits below 0.1 (a table in mm under a ``_um`` header read 0.00
+    everywhere) and beyond a million; a missing figure ``—``.
+
+    >>> compact(3.456), compact(0.001234), compact(0.0), compact(2e7)
+    ('3.46', '0.00123', '0.00', '2e+07')
+    """
+    value = float(value)
+    if not np.isfinite(value):
+        return "—"
+    if value == 0 or 0.1 <= abs(value) < 1e6:
+        return f"{value:.2f}"
+    return f"{value:.3g}"
+
+
 def percent(share):
     """A share as a whole percentage for reports: ``-0.004`` reads ``0%``
     (not ``-0%``), ``0.516`` reads ``52%``; a missing share ``n/a``."""

@@ -27,6 +27,7 @@ from skthermal._cli._common import (
     run_mask,
     write_table,
 )
+from skthermal._naming import compact
 from skthermal.utils._runs import MAX_MAGNITUDE
 
 MODEL_FORMAT = "skthermal-model"
@@ -285,7 +286,8 @@ def cmd_fit(args):
     }
     save_model(bundle, args.out)
     rmse = ", ".join(
-        f"{r}: {v:.2f}" for r, v in zip(scores["run"], scores["RMSE_um"], strict=True)
+        f"{r}: {compact(v)}"
+        for r, v in zip(scores["run"], scores["RMSE_um"], strict=True)
     )
     used = [s for s in sensors if s not in measured]  # the drivers
     inputs = f"{len(sensors) - len(used)} sensor(s)" + (
@@ -688,10 +690,7 @@ def cmd_evaluate(args):
     table = pd.concat([table, pd.DataFrame([mean]), pooled], ignore_index=True)
     shown = table.copy()
     for c in METRIC_COLUMNS:
-        shown[c] = [
-            "—" if not np.isfinite(v) else f"{v:.2f}" if abs(v) < 1e6 else f"{v:.3g}"
-            for v in table[c]
-        ]
+        shown[c] = [compact(v) for v in table[c]]
     caption = (
         f"{target}: measured vs predicted change since the start of each run "
         "(residual: max |error|; mean row: the mean over runs, each counting "
