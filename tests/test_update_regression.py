@@ -256,6 +256,12 @@ def test_adaptive_compensation_by_hand():
     base = adaptive_compensation(model, runs, threshold_um=0.5, update=False)
     assert base.n_updates == 0
     np.testing.assert_allclose(base.residual, r, atol=1e-9)
+    # A target in mm or nm under a *_um header: never an update, or one at
+    # nearly every sample (85% downtime), without a word.
+    for factor, unit in ((1e-4, "millimetres"), (1e3, "nanometres")):
+        other = runs.assign(disp_y_um=runs["disp_y_um"] * factor)
+        with pytest.warns(UserWarning, match=rf"spans .* Is it in {unit}\?"):
+            adaptive_compensation(model, other, threshold_um=0.5, update=False)
 
 
 def test_adaptive_compensation_auto(data):

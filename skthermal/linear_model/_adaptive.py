@@ -11,6 +11,7 @@ here) simulates one with the Machine-B-like preset of :mod:`skthermal.simulate`.
 """
 
 import copy
+import warnings
 from dataclasses import dataclass
 from numbers import Integral, Real
 
@@ -38,6 +39,7 @@ from skthermal.utils._runs import (
     row_times,
     run_slices,
 )
+from skthermal.utils._warnings import user_stacklevel
 
 __all__ = ["AdaptiveCompensationResult", "adaptive_compensation", "make_batch_campaign"]
 
@@ -199,6 +201,33 @@ def _stream_inputs(model, runs, target, sensors, relative):
     return X, y, groups, t, sensors, period
 
 
+# A target spanning less than this share of the threshold, or more than its
+# inverse times it, is in another unit than µm (mm, nm).
+_UNIT_FACTOR = 100.0
+
+
+def _warn_target_scale(y, target, threshold_um):
+    """Warn when the target's span is out of all proportion to
+    ``threshold_um`` (µm): in mm no update can ever trigger; in nm nearly
+    every sample would."""
+    span = float(np.ptp(y)) if np.size(y) else 0.0
+    if span <= 0 or not np.isfinite(span) or threshold_um <= 0:
+        return
+    if span < threshold_um / _UNIT_FACTOR:
+        unit, effect = "millimetres", "no update can trigger"
+    elif span > threshold_um * _UNIT_FACTOR * 10:
+        unit, effect = "nanometres", "nearly every sample triggers an update"
+    else:
+        return
+    warnings.warn(
+        f"The target {target!r} spans {span:.3g} over the runs against "
+        f"threshold_um={threshold_um:g} µm: {effect}. Is it in {unit}? Columns "
+        "*_um are read as µm.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
 @validate_params(
     {
         "model": [HasMethods(["predict", "partial_fit"])],
@@ -321,6 +350,7 @@ def adaptive_compensation(
     X, y, groups, t, sensors, period = _stream_inputs(
         model, runs, target, sensors, relative
     )
+    _warn_target_scale(y, target, threshold_um)
     named = getattr(model, "feature_names_in_", None) is not None
     first = X[:1] if not named else pd.DataFrame(X[:1], columns=sensors)
     outputs = np.shape(np.asarray(model.predict(first)))
