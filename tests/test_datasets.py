@@ -198,6 +198,11 @@ def test_naming_errors_list_every_bad_column(runs):
         # The workshop air by another name passed as an unrelated extra.
         ("air_C", "ambient_C"),
         ("room_temp_C", "ambient_C"),
+        # A logger's unit in brackets, the T in front: passed silently.
+        ("ambient [K]", "ambient_C"),
+        ("ambient (C)", "ambient_C"),
+        ("T_ambient", "ambient_C"),
+        ("spindle speed [rpm]", "spindle_rpm"),
         ("Workshop_air_F", "ambient_C"),
     ],
 )

@@ -35,6 +35,7 @@ POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
 # load in %, a feed override) are extras.
 DRIVER_LOOKALIKES = {
     "ambient_C": re.compile(
+        r"((t|temp|temperature)_?)?"
         r"(ambient|air|room|workshop|hall)(_?(air|temp|temperature|t))*"
         r"(_?(c|f|k|deg_?c|deg_?f|°c|°f|kelvin|celsius|fahrenheit))?_*"
     ),
@@ -59,7 +60,9 @@ def driver_lookalike(name):
     (``ambient_F``: ``"ambient_C"``), or None."""
     if not isinstance(name, str) or name in (*POWER_DRIVERS, "ambient_C"):
         return None
-    lower = name.lower()
+    # Units in brackets or after spaces, as loggers write them:
+    # "ambient [K]", "ambient (C)" read as "ambient_k", "ambient_c".
+    lower = re.sub(r"[^0-9a-z°/^\-]+", "_", name.lower()).strip("_")
     return next(
         (d for d, pattern in DRIVER_LOOKALIKES.items() if pattern.fullmatch(lower)),
         None,
