@@ -198,6 +198,16 @@ def test_default_penalty_warns_on_inputs_far_from_degrees(data):
     )
     with pytest.warns(UserWarning, match=r"regularises far more"):
         UpdateRegressor().fit(X / 1000, y)
+    # Absolute readings (around 20 °C, root-mean-square inside 0.01-100)
+    # with the intercept penalised: 5.6 times the held-out error of changes
+    # in an independent check, without a word.
+    with pytest.warns(
+        UserWarning, match=r"X's columns sit far from zero .* penalize_intercept"
+    ):
+        UpdateRegressor().fit(X + 20.0, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        UpdateRegressor(penalize_intercept=False).fit(X + 20.0, y)
     # One column beyond the range (a driver in rpm among temperatures) is
     # named; every column beyond it names none.
     frame = pd.DataFrame(X, columns=[f"T{j}_C" for j in range(X.shape[1])])

@@ -25,6 +25,7 @@ from sklearn.utils._param_validation import Interval, validate_params
 from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
 
 from skthermal.utils._runs import extract_runs, run_slices, target_names
+from skthermal.utils._warnings import user_stacklevel
 
 
 def _design(X):
@@ -84,7 +85,11 @@ def ridge_coef(X, y, *, alpha=25.0, penalize_intercept=True):
     Parameters
     ----------
     X : ndarray of shape (n_samples, n_features)
-        Temperatures (the temperature-sensitive points).
+        Temperatures (the temperature-sensitive points): changes since the
+        run start in °C, for which 004's ``alpha`` is set (the penalty is
+        absolute: in millidegrees it regularises a million times less, and
+        a penalised intercept on absolute readings bends the slopes; see
+        *Units* in :class:`UpdateRegressor`, which warns of both).
     y : ndarray of shape (n_samples,) or (n_samples, n_targets)
         Thermal error(s).
     alpha : float, default=25.0
@@ -143,7 +148,9 @@ def update_coef(X, y, coef_old, *, eta=0.1, penalize_intercept=True):
     Parameters
     ----------
     X : ndarray of shape (n_new, n_features)
-        New temperature samples.
+        New temperature samples, in the units of the old model's (changes
+        since the run start in °C for 004's ``eta``; see *Units* in
+        :class:`UpdateRegressor`).
     y : ndarray of shape (n_new,) or (n_new, n_targets)
         New thermal-error samples.
     coef_old : ndarray of shape (n_features + 1,) or (n_features + 1, n_targets)
@@ -315,6 +322,40 @@ def first_stable_update(path, *, rtol=0.1, atol=0.0):
 # readings in °C ~25). Two decades beyond, the penalty is 1e4 times weaker or
 # stronger than intended relative to the data term.
 _DESIGN_SCALE = (0.01, 100.0)
+
+
+# Inputs whose mean lies this many standard deviations from zero, in most
+# columns, are readings with an offset (absolute °C), not changes.
+_OFFSET_SPREADS = 3.0
+
+
+def _warn_offset_inputs(X, columns=None):
+    """Warn when most columns of ``X`` sit far from zero (absolute readings)
+    while the intercept is penalised: 004's prior is for changes since the
+    run start, zero where the error is; on readings around 20 °C the penalty
+    pulls the intercept to zero and bends the slopes to reach the offset (an
+    independent check: 5.6 times the held-out error of the same model on
+    changes)."""
+    if X.shape[0] < 2:
+        return
+    mean, std = X.mean(axis=0), X.std(axis=0)
+    far = np.abs(mean) > _OFFSET_SPREADS * np.maximum(std, 1e-12)
+    if 2 * far.sum() <= X.shape[1]:
+        return
+    names = columns if columns is not None else [f"x{j}" for j in range(X.shape[1])]
+    j = int(np.flatnonzero(far)[0])
+    warnings.warn(
+        f"UpdateRegressor: X's columns sit far from zero ({names[j]!r}: mean "
+        f"{mean[j]:.3g}, standard deviation {std[j]:.3g}; {far.sum()} of "
+        f"{X.shape[1]} columns alike), as absolute readings do, while the "
+        "intercept is penalised (penalize_intercept=True, 004's prior for "
+        "changes since the run start): the penalty pulls the intercept to zero "
+        "and bends the slopes to reach the offset. Give changes since the run "
+        "start (skthermal.datasets.changes_since_start), or set "
+        "penalize_intercept=False.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_input_scale(X, name, value, stacklevel, columns=None):
@@ -510,6 +551,8 @@ class UpdateRegressor(RegressorMixin, BaseEstimator):
             _warn_input_scale(
                 X, "alpha", self.alpha, 4, getattr(self, "feature_names_in_", None)
             )
+        if self.penalize_intercept and self.alpha > 0:
+            _warn_offset_inputs(X, getattr(self, "feature_names_in_", None))
         coef = ridge_coef(
             X,
             _as_2d_target(y),
