@@ -20,6 +20,39 @@ from skthermal.preprocessing._lags import lowpass_steps, run_steps
 DATA = Path(__file__).parents[1].parent / "shared" / "data"
 
 
+def test_a_dt_the_times_disagree_with_is_said_once():
+    # LagFeatures(dt=30) on times in minutes: the times overrode dt, the 900 s
+    # filter 23 °C off, without a word.
+    from skthermal.preprocessing import LagFeatures, LagRidgeCV
+
+    t = np.arange(0.0, 3 * 3600, 30.0)
+    X = pd.DataFrame(
+        {
+            "run": "a",
+            "time_s": t / 60,
+            "T1_C": 20 + np.sin(t / 3000),
+            "spindle_rpm": 1e3,
+        }
+    )
+    y = np.sin(t / 3000)
+    for model in (
+        LagFeatures(dt=30.0),
+        LagRidgeCV(dt=30.0, time_constant_sets=[(600.0,)]),
+    ):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model.fit(X, y)
+        said = [
+            w
+            for w in caught
+            if "dt=30 is given, but the time_s steps" in str(w.message)
+        ]
+        assert len(said) == 1 and "is time_s in seconds?" in str(said[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LagFeatures(dt=30.0).fit(X.assign(time_s=t))
+
+
 def test_durations_as_times_or_dt_are_refused():
     # A timedelta times= or dt= was read as integer ticks, silently.
     U = np.ones((4, 1))

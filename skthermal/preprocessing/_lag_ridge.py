@@ -26,6 +26,7 @@ from skthermal.utils._runs import (
     run_key,
     run_slices,
     run_times,
+    warn_dt_against_times,
     warn_gaps,
     warn_no_time,
     warn_pauses,
@@ -149,6 +150,7 @@ _SAID_BY_LAG_RIDGE = (
     r"LagFeatures\.fit got",
     r"LagFeatures\.fit: drivers=",
     r"groups cut the rows into",
+    r"LagFeatures: dt=.* is given, but the time_s steps",
     TIME_UNIT_WARNING,
 )
 
@@ -411,6 +413,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         slices, labels = run_slices(groups, n)
         self.n_fitted_runs_ = None if groups is None else len(slices)
         check_time_order(X_raw, groups)
+        if self.dt is not None:
+            warn_dt_against_times(
+                name, X_raw, slices, labels, float(self.dt), overrides=False
+            )
         warn_time_unit(X_raw, groups)
         # Once here, not once per candidate (silenced below).
         warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)

@@ -41,6 +41,7 @@ from skthermal.utils._runs import (
     run_sample_periods,
     run_slices,
     run_times,
+    warn_dt_against_times,
     warn_gaps,
     warn_misnamed_time,
     warn_no_time,
@@ -676,6 +677,10 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
         names = getattr(self, "feature_names_in_", None)
         warn_unnamed_drivers(name, self.drivers, names, groups)
         warn_no_time(type(self).__name__, X_raw, self.dt, taus)
+        if self.dt is not None:
+            warn_dt_against_times(
+                name, X_raw, slices, labels, float(self.dt), overrides=False
+            )
         # From the times (runs of one row take the others' period), else dt
         # (one second when None): not a period kept from an earlier fit.
         dts, self.sample_period_s_ = fitted_sample_periods(

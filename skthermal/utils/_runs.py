@@ -1500,11 +1500,13 @@ def _hole_hint(t, steps, step, rtol):
     )
 
 
-def warn_dt_against_times(name, X, slices, labels, dt, rtol=0.1):
+def warn_dt_against_times(name, X, slices, labels, dt, rtol=0.1, overrides=True):
     """Warn, naming the run, when a model given ``dt`` fits rows whose
-    ``time_s`` steps differ from it by more than ``rtol``: the model takes
-    every step as ``dt``, so a gap, a change of the logging period or
-    times in another unit go through as regular steps."""
+    ``time_s`` steps differ from it by more than ``rtol``. With
+    ``overrides`` the model takes every step as ``dt``, so a gap, a change
+    of the logging period or times in another unit go through as regular
+    steps; else it reads the times and leaves ``dt`` unused (times in
+    minutes then go through as seconds)."""
     t = row_times(X)
     if t is None or not len(slices):
         return
@@ -1516,13 +1518,18 @@ def warn_dt_against_times(name, X, slices, labels, dt, rtol=0.1):
     lab = labels[run[k]] if labels is not None else None
     where = "a run" if lab is None else f"run {lab!r}"
     mine = steps[run == run[k]]
+    effect = (
+        "the model takes every step as dt, so gaps, a change of the logging "
+        "period or times in another unit go through as regular steps. Resample "
+        "the runs onto a grid of dt, or leave dt=None to read the times."
+        if overrides
+        else "the model reads the times and does not use dt (it is for rows "
+        "without times): is time_s in seconds?"
+    )
     warnings.warn(
         f"{name}: dt={dt:g} is given, but the time_s steps of {where} range "
         f"from {mine.min():g} to {mine.max():g} s ({int(off.sum())} step(s) "
-        f"more than {rtol:.0%} off dt in all): the model takes every step as "
-        "dt, so gaps, a change of the logging period or times in another unit "
-        "go through as regular steps. Resample the runs onto a grid of dt, or "
-        "leave dt=None to read the times.",
+        f"more than {rtol:.0%} off dt in all): {effect}",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
