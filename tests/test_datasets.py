@@ -1343,6 +1343,15 @@ def test_sensors_in_kelvin_warn():
         validate_runs(table)
 
 
+def test_run_and_time_in_the_index_are_named_with_the_remedy():
+    # "The run table has no 'run' column" while it was there, as an index
+    # level (what split_runs returns, what the estimators take).
+    table = _minimal_table([0.0, 15.0, 30.0], ["A"] * 3).set_index(["run", "time_s"])
+    for func in (validate_runs, changes_since_start, split_runs):
+        with pytest.raises(ValueError, match=r"it is an index level.*reset_index"):
+            func(table)
+
+
 def test_one_run_in_kelvin_warns_naming_the_run():
     # The kelvin check took whole columns: a logger set to kelvin for one
     # test put that run 273 above the others without a word (an ANFIS then

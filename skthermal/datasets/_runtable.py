@@ -281,7 +281,13 @@ def check_column_names(columns, *, table="Run table", exempt=()):
         )
 
 
-def _missing_column(name, meaning, candidates):
+def _missing_column(name, meaning, candidates, df=None):
+    if df is not None and name in (df.index.names or []):
+        return ValueError(
+            f"The run table has no {name!r} column ({meaning}): it is an index "
+            "level. Run-table functions take run and time_s as columns "
+            "(df.reset_index()); the estimators take either."
+        )
     spaced = [c for c in candidates if isinstance(c, str) and c.strip() == name]
     if spaced:
         return ValueError(
@@ -532,7 +538,7 @@ def check_run_table(
     names = [c for c in df.columns if isinstance(c, str)]
     if RUN not in df.columns:
         candidates = [c for c in names if c.strip().lower().startswith(("run", "test"))]
-        raise _missing_column(RUN, "the label of the run of every row", candidates)
+        raise _missing_column(RUN, "the label of the run of every row", candidates, df)
     if TIME not in df.columns:
         candidates = [
             c
@@ -541,7 +547,7 @@ def check_run_table(
             or c.strip() == "t"
         ]
         error = _missing_column(
-            TIME, "time since the start of the run, in s", candidates
+            TIME, "time since the start of the run, in s", candidates, df
         )
         if candidates and not pd.api.types.is_numeric_dtype(df[candidates[0]]):
             column = candidates[0]
@@ -924,7 +930,7 @@ def split_runs(df, *, sensors=None, targets=None, validate=True):
         check_frame(df)
     for name in (RUN, TIME):
         if name not in df.columns:
-            raise _missing_column(name, "required to split the table", [])
+            raise _missing_column(name, "required to split the table", [], df)
     available = sensor_columns(df)
     features = available if sensors is None else _as_list(sensors)
     allowed = available + driver_columns(df)
@@ -1015,7 +1021,7 @@ def changes_since_start(df, columns=None):
     """
     check_frame(df)
     if RUN not in df.columns:
-        raise _missing_column(RUN, "needed to find the start of every run", [])
+        raise _missing_column(RUN, "needed to find the start of every run", [], df)
     if TIME in df.columns:
         _check_numeric(df, [TIME])
         _check_time(df, pd.factorize(df[RUN], use_na_sentinel=False)[0])
