@@ -624,36 +624,31 @@ def test_a_run_logged_in_milliseconds_warns(kind):
     )
     model.fit(X, y)
     new = X.loc[["r1"]]
-    ms = new.set_axis(
-        pd.MultiIndex.from_arrays(
-            [new.index.get_level_values(0), new.index.get_level_values(1) * 1000.0],
-            names=["run", "time_s"],
+
+    def scaled(factor):
+        """``new`` with its times multiplied by ``factor``."""
+        return new.set_axis(
+            pd.MultiIndex.from_arrays(
+                [new.index.get_level_values(0), new.index.get_level_values(1) * factor],
+                names=["run", "time_s"],
+            )
         )
-    )
+
+    ms = scaled(1000.0)
     with pytest.warns(
         UserWarning,
         match=r"run 'r1' is sampled every 10000 s, the "
         r"training runs every 10 s .*not milliseconds",
     ):
         model.predict(ms)
-    fast = new.set_axis(
-        pd.MultiIndex.from_arrays(
-            [new.index.get_level_values(0), new.index.get_level_values(1) / 10.0],
-            names=["run", "time_s"],
-        )
-    )
+    fast = scaled(0.1)
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
         model.predict(fast)  # ten times faster: a faster logger, no warning
     assert not any("sampled every" in str(w.message) for w in record)
     # Minutes under time_s (60 times faster) went through silently: 11 µm off
     # on an independent check's run, 25 µm in hours.
-    minutes = new.set_axis(
-        pd.MultiIndex.from_arrays(
-            [new.index.get_level_values(0), new.index.get_level_values(1) / 60.0],
-            names=["run", "time_s"],
-        )
-    )
+    minutes = scaled(1 / 60.0)
     with pytest.warns(
         UserWarning,
         match=r"run 'r1' is sampled every 0.1\d* s, the training runs every 10 s "
