@@ -253,6 +253,33 @@ def test_irregular_sampling_names_the_run():
     assert str(err.value).endswith("gaps and changes of the period too)")
 
 
+def test_a_controller_logging_every_second_is_no_unit_slip():
+    # Trained on a 60 s log and given a controller's 1 s rows (60 times
+    # faster), the model asked "is time_s in minutes or hours?".
+    X, y = _heating_runs()
+    slow = X.set_axis(
+        pd.MultiIndex.from_arrays(
+            [X.index.get_level_values(0), X.index.get_level_values(1) * 6.0],
+            names=["run", "time_s"],
+        )
+    )
+    model = TransferFunctionRegressor(speed_column=2, max_iter=0).fit(slow, y)
+    new = X.loc[["r1"]]
+    t = np.arange(len(new), dtype=float)
+
+    def _index(times):
+        return pd.MultiIndex.from_arrays(
+            [["c"] * times.size, times], names=["run", "time_s"]
+        )
+
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        model.predict(new.set_axis(_index(t)))
+    assert not any("minutes or hours" in str(w.message) for w in record)
+    with pytest.warns(UserWarning, match=r"minutes or hours\?"):
+        model.predict(new.set_axis(_index(t / 2)))
+
+
 def test_training_runs_too_short_for_a_thermal_model_warn():
     # Fitted on runs of 3-10 samples (a few minutes), the model predicted up
     # to 140 mm on a whole run, without a word.

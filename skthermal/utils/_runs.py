@@ -1931,16 +1931,20 @@ def warn_slow_periods(name, X, slices, labels, period, stacklevel=5):
     constants are in seconds is sampled over :data:`SLOW_PERIOD_FACTOR`
     times more slowly than its training runs (``period``, s): most likely
     ``time_s`` logged in milliseconds, which the filters read as a thousand
-    times slower dynamics; or as many times faster: minutes or hours (a
-    faster run is filtered as given, every row's step used, but a logger 60
-    times faster than the training runs' is rarer than a unit slip)."""
+    times slower dynamics; or as many times faster and faster than one
+    sample a second: minutes or hours (a faster run is filtered as given,
+    every row's step used; a controller logging every second is no unit
+    slip)."""
     t = row_times(X)
     if t is None or period is None or not (np.isfinite(period) and period > 0):
         return
     ratio = _median_periods(t, slices) / period
     worst = _worst_run(ratio, labels, SLOW_PERIOD_FACTOR)
     if worst is None:
-        fast = _worst_run(1.0 / ratio, labels, SLOW_PERIOD_FACTOR)
+        # Faster than a second and 20 times the training runs: minutes or
+        # hours (a controller logging every second is fine).
+        sub_second = np.where(ratio * period < 1.0, 1.0 / ratio, 0.0)
+        fast = _worst_run(sub_second, labels, SLOW_PERIOD_FACTOR)
         if fast is not None:
             r, where = fast
             warnings.warn(
