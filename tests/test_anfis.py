@@ -1050,6 +1050,11 @@ def test_grey_anfis_warns_of_readings_with_an_offset():
         warnings.simplefilter("error", UserWarning)
         model.fit(T, y, groups=groups)  # changes since the run start
     assert r2_score(y, model.predict(T, groups=groups)) > max(kelvin, 0.9)
+    # A speed beside a temperature change is a heat input, not an offset.
+    X = pd.DataFrame({"spindle_rpm": 3.0, "T1_C": T[:, 0]})  # krpm
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        model.fit(X, y, groups=groups)
 
 
 def test_a_step_far_too_small_for_the_inputs_warns():

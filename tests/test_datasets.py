@@ -1372,6 +1372,13 @@ def test_one_run_in_kelvin_warns_naming_the_run():
         r"runs logged in kelvin\?",
     ):
         validate_runs(table)
+    # A cutting-zone sensor at 230-270 °C in one hot test is no kelvin.
+    hot = table.assign(
+        T1_C=np.where(table["run"] == "B", 250.0, np.tile([25.0, 90.0, 175.0], 3))
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        validate_runs(hot)
     air = table.assign(ambient_C=np.where(table["run"] == "C", 294.0, 21.0))
     air["T1_C"] = np.tile(np.linspace(20.0, 22.0, 3), 3)
     with pytest.warns(

@@ -692,6 +692,11 @@ def _warn_air_unit(df):
 # No machine-tool structure reads this much in °C at every sample (bearings
 # run at 20-80 °C); kelvin reads from 250 up.
 _KELVIN_FLOOR = 200.0
+# A run logged in kelvin among runs in °C: nothing below this (-23 °C), and
+# its lowest reading this far above the other runs' (273 K, give or take the
+# runs' own differences).
+_KELVIN_RUN_FLOOR = 250.0
+_KELVIN_LIFT = (200.0, 350.0)
 # Workshop air reads 50-85 in Fahrenheit, and a machine has parts near it:
 # when every temperature sensor stays above this at every sample, the
 # readings are most likely in Fahrenheit.
@@ -717,8 +722,15 @@ def _warn_kelvin_sensors(df, columns, values, codes):
         run_min = pd.Series(col[finite]).groupby(codes[finite]).min()
         if (run_min > _KELVIN_FLOOR).all():
             hot.append((name, col[finite].min(), col[finite].max()))
-        elif (run_min > _KELVIN_FLOOR).any():
-            some.append((name, run_min.index[run_min > _KELVIN_FLOOR], col, finite))
+            continue
+        # A run in kelvin reads some 273 above the others, and nothing in it
+        # below the kelvin of a cold workshop (a cutting-zone sensor at
+        # 230-270 °C in one hot test is no kelvin).
+        cold = run_min[run_min <= _KELVIN_FLOOR]
+        lift = run_min - (cold.median() if cold.size else np.nan)
+        kelvin = (run_min > _KELVIN_RUN_FLOOR) & lift.between(*_KELVIN_LIFT)
+        if kelvin.any():
+            some.append((name, run_min.index[kelvin], col, finite))
     if some:
         _warn_kelvin_runs(df, codes, some)
     if not hot:

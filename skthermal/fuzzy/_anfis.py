@@ -28,6 +28,7 @@ from skthermal.fuzzy._anfis_core import (
 from skthermal.fuzzy._membership import MF_PARAMS, membership
 from skthermal.grey._ago import ago, iago
 from skthermal.utils._runs import (
+    POWER_DRIVERS,
     check_time_order,
     continued_runs,
     extract_runs,
@@ -253,8 +254,11 @@ def _warn_grey_offsets(X, groups, names):
     span = np.stack([np.ptp(X[sl], axis=0) for sl in slices])
     offset = np.median(first, axis=0)
     moves = np.median(span, axis=0)
-    far = offset > np.maximum(moves, 1e-12)
-    if 2 * far.sum() < X.shape[1]:
+    # A speed or feed is a heat input whose running sum the grey model is
+    # meant to integrate: its level is no offset.
+    readings = np.array([str(n) not in POWER_DRIVERS for n in names])
+    far = (offset > np.maximum(moves, 1e-12)) & readings
+    if not far.any() or 2 * far.sum() < readings.sum():
         return
     j = int(np.flatnonzero(far)[np.argmax((offset / np.maximum(moves, 1e-300))[far])])
     more = f" (and {far.sum() - 1} more)" if far.sum() > 1 else ""
