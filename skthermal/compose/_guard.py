@@ -31,6 +31,7 @@ from skthermal.datasets._runtable import physical_lows
 from skthermal.utils._runs import (
     LATE_START_WARNING,
     MAX_MAGNITUDE,
+    POWER_DRIVERS,
     RUN_COLUMN,
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
@@ -99,8 +100,8 @@ def _steps(A, first, bad=None, periods=None):
 
     With ``periods`` (every row's time since the run's previous row, in
     sampling periods of training; :func:`_periods`), the span is at most
-    :data:`_MAX_SPAN` rows plus the time the rows leave out: a logging gap
-    counts in full, what a sensor may move grows with it."""
+    :data:`_MAX_SPAN` rows plus the time the rows leave out
+    (:func:`_gap_span`): what a sensor may move grows with a logging gap."""
     n = A.shape[0]
     rows = np.arange(n)
     if bad is None or not bad.any():
@@ -109,7 +110,9 @@ def _steps(A, first, bad=None, periods=None):
         d[first] = 0.0
         span = np.ones(A.shape)
         if periods is not None:
-            span = np.maximum(span, np.where(first, 1.0, periods)[:, None])
+            span = np.where(first, 1.0, _gap_span(1.0, periods))[:, None] * np.ones(
+                A.shape
+            )
         return d, span
     start = np.maximum.accumulate(np.where(first, rows, 0))
     last = _last_good(bad, start)
@@ -125,8 +128,18 @@ def _steps(A, first, bad=None, periods=None):
         # Time since the last good reading, in periods, beyond its rows.
         elapsed = np.cumsum(np.where(first, 0.0, periods))
         since = elapsed[:, None] - elapsed[np.maximum(prev, 0)]
-        span += np.where(known, np.maximum(since - count, 0.0), 0.0)
+        span = np.where(known, _gap_span(span, since - count + 1.0), span)
     return d, span
+
+
+def _gap_span(rows, periods):
+    """The span of a step over ``rows`` rows (at most :data:`_MAX_SPAN`)
+    that took ``periods`` sampling periods of training: beyond the rows,
+    the time a logging gap leaves out counts by its square root. A sensor
+    may drift over a gap, but not by a jump's worth per period of it (a
+    spike in the first reading after a 2 h pause passed a limit of 450 °C
+    grown in proportion)."""
+    return rows + np.sqrt(np.maximum(periods - 1.0, 0.0))
 
 
 def _faster(periods, first):
@@ -480,7 +493,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         # Training data must be complete: named errors (column, run, time).
         features, runs = extract_runs(X, groups, y=y)
-        check_time_order(features, runs)
+        check_time_order(features, runs, strict=False)
         A, Y = validate_data(
             self, features, y, multi_output=True, y_numeric=True, dtype=np.float64
         )
@@ -545,9 +558,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         first = start == np.arange(A.shape[0])
         if not update:
             self.sample_period_ = _median_period(times, first)
-        step, span = _steps(
-            A, first, periods=_periods(times, first, self.sample_period_)
-        )
+        step = _steps(A, first)[0]
+        span = self._rate_span(times, first, A.shape)
         found = {
             "input_min_": A.min(axis=0),
             "input_max_": A.max(axis=0),
@@ -591,7 +603,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """
         first = not hasattr(self, "estimator_")
         features, runs = extract_runs(X, groups, y=y)
-        check_time_order(features, runs)
+        check_time_order(features, runs, strict=False)
         times = row_times(features)
         A, Y = validate_data(
             self,
@@ -632,12 +644,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return
         n = A.shape[0]
         first = run_first_rows(runs, n) == np.arange(n)
-        periods = _periods(times, first, self._period())
         with np.errstate(invalid="ignore"):
-            step, span = _steps(A, first, periods=periods)
             # Per sampling period of training: update samples taken every
             # 10 minutes, or across a pause, are no spike.
-            step = np.abs(step) / span
+            step = np.abs(_steps(A, first)[0]) / self._rate_span(times, first, A.shape)
             typical = (
                 np.nanmedian(step, axis=0)
                 if np.isfinite(step).any()
@@ -749,7 +759,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         an error for the whole call; the other runs are predicted alone."""
         check_is_fitted(self)
         features, runs = extract_runs(X, groups, finite=False)
-        check_time_order(features, runs)
+        check_time_order(features, runs, strict=False)
         A = validate_data(
             self, features, reset=False, dtype=np.float64, ensure_all_finite=False
         )
@@ -946,6 +956,26 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return [f"x{j}" for j in range(self.n_features_in_)]
         return [str(c) for c in names]
 
+    def _rate_span(self, times, first, shape):
+        """Per row and input, the sampling periods of training a step from
+        the row before spans (at least 1; 1 without times and for a
+        commanded driver): steps divided by it are rates, the same whether a
+        run is logged slowly or has a gap."""
+        periods = _periods(times, first, self._period())
+        if periods is None:
+            return np.ones(shape)
+        span = np.broadcast_to(np.maximum(periods, 1.0)[:, None], shape)
+        return np.where(self._commanded(), 1.0, span)
+
+    def _commanded(self):
+        """Per input, whether it is a commanded driver (spindle speed, feed),
+        which steps in one sample whatever the logging period: its steps
+        are per row, not per sampling period."""
+        names = getattr(self, "feature_names_in_", None)
+        if names is None:
+            return np.zeros(self.n_features_in_, dtype=bool)
+        return np.array([str(n) in POWER_DRIVERS for n in names])
+
     def _period(self):
         """The sampling period of training (s), NaN when unknown."""
         return getattr(self, "sample_period_", np.nan)
@@ -1073,8 +1103,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             self.input_max_step_ > 0, self.jump * self.input_max_step_, np.inf
         )
 
+        commanded = self._commanded()
+
         def judge(bad):
             step, span = _steps(A, first, bad, periods)
+            if commanded.any():
+                span = np.where(commanded, _steps(A, first, bad)[1], span)
             step = np.abs(step)
             return np.isfinite(step) & (step > base * span), step
 

@@ -476,11 +476,12 @@ def diagnose(
        blocks of the held-out runs at ``alpha``).
     3. **How far**: the top candidate against the base, both with a fine
        calibration that also frees every capacity, convection and
-       conductance of the spindle head's nodes (held near the simulation's
-       values by a prior). This comparison decides: the top candidate
-       *explains* the gap when, finely calibrated, it removes at least
-       ``min_shrink`` of the held-out gap above the noise floor and the
-       improvement is significant; otherwise no candidate explains it.
+       conductance of the spindle head's nodes and the bearings' loss
+       exponent (held near the simulation's values by a prior). This
+       comparison decides: the top candidate *explains* the gap when,
+       finely calibrated, it removes at least ``min_shrink`` of the
+       held-out gap above the noise floor and the improvement is
+       significant; otherwise no candidate explains it.
        Then greedily the next effect on top while one still explains what
        remains (screening calibration).
 

@@ -1109,16 +1109,25 @@ def calibrate(
 # moves whole families of the network together; the shapes of a machine's
 # responses are set node by node, and most by the nodes around the spindle,
 # its main heat source. The fine calibration gives every capacity, convection
-# and conductance of those nodes its own multiplier, held near one by a prior
-# (log spread FINE_SPREAD), fitted jointly with the effect and the gains.
+# and conductance of those nodes its own multiplier, and the bearings' loss
+# exponent too, held near one by a prior (log spread FINE_SPREAD), fitted
+# jointly with the effect and the gains.
 FINE_SPREAD = 0.4
 FINE_NFEV = 8
+
+
+# The bearings' loss exponent (``q.alpha``) the fine calibration may take,
+# at least this range around the machine's own: machines' speed laws differ
+# (1.2-1.4 on an independent truth against vmc-b's 1.5), and a base that
+# cannot follow lets a speed-dependent candidate stand in for it.
+ALPHA_RANGE = (1.0, 2.0)
 
 
 def fine_keys(machine):
     """Parameters the fine calibration frees: capacity, convection and
     conductances of the spindle head's nodes and the tool (without declared
-    head nodes: the spindle's heated nodes and their neighbours)."""
+    head nodes: the spindle's heated nodes and their neighbours), and the
+    bearings' loss exponent ``q.alpha`` when the bearings are heated."""
     spec = machine.spec
     region = set(spec.head_nodes)
     if region:
@@ -1142,7 +1151,23 @@ def fine_keys(machine):
         for a, b in spec.edges
         if (a in region or b in region) and p.get(f"G.{a}-{b}", 0.0) > 0
     ]
+    if p.get("q.alpha", 0.0) > 0 and p.get("q.bearing_W", 0.0) > 0:
+        keys.append("q.alpha")
     return keys
+
+
+def _fine_bounds(keys, params):
+    """Bounds of the fine calibration's log multipliers: a factor of 4 each
+    way, the loss exponent within :data:`ALPHA_RANGE` (widened to 0.7-1.4
+    times the machine's own)."""
+    bound = np.log(4.0)
+    lo, hi = np.full(len(keys), -bound), np.full(len(keys), bound)
+    if "q.alpha" in keys:
+        j, alpha = keys.index("q.alpha"), params["q.alpha"]
+        low = min(ALPHA_RANGE[0], 0.7 * alpha)
+        high = max(ALPHA_RANGE[1], 1.4 * alpha)
+        lo[j], hi[j] = np.log(low / alpha), np.log(high / alpha)
+    return lo, hi
 
 
 def _effective_samples(R):
@@ -1204,8 +1229,7 @@ def refine(
             [np.concatenate([r.ravel() for r in R]) / scale, x / spread]
         )
 
-    bound = np.log(4.0)
-    lo, hi = np.full(len(keys), -bound), np.full(len(keys), bound)
+    lo, hi = _fine_bounds(keys, ref)
     jac = BroydenJacobian(vector, (lo, hi))
     res = least_squares(
         jac.reduced_fun,

@@ -1283,8 +1283,9 @@ def changes_since_start(X, slices, bases=None):
     return out
 
 
-def check_time_order(X, groups):
-    """Check that a ``time_s`` index level increases strictly within each run.
+def check_time_order(X, groups, strict=True):
+    """Check that a ``time_s`` index level increases strictly within each run
+    (``strict=False``: never decreases, a record logged twice passes).
 
     Does nothing when ``X`` has no such index level (plain arrays carry no
     time; rows are then taken to be in time order).
@@ -1297,7 +1298,7 @@ def check_time_order(X, groups):
     t = row_times(X)
     if t is None:
         return
-    _check_increasing(t, groups, _unread_run_names(X))
+    _check_increasing(t, groups, _unread_run_names(X), strict)
 
 
 # Names of run labels in another spelling: "Run", "run_id", "Run ID",
@@ -1402,10 +1403,11 @@ def check_table_times(frame, groups):
     _check_increasing(t, groups)
 
 
-def _check_increasing(t, groups, unread=()):
+def _check_increasing(t, groups, unread=(), strict=True):
     slices, labels = run_slices(groups, t.shape[0])
     for sl, lab in zip(slices, labels, strict=True):
-        bad = np.flatnonzero(np.diff(t[sl]) <= 0)
+        step = np.diff(t[sl])
+        bad = np.flatnonzero(step <= 0 if strict else step < 0)
         if bad.size:
             row = sl.start + int(bad[0]) + 1
             where = "" if lab is None else f" in run {lab!r}"
@@ -1421,8 +1423,9 @@ def _check_increasing(t, groups, unread=()):
                     )
                     + "."
                 )
+            must = "increase strictly" if strict else "not go back"
             raise ValueError(
-                f"time_s must increase strictly within a run, but{where} row {row} "
+                f"time_s must {must} within a run, but{where} row {row} "
                 f"has time_s={t[row]:g} after {t[row - 1]:g}.{hint}"
             )
 
@@ -1810,7 +1813,7 @@ def warn_pauses(name, X, slices, cont, memory, bridged, stacklevel=5):
         if lab is None:
             continue
         t1 = memory[lab]["t_last"]
-        period = memory_period(memory[lab])
+        period = memory[lab].get("recent_period", memory_period(memory[lab]))
         if not np.isfinite(period):
             continue
         if pause > GAP_STEPS * period:
@@ -2496,18 +2499,28 @@ _RECENT_STEPS = 15
 
 
 def _recent_period(state, times):
-    """``{"recent_steps", "period"}`` of a remembered run (``state``)
-    continued by rows at ``times``: the latest :data:`_RECENT_STEPS` time
-    steps, the step from the remembered last row included, and their
-    median."""
+    """``{"recent_steps", "recent_period", "period"}`` of a remembered run
+    (``state``) continued by rows at ``times``: the latest
+    :data:`_RECENT_STEPS` time steps, the step from the remembered last row
+    included, and their median, which the pause warnings compare with. The
+    run's ``period``, against which the filters judge a step a gap, stays
+    what it was (a training run's median step), so that the run filters
+    alike whole and block by block; a run whose first block told none (one
+    row) takes its first steps'."""
     recent = state.get("recent_steps")
     if recent is None:
         period = memory_period(state)
         recent = np.array([period]) if np.isfinite(period) else np.zeros(0)
     steps = np.diff(np.r_[state["t_last"], times])
-    recent = np.r_[recent, steps[np.isfinite(steps)]][-_RECENT_STEPS:]
-    period = float(np.median(recent)) if recent.size else np.nan
-    return {"recent_steps": recent, "period": period}
+    steps = steps[np.isfinite(steps)]
+    recent = np.r_[recent, steps][-_RECENT_STEPS:]
+    out = {
+        "recent_steps": recent,
+        "recent_period": float(np.median(recent)) if recent.size else np.nan,
+    }
+    if not np.isfinite(state.get("period", np.nan)) and steps.size:
+        out["period"] = float(np.median(steps))
+    return out
 
 
 def _estimators_in(value):
