@@ -98,6 +98,15 @@ def test_a_logger_that_switches_period_is_no_pause_at_every_row(data):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         np.testing.assert_allclose(np.concatenate(parts), model.predict(run), atol=1e-9)
+    # A guard is given the run so far: its inner model's gap warning grew
+    # its count at every row ("1 gap(s)", "2 gap(s)", ...), each said anew.
+    X, y, _, _ = data
+    guarded = RunStream(GuardedRegressor(model).fit(X, y))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for b in _blocks(run, [5]):
+            guarded.predict(b)
+    assert sum("gap(s) in time_s" in str(w.message) for w in caught) == 1
 
 
 @pytest.mark.parametrize("kind", ["lag", "transfer"])

@@ -275,7 +275,10 @@ class RunStream:
             out = getattr(self.model_, method)(stacked, **kwargs)
         started = all(lab not in new for lab, _ in parts)
         for w in caught:
-            key = (w.category, str(w.message))
+            # Said once per kind: a message that differs only in its figures
+            # (an inner model's gap count growing with the run so far) is
+            # the same warning again.
+            key = (w.category, re.sub(_FIGURES, "#", str(w.message)))
             late = started and (
                 issubclass(w.category, RunStartWarning)
                 or re.search(LATE_START_WARNING, str(w.message)) is not None
@@ -291,6 +294,11 @@ class RunStream:
         if hasattr(out, "iloc"):
             return out.iloc[rows].set_axis(X.index, axis=0)
         return np.asarray(out)[rows]
+
+
+# Numbers in a warning's text, for telling the same warning with other
+# figures from another one.
+_FIGURES = r"[-+]?\d+(\.\d+)?(e[-+]?\d+)?"
 
 
 def _as_text(label):
