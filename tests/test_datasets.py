@@ -1428,13 +1428,17 @@ def test_readings_no_machine_gives_warn():
     with pytest.warns(
         UserWarning,
         match=r"'disp_y_um' holds 20000 at run 'A', time_s 30.0 \(row 2\) \(2 "
-        r"such rows in all\): .* further from its median than 10000 µm",
+        r"such rows in all\): .* further from its run's median than 10000 µm",
     ):
         validate_runs(far)
-    # A probe read with an offset of 10 mm is no fault.
+    # A probe read with an offset of 10 mm is no fault, nor one mounted anew
+    # with another offset in one run (it was taken for nanometres).
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         validate_runs(table.assign(disp_y_um=table["disp_y_um"] + 10_500.0))
+        remounted = pd.concat([table, table.assign(run="B"), table.assign(run="C")])
+        remounted["disp_y_um"] += np.repeat([2000.0, 3000.0, 27_000.0], 3)
+        validate_runs(remounted.reset_index(drop=True))
     # Nanometres under a *_um header: the warning named the run's first
     # reading (0, the likeliest value) a glitch, with no word of the unit.
     t = np.arange(0.0, 3600.0, 60.0)

@@ -776,7 +776,7 @@ def _warn_kelvin_runs(df, codes, some):
 
 
 # Hotter than any machine-tool structure or its sensors (°C), and a larger
-# thermal error than any machine tool shows (µm, away from the column's
+# thermal error than any machine tool shows (µm, away from its run's
 # median: a probe may read with an offset): a glitch or a corrupt value.
 _HOTTEST_C = 500.0
 _LARGEST_ERROR_UM = 10_000.0
@@ -788,7 +788,7 @@ _UNIT_SHARE = 0.05
 def _warn_impossible_readings(df, columns, values):
     """Warn naming the column, run and row of the first temperature above
     :data:`_HOTTEST_C` and the first displacement further than
-    :data:`_LARGEST_ERROR_UM` from its column's median: no machine reads
+    :data:`_LARGEST_ERROR_UM` from its run's median: no machine reads
     that, and a model without a guard passes such a reading on to its
     correction."""
     for kind, limit, unit, test, other_unit in (
@@ -800,7 +800,7 @@ def _warn_impossible_readings(df, columns, values):
             "Columns *_C are read as °C (millidegrees: divide by 1000)",
         ),
         (
-            "thermal displacement further from its median than",
+            "thermal displacement further from its run's median than",
             _LARGEST_ERROR_UM,
             "µm",
             _is_target,
@@ -814,14 +814,15 @@ def _warn_impossible_readings(df, columns, values):
             col = values[:, j]
             with np.errstate(invalid="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)  # all NaN
-                level = 0.0 if test is _is_temperature else np.nanmedian(col)
+                level = 0.0 if test is _is_temperature else _run_medians(df, col)
+                level = np.broadcast_to(level, col.shape)
                 bad = np.flatnonzero(np.abs(col - level) > limit)
             if bad.size:
                 found.append((name, col, bad, level))
         if not found:
             continue
         name, col, bad, level = found[0]
-        k = bad[np.argmax(np.abs(col[bad] - level))]  # the farthest
+        k = bad[np.argmax(np.abs(col[bad] - level[bad]))]  # the farthest
         others = [repr(f[0]) for f in found[1:]]
         # Beyond a few glitches: a whole stretch in another unit.
         many = bad.size > max(2, _UNIT_SHARE * np.isfinite(col).sum())
@@ -840,6 +841,17 @@ def _warn_impossible_readings(df, columns, values):
             UserWarning,
             stacklevel=user_stacklevel(),
         )
+
+
+def _run_medians(df, col):
+    """Every row's run median of ``col`` (the column's median without run
+    labels): a probe read with another offset in each run (mounted anew) is
+    judged from its own run's level."""
+    if RUN not in df.columns:
+        return np.nanmedian(col)
+    return (
+        pd.Series(col).groupby(pd.factorize(df[RUN])[0]).transform("median").to_numpy()
+    )
 
 
 def _warn_fahrenheit_sensors(columns, values):
