@@ -239,6 +239,15 @@ def test_a_jittering_logger_clock_is_accepted():
     )
     model = TransferFunctionRegressor(speed_column=2, max_iter=0).fit(X, y)
     assert model.score(X, y) > 0.9
+    # Beyond 5%, the error names dt as the remedy for clock jitter.
+    wide = np.random.default_rng(1).uniform(-0.04, 0.04, t.size) * period
+    X.index = pd.MultiIndex.from_arrays(
+        [X.index.get_level_values("run"), t + wide], names=["run", "time_s"]
+    )
+    with pytest.raises(
+        ValueError, match=rf"clock jitter of up to \d+%: pass dt={period:g}"
+    ):
+        TransferFunctionRegressor(speed_column=2, max_iter=0).fit(X, y)
 
 
 def test_irregular_sampling_names_the_run():

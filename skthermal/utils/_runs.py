@@ -1497,6 +1497,12 @@ def _hole_hint(t, steps, step, rtol):
             "their own run labels, or split over whole runs (GroupKFold with "
             "groups=runs); or resample the run."
         )
+    if np.all(np.abs(steps - step) <= 0.1 * step):
+        return (
+            f"; a clock jitter of up to {np.max(np.abs(steps / step - 1)):.0%}: "
+            f"pass dt={step:g} to take the steps as equal, or resample the run "
+            "onto a regular time grid"
+        )
     return (
         "; resample the run onto a regular time grid (dt=... takes every step "
         "as dt, gaps and changes of the period too)"
@@ -1532,7 +1538,7 @@ def warn_dt_against_times(name, X, slices, labels, dt, rtol=0.1, overrides=True)
     warnings.warn(
         f"{name}: dt={dt:g} is given, but the time_s steps of {where} range "
         f"from {mine.min():g} to {mine.max():g} s ({int(off.sum())} step(s) "
-        f"more than {rtol:.0%} off dt in all): {effect}",
+        f"more than {rtol:.0%} off dt in all the runs): {effect}",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
