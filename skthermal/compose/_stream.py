@@ -297,8 +297,8 @@ class RunStream:
 
 
 # Numbers in a warning's text, for telling the same warning with other
-# figures from another one.
-_FIGURES = r"[-+]?\d+(\.\d+)?(e[-+]?\d+)?"
+# figures from another one; not a run's label (run 2, run '2', 'R2').
+_FIGURES = r"(?<![\w'.])(?<!run )[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w'])"
 
 
 def _as_text(label):
