@@ -563,7 +563,7 @@ def diagnose(
     Examples
     --------
     >>> from skthermal.gap import diagnose, make_gap_campaign
-    >>> case = make_gap_campaign("tool_growth", n_runs=3, hours=4, random_state=0)
+    >>> case = make_gap_campaign("tool_growth", n_runs=4, hours=4, random_state=0)
     >>> report = diagnose(case.simulation, case.runs,
     ...                   candidates=["tool_growth", "speed_convection"],
     ...                   greedy=False, max_samples=150)
