@@ -1439,6 +1439,14 @@ def test_readings_no_machine_gives_warn():
         remounted = pd.concat([table, table.assign(run="B"), table.assign(run="C")])
         remounted["disp_y_um"] += np.repeat([2000.0, 3000.0, 27_000.0], 3)
         validate_runs(remounted.reset_index(drop=True))
+    # One run logged in nm among runs in µm is named, whatever its level.
+    ten = np.arange(0.0, 600.0, 60.0)
+    runs = pd.concat([_minimal_table(ten, [r] * 10) for r in "ABC"])
+    runs.loc[runs["run"] == "B", "disp_y_um"] *= 1000.0
+    with pytest.warns(
+        UserWarning, match=r"'disp_y_um' moves 5000 within run 'B', 1e\+03 times"
+    ):
+        validate_runs(runs.reset_index(drop=True))
     # Nanometres under a *_um header: the warning named the run's first
     # reading (0, the likeliest value) a glitch, with no word of the unit.
     t = np.arange(0.0, 3600.0, 60.0)

@@ -127,6 +127,22 @@ def test_a_run_logged_more_slowly_than_training_streams_as_whole(data, kind):
     np.testing.assert_allclose(np.concatenate(parts), whole, atol=1e-9)
 
 
+def test_a_guard_streamed_says_every_new_fault(data):
+    # Said once per kind without its figures, a second spike of a sensor in
+    # the run (another time) raised no warning in the default mode "warn".
+    X, y, model, new = data
+    run = new[new["run"] == "c"].copy()
+    step = run["T1_C"].diff().abs().max()
+    run.iloc[[60, 200], run.columns.get_loc("T1_C")] += 50 * step
+    stream = RunStream(GuardedRegressor(model).fit(X, y))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for b in _blocks(run, [10]):
+            stream.predict(b)
+    jumps = [w for w in caught if "Sensor jump" in str(w.message)]
+    assert len(jumps) >= 2
+
+
 def test_blocks_holding_several_runs(data):
     _, _, model, new = data
     whole = model.predict(new)

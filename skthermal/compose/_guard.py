@@ -135,11 +135,11 @@ def _steps(A, first, bad=None, periods=None):
 def _gap_span(rows, periods):
     """The span of a step over ``rows`` rows (at most :data:`_MAX_SPAN`)
     that took ``periods`` sampling periods of training: beyond the rows,
-    the time a logging gap leaves out counts by its square root. A sensor
-    may drift over a gap, but not by a jump's worth per period of it (a
-    spike in the first reading after a 2 h pause passed a limit of 450 °C
-    grown in proportion)."""
-    return rows + np.sqrt(np.maximum(periods - 1.0, 0.0))
+    the time a logging gap leaves out counts in full, as a sensor drifts
+    over it (grown by its square root, a clean reading after a 1 h pause in
+    a daily swing of the air was held as a jump; a spike in the first
+    reading after a long pause is left to the range check)."""
+    return rows + np.maximum(periods - 1.0, 0.0)
 
 
 def _faster(periods, first):
@@ -148,7 +148,8 @@ def _faster(periods, first):
     run = np.cumsum(first) - 1
     out = np.ones(periods.shape)
     for r in np.unique(run):
-        mine = (run == r) & ~first
+        # Records logged twice (a step of 0) are no faster logging.
+        mine = (run == r) & ~first & (periods > 0)
         if mine.any():
             out[run == r] = max(1.0, 1.0 / max(float(np.median(periods[mine])), 1e-9))
     return out

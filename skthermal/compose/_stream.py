@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
-from skthermal.compose._guard import RunStartWarning
+from skthermal.compose._guard import GuardWarning, RunStartWarning
 from skthermal.utils._runs import (
     LATE_START_WARNING,
     extract_runs,
@@ -275,10 +275,7 @@ class RunStream:
             out = getattr(self.model_, method)(stacked, **kwargs)
         started = all(lab not in new for lab, _ in parts)
         for w in caught:
-            # Said once per kind: a message that differs only in its figures
-            # (an inner model's gap count growing with the run so far) is
-            # the same warning again.
-            key = (w.category, re.sub(_FIGURES, "#", str(w.message)))
+            key = _said_key(w)
             late = started and (
                 issubclass(w.category, RunStartWarning)
                 or re.search(LATE_START_WARNING, str(w.message)) is not None
@@ -297,8 +294,22 @@ class RunStream:
 
 
 # Numbers in a warning's text, for telling the same warning with other
-# figures from another one; not a run's label (run 2, run '2', 'R2').
-_FIGURES = r"(?<![\w'.])(?<!run )[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w'])"
+# figures from another one; not a run's label (run 2, or quoted: 'day 2').
+_FIGURES = r"(?<![\w.])(?<!run )[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w])"
+
+
+def _said_key(w):
+    """What makes warning ``w`` (of a model given the run so far) one said
+    before: a guard's finding (a fault, a reading out of range) by its
+    exact text, so a new fault or the same sensor failing again at another
+    time is said; any other warning (an inner model's gap count growing
+    with the run so far) without its figures outside quotes."""
+    text = str(w.message)
+    if issubclass(w.category, GuardWarning):
+        return w.category, text
+    parts = text.split("'")
+    parts[::2] = [re.sub(_FIGURES, "#", p) for p in parts[::2]]
+    return w.category, "'".join(parts)
 
 
 def _as_text(label):

@@ -615,6 +615,7 @@ def check_run_table(
     _warn_air_unit(df)
     _warn_kelvin_sensors(df, everything, values, codes)
     _warn_impossible_readings(df, everything, values)
+    _warn_displacement_runs(df, everything, values, codes)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
@@ -814,9 +815,18 @@ def _warn_impossible_readings(df, columns, values):
             col = values[:, j]
             with np.errstate(invalid="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)  # all NaN
-                level = 0.0 if test is _is_temperature else _run_medians(df, col)
-                level = np.broadcast_to(level, col.shape)
-                bad = np.flatnonzero(np.abs(col - level) > limit)
+                if test is _is_temperature:
+                    level = np.zeros_like(col)
+                    far = np.abs(col) > limit
+                else:
+                    # Far from the column's median and from its run's: a
+                    # probe mounted anew with another offset in one run is
+                    # no fault, nor are a few rows of a run's level.
+                    level = _run_medians(df, col)
+                    far = (np.abs(col - np.nanmedian(col)) > limit) & (
+                        np.abs(col - level) > limit
+                    )
+                bad = np.flatnonzero(far)
             if bad.size:
                 found.append((name, col, bad, level))
         if not found:
@@ -841,6 +851,41 @@ def _warn_impossible_readings(df, columns, values):
             UserWarning,
             stacklevel=user_stacklevel(),
         )
+
+
+# A run whose displacement moves this much (µm), and this many times as
+# much as the other runs', is logged in another unit (nm).
+_RUN_SPAN_UM = 1000.0
+_RUN_SPAN_RATIO = 100.0
+
+
+def _warn_displacement_runs(df, columns, values, codes):
+    """Warn naming the run when a displacement column moves over
+    :data:`_RUN_SPAN_UM` in one run and :data:`_RUN_SPAN_RATIO` times as
+    much as in the others (their median): that run logged in nm. Judged per
+    run, so a probe mounted anew with another offset is no finding."""
+    for j, name in enumerate(columns):
+        if not _is_target(name):
+            continue
+        col = values[:, j]
+        ok = np.isfinite(col)
+        span = pd.Series(col[ok]).groupby(codes[ok]).agg(np.ptp)
+        if span.size < 2:
+            continue
+        for code, value in span.items():
+            others = float(span.drop(code).median())
+            if value > _RUN_SPAN_UM and value > _RUN_SPAN_RATIO * max(others, 1e-9):
+                run = plain(df[RUN].to_numpy()[np.flatnonzero(codes == code)[0]])
+                warnings.warn(
+                    f"Column {name!r} moves {value:.4g} within run {run!r}, "
+                    f"{value / max(others, 1e-9):.3g} times as much as in the "
+                    f"other runs (median {others:.4g}): that run logged in "
+                    "nanometres? Columns *_um are read as µm: divide its "
+                    "readings by 1000.",
+                    UserWarning,
+                    stacklevel=user_stacklevel(),
+                )
+                return
 
 
 def _run_medians(df, col):
