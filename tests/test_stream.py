@@ -143,6 +143,23 @@ def test_a_guard_streamed_says_every_new_fault(data):
     assert len(jumps) >= 2
 
 
+def test_a_record_logged_twice_streams_for_a_guarded_static_model(data):
+    # The guard lets a record logged twice pass; streamed row by row it was
+    # "a block given twice or out of order" (no compensation).
+    X, y, _, new = data
+    run = new[new["run"] == "c"].iloc[:40]
+    twice = pd.concat([run.iloc[:20], run.iloc[19:]])
+    stream = RunStream(GuardedRegressor(LinearRegression()).fit(X, y))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        parts = [stream.predict(b) for b in _blocks(twice, [1])]
+    assert len(np.concatenate(parts)) == len(twice)
+    lag = RunStream(data[2])  # a sequence model keeping the run's state
+    lag.predict(run.iloc[:20])
+    with pytest.raises(ValueError, match=r"a block given twice or out of order"):
+        lag.predict(run.iloc[19:20])
+
+
 def test_blocks_holding_several_runs(data):
     _, _, model, new = data
     whole = model.predict(new)

@@ -228,7 +228,10 @@ class RunStream:
                         stacklevel=4,
                     )
                 new.add(lab)
-            elif t0 <= span[1]:
+            elif t0 < span[1] or (t0 == span[1] and self.mode_ == "incremental"):
+                # A record logged twice (at the last one's time) is no block
+                # given twice for a static model or a guard around one (a
+                # sequence model given the run so far refuses it itself).
                 if t0 in (0.0, span[0]):  # the run again from its start
                     warnings.warn(
                         f"Run {lab!r} starts again at time_s={t0:g}: taken as a "
