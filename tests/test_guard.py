@@ -396,6 +396,15 @@ def test_a_commanded_speed_steps_alike_at_any_logging_period():
     )
     checked, _ = _caught(guard.predict_checked, new)
     assert not checked["reason"].str.contains("jump").any()
+    # A second spindle's speed is commanded too.
+    renamed = GuardedRegressor(Ridge(), mode="hold").fit(
+        pd.concat(frames).rename(columns={"spindle_rpm": "spindle2_rpm"}),
+        np.concatenate(ys),
+    )
+    checked, _ = _caught(
+        renamed.predict_checked, new.rename(columns={"spindle_rpm": "spindle2_rpm"})
+    )
+    assert not checked["reason"].str.contains("jump").any()
 
 
 # --- a slow drift -----------------------------------------------------------

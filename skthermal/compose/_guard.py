@@ -969,13 +969,17 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         return np.where(self._commanded(), 1.0, span)
 
     def _commanded(self):
-        """Per input, whether it is a commanded driver (spindle speed, feed),
-        which steps in one sample whatever the logging period: its steps
-        are per row, not per sampling period."""
+        """Per input, whether it is a commanded driver (a spindle speed in
+        rpm, a feed in mm/min), which steps in one sample whatever the
+        logging period: its steps are per row, not per sampling period."""
         names = getattr(self, "feature_names_in_", None)
         if names is None:
             return np.zeros(self.n_features_in_, dtype=bool)
-        return np.array([str(n) in POWER_DRIVERS for n in names])
+        # Also a second spindle's speed or a prefixed name of a
+        # ColumnTransformer ("spindle2_rpm", "num__feed_mm_min").
+        return np.array(
+            [str(n).endswith(("rpm", "_mm_min", *POWER_DRIVERS)) for n in names]
+        )
 
     def _period(self):
         """The sampling period of training (s), NaN when unknown."""
