@@ -1467,6 +1467,9 @@ def test_runs_that_start_before_zero_warn():
     table = _minimal_table(np.r_[t - 5000.0, t], np.repeat(["A", "B"], t.size))
     with pytest.warns(UserWarning, match=r"1 of the 2 runs start before 0 \(at -5000"):
         validate_runs(table)
+    one_step = _minimal_table(np.r_[t - 60.0, t], np.repeat(["A", "B"], t.size))
+    with pytest.warns(UserWarning, match=r"1 of the 2 runs start before 0 \(at -60"):
+        validate_runs(one_step)
 
 
 def test_changes_of_an_empty_table_are_an_empty_table():

@@ -549,9 +549,11 @@ def warn_odd_times(codes, times, late_start=True, minutes=True):
     length = last - first
     steps = np.diff(times)[~starts[1:]]
     step = float(np.median(steps)) if steps.size else 0.0
-    # A run whose first sample is one period in (at 15 s, not 0) is fine.
+    # A run whose first sample is one period in (at 15 s, not 0) is fine;
+    # one that starts before 0 by more than rounding is not (a run from -60 s
+    # at 30 s passed).
     late = first[first > 2 * step]
-    early = first[first < -2 * step]
+    early = first[first < -0.5 * step]
     if late_start and early.size:
         warnings.warn(
             f"Column 'time_s' is the time since each run's start, but "
