@@ -1447,6 +1447,13 @@ def test_readings_no_machine_gives_warn():
         UserWarning, match=r"'disp_y_um' moves 5000 within run 'B', 1e\+03 times"
     ):
         validate_runs(runs.reset_index(drop=True))
+    # A logger's error code repeated in a run is named as such, not as nm.
+    coded = runs.reset_index(drop=True).assign(disp_y_um=lambda d: d["disp_y_um"] / 1e3)
+    coded.loc[10:13, "disp_y_um"] = -99999.0
+    with pytest.warns(
+        UserWarning, match=r"holds -99999 in 4 of the 10 rows of run 'B'"
+    ):
+        validate_runs(coded)
     # Nanometres under a *_um header: the warning named the run's first
     # reading (0, the likeliest value) a glitch, with no word of the unit.
     t = np.arange(0.0, 3600.0, 60.0)

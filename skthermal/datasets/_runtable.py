@@ -875,7 +875,19 @@ def _warn_displacement_runs(df, columns, values, codes):
         for code, value in span.items():
             others = float(span.drop(code).median())
             if value > _RUN_SPAN_UM and value > _RUN_SPAN_RATIO * max(others, 1e-9):
-                run = plain(df[RUN].to_numpy()[np.flatnonzero(codes == code)[0]])
+                rows = np.flatnonzero(codes == code)
+                run = plain(df[RUN].to_numpy()[rows[0]])
+                held, count = np.unique(col[rows], return_counts=True)
+                if count.max() >= 3 and count.max() > 0.05 * rows.size:
+                    warnings.warn(
+                        f"Column {name!r} holds {held[np.argmax(count)]:g} in "
+                        f"{count.max()} of the {rows.size} rows of run {run!r}, "
+                        f"which moves {value:.4g} in all: an error code of the "
+                        "logger? A model without a guard passes it on.",
+                        UserWarning,
+                        stacklevel=user_stacklevel(),
+                    )
+                    return
                 warnings.warn(
                     f"Column {name!r} moves {value:.4g} within run {run!r}, "
                     f"{value / max(others, 1e-9):.3g} times as much as in the "
