@@ -31,7 +31,6 @@ from skthermal.datasets._runtable import physical_lows
 from skthermal.utils._runs import (
     LATE_START_WARNING,
     MAX_MAGNITUDE,
-    POWER_DRIVERS,
     RUN_COLUMN,
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
@@ -99,20 +98,21 @@ def _steps(A, first, bad=None, periods=None):
     run so far knows it then).
 
     With ``periods`` (every row's time since the run's previous row, in
-    sampling periods of training; :func:`_periods`), the span is at most
+    sampling periods of training, per row or per row and input;
+    :meth:`GuardedRegressor._input_periods`), the span is at most
     :data:`_MAX_SPAN` rows plus the time the rows leave out
     (:func:`_gap_span`): what a sensor may move grows with a logging gap."""
     n = A.shape[0]
     rows = np.arange(n)
+    if periods is not None:
+        periods = np.broadcast_to(periods.reshape(n, -1), A.shape)
     if bad is None or not bad.any():
         d = np.zeros_like(A)
         d[1:] = A[1:] - A[:-1]
         d[first] = 0.0
         span = np.ones(A.shape)
         if periods is not None:
-            span = np.where(first, 1.0, _gap_span(1.0, periods))[:, None] * np.ones(
-                A.shape
-            )
+            span = np.where(first[:, None], 1.0, _gap_span(1.0, periods))
         return d, span
     start = np.maximum.accumulate(np.where(first, rows, 0))
     last = _last_good(bad, start)
@@ -126,8 +126,8 @@ def _steps(A, first, bad=None, periods=None):
     span = np.minimum(count, _MAX_SPAN).astype(float)
     if periods is not None:
         # Time since the last good reading, in periods, beyond its rows.
-        elapsed = np.cumsum(np.where(first, 0.0, periods))
-        since = elapsed[:, None] - elapsed[np.maximum(prev, 0)]
+        elapsed = np.cumsum(np.where(first[:, None], 0.0, periods), axis=0)
+        since = elapsed - elapsed[np.maximum(prev, 0), cols]
         span = np.where(known, _gap_span(span, since - count + 1.0), span)
     return d, span
 
@@ -559,8 +559,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         first = start == np.arange(A.shape[0])
         if not update:
             self.sample_period_ = _median_period(times, first)
-        step = _steps(A, first)[0]
-        span = self._rate_span(times, first, A.shape)
+        step, span = _steps(A, first, periods=self._input_periods(times, first))
         found = {
             "input_min_": A.min(axis=0),
             "input_max_": A.max(axis=0),
@@ -648,7 +647,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         with np.errstate(invalid="ignore"):
             # Per sampling period of training: update samples taken every
             # 10 minutes, or across a pause, are no spike.
-            step = np.abs(_steps(A, first)[0]) / self._rate_span(times, first, A.shape)
+            step, span = _steps(A, first, periods=self._input_periods(times, first))
+            step = np.abs(step) / span
             typical = (
                 np.nanmedian(step, axis=0)
                 if np.isfinite(step).any()
@@ -767,7 +767,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         n = A.shape[0]
         start = run_first_rows(runs, n)
         first = start == np.arange(n)
-        periods = _periods(row_times(features), first, self._period())
+        times = row_times(features)
         where = _Where(features, runs, self._sensor_names())
         if self.mode == "hold":
             dead = self._unreadable(A, start)
@@ -775,7 +775,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 return self._without_dead_runs(X, groups, dead, start, where)
             if dead is not None:
                 self._refuse_unreadable(dead, start, where)
-        flags = self._input_flags(A, first, where, periods)
+        flags = self._input_flags(A, first, where, times)
         fault = np.logical_or.reduce(list(flags.values()))
         late = self._late_starts(runs, where, n)
 
@@ -957,16 +957,16 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return [f"x{j}" for j in range(self.n_features_in_)]
         return [str(c) for c in names]
 
-    def _rate_span(self, times, first, shape):
-        """Per row and input, the sampling periods of training a step from
-        the row before spans (at least 1; 1 without times and for a
-        commanded driver): steps divided by it are rates, the same whether a
-        run is logged slowly or has a gap."""
+    def _input_periods(self, times, first):
+        """Per row and input, the sampling periods of training since the
+        run's row before (1 at a run's first row, and for a commanded
+        driver, which steps in one row whatever the period), or None
+        without times: the spans of :func:`_steps`, by which a step is a
+        rate, the same whether a run is logged slowly or has a gap."""
         periods = _periods(times, first, self._period())
         if periods is None:
-            return np.ones(shape)
-        span = np.broadcast_to(np.maximum(periods, 1.0)[:, None], shape)
-        return np.where(self._commanded(), 1.0, span)
+            return None
+        return np.where(self._commanded(), 1.0, periods[:, None])
 
     def _commanded(self):
         """Per input, whether it is a commanded driver (a spindle speed in
@@ -975,17 +975,15 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         names = getattr(self, "feature_names_in_", None)
         if names is None:
             return np.zeros(self.n_features_in_, dtype=bool)
-        # Also a second spindle's speed or a prefixed name of a
-        # ColumnTransformer ("spindle2_rpm", "num__feed_mm_min").
-        return np.array(
-            [str(n).endswith(("rpm", "_mm_min", *POWER_DRIVERS)) for n in names]
-        )
+        # spindle_rpm and feed_mm_min, a second spindle's speed, a prefixed
+        # name of a ColumnTransformer ("spindle2_rpm", "num__feed_mm_min").
+        return np.array([str(n).endswith(("rpm", "_mm_min")) for n in names])
 
     def _period(self):
         """The sampling period of training (s), NaN when unknown."""
         return getattr(self, "sample_period_", np.nan)
 
-    def _input_flags(self, A, first, where, periods=None):
+    def _input_flags(self, A, first, where, times=None):
         """Boolean (n, p) matrices per fault kind, warned about as found."""
         finite = np.isfinite(A)
         # A reading beyond MAX_MAGNITUDE is as wrong as NaN or inf: the wrapped
@@ -1015,7 +1013,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                     first,
                     flags["missing"],
                     flags["range"] & self.checked_inputs_,
-                    periods,
+                    self._input_periods(times, first),
                 )
                 # An odd first reading is the fault, not the step from it.
                 odd = _odd_first_readings(flags["jump"], step, first)
@@ -1029,6 +1027,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 moved = self.input_max_ > self.input_min_
                 # The window is in samples of training: a run logged faster
                 # takes as long to flat-line, in more samples.
+                periods = _periods(times, first, self._period())
                 faster = (
                     np.ones(A.shape[0]) if periods is None else _faster(periods, first)
                 )
@@ -1108,12 +1107,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             self.input_max_step_ > 0, self.jump * self.input_max_step_, np.inf
         )
 
-        commanded = self._commanded()
-
         def judge(bad):
             step, span = _steps(A, first, bad, periods)
-            if commanded.any():
-                span = np.where(commanded, _steps(A, first, bad)[1], span)
             step = np.abs(step)
             return np.isfinite(step) & (step > base * span), step
 
