@@ -110,10 +110,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         if spans is not None:
             warn_short_runs(
                 type(self).__name__,
-                {
-                    "the unlabelled run" if lab is None else lab: t1 - t0
-                    for (t0, t1), lab in zip(spans, labels, strict=True)
-                },
+                dict(zip(labels, spans[:, 1] - spans[:, 0], strict=True)),
                 stacklevel=user_stacklevel(),
             )
         warn_unlabelled_runs(

@@ -201,8 +201,8 @@ def _stream_inputs(model, runs, target, sensors, relative):
     return X, y, groups, t, sensors, period
 
 
-# A target spanning less than this share of the threshold, or more than its
-# inverse times it, is in another unit than µm (mm, nm).
+# A target spanning less than 1/_UNIT_FACTOR of the threshold, or more than
+# 10 * _UNIT_FACTOR times it, is in another unit than µm (mm, nm).
 _UNIT_FACTOR = 100.0
 
 

@@ -1164,10 +1164,9 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         dts, self.sample_period_s_ = self._intervals(X_raw, groups, slices, labels)
         if self.dt is not None or has_time_index(X_raw):
             spans = [(sl.stop - sl.start - 1) * d for sl, d in zip(slices, dts)]
-            names = ["the unlabelled run" if lab is None else lab for lab in labels]
             warn_short_runs(
                 type(self).__name__,
-                dict(zip(names, spans, strict=True)),
+                dict(zip(labels, spans, strict=True)),
                 stacklevel=user_stacklevel(),
             )
         if bounds is None:

@@ -701,9 +701,8 @@ def refuse_clock_values(
 
     kind = getattr(value, "dtype", None)
     if kind is None:
-        if isinstance(
-            value, datetime.timedelta | datetime.datetime | np.timedelta64
-        ) or isinstance(value, np.datetime64):
+        clock = datetime.timedelta | datetime.datetime | np.timedelta64 | np.datetime64
+        if isinstance(value, clock):
             kind = type(value).__name__
         elif isinstance(value, list | tuple) and value:
             return refuse_clock_values(pd.Series(list(value)), what, hint)
@@ -1728,14 +1727,16 @@ THERMAL_SPAN_S = 600.0
 
 def warn_short_runs(who, spans, stacklevel=3):
     """Warn when every run spans less than :data:`THERMAL_SPAN_S` seconds:
-    ``spans`` maps run labels to the span of their ``time_s``."""
+    ``spans`` maps run labels (None: the rows without one) to the span of
+    their ``time_s``."""
     if not spans:
         return
     label, longest = max(spans.items(), key=lambda item: item[1])
     if longest >= THERMAL_SPAN_S:
         return
+    name = "unlabelled" if label is None else repr(label)
     warnings.warn(
-        f"{who}: the longest run ({label!r}) lasts {longest:g} s of time_s. "
+        f"{who}: the longest run ({name}) lasts {longest:g} s of time_s. "
         "Thermal drift builds up over hours: runs this short do not determine "
         "a thermal model (fitted on them, it extrapolates on longer runs), or "
         "time_s is not in seconds (a run logged in hours or minutes reads as "
