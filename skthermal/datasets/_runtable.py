@@ -614,7 +614,7 @@ def check_run_table(
     _check_ranges(df, everything, values)
     _warn_air_unit(df)
     _warn_kelvin_sensors(df, everything, values, codes)
-    _warn_impossible_readings(df, everything, values)
+    _warn_impossible_readings(df, everything, values, codes)
     _warn_displacement_runs(df, everything, values, codes)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
@@ -678,7 +678,7 @@ def warn_implausible(df, late_start=True):
     _warn_air_unit(df)
     read = [c for c in df.columns if _is_temperature(c) or _is_target(c)]
     values = df[read].apply(pd.to_numeric, errors="coerce")
-    _warn_impossible_readings(df, read, values.to_numpy(dtype=float))
+    _warn_impossible_readings(df, read, values.to_numpy(dtype=float), codes)
 
 
 def _warn_air_unit(df):
@@ -786,12 +786,12 @@ _LARGEST_ERROR_UM = 10_000.0
 _UNIT_SHARE = 0.05
 
 
-def _warn_impossible_readings(df, columns, values):
+def _warn_impossible_readings(df, columns, values, codes):
     """Warn naming the column, run and row of the first temperature above
     :data:`_HOTTEST_C` and the first displacement further than
-    :data:`_LARGEST_ERROR_UM` from its run's median: no machine reads
-    that, and a model without a guard passes such a reading on to its
-    correction."""
+    :data:`_LARGEST_ERROR_UM` from both its column's and its run's median
+    (``codes``: every row's run): no machine reads that, and a model
+    without a guard passes such a reading on to its correction."""
     for kind, limit, unit, test, other_unit in (
         (
             "temperature above",
@@ -822,7 +822,8 @@ def _warn_impossible_readings(df, columns, values):
                     # Far from the column's median and from its run's: a
                     # probe mounted anew with another offset in one run is
                     # no fault, nor are a few rows of a run's level.
-                    level = _run_medians(df, col)
+                    level = pd.Series(col).groupby(codes).transform("median")
+                    level = level.to_numpy()
                     far = (np.abs(col - np.nanmedian(col)) > limit) & (
                         np.abs(col - level) > limit
                     )
@@ -898,17 +899,6 @@ def _warn_displacement_runs(df, columns, values, codes):
                     stacklevel=user_stacklevel(),
                 )
                 return
-
-
-def _run_medians(df, col):
-    """Every row's run median of ``col`` (the column's median without run
-    labels): a probe read with another offset in each run (mounted anew) is
-    judged from its own run's level."""
-    if RUN not in df.columns:
-        return np.nanmedian(col)
-    return (
-        pd.Series(col).groupby(pd.factorize(df[RUN])[0]).transform("median").to_numpy()
-    )
 
 
 def _warn_fahrenheit_sensors(columns, values):
