@@ -38,6 +38,7 @@ from skthermal.utils._runs import (
     describe_unreadable,
     extract_runs,
     has_time_index,
+    is_commanded,
     pass_runs,
     routed_runs,
     row_times,
@@ -975,9 +976,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         names = getattr(self, "feature_names_in_", None)
         if names is None:
             return np.zeros(self.n_features_in_, dtype=bool)
-        # spindle_rpm and feed_mm_min, a second spindle's speed, a prefixed
-        # name of a ColumnTransformer ("spindle2_rpm", "num__feed_mm_min").
-        return np.array([str(n).endswith(("rpm", "_mm_min")) for n in names])
+        return np.array([is_commanded(n) for n in names])
 
     def _period(self):
         """The sampling period of training (s), NaN when unknown."""

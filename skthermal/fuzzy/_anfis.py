@@ -28,10 +28,10 @@ from skthermal.fuzzy._anfis_core import (
 from skthermal.fuzzy._membership import MF_PARAMS, membership
 from skthermal.grey._ago import ago, iago
 from skthermal.utils._runs import (
-    POWER_DRIVERS,
     check_time_order,
     continued_runs,
     extract_runs,
+    is_commanded,
     run_memory,
     run_slices,
     run_times,
@@ -256,7 +256,7 @@ def _warn_grey_offsets(X, groups, names):
     moves = np.median(span, axis=0)
     # A speed or feed is a heat input whose running sum the grey model is
     # meant to integrate: its level is no offset.
-    readings = np.array([str(n) not in POWER_DRIVERS for n in names])
+    readings = ~np.array([is_commanded(n) for n in names])
     far = (offset > np.maximum(moves, 1e-12)) & readings
     if not far.any() or 2 * far.sum() < readings.sum():
         return

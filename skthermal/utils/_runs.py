@@ -29,6 +29,15 @@ TIME_COLUMN = "time_s"
 # changes since the run start).
 POWER_DRIVERS = ("spindle_rpm", "feed_mm_min")
 
+
+def is_commanded(name):
+    """Whether a column is a commanded driver: a spindle speed in rpm or a
+    feed in mm/min (``spindle_rpm``, ``feed_mm_min``, a second spindle's
+    ``spindle2_rpm``, a ColumnTransformer's ``num__feed_mm_min``). It steps
+    in one sample and holds a level by command, unlike a reading."""
+    return str(name).endswith(("rpm", "_mm_min"))
+
+
 # A driver written with another unit or spelling (ambient_F, spindle_rps,
 # feed_mm_s, feed_rate): every model and the simulator read the drivers by
 # their names, in these units. Other columns of the same stem (a spindle's
