@@ -262,6 +262,28 @@ def test_a_guard_warns_once_per_fault(data):
     assert sum(faults[2:6]) == 0 and sum(faults[7:]) == 0
 
 
+def test_a_lasting_finding_is_said_once(data):
+    # A reading out of range from the run's start on: its finding's row
+    # count grew with every block ("3 rows", "4 rows", ...), and it was said
+    # again at every one-row block, 60 warnings for one finding.
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    run = new[new["run"] == "c"].copy()
+    run["T2_C"] += 50.0  # out of range at every row
+    run.iloc[30:, run.columns.get_loc("T1_C")] += 50.0  # and from row 30 on
+    stream = RunStream(guard)
+    said = []
+    for block in _blocks(run.iloc[:60], [1]):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            stream.predict(block)
+        said.append([str(w.message) for w in caught])
+    # New findings only: T2_C at row 0, the speed (4000 rpm, above training)
+    # at row 11, T1_C at row 30 (out of range, and its step a jump).
+    assert [i for i, s in enumerate(said) if s] == [0, 11, 30]
+    assert "'spindle_rpm'" in said[11][0] and "'T1_C'" in said[30][0]
+
+
 def test_a_stream_pickles_mid_run(data):
     # A controller restarting reloads the stream and goes on with the run.
     _, _, model, new = data

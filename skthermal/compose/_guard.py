@@ -1266,14 +1266,18 @@ class _Where:
         return f"{run}at row {row}"
 
     def describe(self, F, values, detail, limit=5):
-        """The first occurrence of every flagged column, at most ``limit``."""
+        """The first occurrence of every flagged column, at most ``limit``,
+        with the rows it holds for and, when they are apart, in how many
+        stretches of consecutive rows."""
         cols = np.flatnonzero(F.any(axis=0))
         rows = F.argmax(axis=0)
         counts = F.sum(axis=0)
+        stretches = F[0] + (F[1:] & ~F[:-1]).sum(axis=0)
         items = [
             f"{self.sensors[j]!r} {self.at(rows[j])} (value "
             f"{values[rows[j], j]:.4g}, {detail(j)}; {counts[j]} row"
-            f"{'' if counts[j] == 1 else 's'})"
+            f"{'' if counts[j] == 1 else 's'}"
+            f"{f' in {stretches[j]} stretches' if stretches[j] > 1 else ''})"
             for j in cols[:limit]
         ]
         more = f" and {cols.size - limit} more" if cols.size > limit else ""

@@ -299,17 +299,23 @@ class RunStream:
 # Numbers in a warning's text, for telling the same warning with other
 # figures from another one; not a run's label (run 2, or quoted: 'day 2').
 _FIGURES = r"(?<![\w.])(?<!run )[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w])"
+# The row count closing each item of a guard finding, "(value 22.5, ...; 3
+# rows)", which grows while the finding lasts; not in how many stretches
+# ("; 2 rows in 2 stretches)"), which grows when it comes back.
+_ROW_COUNT = r"; \d+ rows?(?=\)| in \d+ stretches\))"
 
 
 def _said_key(w):
     """What makes warning ``w`` (of a model given the run so far) one said
     before: a guard's finding (a fault, a reading out of range) by its
-    exact text, so a new fault or the same sensor failing again at another
-    time is said; any other warning (an inner model's gap count growing
-    with the run so far) without its figures outside quotes."""
+    text without the count of rows it holds for (that grows with the run
+    so far), so a new fault or the same sensor failing again (another
+    stretch of rows) is said, the same one lasting is not; any other warning (an inner
+    model's gap count growing with the run so far) without its figures
+    outside quotes."""
     text = str(w.message)
     if issubclass(w.category, GuardWarning):
-        return w.category, text
+        return w.category, re.sub(_ROW_COUNT, "", text)
     parts = text.split("'")
     parts[::2] = [re.sub(_FIGURES, "#", p) for p in parts[::2]]
     return w.category, "'".join(parts)
