@@ -326,6 +326,34 @@ def _check_code(model):
         )
 
 
+def _check_output_config(model):
+    """Warn when scikit-learn's global ``transform_output`` is set and a
+    transformer inside ``model`` carries no output setting of its own: the
+    global one is not saved, so the loaded model's steps output numpy."""
+    import sklearn
+
+    output = sklearn.get_config().get("transform_output", "default")
+    if output == "default":
+        return
+    for where, obj in _walk(model, type(model).__name__, set()):
+        if not (hasattr(obj, "set_output") and hasattr(obj, "transform")):
+            continue
+        # scikit-learn keeps an estimator's own set_output in this attribute.
+        if "transform" in getattr(obj, "_sklearn_output_config", {}):
+            continue
+        warnings.warn(
+            f"sklearn.set_config(transform_output={output!r}) is on, but "
+            f"{where} ({type(obj).__name__}) has no output setting of its own: "
+            "the global setting is not saved, so where the file is loaded its "
+            "steps output numpy, and a sequence model behind them loses the "
+            "runs' (run, time_s) index. Call model.set_output(transform="
+            f"{output!r}) before saving; that is saved with the model.",
+            UserWarning,
+            stacklevel=3,
+        )
+        return
+
+
 def save(model, path, *, compress=True):
     """Save a fitted model to a skops file that loads without running code.
 
@@ -353,6 +381,9 @@ def save(model, path, *, compress=True):
         function local to another); the message names where. A function or
         class of the running script or notebook (``__main__``) is saved with
         a warning: the file loads only where a script defines it.
+        A warning too when ``sklearn.set_config(transform_output=...)`` is
+        on and a step of the model has no ``set_output`` of its own: the
+        global setting is not saved with the model.
     IsADirectoryError
         If ``path`` is a folder.
 
@@ -395,6 +426,7 @@ def save(model, path, *, compress=True):
         )
     _check_dict_keys(model)
     _check_code(model)
+    _check_output_config(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(_without_requests(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}

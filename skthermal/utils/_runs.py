@@ -1673,6 +1673,7 @@ def warn_unlabelled_runs(
             " Rows that are one run: pass them with their time_s (a run table), "
             "or their run label as groups."
         )
+        loaded = ""
     elif n_fitted_runs is None:
         return
     else:
@@ -1681,12 +1682,18 @@ def warn_unlabelled_runs(
             f"{n_samples} rows given now carry no run labels"
         )
         one = ""
+        loaded = (
+            " In a pipeline fitted under sklearn.set_config(transform_output="
+            "'pandas'), which is not saved with it, call "
+            "pipeline.set_output(transform='pandas') after loading (and before "
+            "saving)."
+        )
     warnings.warn(
         f"{head}, so they are taken as ONE run that starts at the first row. "
         "Pass the run labels: groups=..., a 'run' column, or the (run, time_s) "
         "index that skthermal.datasets.split_runs makes; a scikit-learn step "
         "in front of the model must keep that index: "
-        f"set_output(transform='pandas').{one}",
+        f"set_output(transform='pandas').{one}{loaded}",
         UserWarning,
         stacklevel=stacklevel,
     )
@@ -2105,6 +2112,35 @@ def warn_absolute_target(name, y, slices):
         UserWarning,
         stacklevel=user_stacklevel(),
     )
+
+
+def warn_centred_drivers(name, X, indices, names):
+    """Warn when a driver whose magnitude a model takes as heat (a speed,
+    a feed) is centred: a mean of 0 over the training rows with negative
+    values, what a ``StandardScaler`` in front of the model makes of it. A
+    stopped spindle then reads a negative number whose magnitude counts as
+    more heat than a slow one (-1.1 against 0.12 for 2000 rpm), and the
+    errors grow several times, silently. ``X`` is the validated array,
+    ``indices`` the driver columns, ``names`` the feature names or None."""
+    for j in np.asarray(indices, dtype=int):
+        u = X[:, j]
+        u = u[np.isfinite(u)]
+        if u.size < 2:
+            continue
+        spread = float(np.std(u))
+        if spread > 0 and u.min() < 0 and abs(float(np.mean(u))) <= 1e-6 * spread:
+            label = f"column {j}" if names is None else repr(str(names[j]))
+            warnings.warn(
+                f"{name}.fit: the driver {label} has a mean of 0 over the "
+                f"training rows and negative values (down to {u.min():.3g}): "
+                "centred by a scaler in front of the model? Its magnitude is "
+                "taken as heat, so a stop would count as more heat than a slow "
+                "speed. Give the drivers as logged: scale after the lag "
+                "features (make_lag_pipeline does), or keep the drivers out of "
+                "the scaler (a ColumnTransformer).",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
 
 
 def warn_unnamed_drivers(name, drivers, names, groups):
