@@ -783,6 +783,37 @@ def test_a_study_of_another_search_is_refused(runs_data, tmp_path):
         )
 
 
+def test_a_study_of_another_output_setting_is_refused(runs_data, tmp_path):
+    # A pipeline without pandas output (its grey model sees the training
+    # rows as one run) joined a study made with it, and its session's best
+    # model was not the one that scored best_score_.
+    import sklearn
+
+    X, y, groups = runs_data
+
+    def search(model):
+        return run_search(
+            model,
+            X,
+            y,
+            groups=groups,
+            space=lambda t: {"greypsoregressor__delay": t.suggest_int("d", 0, 1)},
+            n_trials=1,
+            storage=tmp_path / "output.db",
+            study_name="s",
+            refit=False,
+        )
+
+    def pipe():
+        return make_pipeline(StandardScaler(), GreyPSORegressor(calibration="ls"))
+
+    search(pipe().set_output(transform="pandas"))
+    with sklearn.config_context(transform_output="pandas"):
+        search(pipe())  # the same output, set for the process
+    with pytest.raises(ValueError, match=r"standardscaler.transform_output"):
+        search(pipe())
+
+
 def _grey_search(X, y, groups, storage, **kwargs):
     return run_search(
         GreyPSORegressor(calibration="ls"),

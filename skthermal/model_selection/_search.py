@@ -24,6 +24,7 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
+import sklearn
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import Pipeline
@@ -947,13 +948,28 @@ def _estimator_settings(estimator):
     estimators (in :func:`_estimator_kind`; their settings are listed by
     name)."""
     out = {}
-    for name, value in estimator.get_params(deep=True).items():
+    params = estimator.get_params(deep=True)
+    for name, value in params.items():
         last = name.rsplit("__", 1)[-1]
         if last in _FREE_SETTINGS or "callback" in last:
             continue
         if _holds_estimator(value):
             continue
         out[name] = _setting_text(value)
+    # A step's output container (set_output, or the process's global
+    # transform_output) decides whether the run index reaches a sequence
+    # model behind it, so the scores: recorded unless the default.
+    steps = [("", estimator)] + [(n, v) for n, v in params.items() if hasattr(v, "fit")]
+    glob = sklearn.get_config().get("transform_output", "default")
+    for name, step in steps:
+        if hasattr(step, "set_output") and hasattr(step, "transform"):
+            # scikit-learn keeps an estimator's own set_output here.
+            own = getattr(step, "_sklearn_output_config", {}).get("transform")
+            output = glob if own is None else own
+            if output != "default":
+                out[f"{name}.transform_output" if name else "transform_output"] = (
+                    _setting_text(output)
+                )
     return out
 
 
