@@ -459,6 +459,36 @@ def test_clone_set_params_pickle_joblib(regression_data, tmp_path):
     assert_array_equal(with_array.init, JANG_INITIAL)
 
 
+def _stop_after_two(epoch, train_rmse, check_rmse):
+    return epoch >= 2
+
+
+def test_epoch_callback_goes_with_a_model_still_to_be_trained(regression_data):
+    # The hook was dropped in every pickle, so the copies that loky sends to
+    # worker processes trained all 60 epochs with n_jobs=2, 2 with n_jobs=1.
+    X, y = regression_data
+    model = ANFISRegressor(epochs=60, random_state=0, epoch_callback=_stop_after_two)
+    assert pickle.loads(pickle.dumps(model)).epoch_callback is _stop_after_two
+    fitted = clone(model).fit(X, y)
+    assert len(fitted.history_["train_rmse"]) == 2
+    assert pickle.loads(pickle.dumps(fitted)).epoch_callback is None
+    groups = np.repeat(np.arange(6), 40)
+    runs = [
+        cross_validate(
+            model,
+            X,
+            y,
+            groups=groups,
+            cv=GroupKFold(3),
+            n_jobs=n,
+            return_estimator=True,
+        )
+        for n in (1, 2)
+    ]
+    assert_array_equal(runs[0]["test_score"], runs[1]["test_score"])
+    assert [len(m.history_["train_rmse"]) for m in runs[1]["estimator"]] == [2] * 3
+
+
 def test_pipeline_and_grouped_cross_validation(regression_data):
     X, y = regression_data
     groups = np.repeat(np.arange(6), 40)

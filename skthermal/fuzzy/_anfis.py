@@ -469,9 +469,12 @@ default="fcm"
         checking set); returning True stops training after that epoch,
         keeping the parameters of the best epoch so far. Used for pruning
         hyperparameter searches (:func:`skthermal.model_selection.run_search`).
-        It is a training-time hook only: it is not pickled (a pickled or
-        saved estimator has ``epoch_callback=None``). Setting it costs one
-        extra pass over the training data per epoch.
+        It is a training-time hook: a fitted estimator is pickled and saved
+        without it (``epoch_callback=None`` after loading); one not yet
+        fitted keeps it, so the copies trained in worker processes
+        (``n_jobs > 1`` in scikit-learn's ``cross_validate`` or searches)
+        call it there, and it must then pickle. Setting it costs one extra
+        pass over the training data per epoch.
 
     Attributes
     ----------
@@ -627,10 +630,13 @@ default="fcm"
         self.epoch_callback = epoch_callback
 
     def __getstate__(self):
-        # The callback usually closes over live objects (an Optuna trial, a
-        # database connection): it is a training-time hook, never saved.
+        # The callback is a training-time hook that usually closes over live
+        # objects (an Optuna trial, a database connection): a fitted model
+        # is saved without it. A model still to be trained keeps it, so that
+        # the copies scikit-learn sends to worker processes (n_jobs > 1 in
+        # cross_validate or a search) train as the model given would.
         state = super().__getstate__()
-        if state.get("epoch_callback") is not None:
+        if state.get("epoch_callback") is not None and "mf_params_" in state:
             state = {**state, "epoch_callback": None}
         return state
 
