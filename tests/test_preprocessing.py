@@ -906,6 +906,32 @@ def test_auto_drivers_found_nowhere_warn():
         LagFeatures(time_constants=[60.0], drivers=None).fit(X)
 
 
+def test_a_centred_driver_warns_once():
+    # A StandardScaler in front made a stopped spindle -1.1 and 2000 rpm
+    # 0.12: its magnitude counted a stop as more heat, and the cross-validated
+    # errors of LagRidgeCV grew from 0.3 to 2-57 µm without a word.
+    from sklearn.preprocessing import StandardScaler
+
+    X = _frame()
+    y = np.arange(len(X), dtype=float)
+    scaled = make_pipeline(StandardScaler(), LagRidgeCV()).set_output(
+        transform="pandas"
+    )
+    for model in (
+        make_pipeline(StandardScaler(), LagFeatures()).set_output(transform="pandas"),
+        scaled,
+    ):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model.fit(X, y)
+        said = [w for w in caught if "has a mean of 0" in str(w.message)]
+        assert len(said) == 1 and "'spindle_rpm'" in str(said[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LagFeatures().fit(X)  # as logged
+        make_pipeline(LagFeatures(), StandardScaler()).fit(X)
+
+
 def test_exponential_filter_names_bad_rows_slices_state_and_periods():
     from skthermal.preprocessing import exponential_filter
 

@@ -691,3 +691,15 @@ def test_a_run_logged_in_milliseconds_warns(kind):
         r"\(60 times faster\).*minutes or hours\?",
     ):
         model.predict(minutes)
+
+
+def test_a_centred_speed_warns():
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    X, y = _duty_runs(n_runs=2, hours=2.0, dt=60.0)
+    model = make_pipeline(
+        StandardScaler(), TransferFunctionRegressor(speed_column="spindle_rpm")
+    ).set_output(transform="pandas")
+    with pytest.warns(UserWarning, match=r"driver 'spindle_rpm' has a mean of 0"):
+        model.fit(X, y)

@@ -39,6 +39,7 @@ from skthermal.utils._runs import (
     run_sample_periods,
     run_slices,
     run_times,
+    warn_centred_drivers,
     warn_dt_against_times,
     warn_gaps,
     warn_misnamed_time,
@@ -1160,6 +1161,12 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         slices, labels = run_slices(groups, X.shape[0])
         self.n_fitted_runs_ = None if groups is None else len(slices)
         self.speed_columns_ = self._speed_positions()
+        warn_centred_drivers(
+            type(self).__name__,
+            X,
+            self.speed_columns_,
+            getattr(self, "feature_names_in_", None),
+        )
         warn_no_time(type(self).__name__, X_raw, self.dt)
         dts, self.sample_period_s_ = self._intervals(X_raw, groups, slices, labels)
         if self.dt is not None or has_time_index(X_raw):

@@ -21,11 +21,13 @@ from skthermal.utils._runs import (
     check_positive_numbers,
     check_time_order,
     continued_runs,
+    driver_positions,
     extract_runs,
     has_time_index,
     run_key,
     run_slices,
     run_times,
+    warn_centred_drivers,
     warn_dt_against_times,
     warn_gaps,
     warn_no_time,
@@ -149,6 +151,7 @@ _SAID_BY_LAG_RIDGE = (
     r"LagFeatures: .* gap\(s\)",
     r"LagFeatures\.fit got",
     r"LagFeatures\.fit: drivers=",
+    r"LagFeatures\.fit: the driver ",
     r"groups cut the rows into",
     r"LagFeatures: dt=.* is given, but the time_s steps",
     TIME_UNIT_WARNING,
@@ -390,11 +393,13 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
                 "fit one model per target, e.g. "
                 "sklearn.multioutput.MultiOutputRegressor(make_lag_pipeline())."
             )
-        _, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
+        X_arr, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
         name = type(self).__name__
         warn_unlabelled_runs(name, None, groups, len(y), X=X_raw, stacklevel=None)
         names = getattr(self, "feature_names_in_", None)
         warn_unnamed_drivers(name, self.drivers, names, groups)
+        drivers = driver_positions(self.drivers, names, X_arr.shape[1])
+        warn_centred_drivers(name, X_arr, drivers, names)
         # Without times, warn once here (not once per candidate), then give
         # the candidates one second per row explicitly.
         warn_no_time(

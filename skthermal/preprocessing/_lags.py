@@ -41,6 +41,7 @@ from skthermal.utils._runs import (
     run_sample_periods,
     run_slices,
     run_times,
+    warn_centred_drivers,
     warn_dt_against_times,
     warn_gaps,
     warn_misnamed_time,
@@ -690,6 +691,7 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
         self.driver_indices_ = driver_positions(
             self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
         )
+        warn_centred_drivers(name, X_arr, self.driver_indices_, names)
         n_temp = X_arr.shape[1] - self.driver_indices_.size
         self.n_temperature_features_ = n_temp * (int(self.include_changes) + taus.size)
         n_out = self.n_temperature_features_
