@@ -751,7 +751,8 @@ def test_a_candidate_names_the_part_the_machine_lacks(rig_runs):
     assert list(report.ranking["effect"]) == ["sensor_lag"]
     assert report.not_applicable == {
         "speed_convection": "the machine has no head nodes whose convection "
-        "grows with speed ([roles] head = [...])",
+        "grows with speed ([roles] head = [...]); tool_growth, which also "
+        "cools with speed, can stand in for it",
         "ambient_transient": "the machine has no nodes washed by the workshop "
         "air ([roles] exposed = [...])",
     }

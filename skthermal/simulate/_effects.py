@@ -231,7 +231,8 @@ class SpeedConvection(Effect):
         if not spec.head_nodes:
             return (
                 "the machine has no head nodes whose convection grows with "
-                "speed ([roles] head = [...])"
+                "speed ([roles] head = [...]); tool_growth, which also cools "
+                "with speed, can stand in for it"
             )
         return None
 
