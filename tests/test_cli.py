@@ -551,6 +551,23 @@ def test_predict_names_a_model_file_it_cannot_use(capsys, workdir, tmp_path):
         assert "Traceback" not in err
 
 
+def test_predict_says_a_joblib_model_of_another_version(capsys, workdir, tmp_path):
+    # A .skops file's versions were checked; a .joblib bundle's were not.
+    import joblib
+
+    model = workdir / "lag-ridge.joblib"
+    if not model.is_file():
+        argv = ["fit", "--runs", workdir / "tests.csv", "--train-runs", "IV"]
+        assert _run(capsys, *argv, "--model", "lag-ridge", "--out", model)[0] == 0
+    bundle = joblib.load(model)
+    old = tmp_path / "old.joblib"
+    joblib.dump({**bundle, "skthermal_version": "0.0.1"}, old)
+    argv = ["predict", "--model", old, "--runs", workdir / "tests.csv"]
+    status, _, err = _run(capsys, *argv, "--out", tmp_path / "p.csv")
+    assert status == 0, err
+    assert "written with skthermal 0.0.1" in err, err
+
+
 def test_a_run_with_a_dead_sensor_gets_no_prediction_the_others_do(
     capsys, workdir, tmp_path
 ):

@@ -114,6 +114,20 @@ def load_model(path):
         ) from exc
     if not isinstance(bundle, dict) or bundle.get("format") != MODEL_FORMAT:
         raise UserError(f"--model {path}: not a model file written by 'skthermal fit'.")
+    if not _is_skops(path):  # skthermal.io.load checked a .skops file's versions
+        from skthermal import __version__
+        from skthermal.io import SkthermalVersionWarning
+
+        written = bundle.get("skthermal_version")
+        if written is not None and written != __version__:
+            warnings.warn(
+                f"The model file {path} was written with skthermal {written} "
+                f"(installed: {__version__}). It may not load or predict as it "
+                "did; refit it with the installed version, or check its "
+                "predictions on known data before use.",
+                SkthermalVersionWarning,
+                stacklevel=2,
+            )
     return bundle
 
 
