@@ -234,6 +234,38 @@ def test_a_sequence_model_after_a_selector_sees_the_runs():
     assert isinstance(pipe[0].transform(X.to_numpy()), np.ndarray)
 
 
+@pytest.mark.parametrize("selector", SELECTORS)
+def test_drivers_among_the_sensors_warn_and_the_recipe_keeps_them(selector):
+    # The speed was ranked as a temperature and dropped, and the lag model
+    # behind lost its heat input (0.29 -> 0.4-1.7 µm), with no word.
+    import warnings
+
+    from sklearn.compose import ColumnTransformer
+
+    from skthermal import LagFeatures
+
+    runs, _ = make_sensor_groups(
+        n_groups=2, sensors_per_group=2, n_noise=1, n_runs=3, random_state=0
+    )
+    X, y, _ = split_runs(runs)
+    sensors = list(X.columns)
+    X = X.assign(spindle_rpm=np.where(np.arange(len(X)) % 40 < 20, 3000.0, 0.0))
+    with pytest.warns(UserWarning, match=r"X holds the drivers \['spindle_rpm'\]"):
+        clone(selector).fit(X, y)
+    kept = ColumnTransformer(
+        [("sensors", clone(selector), sensors)],
+        remainder="passthrough",
+        verbose_feature_names_out=False,
+    )
+    pipe = make_pipeline(kept, LagFeatures(time_constants=[600.0]))
+    pipe.set_output(transform="pandas")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = pipe.fit_transform(X, y)
+    assert pipe[-1].driver_indices_.size == 1
+    assert list(out.index.names) == ["run", "time_s"]
+
+
 def test_metadata_routing_of_groups():
     runs, truth = make_sensor_groups(n_runs=3, random_state=8)
     X, y, groups = runs[truth.index], runs["disp_y_um"], runs["run"].to_numpy()
