@@ -159,6 +159,25 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         with np.errstate(over="ignore", under="ignore"):
             return np.ldexp(loss, 2 * scales[0])
 
+    def _warn_short_swarm(self, objective, found, exact, start):
+        """ConvergenceWarning when the swarm ended more than 1% above the
+        loss of the exact optimum ``exact`` (computed anyway, the default
+        start ``start``): a random or least-squares start with the default
+        budget ended at 80-760 times its loss, no better than a constant."""
+        got, best = (
+            float(objective(np.asarray(v)[None, :])[0]) for v in (found, exact)
+        )
+        if got > 1.01 * best + 1e-300:
+            warnings.warn(
+                f"{type(self).__name__}: the swarm ended at a training loss "
+                f"{got / best:.3g} times that of the exact optimum it did not "
+                f"start from (init={self.init!r}, {self.n_particles} particles, "
+                f"{self.epochs} epochs). Start it there (init={start!r}, the "
+                "default), or give it more particles and epochs.",
+                ConvergenceWarning,
+                stacklevel=4,
+            )
+
     def _swarm(self, objective, box, init, rng, shift):
         """The particle swarm on the scaled coefficients (``box`` is scaled).
 
@@ -557,6 +576,7 @@ class GreyPSORegressor(_GreyRunRegressor):
                 rng = check_random_state(self.random_state)
                 res = self._swarm(objective, box, seed, rng, shift)
                 theta = res.x
+                self._warn_short_swarm(objective, theta, theta_vp, "varpro")
                 self.n_iter_ = res.nit
                 self.history_ = res.history
         theta = np.asarray(theta, dtype=float)
@@ -857,6 +877,7 @@ class GNNMCIRegressor(_GreyRunRegressor):
         rng = check_random_state(self.random_state)
         init = seed if self.init == "ridge" else None
         res = self._swarm(objective, box, init, rng, shift)
+        self._warn_short_swarm(objective, res.x, seed, "ridge")
         self.weights_ = self._unscale(res.x, scales)
         loss = _gnnmci_sse(res.x[None, :], runs)[0]
         self.loss_ = float(self._unscale_loss(loss, scales))
