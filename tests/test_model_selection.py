@@ -814,6 +814,26 @@ def test_a_study_of_another_output_setting_is_refused(runs_data, tmp_path):
         search(pipe())
 
 
+def test_a_warning_of_every_fit_is_said_once_per_search(runs_data):
+    # A scaler outputting numpy in front of a grey model: every trial and
+    # fold warned that the runs became one, 31 warnings for 6 trials.
+    X, y, groups = runs_data
+    pipe = make_pipeline(StandardScaler(), GreyPSORegressor(calibration="ls"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run_search(
+            pipe,
+            X,
+            y,
+            groups=groups,
+            space=lambda t: {"greypsoregressor__delay": t.suggest_int("d", 0, 1)},
+            n_trials=3,
+            refit=False,
+        )
+    said = [w for w in caught if "taken as ONE run" in str(w.message)]
+    assert len(said) == 1
+
+
 def _grey_search(X, y, groups, storage, **kwargs):
     return run_search(
         GreyPSORegressor(calibration="ls"),

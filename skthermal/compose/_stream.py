@@ -23,6 +23,7 @@ from skthermal.utils._runs import (
     row_times,
     sequence_models,
 )
+from skthermal.utils._warnings import without_figures
 
 
 class RunStream:
@@ -296,9 +297,6 @@ class RunStream:
         return np.asarray(out)[rows]
 
 
-# Numbers in a warning's text, for telling the same warning with other
-# figures from another one; not a run's label (run 2, or quoted: 'day 2').
-_FIGURES = r"(?<![\w.])(?<!run )[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w])"
 # The row count closing each item of a guard finding, "(value 22.5, ...; 3
 # rows)", which grows while the finding lasts; not in how many stretches
 # ("; 2 rows in 2 stretches)"), which grows when it comes back.
@@ -316,9 +314,7 @@ def _said_key(w):
     text = str(w.message)
     if issubclass(w.category, GuardWarning):
         return w.category, re.sub(_ROW_COUNT, "", text)
-    parts = text.split("'")
-    parts[::2] = [re.sub(_FIGURES, "#", p) for p in parts[::2]]
-    return w.category, "'".join(parts)
+    return w.category, without_figures(text)
 
 
 def _as_text(label):

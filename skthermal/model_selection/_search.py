@@ -51,7 +51,7 @@ from skthermal.model_selection._spaces import (
     space_values,
 )
 from skthermal.utils._runs import with_run_index
-from skthermal.utils._warnings import user_stacklevel
+from skthermal.utils._warnings import user_stacklevel, without_figures
 
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 _JOURNAL_SUFFIXES = (".log", ".journal", ".jsonl")
@@ -740,6 +740,38 @@ class _Objective:
         self.guard = guard
         self.warned = False
         self.warned_empty = False
+        # What the fits warned, said once per search (without its figures):
+        # None with threads (n_jobs > 1), where recording warnings is not
+        # safe; they then pass as they come.
+        self.said = set()
+
+    def _recording(self):
+        """A context recording the warnings of a fold's fit and scoring
+        (for :meth:`_say_once`), or none with threads."""
+        if self.said is None:
+            return contextlib.nullcontext([])
+        recorder = warnings.catch_warnings(record=True)
+
+        @contextlib.contextmanager
+        def record():
+            with recorder as caught:
+                warnings.simplefilter("always")
+                yield caught
+
+        return record()
+
+    def _say_once(self, caught):
+        """Say each warning of ``caught`` not said in an earlier fold or
+        trial (the same text with other figures is the same warning: a
+        count of rows, a loss ratio), so a search of many trials does not
+        repeat one warning per trial and fold."""
+        for w in caught:
+            key = (w.category, without_figures(str(w.message)))
+            if key not in self.said:
+                self.said.add(key)
+                warnings.warn_explicit(
+                    w.message, w.category, w.filename, w.lineno, source=w.source
+                )
 
     def _warn_training_error(self, validation_fraction):
         """Once per search: pruning ANFIS by its training error."""
@@ -799,15 +831,17 @@ class _Objective:
                 key = f"{prefix}epoch_callback"
                 hook = _PruningCallback(trial, self.sign, params[key])
                 model.set_params(**{key: hook})
+            caught = []
             try:
-                model.fit(_take(self.X, train), _take(self.y, train))
-                if hook is not None and hook.pruned_at is not None:
-                    raise optuna.TrialPruned(
-                        f"pruned at epoch {hook.pruned_at} of the first fold"
+                with self._recording() as caught:
+                    model.fit(_take(self.X, train), _take(self.y, train))
+                    if hook is not None and hook.pruned_at is not None:
+                        raise optuna.TrialPruned(
+                            f"pruned at epoch {hook.pruned_at} of the first fold"
+                        )
+                    score = float(
+                        self.scorer(model, _take(self.X, test), _take(self.y, test))
                     )
-                score = float(
-                    self.scorer(model, _take(self.X, test), _take(self.y, test))
-                )
             except optuna.TrialPruned:
                 raise
             except Exception as exc:  # a bad draw fails the trial, not the study
@@ -817,6 +851,8 @@ class _Objective:
                 # Raised as the cause of the failure, which Optuna logs and
                 # records (the study's optimize catches it).
                 raise _TrialFailed(f"fold {fold}: {type(exc).__name__}: {exc}") from exc
+            finally:
+                self._say_once(caught or [])
             scores.append(score)
             if self.pruning == "folds":
                 trial.report(float(np.mean(scores)), fold + 1)
@@ -1623,6 +1659,8 @@ def run_search(
     sign = -1.0 if direction == "maximize" else 1.0
     guard = _FailureGuard(max_failed_trials)
     objective = _Objective(estimator, space, X, y, splits, scorer, mode, sign, guard)
+    if n_jobs != 1:
+        objective.said = None
     all_callbacks = [*(callbacks or []), guard]
     if total_trials is not None:
         counted = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)

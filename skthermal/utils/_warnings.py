@@ -1,6 +1,8 @@
-"""Where a warning points: the user's line, not the library's."""
+"""Where a warning points (the user's line, not the library's), and when
+two warnings say the same."""
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -39,3 +41,24 @@ def user_stacklevel():
         frame = frame.f_back
         level += 1
     return level
+
+
+# Numbers in a warning's text, for telling the same warning with other
+# figures from another one; not a run's label (run 2, or quoted: 'day 2').
+_FIGURES = r"(?<![\w.])(?<!run )[-+]?\d+(\.\d+)?(e[-+]?\d+)?(?![\w])"
+
+
+def without_figures(text):
+    """A warning's ``text`` with its figures outside quotes as ``#``: equal
+    for the same warning said with other counts or values ("1 gap(s)" and
+    "2 gap(s)"), different for another sensor or run (quoted).
+
+    Examples
+    --------
+    >>> from skthermal.utils._warnings import without_figures
+    >>> without_figures("'T1_C' read 3.5 in run 2 (12 rows)")
+    "'T1_C' read # in run 2 (# rows)"
+    """
+    parts = text.split("'")
+    parts[::2] = [re.sub(_FIGURES, "#", p) for p in parts[::2]]
+    return "'".join(parts)
