@@ -284,6 +284,96 @@ def test_a_lasting_finding_is_said_once(data):
     assert "'spindle_rpm'" in said[11][0] and "'T1_C'" in said[30][0]
 
 
+@pytest.mark.parametrize("mode", ["warn", "clip", "hold"])
+def test_a_guard_around_a_static_model_streams_from_a_bounded_tail(data, mode):
+    # The guard was given the whole run so far at every block: one more row
+    # after 128,000 took 2.9-5.6 s. It keeps the rows its checks read now,
+    # and the checked predictions equal those of the whole run.
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression(), mode=mode).fit(X, y)
+    run = new[new["run"] == "c"].copy()
+    col = run.columns.get_loc
+    run.iloc[50, col("T1_C")] += 30.0  # a spike
+    run.iloc[120:150, col("T2_C")] = run.iloc[120, col("T2_C")]  # stuck
+    run.iloc[200:204, col("T1_C")] += 40.0  # out of range for a while
+    if mode == "hold":
+        run.iloc[260:263, col("T2_C")] = np.nan  # a dropout
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = guard.predict_checked(run)
+        stream = RunStream(guard)
+        assert stream.mode_ == "incremental"
+        parts = [stream.predict_checked(b) for b in _blocks(run, [1, 3, 7, 2])]
+    got = pd.concat(parts)
+    np.testing.assert_allclose(got["prediction"], whole["prediction"], atol=1e-12)
+    for column in ("ok", "action", "reason"):
+        assert got[column].tolist() == whole[column].tolist()
+    # What is kept of the run: its last rows, not the run.
+    assert len(stream.model_.stream_runs_["c"]["rows"]) == 3
+    stream.forget("c")
+    assert "c" not in stream.model_.stream_runs_
+
+
+@pytest.mark.parametrize("mode", ["warn", "hold"])
+@pytest.mark.parametrize("seed", range(4))
+def test_a_guarded_static_model_streams_as_the_whole_run(data, seed, mode):
+    # Faults that last across blocks (a sensor stuck past its flat-line
+    # window, a dropout, readings out of range, predictions out of band),
+    # spikes at block edges, a record logged twice and a logging gap: the
+    # kept rows and what is carried apart give the whole run's checks.
+    X, y, _, new = data
+    rng = np.random.default_rng(seed)
+    run = new[new["run"] == "d"].copy().reset_index(drop=True)
+    col = run.columns.get_loc
+    for _ in range(6):
+        at = int(rng.integers(5, len(run) - 40))
+        kind = rng.integers(5)
+        c = col(str(rng.choice(["T1_C", "T2_C"])))
+        if kind == 0:
+            run.iloc[at, c] += 30.0
+        elif kind == 1:
+            run.iloc[at : at + 30, c] = run.iloc[at, c]
+        elif kind == 2:
+            run.iloc[at : at + 12, c] += 8.0
+        elif kind == 3 and mode == "hold":  # other modes refuse a NaN
+            run.iloc[at : at + 5, c] = np.nan
+        else:
+            run.iloc[at : at + 20, c] -= 3.0
+    run = pd.concat([run.iloc[:100], run.iloc[99:]]).reset_index(drop=True)  # twice
+    run = run.drop(index=range(200, 215)).reset_index(drop=True)  # a gap
+    guard = GuardedRegressor(LinearRegression(), mode=mode, flat=8).fit(X, y)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = guard.predict_checked(run)
+        stream = RunStream(guard)
+        sizes = list(rng.integers(1, 9, 40))
+        got = pd.concat([stream.predict_checked(b) for b in _blocks(run, sizes)])
+    np.testing.assert_allclose(got["prediction"], whole["prediction"], atol=1e-12)
+    for column in ("ok", "action", "reason"):
+        assert got[column].tolist() == whole[column].tolist()
+
+
+def test_a_guard_keeping_runs_saves_and_starts_a_run_again(data, tmp_path):
+    # The kept rows are frames, which a skops file cannot hold: left out.
+    from skthermal.io import load, save
+
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    run = new[new["run"] == "c"]
+    RunStream(guard, copy=False).predict(run.iloc[:50])
+    assert "c" in guard.stream_runs_
+    loaded = load(save(guard, tmp_path / "guard.skops"))
+    assert not hasattr(loaded, "stream_runs_")
+    np.testing.assert_allclose(
+        loaded.predict(run.iloc[50:60]), guard.predict(run.iloc[50:60])
+    )
+    # The run given again from its start is not continued from its kept rows.
+    fresh = GuardedRegressor(LinearRegression()).fit(X, y)
+    np.testing.assert_allclose(
+        guard.predict(run.iloc[:10]), fresh.predict(run.iloc[:10])
+    )
+
+
 def test_a_stream_pickles_mid_run(data):
     # A controller restarting reloads the stream and goes on with the run.
     _, _, model, new = data

@@ -85,6 +85,9 @@ _KINDS = ("missing", "range", "jump", "flat")
 # a jump; a real drift over the dropout costs one held sample.
 _MAX_SPAN = 4
 _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
+# Good rows in a row from which remember_runs keeps a run's tail: the step
+# checks (a jump, an odd first reading) read up to three rows.
+_KEEP_GOOD = 3
 
 
 def _steps(A, first, bad=None, periods=None):
@@ -193,13 +196,24 @@ def _odd_first_readings(jump, step, first):
     return odd
 
 
-def _unchanged(A, first):
-    """How many earlier readings of the same run equal each reading, in a row."""
+def _unchanged(A, first, before=None):
+    """How many earlier readings of the same run equal each reading, in a
+    row; ``before`` (n, p): per row, how many equal the run's first row
+    given here before it (a continued run's count at its kept rows, see
+    :meth:`GuardedRegressor.remember_runs`), added while the reading has
+    not changed since."""
     same = np.zeros(A.shape, dtype=bool)
     same[1:] = A[1:] == A[:-1]
     same[first] = False
     count = np.cumsum(same, axis=0)
-    return count - np.maximum.accumulate(np.where(same, 0, count), axis=0)
+    out = count - np.maximum.accumulate(np.where(same, 0, count), axis=0)
+    if before is not None:
+        rows = np.arange(A.shape[0])
+        start = np.maximum.accumulate(np.where(first, rows, 0))
+        # Still the run's first reading: no change since its first row.
+        changes = np.cumsum(~same & ~first[:, None], axis=0)
+        out = out + np.where(changes == changes[start], before, 0)
+    return out
 
 
 def _last_good(bad, start):
@@ -350,6 +364,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     input_max_unchanged_ : ndarray of shape (n_features_in_,)
         Longest stretch of identical consecutive readings within a training
         run, in samples (1 when every reading differed from the last).
+    stream_runs_ : dict
+        After :meth:`remember_runs` (a static wrapped model): per run label,
+        what continuing the run needs, its last rows and what ``mode="hold"``
+        holds; not saved in ``.skops`` files.
     output_min_ : ndarray of shape (n_outputs,)
         Smallest training target, per output.
     output_max_ : ndarray of shape (n_outputs,)
@@ -703,7 +721,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             Naming the first run given to a sequence model from after its
             start.
         """
-        return self._guard(X, groups)["prediction"]
+        X, groups, take, carry = self._continued(X, groups)
+        pred = self._guard(X, groups, fresh=_fresh(take, X), carry=carry)
+        return pred["prediction"] if take is None else pred["prediction"][take]
 
     def predict_checked(self, X, *, groups=None):
         """Predictions with, per row, whether the guard found a problem.
@@ -739,9 +759,14 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         SensorRangeWarning, SensorFaultWarning, PredictionRangeWarning
             As :meth:`predict`.
         """
-        result = self._guard(X, groups, unavailable=True)
-        pred = np.asarray(result["prediction"], dtype=float)
         index = X.index if isinstance(X, pd.DataFrame) else None
+        X, groups, take, carry = self._continued(X, groups)
+        result = self._guard(
+            X, groups, unavailable=True, fresh=_fresh(take, X), carry=carry
+        )
+        if take is not None:
+            result = {key: value[take] for key, value in result.items()}
+        pred = np.asarray(result["prediction"], dtype=float)
         if pred.ndim == 1:
             columns = {"prediction": pred}
         else:
@@ -754,7 +779,205 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         )
         return pd.DataFrame(columns, index=index)
 
-    def _guard(self, X, groups, unavailable=False):
+    def _remembers(self):
+        """Whether runs can be continued from a kept tail of their rows:
+        the wrapped model is fitted and static (a sequence model reads
+        every run from its start: :class:`~skthermal.compose.RunStream`
+        then gives the guard each run so far)."""
+        return hasattr(self, "estimator_") and not sequence_models(self.estimator_)
+
+    @available_if(_remembers)
+    def remember_runs(self, X, *, groups=None):
+        """Keep what continuing the runs of ``X`` (given to :meth:`predict`
+        just before) needs: the last rows of each labelled run that the
+        checks of later rows read. A later :meth:`predict` of rows of such a
+        run continues it: a jump is judged from its last reading, a
+        flat-line counts its unchanged readings, ``mode="hold"`` holds its
+        last good value, as if the run so far were given again.
+
+        What is kept is bounded: the rows from the last three good rows on
+        (every check passed), and back to each checked sensor's last change
+        (its flat-line count); during a fault, back to the last good rows
+        before it. :class:`~skthermal.compose.RunStream` calls it after
+        every block, so each block costs the same however long the run
+        (exact where the run is logged at one period: the flat-line window
+        is scaled by the median period of the rows given).
+
+        Parameters
+        ----------
+        X : DataFrame of shape (n_samples, n_features)
+            The rows just predicted, with run labels (a ``run`` column or
+            index level, or ``groups``) and ``time_s``.
+        groups : array-like of shape (n_samples,), optional
+            Run label of every row.
+
+        Returns
+        -------
+        self : GuardedRegressor
+        """
+        stacked, stacked_groups, take, carry = self._continued(X, groups)
+        if not isinstance(stacked, pd.DataFrame):
+            return self
+        features, runs = extract_runs(stacked, stacked_groups, finite=False)
+        if runs is None:
+            return self
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # said by predict
+            checked = self._guard(
+                stacked,
+                stacked_groups,
+                unavailable=True,
+                fresh=_fresh(take, stacked),
+                carry=carry,
+            )
+        A = validate_data(
+            self, features, reset=False, dtype=np.float64, ensure_all_finite=False
+        )
+        P = np.asarray(checked["prediction"], dtype=float).reshape(A.shape[0], -1)
+        times = row_times(features)
+        states = dict(getattr(self, "stream_runs_", {}))
+        slices, labels = run_slices(runs, A.shape[0])
+        for sl, label in zip(slices, labels, strict=True):
+            if label is None:
+                continue
+            found = {
+                key: checked[key][sl] for key in ("bad", "fault", "reference", "jump")
+            }
+            keep = self._tail_start(A[sl], found)
+            state = states.get(label) or {
+                "inputs": np.full(A.shape[1], np.nan),
+                "prediction": np.full(P.shape[1], np.nan),
+            }
+            # What hold mode holds after the kept rows: the last good
+            # prediction and each input's last good reading so far.
+            good = np.flatnonzero(~found["bad"])
+            prediction = P[sl][good[-1]] if good.size else state["prediction"]
+            ok = ~found["fault"]
+            last = np.where(ok, np.arange(ok.shape[0])[:, None], -1).max(axis=0)
+            inputs = np.where(
+                last >= 0,
+                A[sl][np.maximum(last, 0), np.arange(A.shape[1])],
+                state["inputs"],
+            )
+            first = np.zeros(sl.stop - sl.start, dtype=bool)
+            first[0] = True
+            before = None if carry is None else carry["unchanged"][sl]
+            unchanged = _unchanged(A[sl], first, before)[keep]
+            states[label] = {
+                "rows": stacked.iloc[sl.start + keep : sl.stop],
+                "t_last": -np.inf if times is None else float(times[sl][-1]),
+                "inputs": inputs,
+                "prediction": np.array(prediction, dtype=float),
+                "unchanged": unchanged,
+            }
+        self.stream_runs_ = states
+        return self
+
+    @available_if(_remembers)
+    def forget_runs(self, labels):
+        """Forget the kept rows of the runs ``labels`` (see
+        :meth:`remember_runs`); a later block of such a label starts a new
+        run. Returns self."""
+        tails = dict(getattr(self, "stream_runs_", {}))
+        for label in labels:
+            tails.pop(label, None)
+        self.stream_runs_ = tails
+        return self
+
+    def _tail_start(self, A, found):
+        """The first of a run's rows ``A`` that continuing it needs
+        (:meth:`remember_runs`), from the guard's findings on them
+        (``found``: per row and input ``fault``, ``jump`` and
+        ``reference``): the last :data:`_KEEP_GOOD` rows (the step checks
+        read that far back), the row before each input's last reading a
+        step is taken from (a kept run's first row is judged as a run's
+        first: out of range, it would be a spike), no jump just after the
+        first kept row (an odd first reading), and with ``mode="hold"``
+        each input's last reading. What hold mode holds and the flat-line
+        counts are kept apart (:meth:`remember_runs`)."""
+        n = A.shape[0]
+        start = n - _KEEP_GOOD
+
+        def last(mask):
+            """Per column, the last row of ``mask`` (n, p), where there is one."""
+            rows = np.where(mask, np.arange(n)[:, None], -1).max(axis=0)
+            return rows[rows >= 0]
+
+        if self.jump is not None:
+            start = min([start, *(last(found["reference"]) - 1)])
+        if self.mode == "hold":
+            # A sensor that read something in the run is not dead.
+            start = min([start, *last(np.isfinite(A))])
+        while start > 0 and found["jump"][start + 1].any():
+            start -= 1
+        return max(start, 0)
+
+    def _continued(self, X, groups):
+        """``X`` (and ``groups``) with the kept rows of the remembered runs
+        it continues put before their rows (each run's rows together),
+        where ``X``'s own rows are in it, and per row what was before the
+        kept rows: what hold mode holds (``"inputs"``, ``"prediction"``, NaN
+        where nothing) and how many readings equal to the first kept one
+        (``"unchanged"``, for the flat-line check); the last two None when
+        no run continues."""
+        states = getattr(self, "stream_runs_", None)
+        if not states or not isinstance(X, pd.DataFrame):
+            return X, groups, None, None
+        features, runs = extract_runs(X, groups, finite=False)
+        if runs is None:
+            return X, groups, None, None
+        runs = np.asarray(runs, dtype=object)
+        order = list(dict.fromkeys(runs.tolist()))
+        times = row_times(features)
+        # A kept run goes on with rows after its kept ones (at the same
+        # time: a record logged twice); others are predicted as given.
+        states = {
+            label: states[label]
+            for label in order
+            if label in states
+            and (
+                times is None
+                or times[np.argmax(runs == label)] >= states[label]["t_last"]
+            )
+        }
+        if not states:
+            return X, groups, None, None
+        n_out = self.output_min_.size
+        parts, labels, inputs, predictions, counts = [], [], [], [], []
+        take = np.empty(runs.size, dtype=int)  # X's rows in the stacked rows
+        offset = 0
+        for label in order:
+            mine = np.flatnonzero(runs == label)
+            state = states.get(label)
+            size = mine.size
+            if state is not None:
+                parts.append(state["rows"])
+                offset += len(state["rows"])
+                size += len(state["rows"])
+            parts.append(X.iloc[mine])
+            labels.append(np.full(size, label, dtype=object))
+            take[mine] = offset + np.arange(mine.size)
+            offset += mine.size
+            held_in = (
+                np.full(self.n_features_in_, np.nan)
+                if state is None
+                else state["inputs"]
+            )
+            held_out = np.full(n_out, np.nan) if state is None else state["prediction"]
+            count = 0 if state is None else state["unchanged"]
+            inputs.append(np.broadcast_to(held_in, (size, held_in.size)))
+            predictions.append(np.broadcast_to(held_out, (size, n_out)))
+            counts.append(np.broadcast_to(count, (size, held_in.size)))
+        stacked = pd.concat(parts)
+        stacked_groups = None if groups is None else np.concatenate(labels)
+        carry = {
+            "inputs": np.vstack(inputs),
+            "prediction": np.vstack(predictions),
+            "unchanged": np.vstack(counts),
+        }
+        return stacked, stacked_groups, take, carry
+
+    def _guard(self, X, groups, unavailable=False, fresh=None, carry=None):
         """The checked predictions of ``X``. With ``unavailable`` (hold mode,
         :meth:`predict_checked`), the runs in which a checked sensor reads
         nothing get no prediction (NaN, action ``"unavailable"``) instead of
@@ -769,14 +992,16 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         start = run_first_rows(runs, n)
         first = start == np.arange(n)
         times = row_times(features)
-        where = _Where(features, runs, self._sensor_names())
+        where = _Where(features, runs, self._sensor_names(), fresh)
         if self.mode == "hold":
             dead = self._unreadable(A, start)
             if dead is not None and unavailable:
                 return self._without_dead_runs(X, groups, dead, start, where)
             if dead is not None:
                 self._refuse_unreadable(dead, start, where)
-        flags = self._input_flags(A, first, where, times)
+        flags, reference = self._input_flags(
+            A, first, where, times, None if carry is None else carry["unchanged"]
+        )
         fault = np.logical_or.reduce(list(flags.values()))
         late = self._late_starts(runs, where, n)
 
@@ -801,6 +1026,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 ahead,
                 np.where(np.isnan(A), (lo + hi) / 2, np.clip(A, lo, hi)),
             )
+            if carry is not None:
+                # A continued run's last good reading before the kept rows.
+                known = np.isfinite(carry["inputs"])
+                fallback = np.where(known, carry["inputs"], fallback)
             held = A[np.maximum(last, 0), cols]
             B = np.where(fault, np.where(last >= 0, held, fallback), A)
             inputs_changed = fault.any(axis=1)
@@ -830,6 +1059,13 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 last = _last_good(bad, start)
                 hold = bad & (last >= 0)
                 final = np.where(hold[:, None], final[np.maximum(last, 0)], final)
+                if carry is not None:
+                    # A continued run's last good prediction before the kept
+                    # rows.
+                    known = np.isfinite(carry["prediction"]).all(axis=1)
+                    before = bad & (last < 0) & known
+                    final = np.where(before[:, None], carry["prediction"], final)
+                    hold |= before
                 action[hold] = "held"
             lost = ~np.isfinite(final).all(axis=1)
             if lost.any():
@@ -850,6 +1086,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "bad": bad,
             "action": action,
             "reason": reason,
+            # Per row and input, for remember_runs: a finding, and whether
+            # later steps are taken from the reading.
+            "fault": fault,
+            "reference": reference,
+            "jump": flags.get("jump", np.zeros_like(fault)),
         }
 
     def _unreadable(self, A, start):
@@ -927,6 +1168,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "bad": lost.copy(),
             "action": np.where(lost, "unavailable", "").astype(object),
             "reason": np.where(lost, reason, "").astype(object),
+            "fault": np.ones(dead.shape, dtype=bool),
+            "reference": np.zeros(dead.shape, dtype=bool),
+            "jump": np.zeros(dead.shape, dtype=bool),
         }
         n_out = self.output_min_.size
         out["prediction"] = np.full((lost.size, n_out), np.nan)
@@ -936,7 +1180,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             labels = None if groups is None else np.asarray(groups)[keep]
             part = self._guard(rows, labels)
             out["prediction"][keep] = np.reshape(part["prediction"], (keep.size, -1))
-            for key in ("bad", "action", "reason"):
+            for key in ("bad", "action", "reason", "fault", "reference", "jump"):
                 out[key][keep] = part[key]
         if n_out == 1:  # as the wrapped model of one target predicts
             out["prediction"] = out["prediction"][:, 0]
@@ -982,8 +1226,16 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         """The sampling period of training (s), NaN when unknown."""
         return getattr(self, "sample_period_", np.nan)
 
-    def _input_flags(self, A, first, where, times=None):
-        """Boolean (n, p) matrices per fault kind, warned about as found."""
+    def _flat_window(self):
+        """Per input, the unchanged samples (of training's period) from
+        which a sensor that moved in training has flat-lined."""
+        if self.flat == "auto":
+            return np.maximum(3 * self.input_max_unchanged_, _MIN_FLAT)
+        return np.full(self.n_features_in_, self.flat)
+
+    def _input_flags(self, A, first, where, times=None, unchanged=None):
+        """Boolean (n, p) matrices per fault kind, warned about as found,
+        and the readings later steps are taken from (:meth:`_jumps`)."""
         finite = np.isfinite(A)
         # A reading beyond MAX_MAGNITUDE is as wrong as NaN or inf: the wrapped
         # model's arithmetic would overflow on it. mode="hold" holds it as a
@@ -1006,8 +1258,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         lo, hi = self._input_limits()
         with np.errstate(invalid="ignore", over="ignore"):
             flags = {"missing": ~finite, "range": finite & ((A < lo) | (A > hi))}
+            reference = finite
             if self.jump is not None:
-                flags["jump"], step = self._jumps(
+                flags["jump"], step, reference = self._jumps(
                     A,
                     first,
                     flags["missing"],
@@ -1019,10 +1272,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 flags["jump"][1:] &= ~odd[:-1]
                 flags["jump"] |= odd
             if self.flat is not None:
-                if self.flat == "auto":
-                    window = np.maximum(3 * self.input_max_unchanged_, _MIN_FLAT)
-                else:
-                    window = np.full(A.shape[1], self.flat)
+                window = self._flat_window()
                 moved = self.input_max_ > self.input_min_
                 # The window is in samples of training: a run logged faster
                 # takes as long to flat-line, in more samples.
@@ -1031,7 +1281,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                     np.ones(A.shape[0]) if periods is None else _faster(periods, first)
                 )
                 flags["flat"] = moved & (
-                    _unchanged(A, first) + 1 >= window * faster[:, None]
+                    _unchanged(A, first, unchanged) + 1 >= window * faster[:, None]
                 )
         for kind in ("range", "jump", "flat"):
             if kind in flags:
@@ -1042,9 +1292,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "hold": " The compensation was held at its last good value there (clipped "
             "where the run had no good row yet).",
         }[self.mode]
-        if flags["range"].any():
+        said = {kind: where.new_findings(F) for kind, F in flags.items()}
+        if said["range"].any():
             msg = where.describe(
-                flags["range"],
+                said["range"],
                 A,
                 lambda j: f"allowed {lo[j]:.4g} to {hi[j]:.4g}",
             )
@@ -1059,16 +1310,16 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             " The compensation was held at its last good value there (clipped "
             "where the run had no good row yet)."
         )
-        if flags["missing"].any():
-            msg = where.describe(flags["missing"], A, lambda j: "NaN or inf")
+        if said["missing"].any():
+            msg = where.describe(said["missing"], A, lambda j: "NaN or inf")
             warnings.warn(
                 f"Sensor reading missing: {msg}.{held}",
                 SensorFaultWarning,
                 stacklevel=4,
             )
-        if "jump" in flags and flags["jump"].any():
+        if "jump" in said and said["jump"].any():
             msg = where.describe(
-                flags["jump"],
+                said["jump"],
                 A,
                 lambda j: f"largest training step {self.input_max_step_[j]:.4g}",
             )
@@ -1079,9 +1330,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 SensorFaultWarning,
                 stacklevel=4,
             )
-        if "flat" in flags and flags["flat"].any():
+        if "flat" in said and said["flat"].any():
             msg = where.describe(
-                flags["flat"],
+                said["flat"],
                 A,
                 lambda j: f"unchanged for {int(window[j])} samples or more",
             )
@@ -1091,10 +1342,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 SensorFaultWarning,
                 stacklevel=4,
             )
-        return flags
+        return flags, reference
 
     def _jumps(self, A, first, missing, out, periods=None):
-        """Jump flags (n, p) and the steps they were judged on.
+        """Jump flags (n, p), the steps they were judged on, and which
+        readings later steps are taken from (neither missing nor a spike).
 
         A step is taken from the sensor's last reading in the run that is
         neither missing nor a spike: out of range (``out``) and reached by a
@@ -1115,7 +1367,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         spike = out & (jump | first[:, None])
         if spike.any():
             jump, step = judge(missing | spike)
-        return jump, step
+        return jump, step, ~(missing | spike)
 
     def _late_starts(self, runs, where, n):
         """Per row, why its run cannot be predicted by the wrapped sequence
@@ -1158,6 +1410,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         return reason
 
     def _warn_output(self, P, out_band, olo, ohi, where):
+        out_band = where.new_findings(out_band)
         if not out_band.any():
             return
         names = getattr(self, "_output_names", None) or [
@@ -1184,6 +1437,16 @@ _HINT = {
     "compensation.",
     "clip": "",
 }
+
+
+def _fresh(take, X):
+    """The rows of the stacked ``X`` given now (``take``: where they are in
+    it; None: every row)."""
+    if take is None:
+        return None
+    fresh = np.zeros(len(X), dtype=bool)
+    fresh[take] = True
+    return fresh
 
 
 def _with_values(X, B):
@@ -1249,7 +1512,7 @@ def _reasons(flags, out_band, sensors, n, late=None):
 class _Where:
     """Names rows by run and time (or row number) for the messages."""
 
-    def __init__(self, X, runs, sensors):
+    def __init__(self, X, runs, sensors, fresh=None):
         self.X = X
         self.runs = runs
         self.sensors = sensors
@@ -1258,6 +1521,32 @@ class _Where:
             if has_time_index(X)
             else None
         )
+        # The rows given now, behind kept rows of their runs (remember_runs);
+        # None: every row.
+        self.fresh = fresh
+
+    def new_findings(self, F):
+        """``F`` (n,) or (n, p) on the rows given now only, without the
+        findings that go on from the kept rows before them: said when they
+        began, not again at every block."""
+        if self.fresh is None:
+            return F
+        F = np.asarray(F, dtype=bool).reshape(len(self.fresh), -1)
+        out = F & self.fresh[:, None]
+        # A finding flagged on the last kept row goes on until its first
+        # row without it.
+        n = len(self.fresh)
+        starts = np.flatnonzero(self.fresh[1:] & ~self.fresh[:-1]) + 1
+        ends = np.r_[np.flatnonzero(~self.fresh[1:] & self.fresh[:-1]) + 1, n]
+        for r in starts:
+            end = int(ends[ends > r][0])
+            block = F[r:end]
+            first_off = np.where(block, end - r, np.arange(end - r)[:, None]).min(
+                axis=0
+            )
+            going = F[r - 1] & (np.arange(end - r)[:, None] < first_off)
+            out[r:end] &= ~going
+        return out
 
     def at(self, row):
         run = "" if self.runs is None else f"in run {plain(self.runs[row])!r} "

@@ -48,20 +48,23 @@ class RunStream:
     - a model with a ``remember_runs`` method
       (:class:`~skthermal.preprocessing.LagRidgeCV`, what
       :func:`~skthermal.preprocessing.make_lag_pipeline` returns,
-      :class:`~skthermal.preprocessing.LagFeatures` and
-      :class:`~skthermal.linear_model.TransferFunctionRegressor`) keeps
-      each run's end state: every block costs the same, however long the
-      run;
+      :class:`~skthermal.preprocessing.LagFeatures`,
+      :class:`~skthermal.linear_model.TransferFunctionRegressor`, and a
+      :class:`~skthermal.compose.GuardedRegressor` around a static model,
+      which keeps the last rows its checks read) keeps each run's end
+      state: every block costs the same, however long the run;
     - a static model (no sequence model inside, not a guard) is given the
       new rows alone;
     - any other model (a Pipeline with a sequence step, a grey regressor, a
-      :class:`~skthermal.compose.GuardedRegressor`, whose jump and
-      flat-line checks read the rows before) is given each run's rows so
-      far with the new ones, and its predictions of the new rows are
-      returned: exact for every model, at a cost that grows with the run;
-      :meth:`forget` frees a finished run. A warning the model raised for
-      an earlier block (or, after a run's first block, about the run's
-      start) is not raised again.
+      guard around a sequence model) is given each run's rows so far with
+      the new ones, and its predictions of the new rows are returned:
+      exact for every model, at a cost that grows with the run;
+      :meth:`forget` frees a finished run.
+
+    A warning the model raised for an earlier block (or, after a run's
+    first block, about the run's start) is not raised again; a guard's
+    finding that goes on from one block to the next is said when it
+    begins.
 
     One difference from the whole run remains, by design: a guard in
     ``mode="hold"`` replaces a reading that is faulty from a run's first
@@ -170,6 +173,14 @@ class RunStream:
             self._drop(lab)
         return self
 
+    def _keeps_states(self):
+        """Whether the model continues each run from an end state it keeps
+        (a sequence model's: a record logged twice is a block given twice),
+        not from rows kept by a guard around a static model."""
+        return self.mode_ == "incremental" and not hasattr(
+            self.model_, "predict_checked"
+        )
+
     def _drop(self, lab):
         del self._spans[lab]
         self._history.pop(lab, None)
@@ -195,10 +206,14 @@ class RunStream:
         kwargs = {} if groups is None else {"groups": groups}
         if self.mode_ == "history":
             out = self._with_history(method, X, groups, labels, new)
+        elif self.mode_ == "incremental":
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                out = getattr(self.model_, method)(X, **kwargs)
+            self._say_new(caught, all(lab not in new for lab in pd.unique(labels)))
+            self.model_.remember_runs(X, **kwargs)
         else:
             out = getattr(self.model_, method)(X, **kwargs)
-            if self.mode_ == "incremental":
-                self.model_.remember_runs(X, **kwargs)
         for lab in pd.unique(labels):
             mine = labels == lab
             self._spans.setdefault(lab, [times[mine][0], None])[1] = times[mine][-1]
@@ -229,7 +244,7 @@ class RunStream:
                         stacklevel=4,
                     )
                 new.add(lab)
-            elif t0 < span[1] or (t0 == span[1] and self.mode_ == "incremental"):
+            elif t0 < span[1] or (t0 == span[1] and self._keeps_states()):
                 # A record logged twice (at the last one's time) is no block
                 # given twice for a static model or a guard around one (a
                 # sequence model given the run so far refuses it itself).
@@ -254,6 +269,22 @@ class RunStream:
                 )
         return new
 
+    def _say_new(self, caught, started):
+        """Say the warnings of ``caught`` not said for an earlier block
+        (:func:`_said_key`); with ``started`` (every run of the block
+        continues one of the stream's), none about the runs' start."""
+        for w in caught:
+            key = _said_key(w)
+            late = started and (
+                issubclass(w.category, RunStartWarning)
+                or re.search(LATE_START_WARNING, str(w.message)) is not None
+            )
+            if key not in self._said and not late:
+                self._said.add(key)
+                warnings.warn_explicit(
+                    w.message, w.category, w.filename, w.lineno, source=w.source
+                )
+
     def _with_history(self, method, X, groups, labels, new):
         """The runs' rows so far and the new ones given to the model; its
         output for the new rows, and the warnings not said before."""
@@ -277,18 +308,7 @@ class RunStream:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             out = getattr(self.model_, method)(stacked, **kwargs)
-        started = all(lab not in new for lab, _ in parts)
-        for w in caught:
-            key = _said_key(w)
-            late = started and (
-                issubclass(w.category, RunStartWarning)
-                or re.search(LATE_START_WARNING, str(w.message)) is not None
-            )
-            if key not in self._said and not late:
-                self._said.add(key)
-                warnings.warn_explicit(
-                    w.message, w.category, w.filename, w.lineno, source=w.source
-                )
+        self._say_new(caught, all(lab not in new for lab, _ in parts))
         for lab, whole in parts:
             self._history[lab] = whole
         rows = np.concatenate(rows)

@@ -237,18 +237,24 @@ def _bad_dict_key(model):
     return None
 
 
-def _without_requests(model):
-    """``model``, or a copy without the metadata requests of its estimators
-    (``set_fit_request`` and the like): scikit-learn keeps the estimator
-    itself inside them, a cycle skops recurses into without end."""
+# Attributes a skops file does not hold: scikit-learn's metadata requests
+# (they hold the estimator itself, a cycle skops recurses into without end)
+# and a guard's kept rows of streamed runs (pandas frames, which skops cannot
+# hold; a stream reloaded from the file starts its runs anew).
+_NOT_SAVED = ("_metadata_request", "stream_runs_")
+
+
+def _without_unsaved(model):
+    """``model``, or a copy without the attributes of :data:`_NOT_SAVED`."""
     if not any(
-        "_metadata_request" in getattr(obj, "__dict__", {})
+        any(name in getattr(obj, "__dict__", {}) for name in _NOT_SAVED)
         for _, obj in _walk(model, "", set())
     ):
         return model
     model = copy.deepcopy(model)
     for _, obj in list(_walk(model, "", set())):
-        getattr(obj, "__dict__", {}).pop("_metadata_request", None)
+        for name in _NOT_SAVED:
+            getattr(obj, "__dict__", {}).pop(name, None)
     return model
 
 
@@ -400,7 +406,10 @@ def save(model, path, *, compress=True):
     ``ANFISRegressor.epoch_callback`` is not saved, nor are metadata
     requests (``set_fit_request(groups=True)`` and the like, for
     scikit-learn's metadata routing): set them again after loading to route
-    ``groups`` through a loaded pipeline.
+    ``groups`` through a loaded pipeline. Nor are the rows a
+    ``GuardedRegressor`` keeps of runs streamed through it
+    (:meth:`~skthermal.compose.GuardedRegressor.remember_runs`): a loaded
+    guard starts those runs anew.
 
     Examples
     --------
@@ -428,7 +437,7 @@ def save(model, path, *, compress=True):
     _check_code(model)
     _check_output_config(model)
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
-    sio.dump(_without_requests(model), path, compression=compression)
+    sio.dump(_without_unsaved(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}
     with zipfile.ZipFile(path, "a", compression=compression) as archive:
         archive.writestr(_METADATA_NAME, json.dumps(metadata, indent=2))
