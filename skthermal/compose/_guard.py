@@ -150,13 +150,14 @@ def _faster(periods, first):
     """Per row, how many times faster than in training its run is logged
     (the run's median time step in this call; at least 1)."""
     run = np.cumsum(first) - 1
-    out = np.ones(periods.shape)
-    for r in np.unique(run):
-        # Records logged twice (a step of 0) are no faster logging.
-        mine = (run == r) & ~first & (periods > 0)
-        if mine.any():
-            out[run == r] = max(1.0, 1.0 / max(float(np.median(periods[mine])), 1e-9))
-    return out
+    # Records logged twice (a step of 0) are no faster logging.
+    mine = ~first & (periods > 0)
+    median = pd.Series(periods[mine]).groupby(run[mine]).median()
+    per_run = np.ones(int(run.max()) + 1 if run.size else 0)
+    per_run[median.index.to_numpy()] = np.maximum(
+        1.0, 1.0 / np.maximum(median.to_numpy(), 1e-9)
+    )
+    return per_run[run] if run.size else np.ones(periods.shape)
 
 
 def _median_period(times, first):

@@ -210,13 +210,12 @@ class RunStream:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 out = getattr(self.model_, method)(X, **kwargs)
-            self._say_new(caught, all(lab not in new for lab in pd.unique(labels)))
+            self._say_new(caught, not new)
             self.model_.remember_runs(X, **kwargs)
         else:
             out = getattr(self.model_, method)(X, **kwargs)
-        for lab in pd.unique(labels):
-            mine = labels == lab
-            self._spans.setdefault(lab, [times[mine][0], None])[1] = times[mine][-1]
+        for lab, a, b in _runs_in(labels):
+            self._spans.setdefault(lab, [times[a], None])[1] = times[b - 1]
         if reordered:
             back = np.empty_like(order)
             back[order] = np.arange(order.size)
@@ -228,11 +227,14 @@ class RunStream:
         given again from its start restarts; one that does not start after
         the stream's last time of it is an error."""
         new = set()
-        for lab in pd.unique(labels):
-            t0 = times[labels == lab][0]
+        held = {}  # the held runs by their labels' text
+        for k in self._spans:
+            held.setdefault(_as_text(k), k)
+        for lab, a, _ in _runs_in(labels):
+            t0 = times[a]
             span = self._spans.get(lab)
             if span is None:
-                like = [k for k in self._spans if _as_text(k) == _as_text(lab)]
+                like = [held[_as_text(lab)]] if _as_text(lab) in held else []
                 if like:
                     warnings.warn(
                         f"Run {lab!r} ({type(lab).__name__}) is new to the "
@@ -290,8 +292,8 @@ class RunStream:
         output for the new rows, and the warnings not said before."""
         parts, rows = [], []
         offset = 0
-        for lab in pd.unique(labels):
-            mine = np.flatnonzero(labels == lab)
+        for lab, a, b in _runs_in(labels):
+            mine = np.arange(a, b)
             block = X.iloc[mine]
             past = self._history.get(lab)
             whole = block if past is None else pd.concat([past, block])
@@ -308,7 +310,7 @@ class RunStream:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             out = getattr(self.model_, method)(stacked, **kwargs)
-        self._say_new(caught, all(lab not in new for lab, _ in parts))
+        self._say_new(caught, not new)
         for lab, whole in parts:
             self._history[lab] = whole
         rows = np.concatenate(rows)
@@ -321,6 +323,17 @@ class RunStream:
 # rows)", which grows while the finding lasts; not in how many stretches
 # ("; 2 rows in 2 stretches)"), which grows when it comes back.
 _ROW_COUNT = r"; \d+ rows?(?=\)| in \d+ stretches\))"
+
+
+def _runs_in(labels):
+    """``(label, first row, end row)`` of every run of ``labels``, whose
+    rows are together (a block reordered by run), in order: found once, not
+    by a mask per run (a block of 4,000 runs took 75 s)."""
+    codes = pd.factorize(labels, use_na_sentinel=False)[0]
+    cuts = np.flatnonzero(codes[1:] != codes[:-1]) + 1
+    starts = np.r_[0, cuts]
+    ends = np.r_[cuts, codes.size]
+    return [(labels[a], int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
 def _said_key(w):

@@ -79,14 +79,17 @@ def score_runs(measured, predicted, groups):
             f"measured, predicted and groups must have one value per row; got "
             f"{z.shape[0]}, {p.shape[0]} and {groups.shape[0]}."
         )
+    # Each run's rows in their order, found once (not a mask per run).
+    codes, labels = pd.factorize(groups, use_na_sentinel=False)
+    order = np.argsort(codes, kind="stable")
+    bounds = np.cumsum(np.bincount(codes, minlength=len(labels)))[:-1]
     rows = []
-    for label in pd.unique(groups):
-        mask = groups == label
-        zr, pr = z[mask], p[mask]
+    for label, mine in zip(labels, np.split(order, bounds), strict=True):
+        zr, pr = z[mine], p[mine]
         rows.append(
             {
                 "run": label,
-                "n_samples": int(mask.sum()),
+                "n_samples": int(mine.size),
                 **run_metrics(zr - zr[0], pr - pr[0]),
             }
         )
