@@ -816,6 +816,8 @@ def test_selectors_warn_when_the_runs_are_lost_in_front_of_them():
             make_pipeline(StandardScaler(), selector).fit(X, y)
         with warnings.catch_warnings():
             warnings.simplefilter("error")
+            # The speed among the sensors is said too (test_selection.py).
+            warnings.filterwarnings("ignore", message=".*X holds the drivers")
             make_pipeline(StandardScaler(), selector).set_output(
                 transform="pandas"
             ).fit(X, y)
