@@ -626,6 +626,22 @@ def rig_runs():
 FAST = {"fine": False, "greedy": False, "max_samples": 100}
 
 
+def test_a_channel_the_machine_does_not_move_is_left_out(rig_runs):
+    # An axis without coefficients was compared, its whole measured change
+    # counted as gap (a planted effect named at 58% fell to 6%).
+    rig, runs = rig_runs
+    zero = {k: 0.0 for k in rig.params if k.startswith("k.ch5.")}
+    sketch = rig.with_params(zero)
+    assert sketch.unmoved_targets == ["disp_ch5_um"]
+    kw = {"candidates": ["sensor_lag"], **FAST}
+    with pytest.warns(UserWarning, match=r"moves \['disp_ch5_um'\] by nothing"):
+        report = diagnose(sketch, runs, **kw)
+    assert "disp_ch5_um" not in report.settings["channels"]
+    with pytest.warns(UserWarning, match=r"compared as you chose"):
+        report = diagnose(sketch, runs, channels=["disp_ch1_um", "disp_ch5_um"], **kw)
+    assert "disp_ch5_um" in report.settings["channels"]
+
+
 def test_a_glitch_does_not_swamp_the_noise_floor(rig_runs):
     # One +50 K sample of one sensor took the noise floor from a fraction of
     # the gap to 100 times it: "within the noise", without a word.

@@ -1088,6 +1088,9 @@ def test_save_draws_the_channel_the_summary_names(rng, tmp_path):
     assert null.where_model == "as given"
     null_figures = list(null.save(tmp_path / "null").glob("timeline_*"))
     assert len(null_figures) == 3, null_figures  # one per run
+    # The fitted parameters as JSON text (a Python dict's repr was written).
+    fitted = pd.read_csv(tmp_path / "null" / "ranking.csv")["fitted"]
+    assert json.loads(fitted[0]) == null.ranking["fitted"][0]
     meas["T2_C"] += 0.6 * (sim["T2_C"] - sim["ambient_C"])
     report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
     assert "channel T2_C:" in report.where_summary()

@@ -327,6 +327,26 @@ def test_a_small_machine_from_a_dict_simulates():
             r"heat: unknown field 'hydraulic'.*Another heat source \(a pump, a "
             r"hydraulic unit\) is \[heat.custom.hydraulic\]",
         ),
+        (
+            # Column names for axes blamed the feed axis ("unknown axis 'z'").
+            lambda d: (
+                d.update(axes=["disp_z_um"])
+                or d["heat"].update(feed={"screw": ["housing"], "axis": "z"})
+            ),
+            r"^axis 'disp_z_um': .* 'disp_z_um' is a column: give 'z'\.$",
+        ),
+        (
+            # A node named twice in a role list loaded silently.
+            lambda d: d["roles"].update(head=["spindle", "spindle"]),
+            r"^roles: head lists 'spindle' twice\.$",
+        ),
+        (
+            lambda d: d["heat"].update(
+                feed={"screw": ["housing"], "axis": "z", "W_per_m_min": 5.0}
+            ),
+            r"^heat source 'feed': unknown field 'W_per_m_min'.*"
+            r"\[effects.feed_heating\] W_per_m_min",
+        ),
     ],
 )
 def test_bad_specs_name_the_entry(edit, message):

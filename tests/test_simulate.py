@@ -1020,6 +1020,10 @@ def test_calibration_repairs_a_glitch_and_flags_air_in_fahrenheit():
         runs, ["q.bearing_W"], channels=["disp_ch1_um"], initial="measured"
     )
     np.testing.assert_allclose(result.params, clean.params, rtol=0.01)
+    # Not read at all (initial="ambient", T1_C not fitted): not said.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.calibrate(first, ["q.bearing_W"], **kw)
     fahrenheit = runs.assign(ambient_C=runs["ambient_C"] * 1.8 + 32)
     with pytest.warns(UserWarning, match=r"ambient_C' reads .* in Fahrenheit\?"):
         model.calibrate(fahrenheit, ["q.bearing_W"], **kw)

@@ -917,7 +917,10 @@ class GapReport:
             )
         folder.mkdir(parents=True, exist_ok=True)
         self.to_json(folder / "report.json")
-        self.ranking.to_csv(folder / "ranking.csv", index=False)
+        # Fitted parameters (dicts) as JSON text, which any reader parses.
+        self.ranking.map(
+            lambda v: json.dumps(jsonable(v)) if isinstance(v, dict) else v
+        ).to_csv(folder / "ranking.csv", index=False)
         self.how_far.to_csv(folder / "how_far.csv", index=False)
         for name, df in self.where.items():
             df.to_csv(folder / f"where_{name}.csv", index=False)

@@ -162,15 +162,21 @@ def _weights_matrix(spec, names_index, items):
     return W
 
 
+def _unmoved_axes(spec, params):
+    """The axes no node's rise moves (every thermo-elastic coefficient zero,
+    the ball screw's too): their channels are sensor noise alone."""
+    return [
+        a
+        for a in spec.axes
+        if not any(params.get(f"k.{a}.{n}", 0.0) for n in (*spec.nodes, "screw"))
+    ]
+
+
 def _warn_idle_parts(spec, params):
     """Warn when the description has a displacement axis without any
     thermo-elastic coefficient (its channel would be noise alone) or no heat
     source at all (nothing the drivers do would warm the machine)."""
-    flat = [
-        a
-        for a in spec.axes
-        if not any(params.get(f"k.{a}.{n}", 0.0) for n in spec.nodes)
-    ]
+    flat = _unmoved_axes(spec, params)
     powers = [
         name
         for table in HEAT_FIELDS.values()
@@ -477,6 +483,13 @@ class ThermalMachine:
     def targets(self):
         """Names of the displacement columns the machine produces."""
         return [f"disp_{a}_um" for a in self.spec.axes]
+
+    @property
+    def unmoved_targets(self):
+        """Names of the displacement columns that no part of the machine
+        moves (every thermo-elastic coefficient of the axis zero): the
+        simulation holds them at zero."""
+        return [f"disp_{a}_um" for a in _unmoved_axes(self.spec, self.params)]
 
     @property
     def structure_sensors(self):
@@ -2597,9 +2610,14 @@ def _calibrate(machine, runs, params, bounds, channels, initial, least_squares_k
         np.concatenate([d[2] for d in drivers.values()]), "simulation, calibration"
     )
     # A glitch of a sample or two would pull the fit towards it, or a run's
-    # initial state from its first readings: the fitted channels and the
-    # (finite) sensors the first readings read are repaired.
-    readers = [s for s in machine.sensors if s in runs.columns and s not in channels]
+    # initial state from its first readings: the fitted channels and, when
+    # the first readings set the initial state, the (finite) sensors they
+    # read are repaired (others are not read: no word about them).
+    readers = [
+        s
+        for s in machine.sensors
+        if from_readings and s in runs.columns and s not in channels
+    ]
     repaired = []
     for run, frame in groups:
         t, rpm, air, feed = drivers[run]

@@ -112,8 +112,21 @@ def _check_fields(where, table, allowed, hint=""):
             )
 
 
+def _check_axis(a):
+    """A ValueError unless ``a`` names a displacement channel (the
+    ``<axis>`` of its column ``disp_<axis>_um``)."""
+    if isinstance(a, str) and "_" not in a and TARGET_PATTERN.fullmatch(f"disp_{a}_um"):
+        return
+    column = isinstance(a, str) and TARGET_PATTERN.fullmatch(a) is not None
+    hint = f"; {a!r} is a column: give {a[5:-3]!r}" if column else ""
+    raise ValueError(
+        f"axis {a!r}: a displacement channel name is letters and digits "
+        f"(column disp_<axis>_um, e.g. 'z' or 'ch1'){hint}."
+    )
+
+
 def _check_names(where, value):
-    """A list of names (strings) in a machine file, as a tuple."""
+    """A list of names (strings) in a machine file, each once, as a tuple."""
     if isinstance(value, str) or not isinstance(value, list | tuple):
         raise ValueError(
             f"{where} must be a list of names, got {type(value).__name__} {value!r}."
@@ -121,6 +134,9 @@ def _check_names(where, value):
     for item in value:
         if not isinstance(item, str):
             raise ValueError(f"{where}: {item!r} is not a name (a string).")
+    twice = [item for i, item in enumerate(value) if item in value[:i]]
+    if twice:
+        raise ValueError(f"{where} lists {twice[0]!r} twice.")
     return tuple(value)
 
 
@@ -720,15 +736,7 @@ class MachineSpec:
         if not axes:
             raise ValueError("axes: give at least one displacement channel.")
         for a in axes:
-            if (
-                not isinstance(a, str)
-                or "_" in a
-                or not TARGET_PATTERN.fullmatch(f"disp_{a}_um")
-            ):
-                raise ValueError(
-                    f"axis {a!r}: a displacement channel name is letters and "
-                    "digits (column disp_<axis>_um, e.g. 'z' or 'ch1')."
-                )
+            _check_axis(a)
         if len(set(axes)) != len(axes):
             raise ValueError(f"axes {axes} lists a channel twice.")
         if self.screw_nodes and self.feed_axis not in axes:
@@ -1097,7 +1105,13 @@ class MachineSpec:
         feed = heat.get("feed")
         if feed is not None:
             _check_fields(
-                "heat source 'feed'", feed, ("screw", "nut", "axis_motor", "axis")
+                "heat source 'feed'",
+                feed,
+                ("screw", "nut", "axis_motor", "axis"),
+                hint=(
+                    ". The feed's friction loss is the feed_heating effect's: "
+                    "[effects.feed_heating] W_per_m_min = ..."
+                ),
             )
             if not feed.get("screw"):
                 raise ValueError(
@@ -1194,6 +1208,8 @@ class MachineSpec:
                 )
             )
         axes = _check_names("axes", data.get("axes", ("x", "y", "z")))
+        for a in axes:
+            _check_axis(a)
         if feed is not None and "axis" in feed and feed["axis"] not in axes:
             raise _unknown("heat source 'feed': axis", feed["axis"], axes, "axis")
         disp = data.get("displacement", {})
