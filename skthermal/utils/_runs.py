@@ -2116,8 +2116,9 @@ def warn_absolute_target(name, y, slices):
 
 def warn_centred_drivers(name, X, indices, names):
     """Warn when a driver whose magnitude a model takes as heat (a speed,
-    a feed) is centred: a mean of 0 over the training rows with negative
-    values, what a ``StandardScaler`` in front of the model makes of it. A
+    a feed) is standardised: a mean of 0 and a standard deviation of 1 over
+    the training rows, what a ``StandardScaler`` in front of the model makes
+    of it. A
     stopped spindle then reads a negative number whose magnitude counts as
     more heat than a slow one (-1.1 against 0.12 for 2000 rpm), and the
     errors grow several times, silently. ``X`` is the validated array,
@@ -2128,7 +2129,10 @@ def warn_centred_drivers(name, X, indices, names):
         if u.size < 2:
             continue
         spread = float(np.std(u))
-        if spread > 0 and u.min() < 0 and abs(float(np.mean(u))) <= 1e-6 * spread:
+        # A mean of 0 and a spread of 1 to rounding: standardised (a feed
+        # moving back and forth in mm/min may average 0, not with unit spread).
+        standard = abs(spread - 1.0) <= 1e-6 and abs(float(np.mean(u))) <= 1e-6
+        if standard and u.min() < 0:
             label = f"column {j}" if names is None else repr(str(names[j]))
             warnings.warn(
                 f"{name}.fit: the driver {label} has a mean of 0 over the "
