@@ -1,6 +1,7 @@
 """Tests of the ``skthermal`` command."""
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -566,6 +567,16 @@ def test_predict_says_a_joblib_model_of_another_version(capsys, workdir, tmp_pat
     status, _, err = _run(capsys, *argv, "--out", tmp_path / "p.csv")
     assert status == 0, err
     assert "written with skthermal 0.0.1" in err, err
+
+
+def test_a_long_fit_says_what_it_fits_first(capsys, workdir, tmp_path, monkeypatch):
+    monkeypatch.setattr("skthermal._cli._models._LONG_FIT_ROWS", 10)
+    argv = ["fit", "--runs", workdir / "tests.csv", "--train-runs", "IV"]
+    status, text, err = _run(
+        capsys, *argv, "--model", "ridge", "--out", tmp_path / "m.joblib"
+    )
+    assert status == 0, err
+    assert re.search(r"^Fitting .* on [\d,]+ rows of 1 run\(s\), \d+ input", text, re.M)
 
 
 def test_a_run_with_a_dead_sensor_gets_no_prediction_the_others_do(

@@ -932,6 +932,19 @@ def test_a_centred_driver_warns_once():
         make_pipeline(LagFeatures(), StandardScaler()).fit(X)
 
 
+def test_lag_ridge_says_its_progress_when_asked(capsys):
+    # A fit on a long campaign logged every second took minutes in silence.
+    table = _five_runs()
+    inputs = ["run", "time_s", "T1_C", "T2_C"]
+    model = LagRidgeCV(time_constant_sets=[(), (300.0,)], verbose=1)
+    model.fit(table[inputs], table["y"])
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 5 and lines[-1].startswith("[LagRidgeCV] refit on 200 rows")
+    assert all(re.search(r"validation MSE .* s\)$", line) for line in lines[:-1])
+    LagRidgeCV(time_constant_sets=[(), (300.0,)]).fit(table[inputs], table["y"])
+    assert capsys.readouterr().out == ""
+
+
 def test_exponential_filter_names_bad_rows_slices_state_and_periods():
     from skthermal.preprocessing import exponential_filter
 

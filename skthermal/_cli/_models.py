@@ -199,6 +199,10 @@ def _note_turning_starts(df, mask):
         )
 
 
+# Training rows from which `fit` says what it fits before it starts.
+_LONG_FIT_ROWS = 20_000
+
+
 def cmd_fit(args):
     from skthermal import __version__
     from skthermal._run_changes import changes_since_first_row
@@ -281,6 +285,13 @@ def cmd_fit(args):
         from skthermal.compose import GuardedRegressor
 
         model = GuardedRegressor(model, mode=args.guard)
+    if int(mask.sum()) >= _LONG_FIT_ROWS:
+        # A campaign logged every second fits for minutes: say so first.
+        print(
+            f"Fitting {MODELS[args.model].label} on {int(mask.sum()):,} rows of "
+            f"{n_runs} run(s), {len(sensors)} input(s)...",
+            flush=True,
+        )
     with warnings.catch_warnings():
         warnings.simplefilter("always", ConvergenceWarning)
         # On the changes the model predicts, so that a guard's output band

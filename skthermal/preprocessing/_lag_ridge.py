@@ -1,5 +1,6 @@
 """Ridge on lag features, with settings chosen by time-ordered CV."""
 
+import time
 import warnings
 from numbers import Integral, Real
 
@@ -240,6 +241,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         Seconds per row when ``X`` has no times (no ``time_s`` column or
         index level). None: one second per row, with a warning, since the
         time constants are in seconds.
+    verbose : int, default=0
+        1 prints a line per candidate setting (its validation error and the
+        seconds so far) and one for the refit: a fit on a long campaign
+        logged every second takes minutes.
 
     Attributes
     ----------
@@ -304,6 +309,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         "n_splits": [Interval(Integral, 2, None, closed="left")],
         "first_fraction": [Interval(Real, 0, 1, closed="neither")],
         "dt": [None, Interval(Real, 0, None, closed="neither")],
+        "verbose": ["verbose"],
     }
 
     def __init__(
@@ -320,6 +326,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         n_splits=4,
         first_fraction=0.4,
         dt=None,
+        verbose=0,
     ):
         self.cv = cv
         self.selection = selection
@@ -332,6 +339,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.n_splits = n_splits
         self.first_fraction = first_fraction
         self.dt = dt
+        self.verbose = verbose
 
     def _features(self, taus, relative, dt=None):
         # Arrays inside, whatever scikit-learn's global transform_output.
@@ -527,7 +535,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
                     cands.append((taus, False, rel))
         results = {"time_constants": [], "use_drivers": [], "relative": [], "sse": []}
         fold_sse, n_feat, kept = [], [], []
-        for taus, use, rel in cands:
+        clock = time.perf_counter()
+        for k, (taus, use, rel) in enumerate(cands, 1):
             # The previous candidate's features go before these are made.
             F = None
             try:
@@ -560,6 +569,16 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             fold_sse.append(per)
             n_feat.append(F.shape[1])
             kept.append((taus, use, rel))
+            if self.verbose:
+                best = per.sum(0).min() / max(sum(va.size for _, va in folds), 1)
+                print(
+                    f"[{type(self).__name__}] candidate {k}/{len(cands)}: time "
+                    f"constants {tuple(float(t) for t in taus)} s, drivers "
+                    f"{'yes' if F.shape[1] > n_temp else 'no'}, "
+                    f"{'changes' if rel else 'readings'}: validation MSE "
+                    f"{best:.4g} ({time.perf_counter() - clock:.1f} s)",
+                    flush=True,
+                )
         F = None
         if not kept:
             raise ValueError("No candidate setting produced any feature.")
@@ -583,6 +602,13 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         self.scaler_ = StandardScaler().set_output(transform="default").fit(F)
         F = self.scaler_.transform(F)  # the unscaled features go
         self.ridge_ = Ridge(alpha=self.alpha_).fit(F, y)
+        if self.verbose:
+            print(
+                f"[{type(self).__name__}] refit on {n} rows: time constants "
+                f"{tuple(float(t) for t in taus)} s, alpha {self.alpha_:g} "
+                f"({time.perf_counter() - clock:.1f} s)",
+                flush=True,
+            )
         return self
 
     def _warn_slow_candidates(self, sets, slices, times):
@@ -699,6 +725,7 @@ def make_lag_pipeline(
     dt=None,
     relative="auto",
     driver_initial="steady",
+    verbose=0,
 ):
     """The recommended dynamic compensation model, unfitted.
 
@@ -709,7 +736,8 @@ def make_lag_pipeline(
 
     Parameters
     ----------
-    time_constant_sets, drivers, alphas, n_splits, dt, relative, driver_initial
+    time_constant_sets, drivers, alphas, n_splits, dt, relative, driver_initial, \
+verbose
         See :class:`LagRidgeCV`.
 
     Returns
@@ -730,4 +758,5 @@ def make_lag_pipeline(
         dt=dt,
         relative=relative,
         driver_initial=driver_initial,
+        verbose=verbose,
     )
