@@ -181,7 +181,10 @@ def run_slices(groups, n_samples=None):
             "sort the table by run and time so that each run is one block. "
             "(A tool that shuffles columns, such as permutation_importance, "
             "shuffles a 'run' column too: give the runs as the index, e.g. "
-            "X from split_runs, or as groups.)"
+            "X from split_runs, or as groups. A tool that draws rows at "
+            "random, such as HalvingGridSearchCV with its default "
+            "resource='n_samples', breaks the runs up: give it another "
+            "resource, e.g. resource='epochs' for ANFIS.)"
         )
     slices = [slice(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
     return slices, labels
