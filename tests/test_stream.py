@@ -374,6 +374,53 @@ def test_a_guard_keeping_runs_saves_and_starts_a_run_again(data, tmp_path):
     )
 
 
+def test_a_new_run_without_readings_leaves_a_continued_one_as_it_was(data):
+    # Beside a new run whose sensor had read nothing yet, a continued run
+    # lost its kept state (a stuck sensor went unflagged for 110 rows) and
+    # the dead sensor was warned of at every block.
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression(), mode="hold", flat=8).fit(X, y)
+    a = new[new["run"] == "c"].iloc[:200].copy()
+    b = new[new["run"] == "d"].iloc[:200].copy()
+    a.iloc[100:150, a.columns.get_loc("T2_C")] = a.iloc[100, a.columns.get_loc("T2_C")]
+    b.iloc[:60, b.columns.get_loc("T1_C")] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = guard.predict_checked(a)
+    stream = RunStream(guard)
+    stream.predict_checked(a.iloc[:95])
+    got = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for i in range(0, 100, 5):
+            block = pd.concat([a.iloc[95 + i : 100 + i], b.iloc[i : i + 5]])
+            out = stream.predict_checked(block)
+            got.append(out[block["run"].to_numpy() == "c"])
+    got = pd.concat(got)
+    np.testing.assert_allclose(got["prediction"], whole["prediction"].iloc[95:195])
+    assert got["reason"].tolist() == whole["reason"].iloc[95:195].tolist()
+    dead = [w for w in caught if "reads no finite value" in str(w.message)]
+    assert len(dead) == 1
+
+
+def test_a_sensor_dead_for_good_keeps_the_stream_bounded_and_refit_forgets(data):
+    # In hold mode the rows back to a dead sensor's last reading were kept,
+    # so the cost grew with the run again; a refit kept the old runs.
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, y)
+    run = pd.concat([new[new["run"] == "c"]] * 12, ignore_index=True)
+    run["time_s"] = np.arange(len(run)) * 60.0
+    run.iloc[10:, run.columns.get_loc("T2_C")] = np.nan
+    stream = RunStream(guard, copy=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for block in _blocks(run, [500]):
+            stream.predict(block)
+    assert len(guard.stream_runs_["c"]["rows"]) <= 3600
+    guard.fit(X, y)
+    assert not hasattr(guard, "stream_runs_")
+
+
 def test_a_stream_pickles_mid_run(data):
     # A controller restarting reloads the stream and goes on with the run.
     _, _, model, new = data

@@ -88,6 +88,9 @@ _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
 # Good rows in a row from which remember_runs keeps a run's tail: the step
 # checks (a jump, an odd first reading) read up to three rows.
 _KEEP_GOOD = 3
+# The most rows remember_runs keeps of a run: the first reading after a
+# longer silence of a sensor is judged as a run's first (no jump check).
+_MAX_KEPT = 3600
 
 
 def _steps(A, first, bad=None, periods=None):
@@ -512,6 +515,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         -------
         self : GuardedRegressor
         """
+        # A refit forgets the runs streamed through the model before.
+        self.__dict__.pop("stream_runs_", None)
         # Training data must be complete: named errors (column, run, time).
         features, runs = extract_runs(X, groups, y=y)
         check_time_order(features, runs, strict=False)
@@ -848,6 +853,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             state = states.get(label) or {
                 "inputs": np.full(A.shape[1], np.nan),
                 "prediction": np.full(P.shape[1], np.nan),
+                "read": np.zeros(A.shape[1], dtype=bool),
             }
             # What hold mode holds after the kept rows: the last good
             # prediction and each input's last good reading so far.
@@ -870,6 +876,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
                 "inputs": inputs,
                 "prediction": np.array(prediction, dtype=float),
                 "unchanged": unchanged,
+                "read": state["read"] | np.isfinite(A[sl]).any(axis=0),
             }
         self.stream_runs_ = states
         return self
@@ -892,10 +899,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         ``reference``): the last :data:`_KEEP_GOOD` rows (the step checks
         read that far back), the row before each input's last reading a
         step is taken from (a kept run's first row is judged as a run's
-        first: out of range, it would be a spike), no jump just after the
-        first kept row (an odd first reading), and with ``mode="hold"``
-        each input's last reading. What hold mode holds and the flat-line
-        counts are kept apart (:meth:`remember_runs`)."""
+        first: out of range, it would be a spike), but at most
+        :data:`_MAX_KEPT` rows, and no jump just after the first kept row
+        (an odd first reading). What hold mode holds, the flat-line counts
+        and which sensors have read anything are kept apart
+        (:meth:`remember_runs`)."""
         n = A.shape[0]
         start = n - _KEEP_GOOD
 
@@ -906,9 +914,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
         if self.jump is not None:
             start = min([start, *(last(found["reference"]) - 1)])
-        if self.mode == "hold":
-            # A sensor that read something in the run is not dead.
-            start = min([start, *last(np.isfinite(A))])
+        # A sensor silent for long (dead for good in hold mode) would keep
+        # its last reading's rows without end: kept at most _MAX_KEPT rows.
+        start = max(start, n - _MAX_KEPT)
         while start > 0 and found["jump"][start + 1].any():
             start -= 1
         return max(start, 0)
@@ -944,7 +952,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if not states:
             return X, groups, None, None
         n_out = self.output_min_.size
-        parts, labels, inputs, predictions, counts = [], [], [], [], []
+        parts, labels, inputs, predictions, counts, reads = [], [], [], [], [], []
         take = np.empty(runs.size, dtype=int)  # X's rows in the stacked rows
         offset = 0
         for label in order:
@@ -966,15 +974,18 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             )
             held_out = np.full(n_out, np.nan) if state is None else state["prediction"]
             count = 0 if state is None else state["unchanged"]
+            read = False if state is None else state["read"]
             inputs.append(np.broadcast_to(held_in, (size, held_in.size)))
             predictions.append(np.broadcast_to(held_out, (size, n_out)))
             counts.append(np.broadcast_to(count, (size, held_in.size)))
+            reads.append(np.broadcast_to(read, (size, held_in.size)))
         stacked = pd.concat(parts)
         stacked_groups = None if groups is None else np.concatenate(labels)
         carry = {
             "inputs": np.vstack(inputs),
             "prediction": np.vstack(predictions),
             "unchanged": np.vstack(counts),
+            "read": np.vstack(reads),
         }
         return stacked, stacked_groups, take, carry
 
@@ -995,9 +1006,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         times = row_times(features)
         where = _Where(features, runs, self._sensor_names(), fresh)
         if self.mode == "hold":
-            dead = self._unreadable(A, start)
+            dead = self._unreadable(A, start, None if carry is None else carry["read"])
             if dead is not None and unavailable:
-                return self._without_dead_runs(X, groups, dead, start, where)
+                return self._without_dead_runs(
+                    X, groups, dead, start, where, fresh, carry
+                )
             if dead is not None:
                 self._refuse_unreadable(dead, start, where)
         flags, reference = self._input_flags(
@@ -1094,19 +1107,24 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "jump": flags.get("jump", np.zeros_like(fault)),
         }
 
-    def _unreadable(self, A, start):
+    def _unreadable(self, A, start, read_before=None):
         """Rows x inputs: a checked sensor that reads no finite value in all
         the rows of the row's run that this call holds (``start``: every
         row's run's first row), or None when there is none. There is no
         reading of it to hold, and any value put in its place would be made
         up. (An unchecked input, one the model ignores, gets a value inside
-        its range.)"""
+        its range.) ``read_before`` (n, p): per row, whether the sensor read
+        a finite value before the rows of a continued run that the call
+        holds (:meth:`remember_runs`)."""
         finite = np.isfinite(A)
         if finite.all():  # the usual call: nothing to look for
             return None
         read = np.zeros_like(finite)
         np.logical_or.at(read, start, finite)
-        dead = ~read[start] & self.checked_inputs_
+        read = read[start]
+        if read_before is not None:
+            read |= read_before
+        dead = ~read & self.checked_inputs_
         return dead if dead.any() else None
 
     def _dead_text(self, dead, start, where):
@@ -1138,10 +1156,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             "'unavailable' and predicts the others)."
         )
 
-    def _without_dead_runs(self, X, groups, dead, start, where):
+    def _without_dead_runs(self, X, groups, dead, start, where, fresh=None, carry=None):
         """:meth:`_guard` of the runs without a dead sensor; the rows of the
         others get no prediction (NaN, not ok, action ``"unavailable"``),
-        with a :class:`SensorFaultWarning` naming the first."""
+        with a :class:`SensorFaultWarning` naming the first (not again for
+        a run continued from kept rows, said when it began); ``fresh`` and
+        ``carry`` as in :meth:`_guard`."""
         lost = dead.any(axis=1)
         names = self._sensor_names()
         n_runs, n_lost = np.unique(start).size, np.unique(start[lost]).size
@@ -1150,14 +1170,19 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             if n_lost == n_runs
             else f"the other {n_runs - n_lost} run(s) are predicted"
         )
-        warnings.warn(
-            f"mode='hold': {self._dead_text(dead, start, where)}: no "
-            f"compensation can be given for the {int(lost.sum())} row(s) of the "
-            f"{n_lost} run(s) with such a sensor (prediction NaN, action "
-            f"'unavailable'); {rest}.",
-            SensorFaultWarning,
-            stacklevel=4,
-        )
+        new = lost.copy()
+        if fresh is not None:
+            # A run whose first rows here are kept ones goes on.
+            new &= fresh[start]
+        if new.any():
+            warnings.warn(
+                f"mode='hold': {self._dead_text(dead & new[:, None], start, where)}"
+                f": no compensation can be given for the {int(lost.sum())} row(s) "
+                f"of the {n_lost} run(s) with such a sensor (prediction NaN, "
+                f"action 'unavailable'); {rest}.",
+                SensorFaultWarning,
+                stacklevel=4,
+            )
         reason = np.array(
             [
                 "no reading: " + ", ".join(names[j] for j in np.flatnonzero(row))
@@ -1179,7 +1204,14 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         if keep.size:
             rows = X.iloc[keep] if hasattr(X, "iloc") else np.asarray(X)[keep]
             labels = None if groups is None else np.asarray(groups)[keep]
-            part = self._guard(rows, labels)
+            part = self._guard(
+                rows,
+                labels,
+                fresh=None if fresh is None else fresh[keep],
+                carry=None
+                if carry is None
+                else {key: value[keep] for key, value in carry.items()},
+            )
             out["prediction"][keep] = np.reshape(part["prediction"], (keep.size, -1))
             for key in ("bad", "action", "reason", "fault", "reference", "jump"):
                 out[key][keep] = part[key]
