@@ -801,13 +801,17 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         flat-line counts its unchanged readings, ``mode="hold"`` holds its
         last good value, as if the run so far were given again.
 
-        What is kept is bounded: the rows from the last three good rows on
-        (every check passed), and back to each checked sensor's last change
-        (its flat-line count); during a fault, back to the last good rows
-        before it. :class:`~skthermal.compose.RunStream` calls it after
-        every block, so each block costs the same however long the run
-        (exact where the run is logged at one period: the flat-line window
-        is scaled by the median period of the rows given).
+        What is kept is bounded: the last three rows, back to each sensor's
+        last reading a step is taken from, at most 3,600 rows; what
+        ``mode="hold"`` holds (the last good prediction, each sensor's last
+        good reading), the flat-line counts and which sensors have read
+        anything are carried apart. :class:`~skthermal.compose.RunStream`
+        calls it after every block, so each block costs the same however
+        long the run. The checked predictions equal those of the run so far
+        given again, except where the run's logging period changes (the
+        flat-line window is scaled by the median period of the rows a call
+        holds) and for a sensor's first reading after a silence of over
+        3,600 rows (not checked for a jump).
 
         Parameters
         ----------
