@@ -750,6 +750,10 @@ def test_a_swarm_short_of_the_exact_optimum_warns():
         warnings.simplefilter("error", ConvergenceWarning)
         GreyPSORegressor(calibration="pso", epochs=5, random_state=0).fit(X, y)
         GNNMCIRegressor(epochs=5, random_state=0).fit(X, y)
+    # Started there, held out of it by the user's box: the box is named.
+    box = [[0.0, 100.0]] + [[-1e-3, 1e-3]] * (X.shape[1] + 1)
+    with pytest.warns(ConvergenceWarning, match=r"bounds may leave the optimum out"):
+        GreyPSORegressor(calibration="pso", bounds=box, random_state=0).fit(X, y)
 
 
 @pytest.mark.parametrize(

@@ -834,6 +834,28 @@ def test_a_warning_of_every_fit_is_said_once_per_search(runs_data):
     assert len(said) == 1
 
 
+def test_a_warning_made_an_error_fails_its_trial_not_the_search(runs_data):
+    # Re-said after the fit, outside the trial's try, such a warning
+    # stopped the whole search.
+    X, y, groups = runs_data
+    pipe = make_pipeline(StandardScaler(), GreyPSORegressor(calibration="ls"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        warnings.filterwarnings("error", message=".*taken as ONE run")
+        result = run_search(
+            pipe,
+            X,
+            y,
+            groups=groups,
+            space=lambda t: {"greypsoregressor__delay": t.suggest_int("d", 0, 1)},
+            n_trials=2,
+            refit=False,
+        )
+    states = [t.state.name for t in result.study.trials]
+    assert states == ["FAIL", "FAIL"]
+    assert "taken as ONE run" in result.study.trials[1].user_attrs["error"]
+
+
 def _grey_search(X, y, groups, storage, **kwargs):
     return run_search(
         GreyPSORegressor(calibration="ls"),

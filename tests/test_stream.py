@@ -9,7 +9,12 @@ import pytest
 from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 
-from skthermal.compose import GuardedRegressor, RunStream, SensorFaultWarning
+from skthermal.compose import (
+    GuardedRegressor,
+    RunStream,
+    SensorFaultWarning,
+    SensorRangeWarning,
+)
 from skthermal.linear_model import TransferFunctionRegressor
 from skthermal.preprocessing import LagFeatures, LagRidgeCV
 
@@ -419,6 +424,69 @@ def test_a_sensor_dead_for_good_keeps_the_stream_bounded_and_refit_forgets(data)
     assert len(guard.stream_runs_["c"]["rows"]) <= 3600
     guard.fit(X, y)
     assert not hasattr(guard, "stream_runs_")
+
+
+def test_a_finding_coming_back_often_is_said_every_ten_minutes(data):
+    # A sensor hovering at the edge of its range was said at every return
+    # (247 warnings in 100 minutes of one run).
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression()).fit(X, y)
+    run = new[new["run"] == "c"].iloc[:100].copy()  # 99 min at 60 s
+    col = run.columns.get_loc("T2_C")
+    run.iloc[::3, col] += 30.0  # out of range at every third row
+    stream = RunStream(guard)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for block in _blocks(run, [2]):
+            stream.predict(block)
+    said = [
+        w
+        for w in caught
+        if issubclass(w.category, SensorRangeWarning) and "'T2_C'" in str(w.message)
+    ]
+    assert 2 <= len(said) <= 10
+
+
+def test_a_guard_inside_a_pipeline_streams_the_run_so_far(data):
+    # Streamed as a static model, its jump and flat-line checks saw one
+    # block at a time: a stuck sensor and a spike were missed.
+    from sklearn.preprocessing import StandardScaler
+
+    X, y, _, new = data
+    pipe = make_pipeline(
+        StandardScaler(), GuardedRegressor(LinearRegression(), mode="hold", flat=8)
+    ).set_output(transform="pandas")
+    pipe.fit(X.set_index(["run", "time_s"]), y.to_numpy())
+    run = new[new["run"] == "c"].set_index(["run", "time_s"])
+    col = run.columns.get_loc("T1_C")
+    run.iloc[40:70, col] = run.iloc[40, col]  # stuck
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = pipe.predict(run)
+        stream = RunStream(pipe)
+        assert stream.mode_ == "history"
+        got = np.concatenate([stream.predict(b) for b in _blocks(run, [1])])
+    np.testing.assert_allclose(got, whole, atol=1e-12)
+
+
+def test_a_jittering_logger_streams_as_the_whole_run(data):
+    # The flat-line window followed each call's median period: a logger
+    # jittering by 5% moved it by a sample, and 4-33 rows differed.
+    X, y, _, new = data
+    guard = GuardedRegressor(LinearRegression(), mode="hold", flat=18).fit(X, y)
+    rng = np.random.default_rng(6)
+    run = new[new["run"] == "c"].copy()
+    run["time_s"] = np.r_[0.0, np.cumsum(60 * (1 + 0.05 * rng.uniform(-1, 1, 359)))]
+    col = run.columns.get_loc("T2_C")
+    for at, n in ((40, 18), (120, 19), (200, 20), (280, 21)):
+        run.iloc[at : at + n, col] = run.iloc[at, col]  # stuck about the window
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = guard.predict_checked(run)
+        stream = RunStream(guard)
+        got = pd.concat([stream.predict_checked(b) for b in _blocks(run, [5])])
+    assert got["ok"].tolist() == whole["ok"].tolist()
+    np.testing.assert_allclose(got["prediction"], whole["prediction"], atol=1e-12)
 
 
 def test_a_stream_pickles_mid_run(data):

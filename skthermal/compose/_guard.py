@@ -88,6 +88,9 @@ _MIN_FLAT = 10  # samples: the shortest flat-line "auto" reports
 # Good rows in a row from which remember_runs keeps a run's tail: the step
 # checks (a jump, an odd first reading) read up to three rows.
 _KEEP_GOOD = 3
+# A run whose median step is below this share of training's period is
+# logged faster (its flat-line window scaled); above, it only jitters.
+_FASTER = 0.9
 # The most rows remember_runs keeps of a run: the first reading after a
 # longer silence of a sensor is judged as a run's first (no jump check).
 _MAX_KEPT = 3600
@@ -151,15 +154,19 @@ def _gap_span(rows, periods):
 
 def _faster(periods, first):
     """Per row, how many times faster than in training its run is logged
-    (the run's median time step in this call; at least 1)."""
+    (the run's median time step in this call; 1 unless it is below
+    :data:`_FASTER` periods)."""
     run = np.cumsum(first) - 1
     # Records logged twice (a step of 0) are no faster logging.
     mine = ~first & (periods > 0)
     median = pd.Series(periods[mine]).groupby(run[mine]).median()
+    runs, median = median.index.to_numpy(), median.to_numpy()
+    # A logger's jitter (its median step a few percent off) is no faster
+    # logging either: the window would move by a sample with the rows a
+    # call holds (a stream's block and the whole run disagreed).
+    factor = np.where(median < _FASTER, 1.0 / np.maximum(median, 1e-9), 1.0)
     per_run = np.ones(int(run.max()) + 1 if run.size else 0)
-    per_run[median.index.to_numpy()] = np.maximum(
-        1.0, 1.0 / np.maximum(median.to_numpy(), 1e-9)
-    )
+    per_run[runs] = factor
     return per_run[run] if run.size else np.ones(periods.shape)
 
 
@@ -930,66 +937,66 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         it continues put before their rows (each run's rows together),
         where ``X``'s own rows are in it, and per row what was before the
         kept rows: what hold mode holds (``"inputs"``, ``"prediction"``, NaN
-        where nothing) and how many readings equal to the first kept one
-        (``"unchanged"``, for the flat-line check); the last two None when
-        no run continues."""
+        where nothing), how many readings equal to the first kept one
+        (``"unchanged"``, for the flat-line check) and which sensors have
+        read anything (``"read"``); the last two None when no run
+        continues. Rows without ``time_s`` continue nothing."""
         states = getattr(self, "stream_runs_", None)
         if not states or not isinstance(X, pd.DataFrame):
             return X, groups, None, None
         features, runs = extract_runs(X, groups, finite=False)
-        if runs is None:
-            return X, groups, None, None
-        runs = np.asarray(runs, dtype=object)
-        order = list(dict.fromkeys(runs.tolist()))
         times = row_times(features)
+        if runs is None or times is None:
+            return X, groups, None, None
+        codes, order = pd.factorize(np.asarray(runs, dtype=object), sort=False)
+        # Each run's rows, found once (not a mask per run).
+        rows_of = np.split(
+            np.argsort(codes, kind="stable"), np.cumsum(np.bincount(codes))[:-1]
+        )
         # A kept run goes on with rows after its kept ones (at the same
         # time: a record logged twice); others are predicted as given.
-        states = {
-            label: states[label]
-            for label in order
-            if label in states
-            and (
-                times is None
-                or times[np.argmax(runs == label)] >= states[label]["t_last"]
-            )
-        }
-        if not states:
+        going = [
+            label in states and times[mine[0]] >= states[label]["t_last"]
+            for label, mine in zip(order, rows_of, strict=True)
+        ]
+        if not any(going):
             return X, groups, None, None
-        n_out = self.output_min_.size
-        parts, labels, inputs, predictions, counts, reads = [], [], [], [], [], []
-        take = np.empty(runs.size, dtype=int)  # X's rows in the stacked rows
-        offset = 0
-        for label in order:
-            mine = np.flatnonzero(runs == label)
-            state = states.get(label)
+        n_out, p = self.output_min_.size, self.n_features_in_
+        parts, labels, carried = [], [], []
+        take = np.empty(codes.size, dtype=int)  # X's rows in the stacked rows
+        # X's rows run by run, taken once (a take per run was quadratic).
+        grouped = X.iloc[np.concatenate(rows_of)]
+        offset = done = 0
+        for label, mine, on in zip(order, rows_of, going, strict=True):
+            state = states[label] if on else None
             size = mine.size
             if state is not None:
                 parts.append(state["rows"])
                 offset += len(state["rows"])
                 size += len(state["rows"])
-            parts.append(X.iloc[mine])
+            parts.append(grouped.iloc[done : done + mine.size])
+            done += mine.size
             labels.append(np.full(size, label, dtype=object))
             take[mine] = offset + np.arange(mine.size)
             offset += mine.size
-            held_in = (
-                np.full(self.n_features_in_, np.nan)
-                if state is None
-                else state["inputs"]
-            )
-            held_out = np.full(n_out, np.nan) if state is None else state["prediction"]
-            count = 0 if state is None else state["unchanged"]
-            read = False if state is None else state["read"]
-            inputs.append(np.broadcast_to(held_in, (size, held_in.size)))
-            predictions.append(np.broadcast_to(held_out, (size, n_out)))
-            counts.append(np.broadcast_to(count, (size, held_in.size)))
-            reads.append(np.broadcast_to(read, (size, held_in.size)))
+            carried.append((size, state))
         stacked = pd.concat(parts)
         stacked_groups = None if groups is None else np.concatenate(labels)
+
+        def column(key, empty):
+            """``key`` of each run's state on all its stacked rows."""
+            return np.vstack(
+                [
+                    np.broadcast_to(empty if st is None else st[key], (n, empty.size))
+                    for n, st in carried
+                ]
+            )
+
         carry = {
-            "inputs": np.vstack(inputs),
-            "prediction": np.vstack(predictions),
-            "unchanged": np.vstack(counts),
-            "read": np.vstack(reads),
+            "inputs": column("inputs", np.full(p, np.nan)),
+            "prediction": column("prediction", np.full(n_out, np.nan)),
+            "unchanged": column("unchanged", np.zeros(p, dtype=int)),
+            "read": column("read", np.zeros(p, dtype=bool)),
         }
         return stacked, stacked_groups, take, carry
 
@@ -1575,8 +1582,9 @@ class _Where:
         n = len(self.fresh)
         starts = np.flatnonzero(self.fresh[1:] & ~self.fresh[:-1]) + 1
         ends = np.r_[np.flatnonzero(~self.fresh[1:] & self.fresh[:-1]) + 1, n]
-        for r in starts:
-            end = int(ends[ends > r][0])
+        for r, end in zip(
+            starts, ends[np.searchsorted(ends, starts, "right")], strict=True
+        ):
             block = F[r:end]
             first_off = np.where(block, end - r, np.arange(end - r)[:, None]).min(
                 axis=0

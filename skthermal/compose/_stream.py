@@ -55,22 +55,26 @@ class RunStream:
       state: every block costs the same, however long the run;
     - a static model (no sequence model inside, not a guard) is given the
       new rows alone;
-    - any other model (a Pipeline with a sequence step, a grey regressor, a
-      guard around a sequence model) is given each run's rows so far with
-      the new ones, and its predictions of the new rows are returned:
-      exact for every model, at a cost that grows with the run;
+    - any other model (a Pipeline with a sequence step or a guard, a grey
+      regressor, a guard around a sequence model) is given each run's rows
+      so far with the new ones, and its predictions of the new rows are
+      returned: exact for every model, at a cost that grows with the run;
       :meth:`forget` frees a finished run.
 
     A warning the model raised for an earlier block (or, after a run's
     first block, about the run's start) is not raised again; a guard's
     finding that goes on from one block to the next is said when it
-    begins.
+    begins, and the same finding (its kind, sensors and run) again once
+    :data:`REPEAT_S` seconds of ``time_s`` after it was last said.
 
-    One difference from the whole run remains, by design: a guard in
+    Differences from the whole run remain, by design: a guard in
     ``mode="hold"`` replaces a reading that is faulty from a run's first
     row by the sensor's next good reading when the call holds one; block by
     block the next reading is not there yet, so the stream's first blocks
-    clip it instead (or raise, for a sensor that has read nothing yet).
+    clip it instead (or raise, for a sensor that has read nothing yet). A
+    run's first reading is the odd one out (a glitch) only when its second
+    and third readings show it; given in blocks of one or two rows, the
+    glitch passes and the second reading is flagged as a jump instead.
 
     Parameters
     ----------
@@ -116,13 +120,13 @@ class RunStream:
         self.model_ = deepcopy(model) if copy else model
         if callable(getattr(self.model_, "remember_runs", None)):
             self.mode_ = "incremental"
-        elif sequence_models(self.model_) or hasattr(self.model_, "predict_checked"):
+        elif sequence_models(self.model_) or _holds_guard(self.model_):
             self.mode_ = "history"
         else:
             self.mode_ = "static"
         self._spans = {}  # label -> [first time_s, last time_s]
         self._history = {}
-        self._said = set()
+        self._said = {}  # warning key -> the block's last time_s when said
 
     @property
     def runs_(self):
@@ -203,14 +207,15 @@ class RunStream:
             labels, times = labels[order], times[order]
             groups = None if groups is None else np.asarray(groups)[order]
         new = self._check_order(labels, times)
+        now = float(np.nanmax(times))  # for when a finding is said again
         kwargs = {} if groups is None else {"groups": groups}
         if self.mode_ == "history":
-            out = self._with_history(method, X, groups, labels, new)
+            out = self._with_history(method, X, groups, labels, new, now)
         elif self.mode_ == "incremental":
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 out = getattr(self.model_, method)(X, **kwargs)
-            self._say_new(caught, not new)
+            self._say_new(caught, not new, now)
             self.model_.remember_runs(X, **kwargs)
         else:
             out = getattr(self.model_, method)(X, **kwargs)
@@ -271,9 +276,11 @@ class RunStream:
                 )
         return new
 
-    def _say_new(self, caught, started):
+    def _say_new(self, caught, started, now):
         """Say the warnings of ``caught`` not said for an earlier block
-        (:func:`_said_key`); with ``started`` (every run of the block
+        (:func:`_said_key`), a guard's finding again when it was last said
+        :data:`REPEAT_S` seconds of ``time_s`` before the block's end
+        (``now``) or more; with ``started`` (every run of the block
         continues one of the stream's), none about the runs' start."""
         for w in caught:
             key = _said_key(w)
@@ -281,13 +288,19 @@ class RunStream:
                 issubclass(w.category, RunStartWarning)
                 or re.search(LATE_START_WARNING, str(w.message)) is not None
             )
-            if key not in self._said and not late:
-                self._said.add(key)
+            if late:
+                continue
+            last = self._said.get(key)
+            again = issubclass(w.category, GuardWarning) and (
+                last is not None and now - last >= REPEAT_S
+            )
+            if last is None or again:
+                self._said[key] = now
                 warnings.warn_explicit(
                     w.message, w.category, w.filename, w.lineno, source=w.source
                 )
 
-    def _with_history(self, method, X, groups, labels, new):
+    def _with_history(self, method, X, groups, labels, new, now):
         """The runs' rows so far and the new ones given to the model; its
         output for the new rows, and the warnings not said before."""
         parts, rows = [], []
@@ -310,7 +323,7 @@ class RunStream:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             out = getattr(self.model_, method)(stacked, **kwargs)
-        self._say_new(caught, not new)
+        self._say_new(caught, not new, now)
         for lab, whole in parts:
             self._history[lab] = whole
         rows = np.concatenate(rows)
@@ -319,10 +332,19 @@ class RunStream:
         return np.asarray(out)[rows]
 
 
-# The row count closing each item of a guard finding, "(value 22.5, ...; 3
-# rows)", which grows while the finding lasts; not in how many stretches
-# ("; 2 rows in 2 stretches)"), which grows when it comes back.
-_ROW_COUNT = r"; \d+ rows?(?=\)| in \d+ stretches\))"
+# A guard's finding (its kind, sensors and run) said again by a stream when
+# it was last said this long before (s of time_s): a sensor hovering at the
+# edge of its range came back 247 times in 100 minutes, each said.
+REPEAT_S = 600.0
+
+
+def _holds_guard(model):
+    """Whether ``model`` is a guard or holds one (a pipeline's step), whose
+    checks read a run's rows before the new ones."""
+    if hasattr(model, "predict_checked"):
+        return True
+    params = model.get_params(deep=True) if hasattr(model, "get_params") else {}
+    return any(hasattr(v, "predict_checked") for v in params.values())
 
 
 def _runs_in(labels):
@@ -338,16 +360,10 @@ def _runs_in(labels):
 
 def _said_key(w):
     """What makes warning ``w`` (of a model given the run so far) one said
-    before: a guard's finding (a fault, a reading out of range) by its
-    text without the count of rows it holds for (that grows with the run
-    so far), so a new fault or the same sensor failing again (another
-    stretch of rows) is said, the same one lasting is not; any other warning (an inner
-    model's gap count growing with the run so far) without its figures
-    outside quotes."""
-    text = str(w.message)
-    if issubclass(w.category, GuardWarning):
-        return w.category, re.sub(_ROW_COUNT, "", text)
-    return w.category, without_figures(text)
+    before: its text without its figures outside quotes (a guard's
+    finding by its kind, sensors and run, not its time, values or row
+    counts; an inner model's gap count growing with the run so far)."""
+    return w.category, without_figures(str(w.message))
 
 
 def _as_text(label):

@@ -168,12 +168,18 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
             float(objective(np.asarray(v)[None, :])[0]) for v in (found, exact)
         )
         if got > 1.01 * best + 1e-300:
+            advice = (
+                "Your bounds may leave the optimum out: widen them, or leave "
+                "bounds='auto'."
+                if self.init == start and not isinstance(self.bounds, str)
+                else f"Start it there (init={start!r}, the default), or give it "
+                "more particles and epochs."
+            )
             warnings.warn(
                 f"{type(self).__name__}: the swarm ended at a training loss "
-                f"{got / best:.3g} times that of the exact optimum it did not "
-                f"start from (init={self.init!r}, {self.n_particles} particles, "
-                f"{self.epochs} epochs). Start it there (init={start!r}, the "
-                "default), or give it more particles and epochs.",
+                f"{got / best:.3g} times that of the exact optimum (init="
+                f"{self.init!r}, {self.n_particles} particles, {self.epochs} "
+                f"epochs). {advice}",
                 ConvergenceWarning,
                 stacklevel=4,
             )

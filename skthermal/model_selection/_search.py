@@ -750,28 +750,28 @@ class _Objective:
         (for :meth:`_say_once`), or none with threads."""
         if self.said is None:
             return contextlib.nullcontext([])
-        recorder = warnings.catch_warnings(record=True)
+        # The filters stay as set: a warning the user made an error fails
+        # its trial there, as without recording.
+        return warnings.catch_warnings(record=True)
 
-        @contextlib.contextmanager
-        def record():
-            with recorder as caught:
-                warnings.simplefilter("always")
-                yield caught
-
-        return record()
-
-    def _say_once(self, caught):
+    def _say_once(self, caught, quiet=False):
         """Say each warning of ``caught`` not said in an earlier fold or
         trial (the same text with other figures is the same warning: a
         count of rows, a loss ratio), so a search of many trials does not
-        repeat one warning per trial and fold."""
+        repeat one warning per trial and fold. A warning the filters make
+        an error raises it (inside the trial's ``try``: the trial fails);
+        with ``quiet`` (the trial ends anyway) it is dropped."""
         for w in caught:
             key = (w.category, without_figures(str(w.message)))
             if key not in self.said:
                 self.said.add(key)
-                warnings.warn_explicit(
-                    w.message, w.category, w.filename, w.lineno, source=w.source
-                )
+                try:
+                    warnings.warn_explicit(
+                        w.message, w.category, w.filename, w.lineno, source=w.source
+                    )
+                except Warning:
+                    if not quiet:
+                        raise
 
     def _warn_training_error(self, validation_fraction):
         """Once per search: pruning ANFIS by its training error."""
@@ -842,7 +842,9 @@ class _Objective:
                     score = float(
                         self.scorer(model, _take(self.X, test), _take(self.y, test))
                     )
+                self._say_once(caught or [])
             except optuna.TrialPruned:
+                self._say_once(caught or [], quiet=True)
                 raise
             except Exception as exc:  # a bad draw fails the trial, not the study
                 trial.set_user_attr("error", f"{type(exc).__name__}: {exc}")
@@ -850,9 +852,8 @@ class _Objective:
                 self.guard.record(trial.number, exc)
                 # Raised as the cause of the failure, which Optuna logs and
                 # records (the study's optimize catches it).
+                self._say_once(caught or [], quiet=True)
                 raise _TrialFailed(f"fold {fold}: {type(exc).__name__}: {exc}") from exc
-            finally:
-                self._say_once(caught or [])
             scores.append(score)
             if self.pruning == "folds":
                 trial.report(float(np.mean(scores)), fold + 1)
