@@ -42,6 +42,7 @@ from skthermal.utils._runs import (
     pass_runs,
     routed_runs,
     row_times,
+    rows_by_run,
     run_first_rows,
     run_slices,
     sequence_models,
@@ -857,10 +858,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         for sl, label in zip(slices, labels, strict=True):
             if label is None:
                 continue
-            found = {
-                key: checked[key][sl] for key in ("bad", "fault", "reference", "jump")
-            }
-            keep = self._tail_start(A[sl], found)
+            keep = self._tail_start(checked["reference"][sl], checked["jump"][sl])
             state = states.get(label) or {
                 "inputs": np.full(A.shape[1], np.nan),
                 "prediction": np.full(P.shape[1], np.nan),
@@ -868,9 +866,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             }
             # What hold mode holds after the kept rows: the last good
             # prediction and each input's last good reading so far.
-            good = np.flatnonzero(~found["bad"])
+            good = np.flatnonzero(~checked["bad"][sl])
             prediction = P[sl][good[-1]] if good.size else state["prediction"]
-            ok = ~found["fault"]
+            ok = ~checked["fault"][sl]
             last = np.where(ok, np.arange(ok.shape[0])[:, None], -1).max(axis=0)
             inputs = np.where(
                 last >= 0,
@@ -903,11 +901,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.stream_runs_ = tails
         return self
 
-    def _tail_start(self, A, found):
-        """The first of a run's rows ``A`` that continuing it needs
-        (:meth:`remember_runs`), from the guard's findings on them
-        (``found``: per row and input ``fault``, ``jump`` and
-        ``reference``): the last :data:`_KEEP_GOOD` rows (the step checks
+    def _tail_start(self, reference, jump):
+        """The first of a run's rows that continuing it needs
+        (:meth:`remember_runs`), from the guard's findings on them (per row
+        and input: the readings later steps are taken from, ``reference``,
+        and the jumps): the last :data:`_KEEP_GOOD` rows (the step checks
         read that far back), the row before each input's last reading a
         step is taken from (a kept run's first row is judged as a run's
         first: out of range, it would be a spike), but at most
@@ -915,7 +913,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         (an odd first reading). What hold mode holds, the flat-line counts
         and which sensors have read anything are kept apart
         (:meth:`remember_runs`)."""
-        n = A.shape[0]
+        n = reference.shape[0]
         start = n - _KEEP_GOOD
 
         def last(mask):
@@ -924,11 +922,11 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return rows[rows >= 0]
 
         if self.jump is not None:
-            start = min([start, *(last(found["reference"]) - 1)])
+            start = min([start, *(last(reference) - 1)])
         # A sensor silent for long (dead for good in hold mode) would keep
         # its last reading's rows without end: kept at most _MAX_KEPT rows.
         start = max(start, n - _MAX_KEPT)
-        while start > 0 and found["jump"][start + 1].any():
+        while start > 0 and jump[start + 1].any():
             start -= 1
         return max(start, 0)
 
@@ -948,11 +946,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         times = row_times(features)
         if runs is None or times is None:
             return X, groups, None, None
-        codes, order = pd.factorize(np.asarray(runs, dtype=object), sort=False)
-        # Each run's rows, found once (not a mask per run).
-        rows_of = np.split(
-            np.argsort(codes, kind="stable"), np.cumsum(np.bincount(codes))[:-1]
-        )
+        order, rows_of = rows_by_run(runs)
         # A kept run goes on with rows after its kept ones (at the same
         # time: a record logged twice); others are predicted as given.
         going = [
@@ -963,7 +957,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             return X, groups, None, None
         n_out, p = self.output_min_.size, self.n_features_in_
         parts, labels, carried = [], [], []
-        take = np.empty(codes.size, dtype=int)  # X's rows in the stacked rows
+        take = np.empty(len(runs), dtype=int)  # X's rows in the stacked rows
         # X's rows run by run, taken once (a take per run was quadratic).
         grouped = X.iloc[np.concatenate(rows_of)]
         offset = done = 0

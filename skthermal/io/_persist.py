@@ -28,6 +28,7 @@ import numpy as np
 from skthermal._naming import qualified_name
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
+from skthermal.utils._wrappers import own_transform_output, transform_output
 
 _METADATA_NAME = "skthermal_metadata.json"
 _FORMAT = 1
@@ -342,10 +343,7 @@ def _check_output_config(model):
     if output == "default":
         return
     for where, obj in _walk(model, type(model).__name__, set()):
-        if not (hasattr(obj, "set_output") and hasattr(obj, "transform")):
-            continue
-        # scikit-learn keeps an estimator's own set_output in this attribute.
-        if "transform" in getattr(obj, "_sklearn_output_config", {}):
+        if transform_output(obj) is None or own_transform_output(obj) is not None:
             continue
         warnings.warn(
             f"sklearn.set_config(transform_output={output!r}) is on, but "

@@ -24,7 +24,6 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
-import sklearn
 from sklearn.base import clone
 from sklearn.model_selection import GroupKFold
 from sklearn.pipeline import Pipeline
@@ -52,6 +51,7 @@ from skthermal.model_selection._spaces import (
 )
 from skthermal.utils._runs import with_run_index
 from skthermal.utils._warnings import user_stacklevel, without_figures
+from skthermal.utils._wrappers import transform_output
 
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 _JOURNAL_SUFFIXES = (".log", ".journal", ".jsonl")
@@ -997,16 +997,12 @@ def _estimator_settings(estimator):
     # transform_output) decides whether the run index reaches a sequence
     # model behind it, so the scores: recorded unless the default.
     steps = [("", estimator)] + [(n, v) for n, v in params.items() if hasattr(v, "fit")]
-    glob = sklearn.get_config().get("transform_output", "default")
     for name, step in steps:
-        if hasattr(step, "set_output") and hasattr(step, "transform"):
-            # scikit-learn keeps an estimator's own set_output here.
-            own = getattr(step, "_sklearn_output_config", {}).get("transform")
-            output = glob if own is None else own
-            if output != "default":
-                out[f"{name}.transform_output" if name else "transform_output"] = (
-                    _setting_text(output)
-                )
+        output = transform_output(step)
+        if output not in (None, "default"):
+            out[f"{name}.transform_output" if name else "transform_output"] = (
+                _setting_text(output)
+            )
     return out
 
 

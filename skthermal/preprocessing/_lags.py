@@ -859,19 +859,20 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
         if self.dt is None:
             warn_misnamed_time(type(self).__name__, X_raw, self.sample_period_s_, 5)
         memory = getattr(self, "run_states_", {})
+        spans = run_times(X_raw, slices)
         cont = continued_runs(
             type(self).__name__,
             X_arr,
             slices,
             labels,
-            run_times(X_raw, slices),
+            spans,
             memory,
             # A step that a pipeline may call: the class alone, not a method.
             method=None,
             stacklevel=5,
         )
         warn_pauses(type(self).__name__, X_raw, slices, cont, memory, PAUSE_BRIDGE, 5)
-        self._warn_driven_starts(X_raw, X_arr, slices, labels, cont)
+        self._warn_driven_starts(X_arr, slices, labels, cont, spans)
         bases = continued_values(cont, memory, "x_first")
         states = continued_values(cont, memory, "state")
         lasts = continued_values(cont, memory, "x_last")
@@ -881,7 +882,7 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
         F = self._compute(X_arr, slices, dts, bases, states, times, lasts, periods)
         return F, X_raw, groups, (X_arr, slices, labels, cont)
 
-    def _warn_driven_starts(self, X_raw, X_arr, slices, labels, cont):
+    def _warn_driven_starts(self, X_arr, slices, labels, cont, spans):
         """Warn of runs given from their start (``time_s`` 0) that start
         with a driver on when no training run did, and
         ``driver_initial="steady"`` takes them as driven for ever before
@@ -892,12 +893,11 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
             return
         # A run given from its start (time_s 0): one cut from a longer
         # record (a later time_s) was driven before, as steady takes it.
-        starts = run_times(X_raw, slices)
         driven = [
             "unlabelled" if label is None else label
             for r, (sl, label, c) in enumerate(zip(slices, labels, cont, strict=True))
             if c is None
-            and (starts is None or starts[r, 0] == 0)
+            and (spans is None or spans[r, 0] == 0)
             and np.any(X_arr[sl.start, self.driver_indices_] != 0)
         ]
         if not driven:

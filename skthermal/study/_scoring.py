@@ -4,6 +4,8 @@ import numpy as np
 import pandas as pd
 from sklearn.utils._param_validation import validate_params
 
+from skthermal.utils._runs import rows_by_run
+
 METRIC_COLUMNS = ("R", "RMSE_um", "NSE", "residual_um", "improvement_pct")
 
 
@@ -79,12 +81,8 @@ def score_runs(measured, predicted, groups):
             f"measured, predicted and groups must have one value per row; got "
             f"{z.shape[0]}, {p.shape[0]} and {groups.shape[0]}."
         )
-    # Each run's rows in their order, found once (not a mask per run).
-    codes, labels = pd.factorize(groups, use_na_sentinel=False)
-    order = np.argsort(codes, kind="stable")
-    bounds = np.cumsum(np.bincount(codes, minlength=len(labels)))[:-1]
     rows = []
-    for label, mine in zip(labels, np.split(order, bounds), strict=True):
+    for label, mine in zip(*rows_by_run(groups), strict=True):
         zr, pr = z[mine], p[mine]
         rows.append(
             {

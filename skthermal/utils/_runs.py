@@ -112,6 +112,29 @@ def check_unique_columns(df, what="The run table"):
         raise ValueError(f"{what} has duplicated columns: {duplicated}.")
 
 
+def rows_by_run(labels):
+    """Every run's label and rows: ``(labels, rows)``, the runs in order of
+    first appearance, ``rows[r]`` the row numbers of run ``r`` in order
+    (the runs' rows need not be together). Found in one pass, not a mask
+    per run, which costs runs x rows (16,000 runs took a minute).
+
+    Examples
+    --------
+    >>> from skthermal.utils._runs import rows_by_run
+    >>> labels, rows = rows_by_run(["a", "b", "a"])
+    >>> list(labels), [r.tolist() for r in rows]
+    (['a', 'b'], [[0, 2], [1]])
+    """
+    import pandas as pd
+
+    codes, uniques = pd.factorize(
+        np.asarray(labels, dtype=object), use_na_sentinel=False
+    )
+    order = np.argsort(codes, kind="stable")
+    bounds = np.cumsum(np.bincount(codes, minlength=len(uniques)))[:-1]
+    return uniques, np.split(order, bounds)
+
+
 def run_slices(groups, n_samples=None):
     """Contiguous slices, one per run, in order of appearance.
 

@@ -17,6 +17,26 @@ def routing_enabled():
     return bool(sklearn.get_config().get("enable_metadata_routing", False))
 
 
+def transform_output(step):
+    """The output container of ``step``'s ``transform`` (``"pandas"``,
+    ``"default"``, ...): its own ``set_output``
+    (:func:`own_transform_output`), else scikit-learn's global
+    ``transform_output``. None for a step that transforms nothing."""
+    if not (hasattr(step, "set_output") and hasattr(step, "transform")):
+        return None
+    own = own_transform_output(step)
+    if own is None:
+        return sklearn.get_config().get("transform_output", "default")
+    return own
+
+
+def own_transform_output(step):
+    """``step``'s own ``set_output(transform=...)``, which is saved with it
+    (the global setting is not), or None."""
+    # scikit-learn keeps an estimator's own set_output in this attribute.
+    return getattr(step, "_sklearn_output_config", {}).get("transform")
+
+
 def routed_params(owner, method, params):
     """The keyword arguments of the wrapped model's ``method``: under metadata
     routing what it requested of ``params``, else ``params`` as given."""
