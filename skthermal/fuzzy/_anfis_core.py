@@ -718,8 +718,14 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             consequents = np.zeros((n_rules, d + 1, n_out))
             consequents[:, -1, :] = Y.mean(axis=0)
         # Internally f = p (x - m) + q', converted back to f = p x + q for
-        # every parameter set returned.
-        consequents_c = _shift_constants(consequents, centre, 1.0)
+        # every parameter set returned, and in units of the target's spread:
+        # the normalised step then moves the consequents as far for a target
+        # in nanometres as in micrometres (in the target's units a target
+        # spread over 1000 moved them 1/1000 of the way per step).
+        y_scale = float(np.sqrt(np.mean((Y - Y.mean(axis=0)) ** 2))) if n else 1.0
+        if not np.isfinite(y_scale) or y_scale <= 0:
+            y_scale = 1.0
+        consequents_c = _shift_constants(consequents, centre, 1.0) / y_scale
     rule = StepSizeRule(step_size, step_increase, step_decrease)
     stalled = None  # the epoch after which the premise gradient vanished
     stepped = False  # whether a premise step was taken
@@ -751,8 +757,8 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
         else:
-            consequents = _shift_constants(consequents_c, centre, -1.0)
-            C = consequents_c.transpose(1, 0, 2).reshape(d + 1, -1)
+            consequents = _shift_constants(y_scale * consequents_c, centre, -1.0)
+            C = y_scale * consequents_c.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1cT).reshape(n_rules, n_out, n)
         WF = wT[:, None, :] * F  # the rules' shares of the output
         yhat = WF.sum(axis=0)
@@ -811,9 +817,11 @@ penalize_intercepts, tol, n_iter_no_change, verbose
                 # later epochs repeat this one. Recorded for the estimator.
                 stalled = epoch
         else:
-            # dE / d consequent (a, r) = sum_n x~_a wbar_r err (x~ centred)
+            # dE / d consequent (a, r) = sum_n x~_a wbar_r err (x~ centred),
+            # times the target's spread for the scaled consequents
             XE = (X1cT[:, None, :] * err[None]).reshape(-1, n)
             grad_c = (XE @ wT.T).reshape(d + 1, n_out, n_rules).transpose(2, 0, 1)
+            grad_c *= y_scale
             norm = np.sqrt(np.vdot(grad, grad) + np.vdot(grad_c, grad_c))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
