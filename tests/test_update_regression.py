@@ -208,6 +208,12 @@ def test_default_penalty_warns_on_inputs_far_from_degrees(data):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         UpdateRegressor(penalize_intercept=False).fit(X + 20.0, y)
+        # Changes since the start of long batches: zero at each start, yet
+        # their mean lies several spreads from zero (+5 °C, std 1.6, in a
+        # 4 h batch); the warning told to give changes, as was done.
+        ramp = np.linspace(0.0, 1.0, 50) ** 0.1
+        changes = np.tile(np.c_[5.5 * ramp, 4.0 * ramp], (2, 1))
+        UpdateRegressor().fit(changes, changes @ [1.0, 2.0])
     # One column beyond the range (a driver in rpm among temperatures) is
     # named; every column beyond it names none.
     frame = pd.DataFrame(X, columns=[f"T{j}_C" for j in range(X.shape[1])])

@@ -325,7 +325,9 @@ _DESIGN_SCALE = (0.01, 100.0)
 
 
 # Inputs whose mean lies this many standard deviations from zero, in most
-# columns, are readings with an offset (absolute °C), not changes.
+# columns, and that never come within one standard deviation of zero, are
+# readings with an offset (absolute °C), not changes (which are zero at
+# every run's start, however far a long batch's mean lies from it).
 _OFFSET_SPREADS = 3.0
 
 
@@ -340,6 +342,7 @@ def _warn_offset_inputs(X, columns=None):
         return
     mean, std = X.mean(axis=0), X.std(axis=0)
     far = np.abs(mean) > _OFFSET_SPREADS * np.maximum(std, 1e-12)
+    far &= np.abs(X).min(axis=0) > std
     if 2 * far.sum() <= X.shape[1]:
         return
     names = columns if columns is not None else [f"x{j}" for j in range(X.shape[1])]
