@@ -1188,6 +1188,42 @@ def test_evaluate_predictions_are_joined_row_for_row(
     assert re.search(message, err), err
 
 
+def test_evaluate_joins_float32_times_and_whole_float_labels(
+    capsys, tmp_path, predictions
+):
+    # A Parquet file made smaller (float32 columns) and its predictions in a
+    # CSV file (float64 text): 300.7 s is not the float32 300.70001220703125,
+    # and every row was said to have no prediction. Run labels 1.0 and 1
+    # are the same run to the estimators, and now here too.
+    pytest.importorskip("pyarrow")
+    runs, table = predictions
+    measured = pd.read_csv(runs)
+    labels = {r: k for k, r in enumerate(measured["run"].unique(), start=1)}
+    for t in (measured, table):
+        t["time_s"] = t["time_s"] * 1.0117  # times float32 cannot hold
+        t["run"] = t["run"].map(labels)
+    small = measured.astype(
+        {c: "float32" for c in measured.columns if c not in ("run", "time_s")}
+    ).astype({"time_s": "float32", "run": "float64"})
+    small.to_parquet(tmp_path / "small.parquet")
+    table.to_csv(tmp_path / "pred.csv", index=False)
+    measured.to_csv(tmp_path / "full.csv", index=False)
+    scores = {}
+    for name in ("small.parquet", "full.csv"):
+        out = tmp_path / f"{name}.scores.csv"
+        argv = ["evaluate", "--runs", tmp_path / name, "--predictions"]
+        status, _, err = _run(capsys, *argv, tmp_path / "pred.csv", "--out", out)
+        assert status == 0, err
+        scores[name] = pd.read_csv(out)
+    assert scores["small.parquet"]["n_samples"].iloc[-1] == len(measured)
+    pd.testing.assert_frame_equal(
+        scores["small.parquet"].drop(columns="run"),
+        scores["full.csv"].drop(columns="run"),
+        check_exact=False,
+        rtol=1e-4,
+    )
+
+
 def test_evaluate_notes_runs_without_predictions(capsys, tmp_path, predictions):
     runs, table = predictions
     part = tmp_path / "part.csv"

@@ -525,15 +525,38 @@ def _prediction_column(df, target, where):
     return candidates[0][5:], candidates[0]
 
 
-def _join_keys(table):
+def _join_keys(table, time_dtype=np.float64):
     """(run, time_s) of every row as join keys: the run label as text (as
-    --train-runs matches it), the time as a float."""
+    --train-runs matches it; a whole number stored as a float, ``1.0``, as
+    ``1``), the time as a float of ``time_dtype``."""
+    run = table["run"]
+    if pd.api.types.is_float_dtype(run.dtype):
+        values = run.to_numpy(float)
+        whole = np.isfinite(values) & (values == np.round(values))
+        text = run.astype(str).to_numpy(object)
+        text[whole] = [str(int(v)) for v in values[whole]]
+    else:
+        text = run.astype(str).to_numpy()
     return pd.DataFrame(
         {
-            "run": table["run"].astype(str).to_numpy(),
-            "time_s": pd.to_numeric(table["time_s"], errors="coerce").to_numpy(float),
+            "run": text,
+            "time_s": pd.to_numeric(table["time_s"], errors="coerce")
+            .to_numpy(float)
+            .astype(time_dtype),
         }
     )
+
+
+def _time_dtype(*tables):
+    """The coarsest float type of the tables' ``time_s``: times stored as
+    float32 (a Parquet file made smaller) match their float64 text in a CSV
+    file only at float32's precision."""
+    coarse = [
+        np.dtype(getattr(t["time_s"].dtype, "numpy_dtype", t["time_s"].dtype))
+        for t in tables
+        if pd.api.types.is_float_dtype(t["time_s"].dtype)
+    ]
+    return min(coarse, key=lambda d: d.itemsize, default=np.dtype(np.float64))
 
 
 def _join_predictions(df, preds, col, runs_path, preds_path):
@@ -544,7 +567,8 @@ def _join_predictions(df, preds, col, runs_path, preds_path):
     out with a note."""
     from skthermal._naming import plain
 
-    keys = _join_keys(preds)
+    time_dtype = _time_dtype(df, preds)
+    keys = _join_keys(preds, time_dtype)
     repeated = np.flatnonzero(keys.duplicated().to_numpy())
     if repeated.size:
         i = repeated[0]
@@ -555,7 +579,7 @@ def _join_predictions(df, preds, col, runs_path, preds_path):
             "exactly one prediction."
         )
     right = keys.assign(**{"_pred": preds[col].to_numpy()})
-    joined = _join_keys(df).merge(
+    joined = _join_keys(df, time_dtype).merge(
         right, on=["run", "time_s"], how="left", indicator=True
     )
     have = (joined["_merge"] == "both").to_numpy()
