@@ -36,6 +36,16 @@ def test_matches_textbook_iteration(m):
     assert res.n_iter == 7
 
 
+def test_zero_tol_stops_at_a_fixed_point():
+    # tol=0 ("no membership changes by more than 0") ran every one of
+    # max_iter iterations after the memberships had stopped changing.
+    X, _ = make_blobs(60, centers=3, random_state=0)
+    res = fuzzy_cmeans(X, 3, tol=0, max_iter=100_000, random_state=0)
+    assert res.n_iter < 2_000
+    again = fuzzy_cmeans(X, 3, tol=0, init=res.memberships, max_iter=100_000)
+    assert again.n_iter <= 10
+
+
 def test_recovers_blobs_and_objective_decreases():
     X, truth = make_blobs(300, centers=4, cluster_std=0.5, random_state=1)
     res = fuzzy_cmeans(X, 4, n_init=3, random_state=0)

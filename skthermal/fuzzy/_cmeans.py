@@ -185,7 +185,7 @@ def _fcm_single(X, u, m, tol, max_iter, w, x_sq, gram):
         u -= u_new
         shift = max(u.max(), -u.min())
         u = u_new
-        if shift < tol:
+        if shift <= tol:
             break
     return A @ X, u, np.asarray(history), n_iter
 
@@ -217,7 +217,8 @@ def fuzzy_cmeans(
     m : float > 1, default=2.0
         Fuzzifier; m -> 1 approaches k-means, larger m gives softer partitions.
     tol : float, default=1e-5
-        Stop when the largest change of any membership is below ``tol``.
+        Stop when the largest change of any membership is at most ``tol``
+        (``0``: at a fixed point).
     max_iter : int, default=300
     n_init : int, default=1
         Number of initialisations; the partition with the least objective wins.
