@@ -73,6 +73,18 @@ def _messages(caught, category):
     return [str(w.message) for w in caught if issubclass(w.category, category)]
 
 
+@pytest.mark.parametrize("column", ["run", "time_s"])
+def test_a_run_column_beside_the_run_index_is_taken_once(train, column):
+    # X indexed by (run, time_s) with the level joined back as a column:
+    # pandas' "The name run occurs multiple times" from inside the guard,
+    # while every other estimator took the column.
+    X, y = train
+    plain = GuardedRegressor(LinearRegression()).fit(X, y)
+    both = X.assign(**{column: X.index.get_level_values(column)})
+    guard = GuardedRegressor(LinearRegression()).fit(both, y)
+    np.testing.assert_allclose(guard.predict(both), plain.predict(X))
+
+
 # --- no false alarms --------------------------------------------------------
 
 

@@ -847,6 +847,15 @@ def with_run_index(X, groups=None):
         X = as_pandas(X)  # a polars frame's run and times: into an index
     if isinstance(X, pd.DataFrame):
         moved = [c for c in (RUN_COLUMN, TIME_COLUMN) if c in X.columns]
+        # A column and an index level of one name: the column, as
+        # extract_runs takes it (the level would be there twice).
+        twice = [n for n in X.index.names if n in moved]
+        if twice:
+            X = (
+                X.droplevel(twice)
+                if X.index.nlevels > len(twice)
+                else X.reset_index(drop=True)
+            )
         kept = [
             n
             for n in X.index.names
