@@ -1,5 +1,6 @@
 """Tests of skthermal.datasets: run-table validation, I/O, splitting, loaders."""
 
+import decimal
 import gzip
 import json
 import re
@@ -131,6 +132,56 @@ def test_duplicated_columns(runs):
     df = pd.concat([runs, runs[["T1_C"]]], axis=1)
     with pytest.raises(ValueError, match=r"duplicated columns: \['T1_C'\]"):
         validate_runs(df)
+
+
+@pytest.mark.parametrize(
+    "function",
+    [validate_runs, changes_since_start, split_runs],
+    ids=lambda f: f.__name__,
+)
+def test_two_header_rows_are_named(runs, function):
+    # pandas.read_csv(..., header=[0, 1]) on a file with a row of units:
+    # "no temperature sensor column" (T1_C was there) and a TypeError from
+    # inside pandas.
+    df = runs.copy()
+    df.columns = pd.MultiIndex.from_arrays([df.columns, ["unit"] * df.shape[1]])
+    with pytest.raises(ValueError, match=r"columns of 2 levels .* df\.columns = "):
+        function(df)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            lambda d: d.assign(time_s=pd.to_timedelta(d["time_s"], unit="s")),
+            r"'time_s' holds timedelta64\S* values .*\.dt\.total_seconds\(\)",
+        ),
+        (
+            lambda d: d.assign(
+                time_s=pd.Timestamp("2024-03-01", tz="UTC")
+                + pd.to_timedelta(d["time_s"], unit="s")
+            ),
+            r"'time_s' holds datetime64\S*, UTC\] values .*'first'\)\)",
+        ),
+        (
+            lambda d: d.assign(T1_C=[decimal.Decimal(str(v)) for v in d["T1_C"]]),
+            r"'T1_C' .* numbers stored as Python objects, e.g. Decimal\('\S+'\) "
+            r"at run \S+, time_s 0\.0 \(row 0\); convert them, e.g. "
+            r"df\['T1_C'\] = df\['T1_C'\]\.astype\(float\)",
+        ),
+        (
+            lambda d: d.assign(T1_C=d["T1_C"] > 20.5),
+            r"'T1_C' .* dtype bool: run \S+, time_s 0\.0 \(row 0\) holds (True|False);"
+            r" a run table holds readings as numbers",
+        ),
+    ],
+    ids=["timedelta", "datetime", "decimal", "bool"],
+)
+def test_columns_of_other_kinds_are_named_with_the_conversion(runs, change, message):
+    # "Column 'time_s' must be numeric but has dtype timedelta64[us]." said
+    # neither a value nor what to do.
+    with pytest.raises(ValueError, match=message):
+        validate_runs(change(runs))
 
 
 def test_empty_table(runs):

@@ -30,6 +30,7 @@ from skthermal.utils._runs import (
     check_frame,
     check_labels,
     driver_lookalike,
+    refuse_clock_values,
     unreadable,
     warn_air_unit,
     warn_odd_times,
@@ -314,8 +315,24 @@ def _check_numeric(df, columns):
             )
         if pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col):
             continue
+        refuse_clock_values(
+            col,
+            f"Column {name!r}",
+            "the seconds since each run's first row, t = df['time_s']; "
+            "df['time_s'] = (t - t.groupby(df['run']).transform('first'))"
+            ".dt.total_seconds()"
+            if name == TIME
+            else f"df[{name!r}].dt.total_seconds()",
+        )
         where = ""
-        if not pd.api.types.is_bool_dtype(col):
+        if pd.api.types.is_bool_dtype(col):
+            where = (
+                f": {_where(df, 0)} holds {plain(col.iloc[0])!r}; a run table "
+                "holds readings as numbers (a flag is not a sensor, a driver or "
+                f"a displacement): give numbers, e.g. df[{name!r}].astype(float), "
+                "or name the column otherwise"
+            )
+        else:
             coerced = pd.to_numeric(col, errors="coerce")
             bad = np.flatnonzero(coerced.isna().to_numpy() & col.notna().to_numpy())
             if bad.size:
@@ -341,6 +358,15 @@ def _check_numeric(df, columns):
                         "are in its column names (time_s, T<name>_C, "
                         "disp_<axis>_um)"
                     )
+            elif col.notna().any():
+                # Numbers stored as Python objects: Decimal (a database's or
+                # Spark's Parquet), floats in an object column.
+                i = int(np.flatnonzero(col.notna().to_numpy())[0])
+                where = (
+                    f": numbers stored as Python objects, e.g. "
+                    f"{col.iloc[i]!r} at {_where(df, i)}; convert them, e.g. "
+                    f"df[{name!r}] = df[{name!r}].astype(float)"
+                )
         raise ValueError(
             f"Column {name!r} must be numeric but has dtype {col.dtype}{where}."
         )

@@ -105,6 +105,19 @@ DECIMAL_COMMA = re.compile(r"\s*[-+]?[0-9]*,[0-9]+\s*")
 ABSOLUTE_ZERO_C = -273.15
 
 
+def check_flat_columns(columns, what="The run table", name="df"):
+    """Raise a ValueError when ``columns`` has several levels (a MultiIndex,
+    as ``pandas.read_csv(..., header=[0, 1])`` gives for a row of units),
+    with the way to flatten them (``name``: the frame's name in the hint)."""
+    if getattr(columns, "nlevels", 1) > 1:
+        raise ValueError(
+            f"{what} has columns of {columns.nlevels} levels (a MultiIndex, e.g. "
+            f"{columns[0]!r}); a run table has one name per column. Flatten "
+            f"them first, e.g. {name}.columns = ['_'.join(map(str, c)) for c in "
+            f"{name}.columns]."
+        )
+
+
 def check_unique_columns(df, what="The run table"):
     """Raise a ValueError naming the columns ``df`` holds more than once."""
     duplicated = df.columns[df.columns.duplicated()].unique().tolist()
@@ -358,6 +371,7 @@ def check_frame(df, what="A run table"):
     import pandas as pd
 
     if isinstance(df, pd.DataFrame):
+        check_flat_columns(df.columns, what)
         check_unique_columns(df, what)
         return
     kind = type(df).__name__
@@ -436,13 +450,7 @@ def extract_runs(X, groups=None, *, finite=True, y=None):
         )
     X, y = as_pandas(X), as_pandas(y)
     columns = getattr(X, "columns", None)
-    if getattr(columns, "nlevels", 1) > 1:
-        raise ValueError(
-            f"X has columns of {columns.nlevels} levels (a MultiIndex, e.g. "
-            f"{columns[0]!r}); a run table has one name per column. Flatten "
-            "them first, e.g. X.columns = ['_'.join(map(str, c)) for c in "
-            "X.columns]."
-        )
+    check_flat_columns(columns, "X", "X")
     given_index = getattr(X, "index", None)
     if columns is not None and not columns.is_unique:
         duplicated = list(dict.fromkeys(columns[columns.duplicated()]))
