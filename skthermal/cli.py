@@ -497,8 +497,9 @@ def _add_gap(sub):
     p.add_argument(
         "--runs",
         metavar="FILE",
-        help="real run table (required): run, time_s, spindle_rpm, ambient_C "
-        "(feed_mm_min) and the measured channels -- temperatures T*_C and/or "
+        help="real run table (required, but for --list-effects): run, time_s, "
+        "spindle_rpm, ambient_C (feed_mm_min) and the measured channels -- "
+        "temperatures T*_C and/or "
         "displacements disp_*_um",
     )
     p.add_argument(
