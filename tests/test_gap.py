@@ -443,9 +443,10 @@ def test_mapping_renamed_channels(tool_case, caplog):
     assert any(m.startswith("Verdict:") for m in messages)
 
 
-def test_validate_reports_cases_rates_and_targets():
+def test_validate_reports_cases_rates_and_targets(caplog):
     # Fast version of the validation below (short runs, screening only): the
     # report's plumbing, not the diagnosis's power.
+    caplog.set_level(logging.INFO, logger="skthermal.gap")
     report = validate(
         ["tool_growth"],
         seeds=1,
@@ -467,6 +468,15 @@ def test_validate_reports_cases_rates_and_targets():
         "null called none >= 90%",
     }
     assert "Confusion" in report.to_markdown()
+    # Progress from the calling process, one line per case (with n_jobs the
+    # workers' step lines never reached `skthermal gap-check`'s stderr).
+    cases = [r.getMessage() for r in caplog.records if r.getMessage()[:5] == "Case "]
+    assert len(cases) == 2
+    assert cases[0].startswith("Case 1 of 2 (effect tool_growth, seed ")
+    assert cases[1].startswith("Case 2 of 2 (null none, seed ")
+    assert cases[1].endswith(
+        "named none, top candidate " + report.cases["top_candidate"].iloc[1]
+    )
 
 
 @pytest.mark.slow

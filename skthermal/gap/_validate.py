@@ -7,6 +7,7 @@ the true one is not among its candidates.
 """
 
 import dataclasses
+import logging
 import zlib
 from dataclasses import dataclass, field
 from numbers import Real
@@ -25,6 +26,8 @@ from skthermal.simulate import (
     ThermalMachine,
 )
 from skthermal.utils._threads import with_single_threaded_blas
+
+logger = logging.getLogger("skthermal.gap")
 
 # Effect parameter scaled by the strength of a validation case; drift gets a
 # visible default (the simulator's 0.01 °C/h is below the sensor noise).
@@ -410,12 +413,27 @@ def validate(
                     cands,
                 )
             )
-    rows = Parallel(n_jobs=n_jobs)(
+    # One line per finished case, from this process: with n_jobs the
+    # workers' own step lines do not reach the caller's log.
+    rows = []
+    results = Parallel(n_jobs=n_jobs, return_as="generator")(
         delayed(_one_case)(
             kind, effect, seed, strength, preset, n_runs, hours, cands, diagnose_kwargs
         )
         for kind, effect, seed, strength, cands in jobs
     )
+    for row in results:
+        rows.append(row)
+        logger.info(
+            "Case %d of %d (%s %s, seed %d): named %s, top candidate %s",
+            len(rows),
+            len(jobs),
+            row["case"],
+            row["truth"],
+            row["seed"],
+            row["diagnosis"],
+            row["top_candidate"],
+        )
     cases = pd.DataFrame(rows)
     confusion = pd.crosstab(cases["case"] + ": " + cases["truth"], cases["diagnosis"])
     eff = cases[cases["case"] == "effect"]
