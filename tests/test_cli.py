@@ -137,6 +137,26 @@ def test_run_labels_with_spaces_can_be_chosen(capsys, tmp_path):
     assert status == 2 and "without commas" in err
 
 
+def test_a_run_label_with_a_comma_is_chosen_whole(capsys, tmp_path):
+    # Runs 'A,1', 'A' and '1' (a table made elsewhere): --train-runs "A,1"
+    # trained on runs A and 1, without a word, and 'A,1' could not be named.
+    from skthermal.datasets import concat_runs, read_runs, write_runs
+
+    runs = tmp_path / "r.csv"
+    argv = ["simulate", "--segment", "6000:1h,0:30min", "--sample-period", "240"]
+    assert _run(capsys, *argv, "--out", runs)[0] == 0
+    one = read_runs(runs)
+    table = concat_runs([one.assign(run=label) for label in ("A,1", "A", "1")])
+    write_runs(table, runs)
+    fit = ["fit", "--runs", runs, "--model", "ridge", "--sensors", "T05_C,T40_C"]
+    fit += ["--out", tmp_path / "m.joblib", "--train-runs"]
+    status, text, err = _run(capsys, *fit, "A,1")
+    assert status == 0, err
+    assert "runs A,1;" in text and "runs A, 1" not in text
+    status, text, err = _run(capsys, *fit, "A, 1")  # as separated labels
+    assert status == 0 and "runs A, 1;" in text
+
+
 def test_simulate_refuses_a_segment_too_long_to_hold(capsys, tmp_path):
     # It printed numpy's MemoryError traceback (894 GiB).
     argv = ["simulate", "--preset", "spindle-rig", "--segment", "4000:1e9h"]

@@ -26,12 +26,17 @@ class UserError(Exception):
 def split_list(value, keep=()):
     """``"a, b"`` or ``["a,b", "c"]`` -> ``["a", "b", "c"]``: commas
     separate, spaces around the items are dropped (a run label may hold
-    spaces: ``"test 1"``), unless an item with them is one of ``keep``."""
+    spaces: ``"test 1"``), unless an item with them is one of ``keep``. An
+    item that is one of ``keep`` as a whole is not split (a run label with
+    a comma: ``"A,1"``)."""
     if value is None:
         return None
     items = [value] if isinstance(value, str) else list(value)
     out = []
     for item in items:
+        if "," in item and (item in keep or item.strip() in keep):
+            out.append(item if item in keep else item.strip())
+            continue
         for v in item.split(","):
             v = v if v in keep else v.strip()
             if v:
