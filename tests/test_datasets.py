@@ -1117,6 +1117,50 @@ def test_csv_refuses_labels_it_cannot_read_back(tmp_path, labels, message):
     assert not path.exists()
 
 
+def test_csv_refuses_integer_labels_of_over_18_digits(tmp_path):
+    # uint64 test ids above 2**63 - 1 read back as text: a model that had
+    # remembered those runs took the re-read ones as new runs.
+    df = _labelled([2**64 - 2, 2**64 - 1]).astype({"run": "uint64"})
+    with pytest.raises(ValueError, match=r"Run label 18446744073709551614 .* text"):
+        write_runs(df, tmp_path / "runs.csv")
+    assert not (tmp_path / "runs.csv").exists()
+    small = _labelled([10**18 - 2, 10**18 - 1]).astype({"run": "uint64"})
+    write_runs(small, tmp_path / "runs.csv")
+    assert read_runs(tmp_path / "runs.csv")["run"].tolist() == small["run"].tolist()
+
+
+@pytest.mark.parametrize(
+    "labels, shown",
+    [
+        (
+            pd.to_datetime(["2024-03-01 08:00", "2024-03-02 08:00"]),
+            r"Timestamp\('2024-03-01 08:00:00'\) \(Timestamp\).* "
+            r"df\['run'\]\.dt\.strftime",
+        ),
+        ([b"a", b"b"], r"b'a' \(bytes\).* df\['run'\]\.astype\(str\)"),
+        ([(1, 2), (3, 4)], r"\(1, 2\) \(tuple\)"),
+        ([decimal.Decimal("1"), decimal.Decimal("2")], r"Decimal\('1'\) \(Decimal\)"),
+        ([np.inf, 1.0], r"inf \(float\)"),
+        (["", "a"], r"'' \(an empty string\)"),
+    ],
+    ids=["dates", "bytes", "tuples", "decimal", "inf", "empty"],
+)
+def test_run_labels_no_file_stores_are_refused(tmp_path, labels, shown):
+    # Dates as run labels passed read_runs, fit and evaluate, and then
+    # skthermal predict could write them neither to CSV nor to Parquet.
+    df = _labelled(["a", "b"])
+    repeated = [label for label in labels for _ in range(2)]
+    df["run"] = (
+        pd.to_datetime(repeated)
+        if isinstance(labels, pd.DatetimeIndex)
+        else pd.Series(repeated, dtype=object)
+    )
+    with pytest.raises(
+        ValueError, match=r"Column 'run': row 0 has the run label " + shown
+    ):
+        validate_runs(df)
+
+
 @pytest.mark.parametrize("name", ["runs.parquet", "runs.csv"])
 @pytest.mark.parametrize(
     "labels, message",

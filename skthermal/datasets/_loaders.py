@@ -550,6 +550,14 @@ def _check_csv_labels(labels):
                 "Run label '' (an empty string) cannot be written to CSV: an "
                 "empty field reads back as a missing label. Name the run."
             )
+        if isinstance(value, Integral) and abs(int(value)) >= 10**18:
+            raise ValueError(
+                f"Run label {int(value)} cannot be written to CSV and read back "
+                "as it is: a whole number of more than 18 digits reads back as "
+                "text. "
+                "Convert the labels, e.g. df['run'] = df['run'].astype(str), "
+                "or write Parquet."
+            )
     return all(
         isinstance(v, str) and _CANONICAL_INT.fullmatch(v) is not None for v in unique
     )

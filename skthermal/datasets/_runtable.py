@@ -11,6 +11,7 @@ the column, the run and the row.
 
 import re
 import warnings
+from numbers import Real
 
 import numpy as np
 import pandas as pd
@@ -401,6 +402,33 @@ def check_label_kinds(run):
         ) from None
 
 
+def _check_label_values(run, codes, uniques):
+    """Raise a ValueError, naming the first row, unless every run label is a
+    string or a finite real number (DATA_FORMAT: str or int): dates, times,
+    bytes, tuples, ``Decimal`` or complex labels pass the estimators but no
+    run table file stores them as they are, so ``skthermal predict`` and
+    ``write_runs`` failed on tables ``read_runs`` and ``fit`` had taken."""
+    values = np.asarray(uniques, dtype=object)
+    for k, value in enumerate(values):
+        real = isinstance(value, Real) and not isinstance(value, bool | np.bool_)
+        if isinstance(value, str) and value != "":
+            continue
+        if real and np.isfinite(value):
+            continue
+        row = int(np.flatnonzero(codes == k)[0])
+        what = "an empty string" if value == "" else type(value).__name__
+        convert = (
+            "df['run'].dt.strftime('%Y-%m-%d %H:%M')"
+            if pd.api.types.is_datetime64_any_dtype(run.dtype)
+            else "df['run'].astype(str)"
+        )
+        raise ValueError(
+            f"Column 'run': row {row} has the run label {plain(value)!r} ({what}); "
+            "run labels are strings or numbers (DATA_FORMAT), which run table "
+            f"files store as they are. Convert them, e.g. df['run'] = {convert}."
+        )
+
+
 def _check_runs(df):
     """Run labels present and of one kind, runs contiguous and longer than
     one row."""
@@ -412,7 +440,8 @@ def _check_runs(df):
             f"{missing[0]}; every row needs a run label."
         )
     check_label_kinds(run)
-    codes, _ = pd.factorize(run)
+    codes, uniques = pd.factorize(run)
+    _check_label_values(run, codes, uniques)
     n = codes.shape[0]
     starts = np.concatenate(([0], np.flatnonzero(codes[1:] != codes[:-1]) + 1))
     stops = np.concatenate((starts[1:], [n]))
