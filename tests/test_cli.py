@@ -157,6 +157,37 @@ def test_a_run_label_with_a_comma_is_chosen_whole(capsys, tmp_path):
     assert status == 0 and "runs A, 1;" in text
 
 
+@pytest.mark.parametrize(
+    "true, false, chosen",
+    [
+        ("True", "False", 2),
+        ("yes", "no", 2),
+        ("1.0", "0.0", 2),
+        ("WAHR", "FALSCH", "row 1 has selected = 'WAHR'"),
+        ("x", "", "row 1 has selected = 'x'"),
+    ],
+)
+def test_a_sensors_file_edited_by_hand_selects_what_it_says(
+    capsys, workdir, tmp_path, true, false, chosen
+):
+    # 'selected' read with astype(bool): any non-empty text was True, so a
+    # file saved by a German spreadsheet (WAHR/FALSCH) trained on every
+    # sensor listed, silently.
+    sensors = tmp_path / "sensors.csv"
+    flags = [true, false, true, false]
+    pd.DataFrame(
+        {"sensor": ["T05_C", "T40_C", "T70_C", "T20_C"], "selected": flags}
+    ).to_csv(sensors, index=False)
+    argv = ["fit", "--runs", workdir / "tests.csv", "--model", "ridge", "--quick"]
+    argv += ["--sensors", sensors, "--out", tmp_path / "m.joblib"]
+    status, text, err = _run(capsys, *argv)
+    if isinstance(chosen, int):
+        assert status == 0, err
+        assert f"on {chosen} sensor(s)" in text
+    else:
+        assert status == 2 and chosen in err and "True or False" in err
+
+
 def test_simulate_refuses_a_segment_too_long_to_hold(capsys, tmp_path):
     # It printed numpy's MemoryError traceback (894 GiB).
     argv = ["simulate", "--preset", "spindle-rig", "--segment", "4000:1e9h"]

@@ -179,6 +179,27 @@ def run_mask(df, runs, option="--train-runs"):
     return labels.isin(wanted).to_numpy()
 
 
+# How a sensors.csv file edited by hand (or by a spreadsheet) says whether
+# a sensor is selected; anything else is an error, not "selected" (any
+# non-empty text, 'FALSCH' or 'no', was True).
+_SELECTED = {"true": True, "1": True, "yes": True, "false": False, "0": False}
+_SELECTED |= {"no": False, "1.0": True, "0.0": False}
+
+
+def _selected_flags(column, path):
+    """The ``selected`` column of a sensors file as booleans."""
+    text = column.str.strip().str.lower()
+    known = text.isin(list(_SELECTED))
+    if not known.all():
+        i = int(np.flatnonzero(~known.to_numpy())[0])
+        raise UserError(
+            f"--sensors {path}: row {i + 1} has selected = {column.iloc[i]!r}; "
+            "write True or False (also 1/0, yes/no) in the 'selected' column, "
+            "or leave the column out to take every sensor listed."
+        )
+    return text.map(_SELECTED).astype(bool).to_numpy()
+
+
 def read_sensor_list(value, df):
     """Sensor names from ``--sensors``: a comma list or a select output file."""
     from skthermal.datasets import driver_columns, sensor_columns
@@ -194,11 +215,17 @@ def read_sensor_list(value, df):
                 raise UserError(f"--sensors {path}: not valid JSON ({exc})") from exc
             names = doc.get("sensors") if isinstance(doc, dict) else doc
         else:
-            table = pd.read_csv(path)
+            table = pd.read_csv(path, keep_default_na=False, dtype=str)
             if "sensor" not in table.columns:
-                raise UserError(f"--sensors {path}: no 'sensor' column.")
+                hint = (
+                    f" (its header {table.columns[0]!r} holds ';': separate the "
+                    "columns with commas, as 'skthermal select' writes them)"
+                    if len(table.columns) == 1 and ";" in table.columns[0]
+                    else ""
+                )
+                raise UserError(f"--sensors {path}: no 'sensor' column{hint}.")
             if "selected" in table.columns:
-                table = table[table["selected"].astype(bool)]
+                table = table[_selected_flags(table["selected"], path)]
             names = table["sensor"].tolist()
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             raise UserError(
