@@ -879,6 +879,23 @@ def test_backprop_does_not_depend_on_an_offset_of_the_inputs():
         np.testing.assert_allclose(model.predict(X + off), base, atol=1e-6)
 
 
+@pytest.mark.parametrize("init", ["fcm", "grid"])
+def test_an_input_constant_in_training_moves_no_prediction(init):
+    # A sensor stuck throughout training: taken as given it was a second
+    # constant term, and the consequents' least squares gave it a slope the
+    # data never set (the stuck sensor reading 1 K more moved a grid ANFIS
+    # by -34 um on a target spanning 0-59 um).
+    rng = np.random.default_rng(0)
+    X = np.c_[rng.uniform(0, 5, (300, 2)), np.full(300, 20.0)]
+    y = 4.0 * X[:, 0] + np.sin(X[:, 1])
+    model = ANFISRegressor(init=init, n_clusters=3, epochs=10, random_state=0)
+    model.fit(X, y)
+    assert model.score(X, y) > 0.9
+    moved = X.copy()
+    moved[:, 2] += 1.0
+    np.testing.assert_allclose(model.predict(moved), model.predict(X), atol=1e-6)
+
+
 def test_backprop_does_not_depend_on_the_target_unit():
     # A target in nanometres instead of micrometres (or a larger machine):
     # the normalised step moved the consequents in the target's units, so
