@@ -610,10 +610,12 @@ def warn_odd_times(codes, times, late_start=True, minutes=True):
         warnings.warn(
             f"Column 'time_s' is the time since each run's start, but "
             f"{late.size} of the {first.size} runs do not start at 0 (they start "
-            f"at {late.min():g} to {late.max():g} s): a clock's time? Subtract "
-            "each run's first time. Models of runs read a run that does not "
-            "start at 0 as the later part of a run and say so when they predict "
-            "it.",
+            f"at {late.min():g} to {late.max():g} s): a clock's time? Then "
+            "subtract each run's first time. Rows that continue runs a model was "
+            "fitted on keep their times: the model goes on from where the run "
+            "left off (with the times restarted it would start the runs anew). "
+            "Models of runs read any other run that does not start at 0 as the "
+            "later part of a run and say so when they predict it.",
             UserWarning,
             stacklevel=user_stacklevel(),
         )
