@@ -50,9 +50,14 @@ def _tables(rng, truth="null", n_runs=4, hours=6.0, noise=0.01):
         dz = 4.0 * heat + 2.0 * _lowpass(heat, 7200.0)
         sim = np.column_stack([T1, T2, dz])
         true = 1.1 * sim + np.array([0.3, -0.2, 5.0])
-        if truth == "tool_growth":
+        if truth in ("tool_growth", "slow_tool_growth"):
             rise = dz - dz[0]
-            true[:, 2] -= 0.3 * _lowpass(np.sqrt(rpm / 1000) * rise, 600.0)
+            tau = 600.0 if truth == "tool_growth" else 4800.0
+            true[:, 2] -= 0.3 * _lowpass(np.sqrt(rpm / 1000) * rise, tau)
+        elif truth == "steep_speed_convection":
+            # Convection growing as n^3: beyond the term's exponents.
+            rise = sim - sim[0]
+            true -= 0.03 * _lowpass((rpm / 1000)[:, None] ** 3 * rise, 3600.0)
         elif truth == "sensor_lag":
             true[:, :2] = _lowpass(true[:, :2], 900.0)
         y = true + noise * rng.standard_normal(true.shape) * [1, 1, 10]
@@ -234,21 +239,28 @@ def test_sensor_lag_is_named(rng):
     assert "Alone, 'sensor_drift' (51%) also pass(es) the test" in both.verdict()
 
 
-def test_a_named_effect_on_its_range_end_is_said(rng):
-    # A fitted parameter stopped by its range fits something else; the
-    # verdict did not say so (an independent truth's tool cooling named
-    # 'speed_convection').
+def test_a_candidate_stopped_by_its_range_is_not_named(rng):
+    # A fitted parameter stopped by its range fits something else: the
+    # verdict said so but named it all the same (independent truths: a
+    # hydraulic load named 'feed_heating' at its 4 h time constant, a
+    # coolant load 'speed_convection' at its largest exponent). Here the
+    # convection grows as n^3, beyond the term's exponents (0.5-1.5).
     sim, meas = _tables(rng, "sensor_lag")
     report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
     assert report.best_effect == "sensor_lag"
     assert report.ranking["on_bound"].iloc[0] == ""
     assert "range's end" not in report.verdict()
-    evidence = dict(report.how_far_evidence, on_bound="tau_s = 7200 (the upper end)")
-    ended = dataclasses.replace(report, how_far_evidence=evidence)
+    sim, meas = _tables(np.random.default_rng(2), "steep_speed_convection")
+    report = diagnose_runs(sim, meas, candidates=["speed_convection"], greedy=False)
+    top = report.ranking.iloc[0]
+    assert top["shrink"] > 0.5 and top["p_value"] < 0.05  # it would pass
+    assert top["on_bound"].startswith("exponent = 1.5 (the upper end")
+    assert report.best_effect is None and not top["explains"]
     assert (
-        "Its fitted tau_s = 7200 (the upper end) sits on its range's end"
-        in ended.verdict()
-    )
+        "The fitted exponent = 1.5 (the upper end of 0.5-1.5) of "
+        "'speed_convection' sits on its range's end, where the range stopped it"
+    ) in report.verdict()
+    assert "a candidate so stopped is not named" in report.verdict()
 
 
 def test_null_gain_and_offset_call_none(rng):

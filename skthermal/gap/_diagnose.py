@@ -247,8 +247,11 @@ def _evaluate(
         per_sensor = drift_table(ctx.problem, per_fold)
     else:
         row["fitted"] = np.nan
+    # The ThermalMachine mode's range (0.05 to 20 times the machine's value)
+    # has no end physics reaches: on either, the range stopped the fit.
+    row["stopped"] = row["on_bound"]
     row["ruled_out"] = ruled_out(candidate, row["fitted"], per_sensor)
-    row["explains"] = row["explains"] and not row["ruled_out"]
+    row["explains"] = row["explains"] and not row["ruled_out"] and not row["stopped"]
     signature = None
     if candidate not in RESIDUAL_EFFECTS:
         # What the candidate adds to the prediction of every run, per fold:
@@ -834,7 +837,7 @@ def _how_far(ctx, screen, rules, fine, n_jobs):
     # The ranking's columns: the held-out ones of this comparison, the
     # in-sample evidence and the fitted parameter of the screening.
     row = {**screen.evaluations[focus].row, **row}
-    row["explains"] = row["explains"] and not row["ruled_out"]
+    row["explains"] = row["explains"] and not row["ruled_out"] and not row["stopped"]
     row["calibration"] = "fine" if fine else "screening"
     _log_row("How far", row)
     return HowFar(row, regimes, before_R, after_R)

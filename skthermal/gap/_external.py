@@ -623,11 +623,14 @@ def _evaluate(signals, folds, with_terms, before_R, before_in, name, ctx):
             names = names[signals.is_temp] if names.size else range(rates.size)
             per_sensor = dict(zip(names, rates, strict=True))
     row["ruled_out"] = ruled_out(name, row["fitted"], per_sensor)
-    row["on_bound"] = on_bound(row["fitted"], TERMS[name].bounds)
+    term = TERMS[name]
+    row["on_bound"] = on_bound(row["fitted"], term.bounds)
+    row["stopped"] = on_bound(row["fitted"], term.bounds, term.open_ends)
     row["explains"] = (
         bool(shrink >= min_shrink and p < alpha)
         and beyond_noise(gap_b, floor2)
         and not row["ruled_out"]
+        and not row["stopped"]
     )
     rb = regime_gaps(before_R, regimes) if before_regimes is None else before_regimes
     ra = regime_gaps(after_R, regimes)
@@ -712,6 +715,7 @@ class ExternalGapReport(GapReport):
                     f"excess held-out gap: {evidence})."
                 )
                 + self._ruled_out_text(row)
+                + self._stopped_text(row)
                 + self._within_noise_text(row)
             )
         text = (

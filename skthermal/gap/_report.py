@@ -447,7 +447,12 @@ class GapReport:
                 f"the excess held-out gap {how}: {evidence}"
                 f"{self._flexible_text(fine)})."
             )
-            return text + self._ruled_out_text(fine) + self._within_noise_text(fine)
+            return (
+                text
+                + self._ruled_out_text(fine)
+                + self._stopped_text(fine)
+                + self._within_noise_text(fine)
+            )
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
             f"{percent(fine['shrink'])} of the held-out gap above the noise floor "
@@ -541,14 +546,29 @@ class GapReport:
     @staticmethod
     def _bound_text(row):
         """The verdict's sentence on a named effect whose fitted parameter
-        sits on an end of its range (``""`` when none does)."""
+        sits on an end of its range that physics reaches (``""`` when none
+        does; on any other end it is not named)."""
         if not row.get("on_bound"):
             return ""
         return (
-            f" Its fitted {row['on_bound']} sits on its range's end, where the "
-            "range stopped it, not the runs: it may stand in for something "
-            "else, such as the same physics elsewhere or on another time "
-            "scale; weigh the other candidates that pass."
+            f" Its fitted {row['on_bound']} sits on its range's end: it may "
+            "stand in for something else, such as the same physics elsewhere "
+            "or on another time scale; weigh the other candidates that pass."
+        )
+
+    @staticmethod
+    def _stopped_text(row):
+        """The verdict's sentence on the best candidate whose fitted
+        parameter the range stopped, which keeps it from being named
+        (``""`` when none did)."""
+        if not row.get("stopped"):
+            return ""
+        return (
+            f" The fitted {row['stopped']} of {row['effect']!r} sits on its "
+            "range's end, where the range stopped it, not the runs: it may "
+            "stand in for something else, such as the same physics elsewhere "
+            "or on another time scale, or a load the candidates do not "
+            "describe, and a candidate so stopped is not named."
         )
 
     @staticmethod
@@ -681,10 +701,12 @@ class GapReport:
             else []
         )
         ruled_out += [
-            f"- `{effect}`: its fitted {which} sits on its range's end."
-            for effect, which in zip(
+            f"- `{effect}`: its fitted {which} sits on its range's end"
+            + (" (stopped there by the range: not named)." if stopped else ".")
+            for effect, which, stopped in zip(
                 ranking["effect"],
                 ranking.get("on_bound", [""] * len(ranking)),
+                ranking.get("stopped", [""] * len(ranking)),
                 strict=True,
             )
             if which

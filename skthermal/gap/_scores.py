@@ -52,12 +52,14 @@ MAX_SENSOR_LAG_S = 3600.0
 ON_BOUND_LOG = 0.02
 
 
-def on_bound(values, bounds):
+def on_bound(values, bounds, open_ends=None):
     """``"tau_s = 1200 (the lower end of 1200-28800)"`` for the parameters of
     ``values`` (name -> fitted value) that sit on an end of their ``bounds``
     (name -> (low, high), both positive), joined by "; "; ``""`` for none.
     A parameter on its bound was stopped by the range, not by the data: the
-    term may stand in for something else.
+    term may stand in for something else. ``open_ends`` (name -> "lower"
+    or "upper"): ends left out, which physics reaches (a term's own value
+    may lie there).
 
     Examples
     --------
@@ -72,6 +74,8 @@ def on_bound(values, bounds):
         if low is None or not (np.isfinite(value) and value > 0):
             continue
         for end, which in ((low, "lower"), (high, "upper")):
+            if (open_ends or {}).get(name) == which:
+                continue
             if abs(np.log(value / end)) <= ON_BOUND_LOG:
                 span = f"{low:g}-{high:g}"
                 said.append(f"{name} = {value:.4g} (the {which} end of {span})")

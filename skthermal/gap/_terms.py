@@ -178,6 +178,11 @@ class DiscrepancyTerm:
 
     name = "base"
     bounds = {}
+    # Ends of ``bounds`` that physics reaches ("lower" or "upper" per
+    # parameter): a fit there may be the term's own value. A fit on any
+    # other end was stopped by the range, not by the runs, and the term is
+    # then not named (it stands in for something else).
+    open_ends = {}
     channels = "all"
     n_signals = 0
     grid = 9
@@ -459,6 +464,7 @@ class SpeedConvection(DiscrepancyTerm):
 
     name = "speed_convection"
     bounds = {"tau_s": (1200.0, 28800.0), "exponent": (0.5, 1.5)}
+    open_ends = {"exponent": "lower"}  # laminar convection: h ~ v^0.5
     channels = "all"
     n_signals = 1
     temperature_sign = -1  # more convection only cools
@@ -481,6 +487,7 @@ class ToolGrowth(DiscrepancyTerm):
 
     name = "tool_growth"
     bounds = {"tau_s": (60.0, 1200.0), "exponent": (0.5, 1.0)}
+    open_ends = {"exponent": "lower"}  # laminar convection: h ~ v^0.5
     channels = "displacement"
     n_signals = 1
     grid = 7
