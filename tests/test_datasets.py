@@ -195,6 +195,12 @@ def test_runs_starting_late_are_told_apart_from_continued_runs(runs):
     assert "Rows that continue runs a model was fitted on keep their times" in text
 
 
+def test_changes_since_start_names_a_column_given_twice(runs):
+    # pandas' "Columns must be same length as key" came from inside.
+    with pytest.raises(ValueError, match=r"columns names \['T1_C'\] more than once"):
+        changes_since_start(runs, columns=["T1_C", "disp_z_um", "T1_C"])
+
+
 def test_empty_table(runs):
     with pytest.raises(ValueError, match="no rows"):
         validate_runs(runs.iloc[:0])

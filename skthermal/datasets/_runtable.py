@@ -1157,6 +1157,9 @@ def changes_since_start(df, columns=None):
     absent = [c for c in columns if c not in df.columns]
     if absent:
         raise ValueError(f"Columns {absent} are not in the table.")
+    twice = list(dict.fromkeys(c for i, c in enumerate(columns) if c in columns[:i]))
+    if twice:
+        raise ValueError(f"columns names {twice} more than once; give each once.")
     _check_numeric(df, columns)
     out = df.copy()
     if not columns or len(df) == 0:
