@@ -792,6 +792,24 @@ def test_read_not_gzip(tmp_path, runs):
         read_runs(path)
 
 
+def test_read_names_a_file_whose_name_hides_its_kind(tmp_path, runs):
+    # Read as text, gzip data was "a '|' separator" and a Parquet file a
+    # stray carriage return.
+    text = runs.to_csv(index=False).encode()
+    (tmp_path / "plain.csv").write_bytes(gzip.compress(text))
+    with pytest.raises(
+        ValueError, match=r"holds gzip-compressed data, .*plain\.csv\.gz"
+    ):
+        read_runs(tmp_path / "plain.csv")
+    (tmp_path / "twice.csv.gz").write_bytes(gzip.compress(gzip.compress(text)))
+    with pytest.raises(ValueError, match=r"compressed twice: .* compressed once"):
+        read_runs(tmp_path / "twice.csv.gz")
+    pytest.importorskip("pyarrow")
+    runs.to_parquet(tmp_path / "table.csv")
+    with pytest.raises(ValueError, match=r"a Parquet file, .* table\.parquet"):
+        read_runs(tmp_path / "table.csv")
+
+
 @pytest.mark.parametrize("newline", [True, False])
 def test_read_csv_cut_mid_line(tmp_path, runs, newline):
     path = tmp_path / "runs.csv"

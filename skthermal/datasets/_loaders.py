@@ -137,6 +137,40 @@ def _raw_bytes(path):
         ) from exc
 
 
+# What a file's first bytes say it is, when that is not CSV text.
+_MAGIC = (
+    (b"\x1f\x8b", "gzip-compressed data", ".gz"),
+    (b"BZh", "bzip2-compressed data", ".bz2"),
+    (b"PK\x03\x04", "a zip archive", ".zip"),
+    (b"\xfd7zXZ\x00", "xz-compressed data", ".xz"),
+    (b"\x28\xb5\x2f\xfd", "zstd-compressed data", ".zst"),
+)
+
+
+def _check_not_binary(path, data):
+    """Raise naming what ``data`` (the CSV bytes of ``path``, decompressed
+    as its name says) is, when its first bytes show a compressed stream or
+    a Parquet file: read as text, they gave a misleading message (a '|'
+    separator, a stray carriage return)."""
+    if data[:4] == b"PAR1":
+        raise ValueError(
+            f"{path}: the file is a Parquet file, not CSV text; name it "
+            f"{path.stem}.parquet to read it as Parquet."
+        )
+    for magic, what, suffix in _MAGIC:
+        if not data.startswith(magic):
+            continue
+        if path.suffix.lower() in _DECOMPRESS:
+            raise ValueError(
+                f"{path}: the file was compressed twice: decompressed, it holds "
+                f"{what}, not CSV text. Write it compressed once."
+            )
+        raise ValueError(
+            f"{path}: the file holds {what}, not CSV text; name it "
+            f"{path.name}{suffix} to read it."
+        )
+
+
 def _csv_fields(line, path):
     try:
         return next(csv.reader([line]), [])
@@ -366,6 +400,7 @@ def _read_csv(path, labels=None):
             f"{path}: empty file: it holds no run table (expected a CSV header "
             "line and rows)."
         )
+    _check_not_binary(path, data)
     _check_utf16(path, data)
     _check_complete(path, data)
     try:
