@@ -39,11 +39,14 @@ def test_matches_textbook_iteration(m):
 def test_zero_tol_stops_at_a_fixed_point():
     # tol=0 ("no membership changes by more than 0") ran every one of
     # max_iter iterations after the memberships had stopped changing.
-    X, _ = make_blobs(60, centers=3, random_state=0)
-    res = fuzzy_cmeans(X, 3, tol=0, max_iter=100_000, random_state=0)
-    assert res.n_iter < 2_000
-    again = fuzzy_cmeans(X, 3, tol=0, init=res.memberships, max_iter=100_000)
-    assert again.n_iter <= 10
+    # Exactly unchanged memberships are rare: their last bits cycle, so the
+    # fixed point is reached within rounding (of most data sets, as these).
+    for seed in range(6):
+        X, _ = make_blobs(60 + 40 * seed, centers=3 + seed % 3, random_state=seed)
+        res = fuzzy_cmeans(X, 3, tol=0, max_iter=20_000, random_state=0)
+        assert res.n_iter < 2_000, seed
+        again = fuzzy_cmeans(X, 3, tol=0, init=res.memberships, max_iter=20_000)
+        assert again.n_iter <= 10, seed
 
 
 def test_recovers_blobs_and_objective_decreases():

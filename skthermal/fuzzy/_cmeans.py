@@ -152,6 +152,12 @@ def _initial_memberships(X, n_clusters, init, m, rng, x_sq):
     )
 
 
+# Memberships (in [0, 1]) that change by no more than this between two
+# iterations change by rounding only: a fixed point (with tol=0 their last
+# bits cycled, and every one of max_iter iterations ran).
+_ROUNDING = 1e-14
+
+
 def _fcm_single(X, u, m, tol, max_iter, w, x_sq, gram):
     """One fuzzy c-means run from memberships ``u`` (n_clusters, n_samples).
 
@@ -185,7 +191,7 @@ def _fcm_single(X, u, m, tol, max_iter, w, x_sq, gram):
         u -= u_new
         shift = max(u.max(), -u.min())
         u = u_new
-        if shift <= tol:
+        if shift <= max(tol, _ROUNDING):
             break
     return A @ X, u, np.asarray(history), n_iter
 
@@ -218,7 +224,7 @@ def fuzzy_cmeans(
         Fuzzifier; m -> 1 approaches k-means, larger m gives softer partitions.
     tol : float, default=1e-5
         Stop when the largest change of any membership is at most ``tol``
-        (``0``: at a fixed point).
+        (``0``: at a fixed point, changes of rounding, 1e-14, aside).
     max_iter : int, default=300
     n_init : int, default=1
         Number of initialisations; the partition with the least objective wins.
