@@ -155,6 +155,31 @@ def test_a_run_label_with_a_comma_is_chosen_whole(capsys, tmp_path):
     assert "runs A,1;" in text and "runs A, 1" not in text
     status, text, err = _run(capsys, *fit, "A, 1")  # as separated labels
     assert status == 0 and "runs A, 1;" in text
+    for given in ("A,1,B", "B,A,1"):  # with other runs: the longest label
+        table = concat_runs([one.assign(run=label) for label in ("A,1", "B")])
+        write_runs(table, runs)
+        status, text, err = _run(capsys, *fit, given)
+        assert status == 0, err
+        assert "runs A,1, B;" in text
+
+
+def test_whole_float_run_labels_are_named_as_integers(capsys, tmp_path):
+    # A Parquet table's float labels 1.0, 2.0: --train-runs 1,2 said they
+    # were not in the table (runs ['1.0', '2.0']), while the estimators
+    # take 1.0 and 1 for the same run.
+    pytest.importorskip("pyarrow")
+    from skthermal.datasets import concat_runs, read_runs
+
+    csv = tmp_path / "r.csv"
+    argv = ["simulate", "--segment", "6000:1h,0:30min", "--sample-period", "240"]
+    assert _run(capsys, *argv, "--out", csv)[0] == 0
+    one = read_runs(csv)
+    table = concat_runs([one.assign(run=float(k)) for k in (1, 2, 3)])
+    table.to_parquet(tmp_path / "r.parquet")
+    fit = ["fit", "--runs", tmp_path / "r.parquet", "--model", "ridge", "--quick"]
+    fit += ["--sensors", "T05_C,T40_C", "--out", tmp_path / "m.joblib"]
+    status, text, err = _run(capsys, *fit, "--train-runs", "1,2")
+    assert status == 0, err
 
 
 @pytest.mark.parametrize(

@@ -32,16 +32,37 @@ def split_list(value, keep=()):
     if value is None:
         return None
     items = [value] if isinstance(value, str) else list(value)
+    keep = set(keep)
     out = []
     for item in items:
-        if "," in item and (item in keep or item.strip() in keep):
-            out.append(item if item in keep else item.strip())
-            continue
-        for v in item.split(","):
-            v = v if v in keep else v.strip()
+        pieces = item.split(",")
+        i = 0
+        while i < len(pieces):
+            # The longest run of pieces that is one of keep as a whole (a
+            # label holding commas, "A,1"), else one piece.
+            for j in range(len(pieces), i, -1):
+                v = ",".join(pieces[i:j])
+                v = v if v in keep else v.strip()
+                if j == i + 1 or v in keep:
+                    break
             if v:
                 out.append(v)
+            i = j
     return out
+
+
+def label_text(run):
+    """Run labels (a Series) as the text the command line names them by:
+    ``str`` of each, a whole number stored as a float (``1.0``, a Parquet
+    file's float labels) as the integer (``1``), as the estimators take
+    ``1.0`` and ``1`` for the same run. An ndarray of objects."""
+    if pd.api.types.is_float_dtype(run.dtype):
+        values = run.to_numpy(float)
+        whole = np.isfinite(values) & (values == np.round(values))
+        text = run.astype(str).to_numpy(object)
+        text[whole] = [str(int(v)) for v in values[whole]]
+        return text
+    return run.astype(str).to_numpy(object)
 
 
 def read_table(path, what="--runs", *, validate=True, allow_missing_sensors=False):
@@ -166,7 +187,7 @@ def pick_target(df, target, path="the run table"):
 
 def run_mask(df, runs, option="--train-runs"):
     """Rows of the runs named in ``runs`` (all rows when None)."""
-    labels = df["run"].astype(str)
+    labels = pd.Series(label_text(df["run"]))
     if not runs:
         return np.ones(len(df), dtype=bool)
     present = list(pd.unique(labels))

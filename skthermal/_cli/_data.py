@@ -16,6 +16,7 @@ from skthermal._cli._common import (
     check_out_path,
     check_out_table,
     check_positive,
+    label_text,
     machine_from_args,
     machine_label,
     parse_effects,
@@ -251,7 +252,7 @@ def cmd_simulate(args):
             old, old_meta = read_runs(out, metadata=True)
         except ValueError as exc:
             raise UserError(f"--append {out}: {exc}") from exc
-        clash = sorted(set(old["run"].astype(str)) & set(runs["run"].astype(str)))
+        clash = sorted(set(label_text(old["run"])) & set(label_text(runs["run"])))
         if clash:
             raise UserError(
                 f"--append: run(s) {clash} are already in {out}; name the new run "
@@ -314,7 +315,7 @@ def cmd_select(args):
         doc = {
             "method": args.method,
             "target": target,
-            "train_runs": sorted(pd.unique(df["run"][mask].astype(str)).tolist()),
+            "train_runs": sorted(pd.unique(label_text(df["run"][mask])).tolist()),
             "sensors": kept,
             "scores": dict(zip(names, map(float, scores), strict=True)),
         }

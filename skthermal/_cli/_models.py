@@ -20,6 +20,7 @@ from skthermal._cli._common import (
     check_out_table,
     check_used_sensors,
     features_of,
+    label_text,
     pick_target,
     read_sensor_list,
     read_table,
@@ -529,17 +530,9 @@ def _join_keys(table, time_dtype=np.float64):
     """(run, time_s) of every row as join keys: the run label as text (as
     --train-runs matches it; a whole number stored as a float, ``1.0``, as
     ``1``), the time as a float of ``time_dtype``."""
-    run = table["run"]
-    if pd.api.types.is_float_dtype(run.dtype):
-        values = run.to_numpy(float)
-        whole = np.isfinite(values) & (values == np.round(values))
-        text = run.astype(str).to_numpy(object)
-        text[whole] = [str(int(v)) for v in values[whole]]
-    else:
-        text = run.astype(str).to_numpy()
     return pd.DataFrame(
         {
-            "run": text,
+            "run": label_text(table["run"]),
             "time_s": pd.to_numeric(table["time_s"], errors="coerce")
             .to_numpy(float)
             .astype(time_dtype),
