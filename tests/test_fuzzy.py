@@ -41,11 +41,13 @@ def test_zero_tol_stops_at_a_fixed_point():
     # max_iter iterations after the memberships had stopped changing.
     # Exactly unchanged memberships are rare: their last bits cycle, so the
     # fixed point is reached within rounding (of most data sets, as these).
-    for seed in range(6):
-        X, _ = make_blobs(60 + 40 * seed, centers=3 + seed % 3, random_state=seed)
-        res = fuzzy_cmeans(X, 3, tol=0, max_iter=20_000, random_state=0)
+    cases = [(60 + 40 * seed, 3 + seed % 3, 3, 2.0, seed) for seed in range(6)]
+    cases.append((500, 10, 10, 3.0, 0))  # cycling at 1e-14 to 1e-13
+    for n, centers, c, m, seed in cases:
+        X, _ = make_blobs(n, centers=centers, random_state=seed)
+        res = fuzzy_cmeans(X, c, m=m, tol=0, max_iter=20_000, random_state=0)
         assert res.n_iter < 2_000, seed
-        again = fuzzy_cmeans(X, 3, tol=0, init=res.memberships, max_iter=20_000)
+        again = fuzzy_cmeans(X, c, m=m, tol=0, init=res.memberships, max_iter=20_000)
         assert again.n_iter <= 10, seed
 
 
