@@ -914,14 +914,33 @@ def test_backprop_does_not_depend_on_the_target_unit():
         np.testing.assert_allclose(fits[s].predict(X) / s, base, rtol=1e-6, atol=1e-6)
 
 
+def test_backprop_learns_from_inputs_of_a_wide_spread():
+    # Scaled by the target's spread alone, the slopes of inputs spread over
+    # 100 (grey=True's accumulated readings, readings in other units)
+    # overshot: a grey backprop fit of 20 epochs kept its initial model
+    # (training RMSE 101.6 um, target std 13.6 um).
+    from sklearn.exceptions import ConvergenceWarning
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (300, 2))
+    y = 15.0 * (np.sin(2 * X[:, 0]) + X[:, 1] ** 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        wide = ANFISRegressor(learning="backprop", epochs=20, random_state=0)
+        wide.fit(100.0 * X, y)
+    assert wide.best_epoch_ > 10
+    assert wide.score(100.0 * X, y) > 0.8
+
+
 def test_backprop_that_never_improves_warns():
     from sklearn.exceptions import ConvergenceWarning
 
     rng = np.random.default_rng(0)
-    X = rng.uniform(-1, 1, (200, 2)) * 1e4  # a step of 0.5 in these units
-    y = np.sin(2 * X[:, 0] / 1e4)
+    X = rng.uniform(-1, 1, (200, 2))  # steps of 50 on inputs spanning 2
+    y = np.sin(2 * X[:, 0])
     with pytest.warns(ConvergenceWarning, match="never improved on its initial"):
-        ANFISRegressor(learning="backprop", epochs=10, random_state=0).fit(X, y)
+        model = ANFISRegressor(learning="backprop", epochs=10, step_size=50.0)
+        model.fit(X, y)
 
 
 def test_a_least_squares_of_gigabytes_warns(monkeypatch):

@@ -370,9 +370,10 @@ default="fcm"
         rules equal to the target mean; their steps are taken with the
         inputs centred on their training mean (``f = p (x - m) + q'``,
         stored as ``p x + q``), so an offset of the inputs (readings around
-        20 °C, kelvin) changes nothing; they are taken in units of the
-        target's spread, so the target's unit (µm or nm) changes nothing
-        either. A backprop fit that never improves on
+        20 °C, kelvin) changes nothing; they are stepped on standardised
+        scales (a slope in units of the target's spread per the input's
+        spread), so the units of a target (µm or nm) and of the inputs change
+        their steps nothing. A backprop fit that never improves on
         its initial model warns (``ConvergenceWarning``).
     step_size : float, default=0.5
         Initial step size: the length of the gradient step in parameter space

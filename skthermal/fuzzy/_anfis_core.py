@@ -608,6 +608,15 @@ class _CheckingSet:
         return _rmse(pred[self.mask] - self.y[self.mask])
 
 
+def _spread(A):
+    """Every column's standard deviation, 1 where it is zero or not finite
+    (a constant column, no rows): a scale to divide by."""
+    if not A.shape[0]:
+        return np.ones(A.shape[1])
+    s = np.sqrt(np.mean((A - A.mean(axis=0)) ** 2, axis=0))
+    return np.where(np.isfinite(s) & (s > 0), s, 1.0)
+
+
 def _shift_constants(consequents, centre, sign):
     """The same rules for inputs centred on ``centre`` (``sign`` +1) or back
     (-1): ``f = p x + q`` is ``f = p (x - m) + q'`` with ``q' = q + p m``.
@@ -727,14 +736,17 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             consequents = np.zeros((n_rules, d + 1, n_out))
             consequents[:, -1, :] = Y.mean(axis=0)
         # Internally f = p (x - m) + q', converted back to f = p x + q for
-        # every parameter set returned, and in units of the target's spread:
-        # the normalised step then moves the consequents as far for a target
-        # in nanometres as in micrometres (in the target's units a target
-        # spread over 1000 moved them 1/1000 of the way per step).
-        y_scale = float(np.sqrt(np.mean((Y - Y.mean(axis=0)) ** 2))) if n else 1.0
-        if not np.isfinite(y_scale) or y_scale <= 0:
-            y_scale = 1.0
-        consequents_c = _shift_constants(consequents, centre, 1.0) / y_scale
+        # every parameter set returned, and on standardised scales: a slope
+        # in units of the target's spread per input's spread, a constant in
+        # units of the target's spread. The normalised step then moves the
+        # consequents as far whatever the units of the inputs and targets
+        # (in the target's units, a target spread over 1000 learned almost
+        # nothing; in the inputs' units, inputs spread over 100, such as
+        # grey=True's accumulated ones, overshot).
+        x_scale, y_scale = _spread(X), _spread(Y)
+        # (input or constant, output): what one unit of a scaled consequent is
+        unit = np.vstack([y_scale[None, :] / x_scale[:, None], y_scale[None, :]])
+        consequents_c = _shift_constants(consequents, centre, 1.0) / unit
     rule = StepSizeRule(step_size, step_increase, step_decrease)
     stalled = None  # the epoch after which the premise gradient vanished
     stepped = False  # whether a premise step was taken
@@ -766,8 +778,9 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
         else:
-            consequents = _shift_constants(y_scale * consequents_c, centre, -1.0)
-            C = y_scale * consequents_c.transpose(1, 0, 2).reshape(d + 1, -1)
+            centred = unit * consequents_c
+            consequents = _shift_constants(centred, centre, -1.0)
+            C = centred.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1cT).reshape(n_rules, n_out, n)
         WF = wT[:, None, :] * F  # the rules' shares of the output
         yhat = WF.sum(axis=0)
@@ -827,10 +840,10 @@ penalize_intercepts, tol, n_iter_no_change, verbose
                 stalled = epoch
         else:
             # dE / d consequent (a, r) = sum_n x~_a wbar_r err (x~ centred),
-            # times the target's spread for the scaled consequents
+            # times the unit of the scaled consequents
             XE = (X1cT[:, None, :] * err[None]).reshape(-1, n)
             grad_c = (XE @ wT.T).reshape(d + 1, n_out, n_rules).transpose(2, 0, 1)
-            grad_c *= y_scale
+            grad_c *= unit
             norm = np.sqrt(np.vdot(grad, grad) + np.vdot(grad_c, grad_c))
             if norm > 0 and np.isfinite(norm):
                 mf_params -= (step / norm) * grad
