@@ -174,8 +174,18 @@ def test_two_header_rows_are_named(runs, function):
             r"'T1_C' .* dtype bool: run \S+, time_s 0\.0 \(row 0\) holds (True|False);"
             r" a run table holds readings as numbers",
         ),
+        (
+            lambda d: d.assign(T1_C=d["T1_C"].astype(str)),
+            r"'T1_C' .* numbers stored as text, e.g. '\S+' at run",
+        ),
+        (
+            lambda d: d.assign(
+                T1_C=pd.array([None, *(d["T1_C"] > 20.5)[1:]], dtype="boolean")
+            ),
+            r"'T1_C' .* dtype boolean: run \S+, time_s \S+ \(row 1\) holds",
+        ),
     ],
-    ids=["timedelta", "datetime", "decimal", "bool"],
+    ids=["timedelta", "datetime", "decimal", "bool", "text", "nullable bool"],
 )
 def test_columns_of_other_kinds_are_named_with_the_conversion(runs, change, message):
     # "Column 'time_s' must be numeric but has dtype timedelta64[us]." said

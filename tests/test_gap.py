@@ -473,7 +473,7 @@ def test_validate_reports_cases_rates_and_targets(caplog):
     cases = [r.getMessage() for r in caplog.records if r.getMessage()[:5] == "Case "]
     assert len(cases) == 2
     assert cases[0].startswith("Case 1 of 2 (effect tool_growth, seed ")
-    assert cases[1].startswith("Case 2 of 2 (null none, seed ")
+    assert cases[1].startswith("Case 2 of 2 (null case, seed ")
     assert cases[1].endswith(
         "named none, top candidate " + report.cases["top_candidate"].iloc[1]
     )

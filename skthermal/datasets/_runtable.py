@@ -323,12 +323,15 @@ def _check_numeric(df, columns):
             "df['time_s'] = (t - t.groupby(df['run']).transform('first'))"
             ".dt.total_seconds()"
             if name == TIME
-            else f"df[{name!r}].dt.total_seconds()",
+            else f"for durations df[{name!r}].dt.total_seconds(); a column "
+            "of clock times is not a reading",
         )
         where = ""
         if pd.api.types.is_bool_dtype(col):
+            given = np.flatnonzero(col.notna().to_numpy())
+            i = int(given[0]) if given.size else 0
             where = (
-                f": {_where(df, 0)} holds {plain(col.iloc[0])!r}; a run table "
+                f": {_where(df, i)} holds {plain(col.iloc[i])!r}; a run table "
                 "holds readings as numbers (a flag is not a sensor, a driver or "
                 f"a displacement): give numbers, e.g. df[{name!r}].astype(float), "
                 "or name the column otherwise"
@@ -360,11 +363,12 @@ def _check_numeric(df, columns):
                         "disp_<axis>_um)"
                     )
             elif col.notna().any():
-                # Numbers stored as Python objects: Decimal (a database's or
-                # Spark's Parquet), floats in an object column.
+                # Numbers stored as text, or as Python objects: Decimal (a
+                # database's or Spark's Parquet), floats in an object column.
                 i = int(np.flatnonzero(col.notna().to_numpy())[0])
+                kind = "text" if isinstance(col.iloc[i], str) else "Python objects"
                 where = (
-                    f": numbers stored as Python objects, e.g. "
+                    f": numbers stored as {kind}, e.g. "
                     f"{col.iloc[i]!r} at {_where(df, i)}; convert them, e.g. "
                     f"df[{name!r}] = df[{name!r}].astype(float)"
                 )
@@ -424,8 +428,9 @@ def _check_label_values(run, codes, uniques):
         )
         raise ValueError(
             f"Column 'run': row {row} has the run label {plain(value)!r} ({what}); "
-            "run labels are strings or numbers (DATA_FORMAT), which run table "
-            f"files store as they are. Convert them, e.g. df['run'] = {convert}."
+            "run labels are strings or integers (DATA_FORMAT; Parquet files "
+            "keep other real numbers too), which run table files store as they "
+            f"are. Convert them, e.g. df['run'] = {convert}."
         )
 
 

@@ -424,12 +424,12 @@ def validate(
     )
     for row in results:
         rows.append(row)
+        case = "null case" if row["case"] == "null" else f"{row['case']} {row['truth']}"
         logger.info(
-            "Case %d of %d (%s %s, seed %d): named %s, top candidate %s",
+            "Case %d of %d (%s, seed %d): named %s, top candidate %s",
             len(rows),
             len(jobs),
-            row["case"],
-            row["truth"],
+            case,
             row["seed"],
             row["diagnosis"],
             row["top_candidate"],
