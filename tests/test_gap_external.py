@@ -208,6 +208,11 @@ def test_post_stop_term_is_ranked_first_and_named(rng):
     assert top["shrink"] > 0.8 and top["p_value"] < 0.05
     assert top["lr_p_value"] < 0.05
     assert top["fitted"]["tau_s"] == pytest.approx(600.0, rel=0.3)
+    # The truth's exponent, 0.5 (sqrt), is the range's lower end, which
+    # physics reaches (laminar convection): named, the end said.
+    assert top["on_bound"].startswith("exponent = 0.5 (the lower end")
+    assert top["stopped"] == ""
+    assert "Its fitted exponent = 0.5 (the lower end of 0.5-1) sits" in report.verdict()
     # How far: per regime, and the after-stop gap shrinks.
     hf = report.how_far.set_index("regime")
     assert hf.loc["overall", "gap_after"] < 0.5 * hf.loc["overall", "gap_before"]
