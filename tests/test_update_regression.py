@@ -214,6 +214,11 @@ def test_default_penalty_warns_on_inputs_far_from_degrees(data):
         ramp = np.linspace(0.0, 1.0, 50) ** 0.1
         changes = np.tile(np.c_[5.5 * ramp, 4.0 * ramp], (2, 1))
         UpdateRegressor().fit(changes, changes @ [1.0, 2.0])
+    # ... while one drop-out row of zeros among readings does not hide them.
+    dropout = X + 20.0
+    dropout[5] = 0.0
+    with pytest.warns(UserWarning, match=r"X's columns sit far from zero"):
+        UpdateRegressor().fit(dropout, y)
     # One column beyond the range (a driver in rpm among temperatures) is
     # named; every column beyond it names none.
     frame = pd.DataFrame(X, columns=[f"T{j}_C" for j in range(X.shape[1])])

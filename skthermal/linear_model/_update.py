@@ -325,10 +325,11 @@ _DESIGN_SCALE = (0.01, 100.0)
 
 
 # Inputs whose mean lies this many standard deviations from zero, in most
-# columns, and that never come within one standard deviation of zero, are
+# columns, and that seldom come within one standard deviation of zero, are
 # readings with an offset (absolute °C), not changes (which are zero at
 # every run's start, however far a long batch's mean lies from it).
 _OFFSET_SPREADS = 3.0
+_NEAR_ZERO_SHARE = 0.01
 
 
 def _warn_offset_inputs(X, columns=None):
@@ -342,7 +343,12 @@ def _warn_offset_inputs(X, columns=None):
         return
     mean, std = X.mean(axis=0), X.std(axis=0)
     far = np.abs(mean) > _OFFSET_SPREADS * np.maximum(std, 1e-12)
-    far &= np.abs(X).min(axis=0) > std
+    # Changes since the run start: zero at every run's first row, and near
+    # it while each run warms (at least 1% of the rows, and two, within a
+    # spread of zero); a logger's drop-out row of zeros among readings is
+    # not that.
+    near = np.sum(np.abs(X) <= std, axis=0)
+    far &= (near < 2) | (near < _NEAR_ZERO_SHARE * X.shape[0])
     if 2 * far.sum() <= X.shape[1]:
         return
     names = columns if columns is not None else [f"x{j}" for j in range(X.shape[1])]
