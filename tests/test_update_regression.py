@@ -211,9 +211,13 @@ def test_default_penalty_warns_on_inputs_far_from_degrees(data):
         # Changes since the start of long batches: zero at each start, yet
         # their mean lies several spreads from zero (+5 °C, std 1.6, in a
         # 4 h batch); the warning told to give changes, as was done.
-        ramp = np.linspace(0.0, 1.0, 50) ** 0.1
-        changes = np.tile(np.c_[5.5 * ramp, 4.0 * ramp], (2, 1))
-        UpdateRegressor().fit(changes, changes @ [1.0, 2.0])
+        # 4 h batches, and one 8 h run whose sensors warm within 20 min
+        # (6 of its 960 rows within a spread of zero).
+        for hours, tau in ((4.0, 3600.0), (8.0, 1200.0)):
+            t = np.arange(0.0, hours * 3600.0, 30.0)
+            rise = 1.0 - np.exp(-t / tau)
+            changes = np.c_[5.5 * rise, 4.0 * rise]
+            UpdateRegressor().fit(changes, changes @ [1.0, 2.0])
     # ... while one drop-out row of zeros among readings does not hide them.
     dropout = X + 20.0
     dropout[5] = 0.0

@@ -329,7 +329,6 @@ _DESIGN_SCALE = (0.01, 100.0)
 # readings with an offset (absolute °C), not changes (which are zero at
 # every run's start, however far a long batch's mean lies from it).
 _OFFSET_SPREADS = 3.0
-_NEAR_ZERO_SHARE = 0.01
 
 
 def _warn_offset_inputs(X, columns=None):
@@ -343,12 +342,11 @@ def _warn_offset_inputs(X, columns=None):
         return
     mean, std = X.mean(axis=0), X.std(axis=0)
     far = np.abs(mean) > _OFFSET_SPREADS * np.maximum(std, 1e-12)
-    # Changes since the run start: zero at every run's first row, and near
-    # it while each run warms (at least 1% of the rows, and two, within a
-    # spread of zero); a logger's drop-out row of zeros among readings is
-    # not that.
-    near = np.sum(np.abs(X) <= std, axis=0)
-    far &= (near < 2) | (near < _NEAR_ZERO_SHARE * X.shape[0])
+    # Changes since the run start: zero at every run's first row and near it
+    # at the next (two rows in a row within a spread of zero), however short
+    # the warm-up; a logger's drop-out row of zeros among readings is not.
+    near = np.abs(X) <= std
+    far &= ~np.any(near[1:] & near[:-1], axis=0)
     if 2 * far.sum() <= X.shape[1]:
         return
     names = columns if columns is not None else [f"x{j}" for j in range(X.shape[1])]
