@@ -778,9 +778,9 @@ penalize_intercepts, tol, n_iter_no_change, verbose
             C = consequents.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1T).reshape(n_rules, n_out, n)  # rule outputs
         else:
-            centred = unit * consequents_c
-            consequents = _shift_constants(centred, centre, -1.0)
-            C = centred.transpose(1, 0, 2).reshape(d + 1, -1)
+            unscaled = unit * consequents_c
+            consequents = _shift_constants(unscaled, centre, -1.0)
+            C = unscaled.transpose(1, 0, 2).reshape(d + 1, -1)
             F = (C.T @ X1cT).reshape(n_rules, n_out, n)
         WF = wT[:, None, :] * F  # the rules' shares of the output
         yhat = WF.sum(axis=0)
