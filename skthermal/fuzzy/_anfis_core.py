@@ -749,6 +749,7 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         consequents_c = _shift_constants(consequents, centre, 1.0) / unit
     rule = StepSizeRule(step_size, step_increase, step_decrease)
     stalled = None  # the epoch after which the premise gradient vanished
+    collapsed = None  # the epoch whose premise step put a width on its floor
     stepped = False  # whether a premise step was taken
 
     history = {"epoch": [], "train_rmse": [], "step_size": []}
@@ -849,6 +850,8 @@ penalize_intercepts, tol, n_iter_no_change, verbose
                 mf_params -= (step / norm) * grad
                 consequents_c = consequents_c - (step / norm) * grad_c
         _apply_floors(mf_params, mf, width_floor)
+        if collapsed is None and np.any(mf_params[..., 0] <= width_floor[:, None]):
+            collapsed = epoch
 
     if best[1] is None:  # not a single finite epoch: keep the last parameters
         best = (np.inf, mf_params.copy(), consequents.copy(), len(history["epoch"]))
@@ -858,4 +861,5 @@ penalize_intercepts, tol, n_iter_no_change, verbose
         "history": {k: np.asarray(v) for k, v in history.items()},
         "best_epoch": best[3],
         "stalled_epoch": stalled,
+        "collapsed_epoch": collapsed,
     }
