@@ -447,6 +447,23 @@ def test_lag_features_bridge_missing_samples():
     assert np.abs(np.asarray(lf.transform(contiguous))[100:] - full[200:]).max() > 0.5
 
 
+def test_a_static_lag_ridge_says_nothing_of_filtering_across_gaps():
+    # The command line's tuned ridge (no filter) said it "filters across
+    # them exactly" of a logging gap; the filtering ones still say so.
+    t = np.r_[np.arange(100), np.arange(200, 400)] * 30.0
+    index = pd.MultiIndex.from_arrays(
+        [np.full(t.size, "a"), t], names=["run", "time_s"]
+    )
+    X = pd.DataFrame({"T1_C": 20.0 + 5.0 * (1.0 - np.exp(-t / 2400.0))}, index=index)
+    y = 3.0 * X["T1_C"].to_numpy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        static = LagRidgeCV(time_constant_sets=[()], drivers=None).fit(X, y)
+        static.predict(X)
+    with pytest.warns(UserWarning, match=r"filters across them exactly"):
+        LagRidgeCV(time_constant_sets=[(600.0,)], drivers=None).fit(X, y)
+
+
 def test_lag_ridge_names_a_repeated_time():
     X = _frame()
     t = X.index.get_level_values("time_s").to_numpy().copy()

@@ -440,8 +440,10 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
                 name, X_raw, slices, labels, float(self.dt), overrides=False
             )
         warn_time_unit(X_raw, groups)
-        # Once here, not once per candidate (silenced below).
-        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
+        # Once here, not once per candidate (silenced below); without any
+        # filter (the tuned static ridge) a gap changes nothing.
+        if any(sets):
+            warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
         # One BLAS thread: the CV is a loop of small ridge solves, which on
         # cores shared with other jobs ran 20-50 times slower with BLAS
         # threads waiting for each other (0.5 s against 8-19 s on
@@ -713,7 +715,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             warnings.filterwarnings("ignore", message=LATE_START_WARNING)
             warnings.filterwarnings("ignore", message=REUSED_LABEL_WARNING)
             F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
-        warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
+        if self.time_constants_:
+            warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)
         F = F[:, : self.n_lag_features_]
         return self.ridge_.predict(self.scaler_.transform(F))
 
