@@ -203,8 +203,10 @@ def run_mask(df, runs, option="--train-runs"):
 # How a sensors.csv file edited by hand (or by a spreadsheet) says whether
 # a sensor is selected; anything else is an error, not "selected" (any
 # non-empty text, 'FALSCH' or 'no', was True).
-_SELECTED = {"true": True, "1": True, "yes": True, "false": False, "0": False}
-_SELECTED |= {"no": False, "1.0": True, "0.0": False}
+_SELECTED = {
+    **dict.fromkeys(("true", "1", "1.0", "yes"), True),
+    **dict.fromkeys(("false", "0", "0.0", "no"), False),
+}
 
 
 def _selected_flags(column, path):

@@ -327,9 +327,9 @@ def _check_numeric(df, columns):
             "of clock times is not a reading",
         )
         where = ""
+        given = np.flatnonzero(col.notna().to_numpy())
+        i = int(given[0]) if given.size else 0  # the first value given
         if pd.api.types.is_bool_dtype(col):
-            given = np.flatnonzero(col.notna().to_numpy())
-            i = int(given[0]) if given.size else 0
             where = (
                 f": {_where(df, i)} holds {plain(col.iloc[i])!r}; a run table "
                 "holds readings as numbers (a flag is not a sensor, a driver or "
@@ -362,10 +362,9 @@ def _check_numeric(df, columns):
                         "are in its column names (time_s, T<name>_C, "
                         "disp_<axis>_um)"
                     )
-            elif col.notna().any():
+            elif given.size:
                 # Numbers stored as text, or as Python objects: Decimal (a
                 # database's or Spark's Parquet), floats in an object column.
-                i = int(np.flatnonzero(col.notna().to_numpy())[0])
                 kind = "text" if isinstance(col.iloc[i], str) else "Python objects"
                 where = (
                     f": numbers stored as {kind}, e.g. "
@@ -1162,7 +1161,8 @@ def changes_since_start(df, columns=None):
     absent = [c for c in columns if c not in df.columns]
     if absent:
         raise ValueError(f"Columns {absent} are not in the table.")
-    twice = list(dict.fromkeys(c for i, c in enumerate(columns) if c in columns[:i]))
+    named = pd.Index(columns)
+    twice = named[named.duplicated()].unique().tolist()
     if twice:
         raise ValueError(f"columns names {twice} more than once; give each once.")
     _check_numeric(df, columns)

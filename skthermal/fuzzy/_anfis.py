@@ -773,21 +773,18 @@ default="fcm"
         self.best_epoch_ = int(result["best_epoch"])
         self.n_iter_ = len(self.history_["epoch"])
         stalled = result.get("stalled_epoch")
-        if stalled is not None and stalled < self.n_iter_:
-            warnings.warn(
-                f"ANFISRegressor: premise training stopped after epoch {stalled} "
-                f"of {self.n_iter_}: a gradient step collapsed a membership "
-                "function (its width onto the floor, so it is zero on every "
-                "sample) and the premise gradient vanished; the later epochs "
-                "repeat that error. The parameters of the best epoch "
-                f"({self.best_epoch_}) are kept. A smaller step_size (now "
-                f"{self.step_size:g}, in the units of the inputs) makes a "
-                "collapse less likely, and training slower.",
-                ConvergenceWarning,
-                stacklevel=user_stacklevel(),
-            )
         collapsed = result.get("collapsed_epoch")
-        if (stalled is None or stalled >= self.n_iter_) and collapsed is not None:
+        what = None
+        if stalled is not None and stalled < self.n_iter_:
+            what = (
+                f"premise training stopped after epoch {stalled} of "
+                f"{self.n_iter_}: a gradient step collapsed a membership function "
+                "(its width onto the floor, so it is zero on every sample) and "
+                "the premise gradient vanished; the later epochs repeat that "
+                f"error. The parameters of the best epoch ({self.best_epoch_}) "
+                "are kept."
+            )
+        elif collapsed is not None:
             # One function gone, the others go on: the rules it takes part
             # in fire nowhere from then on, with no word (half of the
             # collapses of 290 fits of real and simulated records).
@@ -798,11 +795,15 @@ default="fcm"
                 else f"the model kept (best epoch {self.best_epoch_}) has "
                 "fewer working rules than it was given"
             )
+            what = (
+                f"the premise step of epoch {collapsed} collapsed a membership "
+                "function (its width onto the floor, so it is zero on every "
+                "sample): the rules it takes part in fire nowhere from then on, "
+                f"and {kept}."
+            )
+        if what is not None:
             warnings.warn(
-                f"ANFISRegressor: the premise step of epoch {collapsed} "
-                "collapsed a membership function (its width onto the floor, so "
-                "it is zero on every sample): the rules it takes part in fire "
-                f"nowhere from then on, and {kept}. A smaller step_size (now "
+                f"ANFISRegressor: {what} A smaller step_size (now "
                 f"{self.step_size:g}, in the units of the inputs) makes a "
                 "collapse less likely, and training slower.",
                 ConvergenceWarning,

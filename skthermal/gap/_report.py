@@ -543,21 +543,26 @@ class GapReport:
             "the measurement as far as the noise tells."
         )
 
-    @staticmethod
-    def _bound_text(row):
+    # What a candidate whose parameter sits on its range's end may be.
+    _STAND_IN = (
+        "it may stand in for something else, such as the same physics "
+        "elsewhere or on another time scale"
+    )
+
+    @classmethod
+    def _bound_text(cls, row):
         """The verdict's sentence on a named effect whose fitted parameter
         sits on an end of its range that physics reaches (``""`` when none
         does; on any other end it is not named)."""
         if not row.get("on_bound"):
             return ""
         return (
-            f" Its fitted {row['on_bound']} sits on its range's end: it may "
-            "stand in for something else, such as the same physics elsewhere "
-            "or on another time scale; weigh the other candidates that pass."
+            f" Its fitted {row['on_bound']} sits on its range's end: "
+            f"{cls._STAND_IN}; weigh the other candidates that pass."
         )
 
-    @staticmethod
-    def _stopped_text(row):
+    @classmethod
+    def _stopped_text(cls, row):
         """The verdict's sentence on the best candidate whose fitted
         parameter the range stopped, which keeps it from being named
         (``""`` when none did)."""
@@ -565,10 +570,9 @@ class GapReport:
             return ""
         return (
             f" The fitted {row['stopped']} of {row['effect']!r} sits on its "
-            "range's end, where the range stopped it, not the runs: it may "
-            "stand in for something else, such as the same physics elsewhere "
-            "or on another time scale, or a load the candidates do not "
-            "describe, and a candidate so stopped is not named."
+            f"range's end, where the range stopped it, not the runs: "
+            f"{cls._STAND_IN}, or a load the candidates do not describe, and a "
+            "candidate so stopped is not named."
         )
 
     @staticmethod

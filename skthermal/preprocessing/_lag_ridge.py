@@ -12,7 +12,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from skthermal.preprocessing._lags import LagFeatures
+from skthermal.preprocessing._lags import LagFeatures, runs_start_driven
 from skthermal.utils._runs import (
     GAP_BRIDGE,
     LATE_START_WARNING,
@@ -223,8 +223,8 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         or from rest: runs logged from a cold start with the spindle
         turning are the one, runs cut from a longer duty the other; on
         independent records with such runs "steady" alone left held-out
-        errors 1.2-1.7 times linear regression's where "rest" gave
-        0.15-0.97), else ``"steady"`` (both are then the same).
+        errors 1.5 and 2.2 times linear regression's where the CV's choice
+        gave 0.19 and 1.26), else ``"steady"`` (both are then the same).
     alphas : array-like of float, default=None
         Candidate ridge penalties, finite and > 0; ``None`` means
         ``np.logspace(-2, 5, 15)``.
@@ -444,13 +444,21 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         # filter (the tuned static ridge) a gap changes nothing.
         if any(sets):
             warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE)
+        # Both initial states of the drivers' filters only where a run starts
+        # driven (elsewhere they are the same).
+        initials = (self.driver_initial,)
+        if self.driver_initial == "auto":
+            driven = runs_start_driven(X_arr, slices, drivers)
+            initials = ("steady", "rest") if driven else ("steady",)
         # One BLAS thread: the CV is a loop of small ridge solves, which on
         # cores shared with other jobs ran 20-50 times slower with BLAS
         # threads waiting for each other (0.5 s against 8-19 s on
         # FL_THERMAL's 6,669 training rows).
         with warnings.catch_warnings(), single_threaded_blas():
             _quiet_inner_lag_features()
-            return self._fit(X_raw, y, groups, slices, labels, sets, alphas, dt)
+            return self._fit(
+                X_raw, y, groups, slices, labels, sets, alphas, dt, initials
+            )
 
     def _check_grids(self):
         """The candidate time-constant sets (tuples of float) and penalties
@@ -496,7 +504,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         )
         return sets, alphas
 
-    def _fit(self, X_raw, y, groups, slices, labels, sets, alphas, dt):
+    def _fit(self, X_raw, y, groups, slices, labels, sets, alphas, dt, initials):
         """The CV over the candidate settings and the refit of ``fit``."""
         n = y.shape[0]
         cv = self.cv
@@ -538,11 +546,6 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             relatives = (True, False) if len(slices) > 1 else ((not cut),)
         else:
             relatives = (bool(self.relative),)
-        initials = (
-            ("steady", "rest")
-            if self.driver_initial == "auto"
-            else (self.driver_initial,)
-        )
         cands = []
         for taus in sets:
             for rel in relatives:
@@ -558,10 +561,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         }
         fold_sse, n_feat, kept = [], [], []
         clock = time.perf_counter()
-        driven = None  # whether a training run starts with a driver on
         for k, (taus, use, rel, initial) in enumerate(cands, 1):
-            if initial != initials[0] and driven is False:
-                continue  # no run starts driven: the same as the first
             # The previous candidate's features go before these are made.
             F = None
             try:
@@ -573,8 +573,6 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
                 if "would produce no features" not in str(exc):
                     raise
                 continue
-            if F.shape[1] > lf.n_temperature_features_:
-                driven = bool(lf.runs_start_driven_)
             # A candidate without the drivers keeps the temperatures'
             # features only (the driver columns left out, not temperatures).
             n_temp = lf.n_temperature_features_

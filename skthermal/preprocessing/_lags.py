@@ -490,6 +490,13 @@ def _distinct_labels(values):
     return [repr(v) for v in values]
 
 
+def runs_start_driven(X, slices, drivers):
+    """Whether a run (``slices`` of the rows of ``X``) starts with a driver
+    (the columns ``drivers``) on: where the drivers' initial state, steady
+    or at rest, makes a difference."""
+    return bool(np.any(X[[sl.start for sl in slices]][:, drivers] != 0))
+
+
 class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
     """Causal lag features: temperatures and their low-pass filters.
 
@@ -696,8 +703,7 @@ class LagFeatures(ForgetRunsMixin, TransformerMixin, BaseEstimator):
             self.drivers, getattr(self, "feature_names_in_", None), X_arr.shape[1]
         )
         warn_centred_drivers(name, X_arr, self.driver_indices_, names)
-        firsts = X_arr[[sl.start for sl in slices]][:, self.driver_indices_]
-        self.runs_start_driven_ = bool(np.any(firsts != 0))
+        self.runs_start_driven_ = runs_start_driven(X_arr, slices, self.driver_indices_)
         n_temp = X_arr.shape[1] - self.driver_indices_.size
         self.n_temperature_features_ = n_temp * (int(self.include_changes) + taus.size)
         n_out = self.n_temperature_features_
