@@ -563,12 +563,13 @@ def test_lag_ridge_cv_holds_one_fold_copy_at_a_time():
     # for the standard deviations.
     import tracemalloc
 
-    from skthermal.preprocessing._lag_ridge import _forward_folds, _ridge_path_sse
+    from skthermal.preprocessing._lag_ridge import _ridge_path_sse
+    from skthermal.utils._folds import forward_folds
 
     rng = np.random.default_rng(0)
     F = rng.normal(size=(20000, 40))
     y = F[:, 0] + rng.normal(size=20000)
-    folds = _forward_folds(20000, 4, 0.6)
+    folds = forward_folds(20000, 4, 0.6)
     alphas = np.logspace(-2, 4, 7)
     tracemalloc.start()
     try:
@@ -584,7 +585,8 @@ def test_cv_uses_training_rows_only():
     from sklearn.linear_model import Ridge
     from sklearn.preprocessing import StandardScaler
 
-    from skthermal.preprocessing._lag_ridge import _forward_folds, _ridge_path_sse
+    from skthermal.preprocessing._lag_ridge import _ridge_path_sse
+    from skthermal.utils._folds import forward_folds
 
     rng = np.random.default_rng(0)
     n = 300
@@ -596,7 +598,7 @@ def test_cv_uses_training_rows_only():
     # slicing once-computed features per forward fold sees no later rows
     np.testing.assert_allclose(lf.transform(T[:120]), F[:120])
     # the SVD alpha path equals ridge refitted on each fold's training rows
-    folds = _forward_folds(n, 4, 0.4)
+    folds = forward_folds(n, 4, 0.4)
     alphas = np.array([0.1, 10.0])
     expected = np.zeros(2)
     for tr, va in folds:
@@ -623,11 +625,11 @@ def test_cv_uses_training_rows_only():
 
 
 def test_cv_folds_score_only_later_rows():
-    from skthermal.preprocessing._lag_ridge import _forward_folds, _group_folds
+    from skthermal.utils._folds import forward_folds, group_folds
 
-    for tr, va in _forward_folds(100, 4, 0.4):
+    for tr, va in forward_folds(100, 4, 0.4):
         assert tr.max() < va.min()
-    folds = _group_folds([slice(0, 3), slice(3, 7), slice(7, 9)], 4)
+    folds = group_folds([slice(0, 3), slice(3, 7), slice(7, 9)], 4)
     assert len(folds) == 3
     for tr, va in folds:
         assert np.intersect1d(tr, va).size == 0
@@ -657,9 +659,9 @@ def test_a_flat_list_of_time_constants_is_named():
 
 
 def test_cv_schemes_and_the_one_standard_error_rule():
-    from skthermal.preprocessing._lag_ridge import _block_folds
+    from skthermal.utils._folds import block_folds
 
-    folds = _block_folds(10, 3)
+    folds = block_folds(10, 3)
     held = np.sort(np.concatenate([va for _, va in folds]))
     np.testing.assert_array_equal(held, np.arange(10))  # every row once
     for tr, va in folds:
@@ -916,7 +918,7 @@ def test_lag_ridge_is_the_same_model_whatever_the_order_of_the_runs():
 
 
 def test_run_folds_do_not_depend_on_the_order_of_unsortable_labels():
-    from skthermal.preprocessing._lag_ridge import _group_folds
+    from skthermal.utils._folds import group_folds
 
     # Tuples of a number and a string do not sort: their repr orders them.
     labels = [("a", 1), (1, "a"), ("b", 2), (2, "b")]
@@ -925,7 +927,7 @@ def test_run_folds_do_not_depend_on_the_order_of_unsortable_labels():
         """The labels of the runs each fold leaves out, runs stacked in order."""
         labs = [labels[r] for r in order]
         slices = [slice(3 * i, 3 * i + 3) for i in range(len(labs))]
-        folds = _group_folds(slices, 2, labs)
+        folds = group_folds(slices, 2, labs)
         return sorted(sorted({repr(labs[int(i) // 3]) for i in va}) for _, va in folds)
 
     assert held_out([0, 1, 2, 3]) == held_out([3, 1, 0, 2]) == held_out([2, 0, 3, 1])

@@ -630,7 +630,13 @@ def test_fit_matches_the_direct_jacobian(order, monkeypatch):
     # The Jacobian from one factorisation per evaluation gives the fit of
     # the Jacobian that re-solves the ridge for every time constant.
     X, y = _heating_runs()
-    params = {"speed_column": 2, "order": order, "n_grid": 5, "max_iter": 10}
+    params = {
+        "speed_column": 2,
+        "order": order,
+        "n_grid": 5,
+        "max_iter": 10,
+        "alpha": 0.0,
+    }
     fast = TransferFunctionRegressor(**params).fit(X, y)
     monkeypatch.setattr(
         "skthermal.linear_model._transfer._ridge_column_changes",
@@ -703,3 +709,113 @@ def test_a_centred_speed_warns():
     ).set_output(transform="pandas")
     with pytest.warns(UserWarning, match=r"driver 'spindle_rpm' has a mean of 0"):
         model.fit(X, y)
+
+
+def _one_run(X, y, run):
+    """The rows of run ``run`` relabelled as a new run, predicted from rest."""
+    part = X.loc[[run]]
+    index = pd.MultiIndex.from_arrays(
+        [np.repeat("new", len(part)), part.index.get_level_values("time_s")],
+        names=["run", "time_s"],
+    )
+    return part.set_axis(index), np.asarray(y.loc[[run]])
+
+
+@pytest.mark.parametrize("runs", ["two", "one"])
+def test_auto_alpha_is_the_time_ordered_cross_validation(runs):
+    # alpha="auto" scores every candidate on the folds of LagRidgeCV's
+    # cv="auto" (whole runs left out; on one run, expanding windows), each
+    # validation stretch predicted from its run's start by a model
+    # identified on the fold's training rows, and keeps the least error.
+    from skthermal.utils._folds import forward_folds
+
+    X, y = _heating_runs()
+    if runs == "one":
+        X, y = X.loc[["r0"]], y.loc[["r0"]]
+    params = {"speed_column": 2, "n_grid": 5, "max_iter": 5, "tau_bounds": (5, 7200)}
+    alphas = [0.0, 1.0, 100.0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        model = TransferFunctionRegressor(alphas=alphas, **params).fit(X, y)
+        sse = np.zeros(len(alphas))
+        if runs == "two":
+            for out in ("r0", "r1"):
+                keep = "r1" if out == "r0" else "r0"
+                Xv, yv = _one_run(X, y, out)
+                for i, a in enumerate(alphas):
+                    fold = TransferFunctionRegressor(alpha=a, **params)
+                    fold.fit(X.loc[[keep]], y.loc[[keep]])
+                    sse[i] += np.sum((fold.predict(Xv) - yv) ** 2)
+            n_scored = len(y)
+        else:
+            Xv, yv = _one_run(X, y, "r0")
+            folds = forward_folds(len(y), 4, 0.4)
+            for tr, va in folds:
+                for i, a in enumerate(alphas):
+                    fold = TransferFunctionRegressor(alpha=a, **params)
+                    fold.fit(X.iloc[tr], y.iloc[tr])
+                    pred = fold.predict(Xv.iloc[: va[-1] + 1])[va]
+                    sse[i] += np.sum((pred - yv[va]) ** 2)
+            n_scored = sum(va.size for _, va in folds)
+    np.testing.assert_allclose(model.cv_results_["alpha"], alphas)
+    np.testing.assert_allclose(
+        model.cv_results_["rmse"], np.sqrt(sse / n_scored), rtol=1e-7
+    )
+    assert model.alpha_ == alphas[int(np.argmin(sse))]
+    refit = TransferFunctionRegressor(alpha=model.alpha_, **params)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        refit.fit(X, y)
+    np.testing.assert_allclose(model.predict(X), refit.predict(X), rtol=1e-12)
+
+
+def test_auto_alpha_per_output_and_its_checks():
+    X, y = _heating_runs()
+    Y = np.c_[y, -3.0 * y + 0.1 * np.sin(np.arange(len(y)))]
+    model = TransferFunctionRegressor(speed_column=2, n_grid=5, max_iter=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        model.fit(X, Y)
+    assert model.alpha_.shape == (2,)
+    assert model.cv_results_["rmse"].shape == (7, 2)
+    np.testing.assert_array_equal(
+        model.alpha_,
+        model.cv_results_["alpha"][np.argmin(model.cv_results_["rmse"], axis=0)],
+    )
+    fixed = TransferFunctionRegressor(speed_column=2, alpha=2.5).fit(X, y)
+    assert fixed.alpha_ == 2.5 and not hasattr(fixed, "cv_results_")
+    with pytest.raises(ValueError, match=r"'alphas' parameter .* >= 0.*-1"):
+        TransferFunctionRegressor(speed_column=2, alphas=[1.0, -1.0]).fit(X, y)
+    with pytest.warns(UserWarning, match="no cross-validation fold.*first candidate"):
+        TransferFunctionRegressor(dt=1.0, n_grid=3).fit(np.ones((2, 1)), [0.0, 1.0])
+
+
+def test_auto_alpha_keeps_collinear_lags_from_extrapolating(shared_data):
+    # On the real FL_THERMAL record (16 collinear temperatures, one 46 h
+    # run, chronological 60/40 split), the least-squares gains cancel one
+    # another and extrapolate worse than linear regression; the penalty the
+    # cross-validation chooses on the training part does not.
+    from sklearn.linear_model import LinearRegression
+
+    from skthermal.datasets import load_fl_thermal
+
+    fl_thermal = load_fl_thermal(shared_data)
+    temps = [f"T{i}_C" for i in range(1, 17)]
+    X = fl_thermal.set_index(["run", "time_s"])[[*temps, "spindle_rpm"]]
+    y = fl_thermal["disp_ch1_um"].to_numpy()
+    k = int(round(0.6 * len(y)))
+
+    def held_out(model):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            pred = model.fit(X.iloc[:k], y[:k]).predict(X)
+        return np.sqrt(np.mean((pred[k:] - y[k:]) ** 2))
+
+    linear = LinearRegression().fit(X[temps].iloc[:k], y[:k])
+    r_linear = np.sqrt(np.mean((linear.predict(X[temps].iloc[k:]) - y[k:]) ** 2))
+    least_squares = held_out(
+        TransferFunctionRegressor(speed_column="spindle_rpm", alpha=0.0)
+    )
+    auto = held_out(TransferFunctionRegressor(speed_column="spindle_rpm"))
+    assert least_squares > r_linear
+    assert auto < 0.5 * r_linear

@@ -13,6 +13,7 @@ from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from skthermal.preprocessing._lags import LagFeatures, runs_start_driven
+from skthermal.utils._folds import run_folds
 from skthermal.utils._runs import (
     GAP_BRIDGE,
     LATE_START_WARNING,
@@ -25,7 +26,6 @@ from skthermal.utils._runs import (
     driver_positions,
     extract_runs,
     has_time_index,
-    run_key,
     run_slices,
     run_times,
     warn_centred_drivers,
@@ -45,59 +45,6 @@ DEFAULT_TIME_CONSTANT_SETS = (
     (900.0, 3600.0, 14400.0),
     (600.0, 1800.0, 5400.0, 16200.0),
 )
-
-
-def _forward_folds(n, n_splits, first_fraction):
-    """Expanding-window folds: train on rows before a cut, score the next block."""
-    edges = np.linspace(int(first_fraction * n), n, n_splits + 1).astype(int)
-    return [
-        (np.arange(0, edges[i]), np.arange(edges[i], edges[i + 1]))
-        for i in range(n_splits)
-        if edges[i] > 1 and edges[i + 1] > edges[i]
-    ]
-
-
-def _block_folds(n, n_splits):
-    """Contiguous-block folds: leave each of n_splits equal blocks out."""
-    edges = np.linspace(0, n, n_splits + 1).astype(int)
-    rows = np.arange(n)
-    return [
-        (np.r_[rows[: edges[i]], rows[edges[i + 1] :]], rows[edges[i] : edges[i + 1]])
-        for i in range(n_splits)
-        if edges[i + 1] > edges[i]
-    ]
-
-
-def _run_order(labels):
-    """Positions of the runs ``labels`` in a fixed order that does not depend
-    on the order of the runs in the table: by label, or, when the labels do
-    not sort (mixed kinds, unorderable objects), by the ``repr`` of their
-    :func:`~skthermal.utils._runs.run_key`."""
-    positions = range(len(labels))
-    try:
-        return sorted(positions, key=lambda r: labels[r])
-    except TypeError:
-        return sorted(positions, key=lambda r: repr(run_key(labels[r])))
-
-
-def _group_folds(slices, n_splits, labels=None):
-    """Leave-runs-out folds: the runs, in the order of their labels (else of
-    ``slices``), dealt round-robin into n_splits groups, so that the folds do
-    not depend on the order the runs were stacked in."""
-    k = min(n_splits, len(slices))
-    order = range(len(slices)) if labels is None else _run_order(labels)
-    parts = [[] for _ in range(k)]
-    for i, r in enumerate(order):
-        sl = slices[r]
-        parts[i % k].append(np.arange(sl.start, sl.stop))
-    n = max(sl.stop for sl in slices)
-    folds = []
-    for p in parts:
-        va = np.sort(np.concatenate(p))
-        mask = np.ones(n, bool)
-        mask[va] = False
-        folds.append((np.flatnonzero(mask), va))
-    return folds
 
 
 def _ridge_path_sse(F, y, folds, alphas, per_fold=False):
@@ -507,24 +454,15 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
     def _fit(self, X_raw, y, groups, slices, labels, sets, alphas, dt, initials):
         """The CV over the candidate settings and the refit of ``fit``."""
         n = y.shape[0]
-        cv = self.cv
-        if cv == "auto":
-            cv = "runs" if len(slices) > 1 else "forward"
-        if cv == "runs" and len(slices) == 1:
-            warnings.warn(
-                f"{type(self).__name__}: cv='runs' leaves whole runs out, and "
-                "the training rows are one run: expanding-window folds in time "
-                "order are used instead (cv='forward').",
-                UserWarning,
-                stacklevel=user_stacklevel(),
-            )
-        if cv == "runs" and len(slices) > 1:
-            folds = _group_folds(slices, self.n_splits, labels)
-        elif cv == "blocks":
-            folds = _block_folds(n, self.n_splits)
-        else:
-            folds = _forward_folds(n, self.n_splits, self.first_fraction)
-        folds = [(tr, va) for tr, va in folds if tr.size and va.size]
+        folds = run_folds(
+            self.cv,
+            slices,
+            labels,
+            n,
+            self.n_splits,
+            self.first_fraction,
+            type(self).__name__,
+        )
         if not folds:
             warnings.warn(
                 f"{type(self).__name__}: {n} training row(s) leave no "

@@ -2243,10 +2243,18 @@ def warn_unnamed_drivers(name, drivers, names, groups):
 
 
 def check_positive_numbers(
-    values, name, owner, *, size=None, empty=True, distinct=False, why=""
+    values,
+    name,
+    owner,
+    *,
+    size=None,
+    empty=True,
+    distinct=False,
+    why="",
+    allow_zero=False,
 ):
     """The array-like parameter ``name`` of the estimator ``owner`` as a 1-D
-    float array of finite numbers > 0.
+    float array of finite numbers > 0 (>= 0 with ``allow_zero``).
 
     ``"array-like"`` in ``_parameter_constraints`` lets through strings,
     bools, NaN, infinities and negative numbers inside the sequence; this
@@ -2267,6 +2275,8 @@ def check_positive_numbers(
         Whether an entry may not repeat (it would repeat a feature).
     why : str, optional
         Appended to the message: why the entries must be so.
+    allow_zero : bool, default=False
+        Whether an entry may be 0.
 
     Raises
     ------
@@ -2274,11 +2284,12 @@ def check_positive_numbers(
         (a ValueError) naming the parameter, the first offending entry and
         its position, and what was expected.
     """
-    want = "finite numbers > 0"
+    least = ">= 0" if allow_zero else "> 0"
+    want = f"finite numbers {least}"
     if size is not None:
         want = f"{size} {want}"
     elif not empty:
-        want = "at least one finite number > 0"
+        want = f"at least one finite number {least}"
     msg = f"The {name!r} parameter of {owner} must be a flat sequence of {want}"
     why = f" ({why})" if why else ""
     try:
@@ -2293,7 +2304,8 @@ def check_positive_numbers(
     )
     num = np.full(arr.shape, np.nan)
     num[number] = arr[number].astype(float)
-    bad = np.flatnonzero(~(np.isfinite(num) & (num > 0)))
+    allowed = (num >= 0) if allow_zero else (num > 0)
+    bad = np.flatnonzero(~(np.isfinite(num) & allowed))
     if bad.size:
         i = int(bad[0])
         raise InvalidParameterError(
