@@ -66,25 +66,35 @@ def compact(value):
     return f"{value:.3g}"
 
 
-def percent(share):
+def percent(share, below=None):
     """A share as a whole percentage for reports: ``-0.004`` reads ``0%``
-    (not ``-0%``), ``0.516`` reads ``52%``; a missing share ``n/a``."""
+    (not ``-0%``), ``0.516`` reads ``52%``; a missing share ``n/a``. A share
+    under a threshold ``below`` that whole percents would round up to it
+    gets a decimal, rounded down: ``percent(0.4996, below=0.5)`` reads
+    ``49.9%``, not the ``50%`` a report then says falls short of 50%.
+
+    >>> percent(0.516), percent(0.4956, below=0.5), percent(0.4956)
+    ('52%', '49.5%', '50%')
+    """
     share = float(share)
     if not np.isfinite(share):
         return "n/a"
+    if below is not None and share < below <= round(share * 100) / 100:
+        return f"{np.floor(share * 1000) / 10:.1f}%"
     return f"{round(share * 100)}%"
 
 
-def removes(share):
+def removes(share, below=None):
     """``removes 52% of`` for a share of a gap taken away, ``adds 8% to``
-    for one made larger (a negative share), for report sentences.
+    for one made larger (a negative share), for report sentences; ``below``
+    as in :func:`percent`.
 
     >>> removes(0.516), removes(-0.08), removes(-0.004)
     ('removes 52% of', 'adds 8% to', 'removes 0% of')
     """
     if np.isfinite(float(share)) and round(float(share) * 100) < 0:
         return f"adds {percent(-float(share))} to"
-    return f"removes {percent(share)} of"
+    return f"removes {percent(share, below)} of"
 
 
 def qualified_name(obj):

@@ -728,16 +728,17 @@ def warn_implausible(df, late_start=True):
     :func:`validate_runs` (the gap diagnosis reads its own columns): a
     ``time_s`` like a clock's or in another unit (``late_start=False``:
     runs that start after 0 are not warned about, e.g. measured runs whose
-    simulation starts before them), workshop air in another unit, readings no
-    machine gives."""
+    simulation starts before them), workshop air or temperature sensors in
+    another unit (kelvin, Fahrenheit), readings no machine gives."""
     codes = pd.factorize(df[RUN])[0]
     order = np.argsort(codes, kind="stable")
     times = _as_float(df, [TIME])[:, 0]
     warn_odd_times(codes[order], times[order], late_start)
     _warn_air_unit(df)
     read = [c for c in df.columns if _is_temperature(c) or _is_target(c)]
-    values = df[read].apply(pd.to_numeric, errors="coerce")
-    _warn_impossible_readings(df, read, values.to_numpy(dtype=float), codes)
+    values = df[read].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
+    _warn_kelvin_sensors(df, read, values, codes)
+    _warn_impossible_readings(df, read, values, codes)
 
 
 def _warn_air_unit(df):

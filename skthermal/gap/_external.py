@@ -20,7 +20,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.utils._param_validation import StrOptions, validate_params
 
-from skthermal._naming import percent, removes
+from skthermal._naming import percent
 from skthermal.datasets._runtable import warn_implausible
 from skthermal.gap._evidence import (
     explainable_summary,
@@ -203,6 +203,7 @@ def _align(
         check_times(ts, name, "simulated")
         tol = 1e-6 * max(1.0, float(np.max(np.abs(t))))
         span = (float(ts[0]), float(ts[-1]))
+        _check_time_scales(t, ts, name)
         # Simulated rows before the measured start (a logger started late):
         # not compared, but the terms' filters run through them from the
         # simulation's start, with the simulation's drivers.
@@ -328,6 +329,7 @@ def _align(
     # Measured runs that start after 0 are no clock's time when the
     # simulation starts before them (a logger started late).
     warn_implausible(measured, late_start=not any(row[5] is not None for row in out))
+    warn_implausible(simulated, late_start=False)
     warn_short_runs("diagnose_runs", {name: t[-1] - t[0] for name, t, *_ in out}, 5)
     aligned = [row[:5] for row in out]
     blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
@@ -372,6 +374,39 @@ def _align(
             )
     noise = pooled_noise([row[3][:, keep] for row in out])
     return runs, channels, sim_cols, noise
+
+
+# Least simulated rows per measured run's span: fewer, and the run is
+# compared with a few straight lines between them.
+_MIN_SIMULATED_ROWS = 4
+
+
+def _check_time_scales(t, ts, name):
+    """Raise when the simulated run ``ts`` steps so coarsely against the
+    measured run ``t`` that fewer than :data:`_MIN_SIMULATED_ROWS` of its rows
+    would fall in the measured span: a simulation whose ``time_s`` is in
+    another unit (milliseconds read as seconds run a thousand times slower)
+    is otherwise compared as a straight line between two of its rows."""
+    if t.size < 2 or ts.size < 2:
+        return
+    length = float(t[-1] - t[0])
+    step = float(np.median(np.diff(ts)))
+    if step * (_MIN_SIMULATED_ROWS - 1) <= length:
+        return
+    ratio = step / float(np.median(np.diff(t)))
+    unit = (
+        " The simulated rows are some 1000 times further apart than the "
+        "measured ones: a simulation's time_s in milliseconds?"
+        if 300 <= ratio <= 3000
+        else ""
+    )
+    raise ValueError(
+        f"Run {name!r}: the simulated rows are {step:g} s apart (median step of "
+        f"time_s), the measured run lasts {length:g} s: fewer than "
+        f"{_MIN_SIMULATED_ROWS} simulated rows fall in it, and the measurement "
+        "would be compared with straight lines between them. Give both tables "
+        f"time_s in seconds since the run's start.{unit}"
+    )
 
 
 def _before_measured(sim, ts, start, sim_cols, name):
@@ -709,11 +744,8 @@ class ExternalGapReport(GapReport):
         )
         if self.best_effect is None:
             return (
-                (
-                    f"{self._none_opening(row)} (best "
-                    f"candidate {row['effect']!r} {removes(row['shrink'])} the "
-                    f"excess held-out gap: {evidence})."
-                )
+                f"{self._none_opening(row)} ({self._best_candidate_text(row)}: "
+                f"{evidence})."
                 + self._ruled_out_text(row)
                 + self._stopped_text(row)
                 + self._within_noise_text(row)

@@ -442,10 +442,8 @@ class GapReport:
         )
         if self.best_effect is None:
             text = (
-                f"{self._none_opening(fine)} (best "
-                f"candidate {fine['effect']!r} {removes(fine['shrink'])} "
-                f"the excess held-out gap {how}: {evidence}"
-                f"{self._flexible_text(fine)})."
+                f"{self._none_opening(fine)} ({self._best_candidate_text(fine, how)}"
+                f": {evidence}{self._flexible_text(fine)})."
             )
             return (
                 text
@@ -493,6 +491,22 @@ class GapReport:
             f" Alone, {said} also pass(es) the test (table 'Which effect'): the "
             "runs do not single out one effect; weigh the ranking and the fitted "
             "parameters (one on its bound fits something else)."
+        )
+
+    def _best_candidate_text(self, row, how=""):
+        """``best candidate 'x' removes 46% of the excess held-out gap {how},
+        short of the 50% that names an effect`` for a verdict that names
+        none: its share never rounded up to ``min_shrink``."""
+        least = self.settings.get("min_shrink")
+        short = (
+            f", short of the {percent(least)} that names an effect"
+            if least is not None and 0 < row["shrink"] < least
+            else ""
+        )
+        how = f" {how}" if how else ""
+        return (
+            f"best candidate {row['effect']!r} {removes(row['shrink'], least)} "
+            f"the excess held-out gap{how}{short}"
         )
 
     def _none_opening(self, row):
