@@ -819,3 +819,23 @@ def test_auto_alpha_keeps_collinear_lags_from_extrapolating(shared_data):
     auto = held_out(TransferFunctionRegressor(speed_column="spindle_rpm"))
     assert least_squares > r_linear
     assert auto < 0.5 * r_linear
+
+
+def test_runs_starting_at_different_targets_warn():
+    # The model starts every run at rest, the same prediction at every
+    # run's first row: a target whose runs start far apart (warm starts, a
+    # probe zeroed anew) is taken up by the gains (an independent check:
+    # 37-61 µm held out against 3-6 fitted on the changes), silently.
+    X, y = _heating_runs()
+    offsets = np.where(X.index.get_level_values("run") == "r1", 12.0, 0.0)
+    with pytest.warns(
+        UserWarning, match=r"from 1\.738 to 13\.74, a spread of 6 against changes of 17"
+    ):
+        TransferFunctionRegressor(speed_column=2, alpha=0.0).fit(X, y + offsets)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        TransferFunctionRegressor(speed_column=2, alpha=0.0).fit(X, y)
+        # On the changes since each run's start, nothing to say.
+        shifted = y + offsets
+        first = shifted.groupby(level="run").transform("first")
+        TransferFunctionRegressor(speed_column=2, alpha=0.0).fit(X, shifted - first)

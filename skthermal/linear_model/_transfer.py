@@ -48,6 +48,7 @@ from skthermal.utils._runs import (
     warn_pauses,
     warn_short_runs,
     warn_slow_periods,
+    warn_start_offsets,
     warn_time_unit,
     warn_unlabelled_runs,
 )
@@ -1291,6 +1292,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         )
         warn_no_time(type(self).__name__, X_raw, self.dt)
         dts, self.sample_period_s_ = self._intervals(X_raw, groups, slices, labels)
+        warn_start_offsets(type(self).__name__, y, slices)
         if self.dt is not None or has_time_index(X_raw):
             spans = [(sl.stop - sl.start - 1) * d for sl, d in zip(slices, dts)]
             warn_short_runs(
