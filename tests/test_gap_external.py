@@ -1183,3 +1183,25 @@ def test_sensors_in_fahrenheit_are_flagged(pair, table):
         diagnose_runs(
             frames["simulated"], frames["measured"], candidates=["sensor_lag"]
         )
+
+
+def test_a_run_or_time_column_under_another_name_is_named(pair):
+    sim, meas = pair
+    renamed = meas.rename(columns={"run": "Run", "time_s": "time_min"})
+    with pytest.raises(
+        ValueError,
+        match=r"no \['run', 'time_s'\] column\(s\) \(columns that may be meant: "
+        r"'Run' for 'run', 'time_min' for 'time_s'\)",
+    ):
+        diagnose_runs(sim, renamed)
+
+
+def test_clock_times_as_text_are_named(pair):
+    sim, meas = pair
+    clock = pd.Timestamp("2026-11-01 08:00") + pd.to_timedelta(meas["time_s"], unit="s")
+    with pytest.raises(
+        ValueError,
+        match=r"time_s is text \('2026-11-01 08:00:00'\) in run 'r0' of the "
+        r"measured table at row 0 of the run: it must hold numbers \(a clock time",
+    ):
+        diagnose_runs(sim, meas.assign(time_s=clock.astype(str)))

@@ -583,6 +583,21 @@ SKIP_VALIDATION = (
 )
 
 
+def meant_for(columns, name):
+    """The columns of ``columns`` that may be meant for the run table's
+    ``run`` or ``time_s`` column ``name`` when it is absent (``Run``,
+    ``test_id``; ``time_min``, ``Timestamp``, ``t``)."""
+    starts = ("run", "test") if name == RUN else ("time", "t_", "date", "stamp")
+    return [
+        c
+        for c in columns
+        if isinstance(c, str)
+        and (
+            c.strip().lower().startswith(starts) or (name == TIME and c.strip() == "t")
+        )
+    ]
+
+
 def check_run_table(
     df,
     *,
@@ -596,15 +611,10 @@ def check_run_table(
     check_frame(df)
     names = [c for c in df.columns if isinstance(c, str)]
     if RUN not in df.columns:
-        candidates = [c for c in names if c.strip().lower().startswith(("run", "test"))]
+        candidates = meant_for(df.columns, RUN)
         raise _missing_column(RUN, "the label of the run of every row", candidates, df)
     if TIME not in df.columns:
-        candidates = [
-            c
-            for c in names
-            if c.strip().lower().startswith(("time", "t_", "date", "stamp"))
-            or c.strip() == "t"
-        ]
+        candidates = meant_for(df.columns, TIME)
         error = _missing_column(
             TIME, "time since the start of the run, in s", candidates, df
         )

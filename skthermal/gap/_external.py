@@ -21,7 +21,7 @@ from joblib import Parallel, delayed
 from sklearn.utils._param_validation import StrOptions, validate_params
 
 from skthermal._naming import percent
-from skthermal.datasets._runtable import warn_implausible
+from skthermal.datasets._runtable import meant_for, warn_implausible
 from skthermal.gap._evidence import (
     explainable_summary,
     residual_lr_test,
@@ -99,10 +99,17 @@ def _check_table(df, label):
     check_unique_columns(df, f"The {label} run table")
     missing = [c for c in ("run", *DRIVERS) if c not in df.columns]
     if missing:
+        meant = [
+            f"{c!r} for {name!r}"
+            for name in ("run", "time_s")
+            if name in missing
+            for c in meant_for(df.columns, name)
+        ]
+        hint = f" (columns that may be meant: {', '.join(meant)})" if meant else ""
         raise ValueError(
-            f"The {label} run table has no {missing} column(s); both tables need "
-            "run, time_s, spindle_rpm and ambient_C (and feed_mm_min if the axis "
-            "moved)" + driver_lookalike_hint(df.columns, missing) + "."
+            f"The {label} run table has no {missing} column(s){hint}; both tables "
+            "need run, time_s, spindle_rpm and ambient_C (and feed_mm_min if the "
+            "axis moved)" + driver_lookalike_hint(df.columns, missing) + "."
         )
 
 

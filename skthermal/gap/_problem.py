@@ -200,8 +200,20 @@ def driver_values(frame, col, run, table=""):
         bad |= np.isfinite(values) & (values < 0)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
+        given = frame[col].iloc[k]
+        if isinstance(given, str) and given.strip():
+            clock = (
+                " (a clock time or date? time_s is the seconds since the start "
+                "of the run: convert it first)"
+                if col == "time_s"
+                else ""
+            )
+            raise ValueError(
+                f"{col} is text ({shown(given)}) in {_where(run, table)} at row "
+                f"{k} of the run: it must hold numbers{clock}."
+            )
         if not np.isfinite(values[k]):
-            what = f"is missing or not finite ({shown(frame[col].iloc[k])})"
+            what = f"is missing or not finite ({shown(given)})"
         elif absurd[k]:
             what = f"is absurd ({values[k]:g}, beyond {MAX_MAGNITUDE:g} in magnitude)"
         else:
