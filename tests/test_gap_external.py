@@ -1205,3 +1205,18 @@ def test_clock_times_as_text_are_named(pair):
         r"measured table at row 0 of the run: it must hold numbers \(a clock time",
     ):
         diagnose_runs(sim, meas.assign(time_s=clock.astype(str)))
+
+
+def test_a_signed_feed_against_its_magnitude_is_the_same_driver(rng):
+    # The feed enters the terms as |feed|: a measured direction of travel
+    # against a simulation's magnitude was refused as other drivers.
+    sim, meas = _feed_tables(rng, n_runs=3, hours=3.0)
+    signed = meas.assign(
+        feed_mm_min=meas["feed_mm_min"] * np.where(np.arange(len(meas)) % 7 < 3, -1, 1)
+    )
+    kwargs = {"candidates": ["feed_heating", "sensor_lag"], "greedy": False}
+    same = diagnose_runs(sim, signed, **kwargs)
+    plain = diagnose_runs(sim, meas, **kwargs)
+    pd.testing.assert_frame_equal(same.ranking, plain.ranking)
+    with pytest.raises(ValueError, match="The drivers differ: feed_mm_min"):
+        diagnose_runs(sim, meas.assign(feed_mm_min=meas["feed_mm_min"] * 2), **kwargs)

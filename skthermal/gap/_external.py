@@ -269,6 +269,11 @@ def _align(
             )
             sim_drivers[col] = sim_d
             tol_d = 1e-3 * max(1.0, float(np.max(np.abs(m))))
+            # The feed enters the terms as |feed|: a direction of travel
+            # logged in one table only is no other driver.
+            m_c, sim_c = (
+                (np.abs(m), np.abs(sim_d)) if col == "feed_mm_min" else (m, sim_d)
+            )
             if col == "ambient_C":
                 tol_d = max(tol_d, 0.05)  # the air as logged, quantised
                 if not same:  # between samples the logged air moves on
@@ -276,7 +281,7 @@ def _align(
             # Only where both tables have the run: simulated rows before the
             # first or after the last measured sample (a simulation covering
             # more than the measurement) are not compared.
-            wrong = np.abs(m[at] - sim_d) > tol_d
+            wrong = np.abs(m_c[at] - sim_c) > tol_d
             if not same and t.size > 1:
                 # A logger's clock jitters: a step of a driver may fall on
                 # either side of a simulated row within half a sampling
@@ -285,7 +290,7 @@ def _align(
                 half = 0.5 * float(np.median(np.diff(t)))
                 for near in (np.maximum(at - 1, 0), np.minimum(at + 1, t.size - 1)):
                     close = np.abs(t[near] - ts) <= half
-                    wrong &= ~(close & (np.abs(m[near] - sim_d) <= tol_d))
+                    wrong &= ~(close & (np.abs(m_c[near] - sim_c) <= tol_d))
             off = np.flatnonzero(wrong & inside)
             if off.size:
                 k = int(off[0])
