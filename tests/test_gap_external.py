@@ -1220,3 +1220,50 @@ def test_a_signed_feed_against_its_magnitude_is_the_same_driver(rng):
     pd.testing.assert_frame_equal(same.ranking, plain.ranking)
     with pytest.raises(ValueError, match="The drivers differ: feed_mm_min"):
         diagnose_runs(sim, meas.assign(feed_mm_min=meas["feed_mm_min"] * 2), **kwargs)
+
+
+def _air_tables(rng, n_runs=4, hours=6.0, tau=(5000.0, 21600.0), gain=3.0):
+    """A simulation whose displacement follows the workshop air (doors, heating)
+    too slowly: the measurement adds a band-pass of the air, an exposed
+    surface of time constant ``tau[0]`` against the bulk's ``tau[1]``."""
+    sims, meas = [], []
+    for r in range(n_runs):
+        t = np.arange(0, hours * 3600, 60.0)
+        air = np.full(t.size, 20.0)
+        for _ in range(3):  # doors, heating: steps of the workshop air
+            a, b = np.sort(rng.uniform(0, t[-1], 2))
+            air += rng.uniform(-1.5, 1.5) * ((t >= a) & (t < b))
+        air = _lowpass(air, 300.0)
+        edges = np.cumsum(rng.uniform(1800, 5400, 20))
+        block = np.searchsorted(edges, t)
+        rpm = np.where(block % 2 == r % 2, rng.choice([2000.0, 6000.0], 20)[block], 0.0)
+        heat = _lowpass((rpm / 1000) ** 1.3, 2400.0)
+        T1 = _lowpass(air, 1800.0) + 0.8 * heat
+        dz = 4.0 * heat + 1.0 * (_lowpass(air, 7200.0) - 20)
+        sim = np.column_stack([T1, dz])
+        y = sim.copy()
+        y[:, 1] += gain * (_lowpass(air, tau[0]) - _lowpass(air, tau[1]))
+        y += rng.standard_normal(y.shape) * [0.01, 0.1]
+        base = {"run": f"r{r}", "time_s": t, "spindle_rpm": rpm, "ambient_C": air}
+        cols = ["T1_C", "disp_z_um"]
+        sims.append(pd.DataFrame({**base, **dict(zip(cols, sim.T))}))
+        meas.append(pd.DataFrame({**base, **dict(zip(cols, y.T))}))
+    return pd.concat(sims, ignore_index=True), pd.concat(meas, ignore_index=True)
+
+
+def test_an_exposed_surface_slower_than_an_hour_is_named():
+    # ambient_transient's fast time constant may reach 4 h: an exposed
+    # surface of 3000 s ended on the old 1 h end, where a candidate the
+    # range stopped is not named (an independent check: 92% of the held-out
+    # gap removed, "no candidate effect explains the gap").
+    sim, meas = _air_tables(np.random.default_rng(0))
+    report = diagnose_runs(
+        sim,
+        meas,
+        candidates=["ambient_transient", "sensor_lag", "speed_convection"],
+        greedy=False,
+    )
+    assert report.best_effect == "ambient_transient"
+    top = report.ranking.iloc[0]
+    assert top["shrink"] > 0.9 and top["stopped"] == ""
+    assert 3600 < top["fitted"]["tau_fast_s"] < 6000

@@ -504,7 +504,7 @@ class AmbientTransient(DiscrepancyTerm):
     ``g (lag(T_air, tau_fast) - lag(T_air, tau_slow))``."""
 
     name = "ambient_transient"
-    bounds = {"tau_fast_s": (60.0, 3600.0), "tau_slow_s": (600.0, 28800.0)}
+    bounds = {"tau_fast_s": (60.0, 14400.0), "tau_slow_s": (600.0, 28800.0)}
     channels = "all"
     n_signals = 1
     temperature_sign = 1  # surfaces follow the air more closely, not less
