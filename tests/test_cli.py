@@ -1626,3 +1626,31 @@ def test_fit_names_a_stuck_sensor(capsys, workdir, tmp_path):
         capsys, *argv[:4], "lag-ridge", *argv[5:], "--sensors", "T05_C"
     )
     assert status == 0 and "do not change" not in err, err
+
+
+def test_evaluate_marks_the_models_training_runs(capsys, workdir, tmp_path):
+    # A model's own training runs score its fit: marked, and out of the mean
+    # and pooled rows (they were pooled in unmarked).
+    model = tmp_path / "m.joblib"
+    fit = ["fit", "--runs", workdir / "tests.csv", "--model", "ridge"]
+    fit += ["--sensors", "T01_C,T02_C,T03_C", "--train-runs", "I,IV", "--out", model]
+    assert _run(capsys, *fit)[0] == 0
+    out = tmp_path / "scores.csv"
+    argv = ["evaluate", "--runs", workdir / "tests.csv", "--model", model]
+    status, text, err = _run(capsys, *argv, "--out", out)
+    assert status == 0, err
+    assert "Run(s) 'I', 'IV' are the model's training runs (fitted: yes)" in text
+    table = pd.read_csv(out, keep_default_na=False).set_index("run")
+    assert table.loc[["I", "IV"], "fitted"].tolist() == ["yes", "yes"]
+    assert table.loc[["V", "extra", "mean", "all"], "fitted"].tolist() == [""] * 4
+    held_out = table.loc[["V", "extra"], "RMSE_um"].astype(float)
+    assert float(table.loc["mean", "RMSE_um"]) == pytest.approx(held_out.mean())
+    n = table.loc[["V", "extra"], "n_samples"].astype(int).sum()
+    assert int(table.loc["all", "n_samples"]) == n
+    # Every run a training run: said so, the mean over them.
+    only = tmp_path / "only.csv"
+    runs = pd.read_csv(workdir / "tests.csv")
+    runs[runs["run"].isin(["I", "IV"])].to_csv(only, index=False)
+    status, text, err = _run(capsys, "evaluate", "--runs", only, "--model", model)
+    assert status == 0, err
+    assert "every run here is one, so the mean and all rows are training" in text

@@ -719,17 +719,30 @@ def cmd_evaluate(args):
             )
     labels = data["run"].to_numpy()
     table = score_runs(data[target], pred, labels)
-    mean = {"run": "mean", "n_samples": int(table["n_samples"].sum())}
-    mean.update(table[list(METRIC_COLUMNS)].mean().to_dict())
-    mean["residual_um"] = table["residual_um"].max()
+    # The model's own training runs score its fit, not its prediction: marked,
+    # and left out of the mean and pooled rows while other runs remain.
+    fitted = (
+        np.isin(table["run"].astype(str), bundle["train_runs"])
+        if args.model
+        else np.zeros(len(table), dtype=bool)
+    )
+    summed = ~fitted if not fitted.all() else fitted
+    rows = np.isin(labels, table["run"].to_numpy()[summed])
+    mean = {"run": "mean", "n_samples": int(table["n_samples"][summed].sum())}
+    mean.update(table[list(METRIC_COLUMNS)][summed].mean().to_dict())
+    mean["residual_um"] = table["residual_um"][summed].max()
     # Every sample pooled: a run of a few samples weighs as little as it is
     # long (in the mean row it counts as much as a whole test).
     pooled = score_runs(
-        changes_since_first_row(data[target].to_numpy(dtype=float), labels),
-        changes_since_first_row(pred, labels),
-        np.zeros(len(labels)),  # the changes, one series: its first value is 0
+        changes_since_first_row(data[target].to_numpy(dtype=float)[rows], labels[rows]),
+        changes_since_first_row(pred[rows], labels[rows]),
+        np.zeros(int(rows.sum())),  # the changes, one series: its first value is 0
     ).assign(run="all")
+    if fitted.any():
+        table.insert(1, "fitted", np.where(fitted, "yes", ""))
     table = pd.concat([table, pd.DataFrame([mean]), pooled], ignore_index=True)
+    if fitted.any():
+        table["fitted"] = table["fitted"].fillna("")
     shown = table.copy()
     for c in METRIC_COLUMNS:
         shown[c] = [compact(v) for v in table[c]]
@@ -738,6 +751,18 @@ def cmd_evaluate(args):
         "(residual: max |error|; mean row: the mean over runs, each counting "
         "once, its residual the max over runs; all row: every sample pooled)"
     )
+    if fitted.any():
+        named = ", ".join(repr(str(r)) for r in table["run"][: len(fitted)][fitted])
+        caption += (
+            f". Run(s) {named} are the model's training runs (fitted: yes): "
+            "their errors are its fit, not a prediction; "
+            + (
+                "the mean and all rows are over the other runs"
+                if not fitted.all()
+                else "every run here is one, so the mean and all rows are "
+                "training errors too"
+            )
+        )
     print(caption)
     print(shown.to_string(index=False))
     if args.out:
