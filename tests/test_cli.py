@@ -163,6 +163,19 @@ def test_a_run_label_with_a_comma_is_chosen_whole(capsys, tmp_path):
         assert "runs A,1, B;" in text
 
 
+def test_run_lists_read_labels_with_commas_every_way_they_can():
+    # Labels A, 'A,B' and 'B,C': taking the longest label first read
+    # "A,B,C" as 'A,B' and an unknown 'C'.
+    from skthermal._cli._common import split_list
+
+    labels = ["A", "A,B", "B,C"]
+    assert split_list("A,B,C", keep=labels) == ["A", "B,C"]
+    assert split_list("A,B", keep=labels) == ["A,B"]
+    assert split_list("B,C, A", keep=labels) == ["B,C", "A"]
+    assert split_list("A,B,C,D", keep=labels) == ["A", "B,C", "D"]
+    assert split_list(["A,B", " x "], keep=[]) == ["A", "B", "x"]
+
+
 def test_whole_float_run_labels_are_named_as_integers(capsys, tmp_path):
     # A Parquet table's float labels 1.0, 2.0: --train-runs 1,2 said they
     # were not in the table (runs ['1.0', '2.0']), while the estimators

@@ -35,20 +35,37 @@ def split_list(value, keep=()):
     keep = set(keep)
     out = []
     for item in items:
-        pieces = item.split(",")
-        i = 0
-        while i < len(pieces):
-            # The longest run of pieces that is one of keep as a whole (a
-            # label holding commas, "A,1"), else one piece.
-            for j in range(len(pieces), i, -1):
-                v = ",".join(pieces[i:j])
-                v = v if v in keep else v.strip()
-                if j == i + 1 or v in keep:
-                    break
-            if v:
-                out.append(v)
-            i = j
+        out += _split_item(item.split(","), keep)
     return out
+
+
+def _split_item(pieces, keep):
+    """The comma-separated ``pieces`` of one item as values: each a run of
+    pieces that is one of ``keep`` as a whole (a label holding commas,
+    ``"A,1"``), or one piece. Of all such readings, the one with the fewest
+    values that are not in ``keep``, then the fewest values (the longest
+    labels): with labels ``A``, ``A,B`` and ``B,C``, ``"A,B,C"`` reads
+    ``A`` and ``B,C``, where taking the longest label first left ``C``."""
+    n = len(pieces)
+    # best[i]: (values not in keep, values, the values) for pieces[i:].
+    best = [None] * n + [(0, 0, [])]
+    for i in range(n - 1, -1, -1):
+        for j in range(n, i, -1):  # longer runs first: they win ties
+            v = ",".join(pieces[i:j])
+            if v not in keep:
+                if j > i + 1:
+                    continue
+                v = v.strip()
+            misses, count, values = best[j]
+            if v:
+                misses, count, values = (
+                    misses + (v not in keep),
+                    count + 1,
+                    [v, *values],
+                )
+            if best[i] is None or (misses, count) < best[i][:2]:
+                best[i] = (misses, count, values)
+    return best[0][2]
 
 
 def label_text(run):
