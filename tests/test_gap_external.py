@@ -1185,26 +1185,31 @@ def test_sensors_in_fahrenheit_are_flagged(pair, table):
         )
 
 
-def test_a_run_or_time_column_under_another_name_is_named(pair):
-    sim, meas = pair
-    renamed = meas.rename(columns={"run": "Run", "time_s": "time_min"})
-    with pytest.raises(
-        ValueError,
-        match=r"no \['run', 'time_s'\] column\(s\) \(columns that may be meant: "
-        r"'Run' for 'run', 'time_min' for 'time_s'\)",
-    ):
-        diagnose_runs(sim, renamed)
-
-
-def test_clock_times_as_text_are_named(pair):
-    sim, meas = pair
+def _clock_text(meas):
+    """``meas`` with its times as a logger's clock, written as text."""
     clock = pd.Timestamp("2026-11-01 08:00") + pd.to_timedelta(meas["time_s"], unit="s")
-    with pytest.raises(
-        ValueError,
-        match=r"time_s is text \('2026-11-01 08:00:00'\) in run 'r0' of the "
-        r"measured table at row 0 of the run: it must hold numbers \(a clock time",
-    ):
-        diagnose_runs(sim, meas.assign(time_s=clock.astype(str)))
+    return meas.assign(time_s=clock.astype(str))
+
+
+@pytest.mark.parametrize(
+    "slip, message",
+    [
+        (
+            lambda m: m.rename(columns={"run": "Run", "time_s": "time_min"}),
+            r"no \['run', 'time_s'\] column\(s\) \(columns that may be meant: "
+            r"'Run' for 'run', 'time_min' for 'time_s'\)",
+        ),
+        (
+            _clock_text,
+            r"time_s is text \('2026-11-01 08:00:00'\) in run 'r0' of the measured "
+            r"table at row 0 of the run: it must hold numbers \(a clock time",
+        ),
+    ],
+)
+def test_run_and_time_slips_are_named(pair, slip, message):
+    sim, meas = pair
+    with pytest.raises(ValueError, match=message):
+        diagnose_runs(sim, slip(meas))
 
 
 def test_a_signed_feed_against_its_magnitude_is_the_same_driver(rng):
@@ -1257,12 +1262,8 @@ def test_an_exposed_surface_slower_than_an_hour_is_named():
     # range stopped is not named (an independent check: 92% of the held-out
     # gap removed, "no candidate effect explains the gap").
     sim, meas = _air_tables(np.random.default_rng(0))
-    report = diagnose_runs(
-        sim,
-        meas,
-        candidates=["ambient_transient", "sensor_lag", "speed_convection"],
-        greedy=False,
-    )
+    tried = ["ambient_transient", "sensor_lag", "speed_convection"]
+    report = diagnose_runs(sim, meas, candidates=tried, greedy=False)
     assert report.best_effect == "ambient_transient"
     top = report.ranking.iloc[0]
     assert top["shrink"] > 0.9 and top["stopped"] == ""
