@@ -435,8 +435,9 @@ def test_models_counting_rows_warn_about_another_sampling_period(name):
     sparse = table.iloc[::4].assign(run="every 4th row")
     with pytest.warns(
         UserWarning,
-        match=r"run 'every 4th row' is sampled every 240 s, the period of the "
-        r"training runs is 60 s\. The model counts rows.*4 times too slow",
+        match=r"run 'every 4th row' is sampled every 240 s, the period of most "
+        r"of the training runs' rows is 60 s\. The model counts rows.*4 times too "
+        r"slow",
     ):
         model.predict(sparse)
     with warnings.catch_warnings():
@@ -454,6 +455,15 @@ def test_models_counting_rows_warn_about_another_sampling_period(name):
         match=r"sampled every 240 s, the period of most of the runs' rows is 60 s",
     ):
         model.fit(both, y_both)
+    # predict compares with the same period as fit: that of most training
+    # rows (it took the median over the runs, 240 s with two sparse runs,
+    # and advised resampling to it where fit had advised 60 s).
+    more = pd.concat([both, table.iloc[2::4].assign(run="another 4th row")])
+    with pytest.warns(UserWarning, match="the period of most of the runs' rows"):
+        model.fit(more, np.r_[y_both, y[2::4]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(table.assign(run="same period"))
 
 
 def _object_array(values):

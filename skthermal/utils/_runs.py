@@ -1947,6 +1947,22 @@ def _worst_run(score, labels, limit):
     return r, where
 
 
+def _period_of_most_rows(periods, steps):
+    """The median of the runs' sampling ``periods`` weighted by their numbers
+    of time ``steps``: the period most rows have (NaN when no run tells
+    one). ``fit`` and ``predict`` of a model that counts rows compare runs
+    with it alike (``predict`` compared with the median over the training
+    runs, which named another period than ``fit`` for the same runs)."""
+    periods = np.asarray(periods, dtype=float)
+    steps = np.asarray(steps, dtype=float)
+    ok = np.isfinite(periods) & (steps > 0)
+    if not ok.any():
+        return np.nan
+    order = np.argsort(periods[ok])
+    cum = np.cumsum(steps[ok][order])
+    return float(periods[ok][order][np.searchsorted(cum, 0.5 * cum[-1])])
+
+
 def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
     """Warn when runs are sampled at different periods, for a model that
     counts rows (its dynamics are per sample, so a run logged every 60 s
@@ -1963,20 +1979,15 @@ def warn_row_periods(name, X, slices, labels, memory=None, stacklevel=5):
         return
     periods = _median_periods(t, slices)
     if memory is None:
-        # The median over the runs' time steps: the period most rows have.
-        steps = np.array([sl.stop - sl.start - 1 for sl in slices], dtype=float)
-        ok = np.isfinite(periods)
-        if not ok.any():
-            return
-        order = np.argsort(periods[ok])
-        cum = np.cumsum(steps[ok][order])
-        ref = periods[ok][order][np.searchsorted(cum, 0.5 * cum[-1])]
+        steps = [sl.stop - sl.start - 1 for sl in slices]
+        ref = _period_of_most_rows(periods, steps)
         against = "the period of most of the runs' rows"
     else:
-        fitted = [memory_period(m) for m in memory.values()]
-        fitted = [p for p in fitted if np.isfinite(p)]
-        ref = float(np.median(fitted)) if fitted else np.nan
-        against = "the period of the training runs"
+        ref = _period_of_most_rows(
+            [memory_period(m) for m in memory.values()],
+            [m["n"] - 1 for m in memory.values()],
+        )
+        against = "the period of most of the training runs' rows"
     if not (np.isfinite(ref) and ref > 0):
         return
     worst = _worst_run(np.abs(periods / ref - 1.0), labels, PERIOD_RTOL)
