@@ -252,6 +252,20 @@ def test_naming_rule_errors_name_the_column(runs, bad, kind):
         ) in message
 
 
+@pytest.mark.parametrize(
+    "bad, hint",
+    [
+        ("disp_z_mm", "(in mm? multiply by 1000 for 'disp_z_um')"),
+        ("disp_z_nm", "(in nm? divide by 1000 for 'disp_z_um')"),
+        ("T05_F", "(in °F? convert with (F - 32) / 1.8 for 'T05_C')"),
+        ("T05_K", "(in K? subtract 273.15 for 'T05_C')"),
+    ],
+)
+def test_a_column_in_another_unit_is_told_the_conversion(runs, bad, hint):
+    with pytest.raises(ValueError, match=re.escape(hint)):
+        validate_runs(runs.assign(**{bad: 1.0}))
+
+
 def test_naming_errors_list_every_bad_column(runs):
     df = runs.assign(T05=1.0, disp_x=2.0)
     with pytest.raises(ValueError, match=r"'T05' looks like.*'disp_x' looks like"):

@@ -239,6 +239,34 @@ def _as_float(df, columns):
     return df[list(columns)].to_numpy(dtype=float, na_value=np.nan)
 
 
+# The conversion a column in another unit needs: (its name's end, the
+# column it becomes, how).
+_CONVERSIONS = (
+    (("disp_", "_mm"), "_um", "multiply by 1000"),
+    (("disp_", "_nm"), "_um", "divide by 1000"),
+    (("disp_", "_m"), "_um", "multiply by 1e6"),
+    (("t", "_f"), "_C", "convert with (F - 32) / 1.8"),
+    (("t", "_k"), "_C", "subtract 273.15"),
+)
+
+
+def _unit_hint(name):
+    """`` (in mm? multiply by 1000 for 'disp_z_um')`` for a column named in
+    another unit than the rule's (a displacement in mm, nm or m, a
+    temperature in °F or K), else ``""``."""
+    lower = name.strip().lower()
+    for (head, tail), end, how in _CONVERSIONS:
+        if (
+            lower.startswith(head)
+            and lower.endswith(tail)
+            and len(lower) > len(head + tail)
+        ):
+            meant = name.strip()[: -len(tail)] + end
+            unit = {"_f": "°F", "_k": "K"}.get(tail, tail[1:])
+            return f" (in {unit}? {how} for {meant!r})"
+    return ""
+
+
 def check_column_names(columns, *, table="Run table", exempt=()):
     """Raise a ValueError naming every column of ``columns`` that looks like
     a sensor, a displacement or a known column while breaking its naming
@@ -265,6 +293,7 @@ def check_column_names(columns, *, table="Run table", exempt=()):
         if renames:
             hint = " (" + ", ".join(f"{n!r} -> {r!r}" for n, r in renames.items())
             hint += "?)"
+        hint += _unit_hint(names[0])
         if len(names) == 1:
             problems.append(f"{names[0]!r} looks like {kind} but {expected}{hint}")
             continue
