@@ -519,7 +519,17 @@ def test_select_fit_predict_evaluate_chain(capsys, workdir):
         workdir / "s2.csv",
     )
     again = pd.read_csv(workdir / "s2.csv").set_index("run")
-    pd.testing.assert_frame_equal(again, scores)
+    # The same runs' scores; the model's training run marked, and the mean
+    # and pooled rows over the other runs.
+    each = ["I", "IV", "V", "extra"]
+    assert (
+        again["fitted"].eq("yes").tolist() == [False, True, False, False] + [False] * 2
+    )
+    pd.testing.assert_frame_equal(
+        again.drop(columns="fitted").loc[each], scores.loc[each]
+    )
+    held_out = scores.loc[["I", "V", "extra"], "RMSE_um"]
+    assert again.loc["mean", "RMSE_um"] == pytest.approx(held_out.mean())
     # A predictions file of run, time_s and the prediction only.
     bare = workdir / "bare.csv"
     table[["run", "time_s", "pred_disp_y_um"]].to_csv(bare, index=False)

@@ -753,7 +753,8 @@ def test_read_validates(tmp_path, runs):
         (["T-1-C"], "('T-1-C' -> 'T1_C'?)"),
         (["s_ram_ue"], "('s_ram_ue' -> 'Sram_ue'?)"),
         (["S05"], "e.g. 'Sram1_ue'"),  # dropped from the sensors before
-        (["disp_x_mm"], "e.g. 'disp_y_um'"),  # another unit: no rename
+        # another unit: no rename, the conversion
+        (["disp_x_mm"], "e.g. 'disp_y_um' (in mm? multiply by 1000 for 'disp_x_um')"),
     ],
 )
 def test_a_name_off_by_its_separators_gets_its_rename(runs, names, hint):
