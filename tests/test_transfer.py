@@ -784,6 +784,11 @@ def test_auto_alpha_per_output_and_its_checks():
     )
     fixed = TransferFunctionRegressor(speed_column=2, alpha=2.5).fit(X, y)
     assert fixed.alpha_ == 2.5 and not hasattr(fixed, "cv_results_")
+    # Refitted with a given alpha, no choice of the earlier fit stays.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        model.set_params(alpha=2.5).fit(X, Y)
+    assert not hasattr(model, "cv_results_")
     with pytest.raises(ValueError, match=r"'alphas' parameter .* >= 0.*-1"):
         TransferFunctionRegressor(speed_column=2, alphas=[1.0, -1.0]).fit(X, y)
     with pytest.warns(UserWarning, match="no cross-validation fold.*first candidate"):
@@ -829,7 +834,10 @@ def test_runs_starting_at_different_targets_warn():
     X, y = _heating_runs()
     offsets = np.where(X.index.get_level_values("run") == "r1", 12.0, 0.0)
     with pytest.warns(
-        UserWarning, match=r"from 1\.738 to 13\.74, a spread of 6 against changes of 17"
+        UserWarning,
+        match=r"y \('disp_z_um'\) starts run 'r0' \(and 1 more run alike\) at "
+        r"1\.738, the runs' median first value being 7\.738: 6 off, against "
+        r"changes of 17 within the runs and a noise of 0\.038",
     ):
         TransferFunctionRegressor(speed_column=2, alpha=0.0).fit(X, y + offsets)
     with warnings.catch_warnings():
@@ -839,3 +847,26 @@ def test_runs_starting_at_different_targets_warn():
         shifted = y + offsets
         first = shifted.groupby(level="run").transform("first")
         TransferFunctionRegressor(speed_column=2, alpha=0.0).fit(X, shifted - first)
+
+
+def test_start_offsets_beyond_noise_in_one_run_warn_and_noise_alone_does_not():
+    # An independent check: first rows that differ by the probe's noise
+    # alone were warned about (fitted on changes as advised, that noise
+    # became an offset of every row: 4 times the error), and one run zeroed
+    # 10 µm off among six was not (the spread pooled over the runs).
+    from skthermal.utils._runs import run_slices, warn_start_offsets
+
+    rng = np.random.default_rng(0)
+    n, runs = 200, 8
+    drift = np.tile(np.linspace(0.0, 1.2, n), runs)
+    y = drift + 0.5 * rng.normal(size=n * runs)
+    groups = np.repeat([f"R{r}" for r in range(runs)], n)
+    slices, labels = run_slices(groups)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_start_offsets("Model", y, slices, ["disp_x_um"], labels)
+    y[groups == "R2"] += 10.0
+    with pytest.warns(
+        UserWarning, match=r"y \('disp_x_um'\) starts run 'R2' at 9\.\d+, the runs'"
+    ):
+        warn_start_offsets("Model", y, slices, ["disp_x_um"], labels)

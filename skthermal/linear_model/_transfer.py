@@ -40,6 +40,7 @@ from skthermal.utils._runs import (
     run_sample_periods,
     run_slices,
     run_times,
+    target_names,
     warn_centred_drivers,
     warn_dt_against_times,
     warn_gaps,
@@ -1273,6 +1274,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         bounds = self._check_tau_bounds()
         X_raw, groups = extract_runs(X, groups, y=y)
         warn_time_unit(X_raw, groups)
+        names = target_names(y)
         X, y = validate_data(
             self, X_raw, y, y_numeric=True, multi_output=True, dtype=np.float64
         )
@@ -1292,7 +1294,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         )
         warn_no_time(type(self).__name__, X_raw, self.dt)
         dts, self.sample_period_s_ = self._intervals(X_raw, groups, slices, labels)
-        warn_start_offsets(type(self).__name__, y, slices)
+        warn_start_offsets(type(self).__name__, y, slices, names, labels)
         if self.dt is not None or has_time_index(X_raw):
             spans = [(sl.stop - sl.start - 1) * d for sl, d in zip(slices, dts)]
             warn_short_runs(
@@ -1318,6 +1320,8 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
                 )
             else:
                 alphas = np.full(Y.shape[1], float(self.alpha))
+                # Not a stale choice of an earlier fit with alpha="auto".
+                self.__dict__.pop("cv_results_", None)
             fits = self._identify(Ut, Y, dts, slices, bounds, grid, alphas)
         taus, coefs, intercepts, n_iter, states = (
             np.array(part) for part in zip(*fits, strict=True)

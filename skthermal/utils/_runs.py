@@ -2177,41 +2177,66 @@ def warn_absolute_target(name, y, slices):
     )
 
 
-# Spread of the target at the runs' first rows, against its changes within
-# them (root mean squares), from which a model that starts every run at rest
-# is warned about: its gains then take up offsets between runs.
-_START_SPREAD = 0.25
+# How far a run's first target value may lie from the runs' median first
+# value before a model that starts every run at rest is warned about it: a
+# share of the target's changes within the runs (root mean square), and a
+# multiple of its noise (from the steps between rows), whichever is larger.
+_START_SHARE = 0.25
+_START_NOISES = 5.0
 
 
-def warn_start_offsets(name, y, slices):
+def warn_start_offsets(name, y, slices, names=None, labels=None):
     """Warn when a model that starts every run at rest (its prediction at the
     first row the same for all runs) is fitted on a target whose first rows
-    differ from run to run by more than :data:`_START_SPREAD` of its changes
-    within the runs: runs that start warm, or a probe zeroed anew for some
-    runs. The model cannot predict those offsets, and its slow lags take them
-    up as gains (an independent check: 37-61 µm held out on runs where the
-    same model fitted on the changes since each run's start erred by 3-6)."""
+    differ between runs beyond its noise and :data:`_START_SHARE` of its
+    changes within the runs: runs that start warm, or a probe zeroed anew
+    for some runs. The model cannot predict those offsets, and its slow lags
+    take them up as gains (an independent check: 37-61 µm held out where
+    the same model fitted on the changes since each run's start erred by
+    3-6). One run off is enough; first rows that differ by the probe's noise
+    alone are not (fitted on changes, that noise becomes an offset of every
+    row). ``names``: the target columns' names, ``labels``: the runs'."""
     Y = np.asarray(y, dtype=float).reshape(len(y), -1)
     if len(slices) < 2 or not np.all(np.isfinite(Y)):
         return
     first = np.array([Y[sl.start] for sl in slices])
     change = np.concatenate([Y[sl] - Y[sl.start] for sl in slices])
-    spread = np.sqrt(np.mean((first - first.mean(axis=0)) ** 2, axis=0))
     within = np.sqrt(np.mean(change**2, axis=0))
-    ratio = spread / np.maximum(within, 1e-12)
-    k = int(np.argmax(ratio))
-    if ratio[k] <= _START_SPREAD:
+    steps = np.concatenate([np.diff(Y[sl], axis=0) for sl in slices])
+    # The noise of one reading: the steps' spread (robust, as a median
+    # absolute deviation) over sqrt(2), the drift between rows included.
+    noise = (
+        np.median(np.abs(steps - np.median(steps, axis=0)), axis=0)
+        / 0.6745
+        / np.sqrt(2)
+        if len(steps)
+        else np.zeros(Y.shape[1])
+    )
+    off = np.abs(first - np.median(first, axis=0))
+    limit = np.maximum(_START_SHARE * within, _START_NOISES * noise)
+    excess = off / np.maximum(limit, 1e-12)
+    r, k = np.unravel_index(int(np.argmax(excess)), excess.shape)
+    if excess[r, k] <= 1.0:
         return
-    low, high = int(np.argmin(first[:, k])), int(np.argmax(first[:, k]))
+    runs = int(np.sum(excess[:, k] > 1.0))
+    run = (
+        f"run {labels[r]!r}"
+        if labels is not None and labels[r] is not None
+        else f"run {r}"
+    )
+    more = (
+        f" (and {runs - 1} more run{'s' if runs > 2 else ''} alike)" if runs > 1 else ""
+    )
+    column = f"y ({names[k]!r})" if names is not None else "y"
     warnings.warn(
         f"{name} starts every run at rest (the same prediction at every run's "
-        f"first row), and y differs between the runs' first rows (from "
-        f"{first[low, k]:.4g} to {first[high, k]:.4g}, a spread of {spread[k]:.3g} "
-        f"against changes of {within[k]:.3g} within the runs): runs that start "
-        "warm, or a target zeroed anew. The fit takes the offsets up as gains. "
-        "Fit on the change since each run's start "
-        "(skthermal.datasets.changes_since_start), or use a model of the "
-        "readings (make_lag_pipeline(relative=False)).",
+        f"first row), and {column} starts {run}{more} at {first[r, k]:.4g}, "
+        f"the runs' median first value being {np.median(first[:, k]):.4g}: "
+        f"{off[r, k]:.3g} off, against changes of {within[k]:.3g} within the runs "
+        f"and a noise of {noise[k]:.2g}. A run that starts warm, or a target "
+        "zeroed anew: the fit takes the offsets up as gains. Fit on the change "
+        "since each run's start (skthermal.datasets.changes_since_start), or use "
+        "a model of the readings (make_lag_pipeline(relative=False)).",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
