@@ -639,7 +639,10 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         error was 52 times linear regression's at ``alpha=0`` and 2.2 times
         with the chosen penalty; on the real FL_THERMAL record the chosen
         penalties took channels 1 and 2 from 1.74 and 1.61 times linear
-        regression to 0.25 and 0.37.
+        regression to 0.25 and 0.37. Where least squares does not blow up,
+        the choice is about as good on average (0.47 to 2.55 times its
+        error in an independent check's 35 cases, 1.03 in the geometric
+        mean). The fit takes some 20 times longer.
     alphas : array-like of float or None, default=None
         Candidate penalties of ``alpha="auto"``, finite and >= 0 (ignored
         otherwise). None: ``AUTO_ALPHAS``, 0 and 0.1 to 10^4 one per
