@@ -131,6 +131,8 @@ def test_run_labels_with_spaces_can_be_chosen(capsys, tmp_path):
     assert status == 0, err
     status, _, err = _run(capsys, *fit, "test 3")
     assert status == 2 and "run(s) ['test 3'] are not in the table" in err
+    status, _, err = _run(capsys, *fit, " , ")  # a numpy error before
+    assert status == 2 and "--train-runs ' , ' names no run" in err
     # A label the lists could not name is refused where it is made.
     argv = ["simulate", "--segment", "3000:20min", "--run", "a,b"]
     status, _, err = _run(capsys, *argv, "--out", tmp_path / "c.csv")
@@ -174,6 +176,9 @@ def test_run_lists_read_labels_with_commas_every_way_they_can():
     assert split_list("B,C, A", keep=labels) == ["B,C", "A"]
     assert split_list("A,B,C,D", keep=labels) == ["A", "B,C", "D"]
     assert split_list(["A,B", " x "], keep=[]) == ["A", "B", "x"]
+    # A label holding a comma after ", " or with spaces around it.
+    assert split_list("B, A,1", keep={"A,1", "B"}) == ["B", "A,1"]
+    assert split_list(" A,1 ", keep={"A,1"}) == ["A,1"]
 
 
 def test_whole_float_run_labels_are_named_as_integers(capsys, tmp_path):

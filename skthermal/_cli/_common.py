@@ -53,9 +53,11 @@ def _split_item(pieces, keep):
         for j in range(n, i, -1):  # longer runs first: they win ties
             v = ",".join(pieces[i:j])
             if v not in keep:
-                if j > i + 1:
+                # A label after ", " (or with spaces around it as given).
+                if v.strip() in keep or j == i + 1:
+                    v = v.strip()
+                else:
                     continue
-                v = v.strip()
             misses, count, values = best[j]
             if v:
                 misses, count, values = (
@@ -209,6 +211,11 @@ def run_mask(df, runs, option="--train-runs"):
         return np.ones(len(df), dtype=bool)
     present = list(pd.unique(labels))
     wanted = split_list(runs, keep=present)
+    if not wanted:
+        raise UserError(
+            f"{option} {runs!r} names no run (commas separate run labels); "
+            f"runs: {present}."
+        )
     unknown = [r for r in wanted if r not in present]
     if unknown:
         raise UserError(
