@@ -870,3 +870,26 @@ def test_start_offsets_beyond_noise_in_one_run_warn_and_noise_alone_does_not():
         UserWarning, match=r"y \('disp_x_um'\) starts run 'R2' at 9\.\d+, the runs'"
     ):
         warn_start_offsets("Model", y, slices, ["disp_x_um"], labels)
+
+
+def test_a_short_run_beside_long_ones_does_not_decide_the_penalty():
+    # Leaving the long run out trained a fold on the short run alone; its
+    # error on the long run decided the choice (the largest penalty, an
+    # error of 12.5 where least squares erred by 0.0). Such a fold keeps
+    # fewer than first_fraction of the rows and is skipped.
+    from skthermal.utils._folds import run_folds
+
+    X, y = _heating_runs()
+    keep = np.r_[np.arange(720), 720 + np.arange(2)]
+    slices = [slice(0, 720), slice(720, 722)]
+    folds = run_folds("auto", slices, ["r0", "r1"], 722, 4, 0.4, "Model")
+    assert [tr.size for tr, _ in folds] == [720]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        model = TransferFunctionRegressor(speed_column=2).fit(
+            X.iloc[keep], y.iloc[keep]
+        )
+    assert model.alpha_ == 0.0
+    new = X.loc[["r1"]].rename(index={"r1": "other"}, level="run")
+    error = model.predict(new) - y.loc[["r1"]].to_numpy()
+    assert np.sqrt(np.mean(error**2)) < 0.01

@@ -633,7 +633,9 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         left out when there are several, else expanding windows: fit on the
         first 40, 55, 70, 85% of the rows, score the next 15%), each
         validation stretch predicted from its run's start with the time
-        constants and gains identified on the fold's training rows. With
+        constants and gains identified on the fold's training rows (within
+        the whole fit's ``tau_bounds``; a fold that keeps fewer than 40% of
+        the rows for training is skipped). With
         many collinear temperatures the least-squares gains cancel one
         another: on a 48 h spindle record with 13 temperatures the held-out
         error was 52 times linear regression's at ``alpha=0`` and 2.2 times

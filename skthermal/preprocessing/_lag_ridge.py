@@ -181,7 +181,9 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         dealt into the folds in the order of their labels, so the chosen
         model does not depend on the order of the runs in the table).
         ``"auto"``: ``"runs"`` with several runs, else ``"forward"``
-        (as ``"runs"`` on one run, with a warning).
+        (as ``"runs"`` on one run, with a warning). A fold that leaves
+        runs out and keeps fewer than ``first_fraction`` of the rows for
+        training (short runs alone) is skipped.
     selection : {"min", "1se"}, default="min"
         The least total validation error, or the one-standard-error rule
         (the largest penalty, then the fewest features, within one standard

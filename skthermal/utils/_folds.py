@@ -72,7 +72,13 @@ def run_folds(cv, slices, labels, n, n_splits, first_fraction, name):
     ``"runs"``) over ``n`` rows in the runs ``slices``, each with training
     and validation rows: ``"auto"`` leaves whole runs out when there are
     several, else takes expanding windows in time order (as ``"runs"`` on
-    one run, with a warning naming the estimator ``name``)."""
+    one run, with a warning naming the estimator ``name``). A fold that
+    leaves out runs and keeps fewer than ``first_fraction`` of the rows for
+    training (the short runs alone, a long one left out) is skipped, as
+    expanding windows start at that share: fitted on a few rows and scored
+    on the rest, it decided the choice alone (a run of 2 rows beside one of
+    720 made a transfer-function model choose the largest penalty, 12.5
+    where the least-squares fit erred by 0.0)."""
     if cv == "auto":
         cv = "runs" if len(slices) > 1 else "forward"
     if cv == "runs" and len(slices) == 1:
@@ -84,7 +90,11 @@ def run_folds(cv, slices, labels, n, n_splits, first_fraction, name):
             stacklevel=user_stacklevel(),
         )
     if cv == "runs" and len(slices) > 1:
-        folds = group_folds(slices, n_splits, labels)
+        folds = [
+            (tr, va)
+            for tr, va in group_folds(slices, n_splits, labels)
+            if tr.size >= first_fraction * n
+        ]
     elif cv == "blocks":
         folds = block_folds(n, n_splits)
     else:
