@@ -1682,3 +1682,13 @@ def test_evaluate_marks_the_models_training_runs(capsys, workdir, tmp_path):
     status, text, err = _run(capsys, "evaluate", "--runs", only, "--model", model)
     assert status == 0, err
     assert "every run here is one, so the mean and all rows are training" in text
+    # Another run under a training run's label (other rows and times) is
+    # no training run.
+    other = tmp_path / "other.csv"
+    first = runs["run"] == "I"
+    pd.concat([runs[first].iloc[::2], runs[~first]]).to_csv(other, index=False)
+    argv = ["evaluate", "--runs", other, "--model", model, "--out", out]
+    status, text, err = _run(capsys, *argv)
+    assert status == 0, err
+    table = pd.read_csv(out, keep_default_na=False).set_index("run")
+    assert table.loc[["I", "IV"], "fitted"].tolist() == ["", "yes"]

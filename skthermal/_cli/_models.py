@@ -308,6 +308,7 @@ def cmd_fit(args):
         "sensors": sensors,
         "target": target,
         "train_runs": [str(r) for r in pd.unique(groups[mask])],
+        "train_spans": _run_spans(df[mask]),
         "skthermal_version": __version__,
     }
     save_model(bundle, args.out)
@@ -636,6 +637,33 @@ def _without_unavailable(table, path):
     return table.loc[keep]
 
 
+def _run_spans(df):
+    """Per run of ``df`` (its label as ``str``): its rows and first and last
+    ``time_s``, what tells a model's training run from another run under the
+    same label (``evaluate --model``)."""
+    times = pd.to_numeric(df["time_s"], errors="coerce")
+    grouped = times.groupby(df["run"].astype(str).to_numpy(), sort=False)
+    return {
+        str(label): [int(t.size), float(t.iloc[0]), float(t.iloc[-1])]
+        for label, t in grouped
+    }
+
+
+def _fitted_runs(bundle, df, labels):
+    """Which runs ``labels`` of ``df`` a model's bundle was fitted on: the
+    label, and (bundles that keep them) the rows and times of the run."""
+    spans = bundle.get("train_spans")
+    given = _run_spans(df) if spans is not None else {}
+    return np.array(
+        [
+            str(r) in bundle["train_runs"]
+            and (spans is None or spans.get(str(r)) == given.get(str(r)))
+            for r in labels
+        ],
+        dtype=bool,
+    )
+
+
 def cmd_evaluate(args):
     from skthermal._markdown import markdown_table
     from skthermal._run_changes import changes_since_first_row
@@ -722,7 +750,7 @@ def cmd_evaluate(args):
     # The model's own training runs score its fit, not its prediction: marked,
     # and left out of the mean and pooled rows while other runs remain.
     fitted = (
-        np.isin(table["run"].astype(str), bundle["train_runs"])
+        _fitted_runs(bundle, data, table["run"])
         if args.model
         else np.zeros(len(table), dtype=bool)
     )
@@ -904,6 +932,7 @@ def cmd_search(args):
                 "sensors": sensors,
                 "target": target,
                 "train_runs": runs,
+                "train_spans": _run_spans(df),
                 "skthermal_version": __version__,
             },
             args.save_model,
