@@ -1169,6 +1169,12 @@ def test_a_simulation_in_milliseconds_is_refused(pair):
     # A coarse export of another tool (every 7 min of a 2 h run) is fine.
     coarse = sim[sim["time_s"] % 420 == 0]
     diagnose_runs(coarse, meas, candidates=["sensor_lag"], n_jobs=1)
+    # A short measured run beside a coarse export is said, not refused.
+    coarse = sim[sim["time_s"] % 600 == 0]
+    short = meas[(meas["run"] != "r0") | (meas["time_s"] < 1500)]
+    short = short[(short["run"] == "r0") | (short["time_s"] <= 6600)]
+    with pytest.warns(UserWarning, match=r"Run 'r0'.*600 s apart.*lasts 1440 s"):
+        diagnose_runs(coarse, short, candidates=["sensor_lag"], n_jobs=1)
 
 
 @pytest.mark.parametrize("table", ["measured", "simulated"])
@@ -1179,7 +1185,8 @@ def test_sensors_in_fahrenheit_are_flagged(pair, table):
     temps = ["T1_C", "T2_C"]
     frames = {"simulated": sim.copy(), "measured": meas.copy()}
     frames[table][temps] = frames[table][temps] * 1.8 + 32
-    with pytest.warns(UserWarning, match=r"ever reads below 50.*In Fahrenheit"):
+    which = "The simulated table: " if table == "simulated" else "No temp"
+    with pytest.warns(UserWarning, match=rf"^{which}.*ever reads below 50.*Fahr"):
         diagnose_runs(
             frames["simulated"], frames["measured"], candidates=["sensor_lag"]
         )

@@ -341,7 +341,17 @@ def _align(
     # Measured runs that start after 0 are no clock's time when the
     # simulation starts before them (a logger started late).
     warn_implausible(measured, late_start=not any(row[5] is not None for row in out))
-    warn_implausible(simulated, late_start=False)
+    # The same warnings of the simulated table, which has the same columns:
+    # said of which table.
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        warn_implausible(simulated, late_start=False)
+    for w in said:
+        warnings.warn(
+            f"The simulated table: {w.message}",
+            w.category,
+            stacklevel=user_stacklevel(),
+        )
     warn_short_runs("diagnose_runs", {name: t[-1] - t[0] for name, t, *_ in out}, 5)
     aligned = [row[:5] for row in out]
     blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
@@ -388,36 +398,48 @@ def _align(
     return runs, channels, sim_cols, noise
 
 
-# Least simulated rows per measured run's span: fewer, and the run is
-# compared with a few straight lines between them.
-_MIN_SIMULATED_ROWS = 4
+# Least simulated time steps per measured run's span: fewer, and the run is
+# compared with a few straight lines between simulated rows.
+_MIN_SIMULATED_STEPS = 3
+# The simulated rows this many times (or more) further apart than the
+# measured ones, too few of them in a run: a simulation whose time_s is in
+# milliseconds (a thousand times) rather than an export at a coarse step.
+_MS_RATIO = (300.0, 3000.0)
 
 
 def _check_time_scales(t, ts, name):
-    """Raise when the simulated run ``ts`` steps so coarsely against the
-    measured run ``t`` that fewer than :data:`_MIN_SIMULATED_ROWS` of its rows
-    would fall in the measured span: a simulation whose ``time_s`` is in
-    another unit (milliseconds read as seconds run a thousand times slower)
-    is otherwise compared as a straight line between two of its rows."""
+    """Check the simulated run's median time step ``ts`` against the span of
+    the measured run ``t``: when fewer than :data:`_MIN_SIMULATED_STEPS`
+    such steps fit in it, the measurement is compared with straight lines
+    between a few simulated rows. Raise when the steps are some thousand
+    times the measured ones (:data:`_MS_RATIO`: a simulation's ``time_s`` in
+    milliseconds read as seconds, which an independent check's diagnosis
+    took silently for "no candidate explains the gap"), else warn naming
+    the run (a short run beside a coarse export)."""
     if t.size < 2 or ts.size < 2:
         return
     length = float(t[-1] - t[0])
     step = float(np.median(np.diff(ts)))
-    if step * (_MIN_SIMULATED_ROWS - 1) <= length:
+    if step * _MIN_SIMULATED_STEPS <= length:
         return
     ratio = step / float(np.median(np.diff(t)))
-    unit = (
-        " The simulated rows are some 1000 times further apart than the "
-        "measured ones: a simulation's time_s in milliseconds?"
-        if 300 <= ratio <= 3000
-        else ""
-    )
-    raise ValueError(
+    text = (
         f"Run {name!r}: the simulated rows are {step:g} s apart (median step of "
         f"time_s), the measured run lasts {length:g} s: fewer than "
-        f"{_MIN_SIMULATED_ROWS} simulated rows fall in it, and the measurement "
-        "would be compared with straight lines between them. Give both tables "
-        f"time_s in seconds since the run's start.{unit}"
+        f"{_MIN_SIMULATED_STEPS} simulated steps fall in it, and the measurement "
+        "is compared with straight lines between them."
+    )
+    if _MS_RATIO[0] <= ratio <= _MS_RATIO[1]:
+        raise ValueError(
+            f"{text} The simulated rows are some {ratio:.0f} times further apart "
+            "than the measured ones: a simulation's time_s in milliseconds? Give "
+            "both tables time_s in seconds since the run's start."
+        )
+    warnings.warn(
+        f"{text} Export the simulation at a finer step for such runs, or leave "
+        "them out.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
     )
 
 
