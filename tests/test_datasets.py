@@ -259,6 +259,11 @@ def test_naming_rule_errors_name_the_column(runs, bad, kind):
         ("disp_z_nm", "(in nm? divide by 1000 for 'disp_z_um')"),
         ("T05_F", "(in °F? convert with (F - 32) / 1.8 for 'T05_C')"),
         ("T05_K", "(in K? subtract 273.15 for 'T05_C')"),
+        # Names that break the rule otherwise too: the name under the rule.
+        ("Disp_Z_MM", "(in mm? multiply by 1000 for 'disp_Z_um')"),
+        ("t5_degF", "(in °F? convert with (F - 32) / 1.8 for 'T5_C')"),
+        ("T5_kelvin", "(in K? subtract 273.15 for 'T5_C')"),
+        ("disp_mm", "(in mm? multiply by 1000)"),
     ],
 )
 def test_a_column_in_another_unit_is_told_the_conversion(runs, bad, hint):

@@ -239,32 +239,38 @@ def _as_float(df, columns):
     return df[list(columns)].to_numpy(dtype=float, na_value=np.nan)
 
 
-# The conversion a column in another unit needs: (its name's end, the
-# column it becomes, how).
-_CONVERSIONS = (
-    (("disp_", "_mm"), "_um", "multiply by 1000"),
-    (("disp_", "_nm"), "_um", "divide by 1000"),
-    (("disp_", "_m"), "_um", "multiply by 1e6"),
-    (("t", "_f"), "_C", "convert with (F - 32) / 1.8"),
-    (("t", "_k"), "_C", "subtract 273.15"),
-)
+# A column named in another unit than its rule's: its unit token (the
+# name's last) -> (the kind it is, the rule's unit, the unit as said, the
+# conversion).
+_DISPLACEMENT, _TEMPERATURE = "a displacement", "a temperature sensor"
+_FAHRENHEIT = (_TEMPERATURE, "C", "°F", "convert with (F - 32) / 1.8")
+_KELVIN = (_TEMPERATURE, "C", "K", "subtract 273.15")
+_CONVERSIONS = {
+    "mm": (_DISPLACEMENT, "um", "mm", "multiply by 1000"),
+    "nm": (_DISPLACEMENT, "um", "nm", "divide by 1000"),
+    "m": (_DISPLACEMENT, "um", "m", "multiply by 1e6"),
+    "f": _FAHRENHEIT,
+    "degf": _FAHRENHEIT,
+    "k": _KELVIN,
+    "kelvin": _KELVIN,
+}
 
 
-def _unit_hint(name):
-    """`` (in mm? multiply by 1000 for 'disp_z_um')`` for a column named in
-    another unit than the rule's (a displacement in mm, nm or m, a
-    temperature in °F or K), else ``""``."""
-    lower = name.strip().lower()
-    for (head, tail), end, how in _CONVERSIONS:
-        if (
-            lower.startswith(head)
-            and lower.endswith(tail)
-            and len(lower) > len(head + tail)
-        ):
-            meant = name.strip()[: -len(tail)] + end
-            unit = {"_f": "°F", "_k": "K"}.get(tail, tail[1:])
-            return f" (in {unit}? {how} for {meant!r})"
-    return ""
+def _unit_hint(name, kind):
+    """`` (in mm? multiply by 1000 for 'disp_z_um')`` for a column meant for
+    ``kind`` but named in another unit than the rule's (a displacement in
+    mm, nm or m, a temperature in °F or K), the name under the rule as
+    :func:`_renamed` gives it (none when there is none); else ``""``."""
+    norm = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
+    head, _, unit = norm.rpartition("_")
+    conversion = _CONVERSIONS.get(unit.lower())
+    if not head or conversion is None or conversion[0] != kind:
+        return ""
+    _, end, said, how = conversion
+    meant = f"{head}_{end}"
+    if not (_is_target(meant) or _is_temperature(meant)):
+        meant = _renamed(meant, kind)
+    return f" (in {said}? {how}" + (f" for {meant!r})" if meant else ")")
 
 
 def check_column_names(columns, *, table="Run table", exempt=()):
@@ -293,7 +299,7 @@ def check_column_names(columns, *, table="Run table", exempt=()):
         if renames:
             hint = " (" + ", ".join(f"{n!r} -> {r!r}" for n, r in renames.items())
             hint += "?)"
-        hint += _unit_hint(names[0])
+        hint += _unit_hint(names[0], kind)
         if len(names) == 1:
             problems.append(f"{names[0]!r} looks like {kind} but {expected}{hint}")
             continue
