@@ -75,12 +75,17 @@ def percent(share, below=None):
 
     >>> percent(0.516), percent(0.4956, below=0.5), percent(0.4956)
     ('52%', '49.5%', '50%')
+    >>> percent(0.5051, below=0.5055)  # the threshold reads 50.55%
+    '50.5%'
     """
     share = float(share)
     if not np.isfinite(share):
         return "n/a"
-    if below is not None and share < below <= round(share * 100) / 100:
-        return f"{np.floor(share * 1000) / 10:.1f}%"
+    if below is not None and share < below and round(share * 100) >= below * 100:
+        for digits in (1, 2, 3):
+            shown = np.floor(share * 100 * 10**digits) / 10**digits
+            if shown < below * 100:
+                return f"{shown:.{digits}f}%"
     return f"{round(share * 100)}%"
 
 

@@ -792,7 +792,19 @@ def test_auto_alpha_per_output_and_its_checks():
     with pytest.raises(ValueError, match=r"'alphas' parameter .* >= 0.*-1"):
         TransferFunctionRegressor(speed_column=2, alphas=[1.0, -1.0]).fit(X, y)
     with pytest.warns(UserWarning, match="no cross-validation fold.*first candidate"):
-        TransferFunctionRegressor(dt=1.0, n_grid=3).fit(np.ones((2, 1)), [0.0, 1.0])
+        few = TransferFunctionRegressor(dt=1.0, n_grid=3)
+        few.fit(np.ones((2, 1)), [0.0, 1.0])
+    assert np.isnan(few.cv_results_["rmse"]).all()  # nothing validated, not 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        # cv_results_ shaped as alpha_, for a one-column y too.
+        column = TransferFunctionRegressor(speed_column=2, n_grid=5, max_iter=3)
+        column.fit(X, y.to_frame())
+        assert column.alpha_.shape == (1,)
+        assert column.cv_results_["rmse"].shape == (7, 1)
+        # Tied candidates (a constant output): the largest penalty.
+        flat = TransferFunctionRegressor(speed_column=2, n_grid=5, max_iter=3)
+        assert flat.fit(X, np.zeros(len(y))).alpha_ == 1e4
 
 
 def test_auto_alpha_keeps_collinear_lags_from_extrapolating(shared_data):

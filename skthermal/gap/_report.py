@@ -499,7 +499,7 @@ class GapReport:
         none: its share never rounded up to ``min_shrink``."""
         least = self.settings.get("min_shrink")
         short = (
-            f", short of the {percent(least)} that names an effect"
+            f", short of the {least * 100:g}% that names an effect"
             if least is not None and 0 < row["shrink"] < least
             else ""
         )

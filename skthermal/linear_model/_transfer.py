@@ -686,7 +686,9 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
     cv_results_ : dict
         With ``alpha="auto"``: ``"alpha"``, the candidates, and ``"rmse"``,
         the validation root mean square error of each (shape (n_alphas,) or
-        (n_alphas, n_outputs)), over all folds' validation rows.
+        (n_alphas, n_outputs), as ``y``), over all folds' validation rows
+        (NaN when no fold could be formed). Of candidates whose errors tie,
+        the largest penalty is chosen.
     n_iter_ : int
         One for the grid search plus the evaluations of the refinement (the
         most over the outputs).
@@ -1090,10 +1092,15 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
                     pred = intercept + coef.ravel() @ Z[:, scored]
                     sse[i, k] += np.sum((pred - Y[upto[scored], k]) ** 2)
         scored_rows = sum(va.size for _, va in folds)
-        rmse = np.sqrt(sse / max(scored_rows, 1))
-        chosen = candidates[np.argmin(sse, axis=0)]
-        results = {"alpha": candidates, "rmse": rmse[:, 0] if n_out == 1 else rmse}
-        return chosen, results
+        rmse = np.sqrt(sse / scored_rows) if scored_rows else np.full_like(sse, np.nan)
+        # The least error; of candidates that tie with it (to rounding: a
+        # constant output, say), the largest penalty, the steadiest gains.
+        least = sse.min(axis=0) if folds else np.zeros(n_out)
+        ties = sse <= least * (1 + 1e-9) + 1e-300
+        chosen = candidates[[int(np.flatnonzero(t)[-1]) for t in ties.T]]
+        if not folds:
+            chosen = np.full(n_out, candidates[0])
+        return chosen, {"alpha": candidates, "rmse": rmse}
 
     def _fit_one(self, Ut, y, dts, slices, bounds, log_tau, alpha):
         """Refine the time constants of one output from the grid search's;
@@ -1320,9 +1327,12 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         # trust-region SVDs, which threads only slow down on shared cores.
         with single_threaded_blas():
             if self.alpha == "auto":
-                alphas, self.cv_results_ = self._choose_alphas(
+                alphas, results = self._choose_alphas(
                     Ut, Y, dts, slices, labels, bounds, grid
                 )
+                if y.ndim == 1:  # shaped as alpha_
+                    results["rmse"] = results["rmse"][:, 0]
+                self.cv_results_ = results
             else:
                 alphas = np.full(Y.shape[1], float(self.alpha))
                 # Not a stale choice of an earlier fit with alpha="auto".
