@@ -2141,6 +2141,13 @@ def driver_positions(drivers, names, n_features):
     return np.array(sorted(set(out)), dtype=int)
 
 
+def _run_starts(Y, slices):
+    """The target ``Y`` (2-D) at every run's first row, and its changes since
+    that row, all runs' rows stacked."""
+    first = np.array([Y[sl.start] for sl in slices])
+    return first, np.concatenate([Y[sl] - Y[sl.start] for sl in slices])
+
+
 # The target's root mean square at the runs' first rows, against its
 # changes within them, beyond which a model of changes since the run start
 # is warned about being scored on the target as given: beyond it, the
@@ -2159,8 +2166,7 @@ def warn_absolute_target(name, y, slices):
     Y = np.asarray(y, dtype=float).reshape(len(y), -1)
     if not slices or not np.all(np.isfinite(Y)):
         return
-    first = np.array([Y[sl.start] for sl in slices])
-    change = np.concatenate([Y[sl] - Y[sl.start] for sl in slices])
+    first, change = _run_starts(Y, slices)
     offset = float(np.sqrt(np.mean(first**2)))
     spread = float(np.sqrt(np.mean(change**2)))
     if offset <= _START_OFFSET * max(spread, 1e-12):
@@ -2199,8 +2205,7 @@ def warn_start_offsets(name, y, slices, names=None, labels=None):
     Y = np.asarray(y, dtype=float).reshape(len(y), -1)
     if len(slices) < 2 or not np.all(np.isfinite(Y)):
         return
-    first = np.array([Y[sl.start] for sl in slices])
-    change = np.concatenate([Y[sl] - Y[sl.start] for sl in slices])
+    first, change = _run_starts(Y, slices)
     within = np.sqrt(np.mean(change**2, axis=0))
     steps = np.concatenate([np.diff(Y[sl], axis=0) for sl in slices])
     # The noise of one reading: the steps' spread (robust, as a median
