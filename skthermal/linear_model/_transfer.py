@@ -925,7 +925,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
             for k, tau in enumerate(taus)
         ]
 
-    def _grid_search(self, Ut, Y, dts, slices, grid, alpha):
+    def _grid_search(self, Ut, Y, grid, alpha, moments):
         """Time constants on the log grid, for every output, from shared lags.
 
         Every input is filtered once per grid time constant; the centred Gram
@@ -933,11 +933,12 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         one grid time constant per lag from a small solve, without filtering
         again: a common time constant (pair, for ``order=2``), then sweeps of
         1-D searches over each lag's own time constant until none improves.
+        ``moments``: :func:`_grid_moments` of ``Ut`` and ``Y`` (copied here).
         """
         n_in, n = Ut.shape
         n_grid = grid.size
         # Columns ordered (input, grid point): column i * n_grid + g.
-        gram, cross = _grid_moments(Ut, Y, dts, slices, grid)
+        gram, cross = (m.copy() for m in moments)
         scale = np.sqrt(np.diag(gram) / n)
         scale[scale < 1e-12] = 1.0
         gram /= np.outer(scale, scale)
@@ -1020,15 +1021,21 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
             out.append(grid[pick])
         return out
 
-    def _identify(self, Ut, Y, dts, slices, bounds, grid, alphas):
+    def _identify(self, Ut, Y, dts, slices, bounds, grid, alphas, moments=None):
         """Time constants, gains, intercept, evaluations and last lag
         outputs of every output, each with its own penalty ``alphas[k]``: the
         grid search (shared by the outputs of one penalty), then the
-        refinement of each."""
+        refinement of each. ``moments``: :func:`_grid_moments` of ``Ut`` and
+        ``Y``, which no penalty changes (computed when None)."""
+        if moments is None:
+            moments = _grid_moments(Ut, Y, dts, slices, grid)
+        gram, cross = moments
         starts = [None] * Y.shape[1]
         for alpha in np.unique(alphas):
             cols = np.flatnonzero(alphas == alpha)
-            found = self._grid_search(Ut, Y[:, cols], dts, slices, grid, alpha)
+            found = self._grid_search(
+                Ut, Y[:, cols], grid, alpha, (gram, cross[:, cols])
+            )
             for k, start in zip(cols, found, strict=True):
                 starts[k] = start
         return [
@@ -1077,6 +1084,8 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
             )
             va_slices, va_dts = _stretches(upto, slices, dts)
             scored = np.isin(upto, va)
+            # The lags' moments on the fold's rows, for every candidate.
+            moments = _grid_moments(Ut[:, tr], Y[tr], tr_dts, tr_slices, grid)
             for i, alpha in enumerate(candidates):
                 fits = self._identify(
                     Ut[:, tr],
@@ -1086,6 +1095,7 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
                     bounds,
                     grid,
                     np.full(n_out, alpha),
+                    moments,
                 )
                 for k, (tau, coef, intercept, *_) in enumerate(fits):
                     Z = _fit_lags(Ut[:, upto], tau.ravel(), inputs, va_dts, va_slices)
