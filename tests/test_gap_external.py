@@ -238,6 +238,17 @@ def test_a_candidate_short_of_min_shrink_is_said_so(rng):
     assert "short of the 99% that names an effect" in report.verdict()
 
 
+def test_a_candidate_that_removes_nothing_gets_no_stopped_sentence(pair):
+    # An exact null case: the best candidate removes 0% and its time
+    # constant sits on the range's end; why that end keeps it from being
+    # named was a paragraph about a candidate nothing would name.
+    sim, meas = pair
+    report = diagnose_runs(sim, meas, greedy=False)
+    top = report.ranking.iloc[0]
+    assert top["shrink"] < 0.5 and top["stopped"]
+    assert "stopped it" not in report.verdict()
+
+
 def test_sensor_lag_is_named(rng):
     sim, meas = _tables(rng, "sensor_lag")
     report = diagnose_runs(

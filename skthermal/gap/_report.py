@@ -575,25 +575,34 @@ class GapReport:
             f"{cls._STAND_IN}; weigh the other candidates that pass."
         )
 
-    @classmethod
-    def _stopped_text(cls, row):
+    def _passes_alone(self, row):
+        """Whether the candidate ``row`` removes ``min_shrink`` of the gap,
+        significantly: only then is what else keeps it from being named
+        worth a sentence (a candidate that removes nothing needs none)."""
+        least = self.settings.get("min_shrink", 0.0)
+        alpha = self.settings.get("alpha", 0.05)
+        return bool(
+            row.get("shrink", -np.inf) >= least and row.get("p_value", 1) < alpha
+        )
+
+    def _stopped_text(self, row):
         """The verdict's sentence on the best candidate whose fitted
         parameter the range stopped, which keeps it from being named
-        (``""`` when none did)."""
-        if not row.get("stopped"):
+        (``""`` when none did, or when it would not be named anyway)."""
+        if not row.get("stopped") or not self._passes_alone(row):
             return ""
         return (
             f" The fitted {row['stopped']} of {row['effect']!r} sits on its "
             f"range's end, where the range stopped it, not the runs: "
-            f"{cls._STAND_IN}, or a load the candidates do not describe, and a "
+            f"{self._STAND_IN}, or a load the candidates do not describe, and a "
             "candidate so stopped is not named."
         )
 
-    @staticmethod
-    def _ruled_out_text(row):
+    def _ruled_out_text(self, row):
         """The verdict's sentence on why the best candidate is ruled out by
-        its fitted value (``""`` when it is not)."""
-        if not row.get("ruled_out"):
+        its fitted value (``""`` when it is not, or when it would not be
+        named anyway)."""
+        if not row.get("ruled_out") or not self._passes_alone(row):
             return ""
         return f" {row['effect']!r} is ruled out: {row['ruled_out']}."
 
