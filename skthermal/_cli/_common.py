@@ -47,10 +47,13 @@ def _split_item(pieces, keep):
     labels): with labels ``A``, ``A,B`` and ``B,C``, ``"A,B,C"`` reads
     ``A`` and ``B,C``, where taking the longest label first left ``C``."""
     n = len(pieces)
-    # best[i]: (values not in keep, values, the values) for pieces[i:].
-    best = [None] * n + [(0, 0, [])]
+    # A label of k commas spans k + 1 pieces: no longer run can be one.
+    widest = 1 + max((label.count(",") for label in keep), default=0)
+    # best[i]: (values not in keep, values, the first value, where the next
+    # starts) for pieces[i:].
+    best = [None] * n + [(0, 0, None, n)]
     for i in range(n - 1, -1, -1):
-        for j in range(n, i, -1):  # longer runs first: they win ties
+        for j in range(min(n, i + widest), i, -1):  # longer first: win ties
             v = ",".join(pieces[i:j])
             if v not in keep:
                 # A label after ", " (or with spaces around it as given).
@@ -58,16 +61,17 @@ def _split_item(pieces, keep):
                     v = v.strip()
                 else:
                     continue
-            misses, count, values = best[j]
+            misses, count = best[j][:2]
             if v:
-                misses, count, values = (
-                    misses + (v not in keep),
-                    count + 1,
-                    [v, *values],
-                )
+                misses, count = misses + (v not in keep), count + 1
             if best[i] is None or (misses, count) < best[i][:2]:
-                best[i] = (misses, count, values)
-    return best[0][2]
+                best[i] = (misses, count, v, j)
+    values, i = [], 0
+    while i < n:
+        _, _, v, i = best[i]
+        if v:
+            values.append(v)
+    return values
 
 
 def label_text(run):
