@@ -96,6 +96,12 @@ def test_a_small_machine_from_a_dict_simulates():
             r"roles: exposed",
         ),
         (
+            # A node named so had its displacement coefficient counted twice
+            # (once more as the ball screw's growth), silently.
+            lambda d: d["nodes"].update(screw={"capacity_J_per_K": 100.0}),
+            r"node 'screw': the name is reserved for the ball screw's growth",
+        ),
+        (
             lambda d: d["nodes"]["housing"].update(capacity_J_per_K=-5.0),
             r"node 'housing': capacity_J_per_K must be positive, got -5",
         ),

@@ -30,6 +30,9 @@ from skthermal.simulate._effects import (
 )
 
 ROOM = "room"
+# The ball screw's growth, a displacement coefficient of the feed axis
+# ("k.<axis>.screw"), not a node: no node may be named so.
+SCREW = "screw"
 SENSOR_KINDS = ("surface", "embedded", "air")
 
 # Heat sources of the file layout: table -> {field: (parameter, unit)}.
@@ -663,6 +666,14 @@ class MachineSpec:
                 raise ValueError(
                     f"node {n!r}: a node name is a non-empty string without '.', "
                     f"and {ROOM!r} is reserved for the workshop air."
+                )
+            if n == SCREW:
+                # A node of that name had its displacement coefficient
+                # counted twice on a machine with a ball screw, silently.
+                raise ValueError(
+                    f"node {n!r}: the name is reserved for the ball screw's "
+                    f"growth (the displacement coefficient 'k.<axis>.{SCREW}' of "
+                    "the feed axis); name the node otherwise, e.g. 'screw_shaft'."
                 )
             if n in seen:
                 raise ValueError(f"node {n!r} is listed twice.")
