@@ -1379,3 +1379,25 @@ def test_many_speed_levels_are_banded_in_the_regime_tables():
     assert shown == slowest_first
     few = [label_regimes(np.arange(4) * 60.0, [0, 4000, 8000, 8000])]
     assert speed_bands(few) == {"4000 rpm": "at 4000 rpm", "8000 rpm": "at 8000 rpm"}
+
+
+def test_a_verdict_the_fine_calibration_overrules_says_so(tool_report):
+    # The screening passed a candidate (table 'Which effect': explains) that
+    # the finer calibration of the how-far step did not bear out: the
+    # tables and the verdict disagreed without a word (an independent
+    # check's lathe: 54% in the table, "46% ... short of the 50%" above it).
+    import dataclasses
+
+    assert tool_report.how_far_evidence["calibration"] == "fine"
+    assert tool_report.ranking["explains"].iloc[0]
+    evidence = {**tool_report.how_far_evidence, "shrink": 0.46}
+    overruled = dataclasses.replace(
+        tool_report, best_effect=None, how_far_evidence=evidence
+    )
+    verdict = overruled.verdict()
+    assert "removes 46% of the excess held-out gap once" in verdict
+    assert (
+        "The screening (table 'Which effect') passed 'tool_growth' (56%); the "
+        "finer calibration, which decides, does not bear it out." in verdict
+    )
+    assert "The screening" not in tool_report.verdict()

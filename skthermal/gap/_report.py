@@ -447,6 +447,7 @@ class GapReport:
             )
             return (
                 text
+                + self._overruled_text(fine)
                 + self._ruled_out_text(fine)
                 + self._stopped_text(fine)
                 + self._within_noise_text(fine)
@@ -573,6 +574,22 @@ class GapReport:
         return (
             f" Its fitted {row['on_bound']} sits on its range's end: "
             f"{cls._STAND_IN}; weigh the other candidates that pass."
+        )
+
+    def _overruled_text(self, fine):
+        """The verdict's sentence when the screening passed the best
+        candidate (its row of table 'Which effect' says it explains the gap)
+        and the fine calibration of the how-far step did not bear it out
+        (``""`` otherwise): the tables and the verdict then disagree."""
+        if fine.get("calibration") != "fine" or "explains" not in self.ranking:
+            return ""
+        rows = self.ranking[self.ranking["effect"] == fine["effect"]]
+        if not len(rows) or not bool(rows["explains"].iloc[0]):
+            return ""
+        return (
+            f" The screening (table 'Which effect') passed {fine['effect']!r} "
+            f"({percent(rows['shrink'].iloc[0])}); the finer calibration, which "
+            "decides, does not bear it out."
         )
 
     def _passes_alone(self, row):
