@@ -1141,3 +1141,40 @@ def test_a_wrapper_says_the_time_unit_warning_once():
         )
     said = [w for w in caught if "time_s is read as seconds" in str(w.message)]
     assert len(said) == 1
+
+
+def test_transformers_keep_categorical_run_labels():
+    # A run column of dtype category came back as a level of str labels
+    # (joining the output back onto the input then failed on the dtype).
+    from skthermal.preprocessing import LagFeatures
+    from skthermal.selection import GRASelector
+
+    rng = np.random.default_rng(0)
+    n = 40
+    frame = pd.DataFrame(
+        {
+            "run": pd.Categorical(np.repeat(["a", "b"], n)),
+            "time_s": np.tile(np.arange(n) * 60.0, 2),
+            "T1_C": rng.random(2 * n),
+            "T2_C": rng.random(2 * n),
+        }
+    )
+    y = rng.random(2 * n)
+    for table in (frame, frame.set_index(["run", "time_s"])):
+        for step in (
+            LagFeatures(time_constants=[600.0]),
+            GRASelector(n_features_to_select=1),
+        ):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                out = step.fit(table, y).transform(table)
+            level = out.index.get_level_values("run")
+            assert isinstance(level.dtype, pd.CategoricalDtype), type(step)
+            assert level.tolist() == frame["run"].tolist()
+    # Labels given apart from X (groups) are taken as given.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        out = LagFeatures(time_constants=[600.0]).fit_transform(
+            frame, groups=np.repeat(["c", "d"], n)
+        )
+    assert out.index.get_level_values("run").tolist() == ["c"] * n + ["d"] * n

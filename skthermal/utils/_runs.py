@@ -805,7 +805,8 @@ def run_table_index(groups, times):
 
     arrays, names = [], []
     if groups is not None:
-        arrays.append(np.asarray(groups))
+        # A pandas index keeps its dtype (categorical labels stay so).
+        arrays.append(groups if isinstance(groups, pd.Index) else np.asarray(groups))
         names.append(RUN_COLUMN)
     if times is not None:
         arrays.append(np.asarray(times, dtype=float))
@@ -840,7 +841,29 @@ def run_frame_index(original, X, groups):
     times = row_times(X)
     if not hasattr(original, "columns") or (groups is None and times is None):
         return None
-    return run_table_index(groups, times)
+    return run_table_index(_as_given(original, groups), times)
+
+
+def _as_given(original, groups):
+    """The run labels ``groups`` as ``original`` holds them (its ``run``
+    column or index level, as a pandas index: categorical labels stay
+    categorical), when they are those labels; else ``groups``."""
+    import pandas as pd
+
+    if groups is None:
+        return None
+    if RUN_COLUMN in original.columns:
+        given = pd.Index(original[RUN_COLUMN])
+    elif RUN_COLUMN in (original.index.names or []):
+        given = original.index.get_level_values(RUN_COLUMN)
+    else:
+        return groups
+    labels = np.asarray(groups, dtype=object)
+    if len(given) != len(labels) or not np.array_equal(
+        np.asarray(given, dtype=object), labels
+    ):
+        return groups
+    return given
 
 
 def with_run_index(X, groups=None):
