@@ -213,7 +213,9 @@ def test_default_penalty_warns_on_inputs_far_from_degrees(data):
         # 4 h batch); the warning told to give changes, as was done.
         # 4 h batches, and one 8 h run whose sensors warm within 20 min
         # (6 of its 960 rows within a spread of zero).
-        for hours, tau in ((4.0, 3600.0), (8.0, 1200.0)):
+        # A 24 h run whose sensors warm within 5 min at 30 s: one row (the
+        # first) within a spread of zero, which still warned.
+        for hours, tau in ((4.0, 3600.0), (8.0, 1200.0), (24.0, 300.0)):
             t = np.arange(0.0, hours * 3600.0, 30.0)
             rise = 1.0 - np.exp(-t / tau)
             changes = np.c_[5.5 * rise, 4.0 * rise]

@@ -347,6 +347,13 @@ def _warn_offset_inputs(X, columns=None):
     # the warm-up; a logger's drop-out row of zeros among readings is not.
     near = np.abs(X) <= std
     far &= ~np.any(near[1:] & near[:-1], axis=0)
+    # A warm-up of one sample (a fast sensor at a slow logging period, its
+    # next row already beyond a spread of zero on a long plateau): a row of
+    # zeros in every column followed by one still well short of the column's
+    # mean is a run's start too; a drop-out row of zeros is followed by a
+    # reading near the mean.
+    zeros = np.flatnonzero(np.all(X[:-1] == 0.0, axis=1))
+    far &= ~np.any(np.abs(X[zeros + 1]) <= 0.5 * np.abs(mean), axis=0)
     if 2 * far.sum() <= X.shape[1]:
         return
     names = columns if columns is not None else [f"x{j}" for j in range(X.shape[1])]
