@@ -1401,3 +1401,21 @@ def test_a_verdict_the_fine_calibration_overrules_says_so(tool_report):
         "finer calibration, which decides, does not bear it out." in verdict
     )
     assert "The screening" not in tool_report.verdict()
+
+
+def test_temperatures_given_as_changes_are_flagged(rig_runs):
+    # The diagnosis simulates the machine from the air, so its sensors must
+    # be readings; a table of changes since the start (every sensor 0 at
+    # every run's first row) was diagnosed without a word.
+    import warnings
+
+    from skthermal.datasets import changes_since_start, sensor_columns
+
+    rig, runs = rig_runs
+    changes = changes_since_start(runs, sensor_columns(runs))
+    with pytest.warns(UserWarning, match=r"reads exactly 0 at the first row of every"):
+        diagnose(rig, changes, candidates=["sensor_lag"], n_jobs=1, **FAST)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        diagnose(rig, runs, candidates=["sensor_lag"], n_jobs=1, **FAST)
+    assert not [w for w in said if "reads exactly 0" in str(w.message)]

@@ -767,14 +767,16 @@ def _check_ranges(df, columns, values):
             )
 
 
-def warn_implausible(df, late_start=True):
+def warn_implausible(df, late_start=True, readings=False):
     """The plausibility warnings of a run table whose ``time_s`` is checked
     (finite, increasing within each run), for readers that skip the rest of
     :func:`validate_runs` (the gap diagnosis reads its own columns): a
     ``time_s`` like a clock's or in another unit (``late_start=False``:
     runs that start after 0 are not warned about, e.g. measured runs whose
     simulation starts before them), workshop air or temperature sensors in
-    another unit (kelvin, Fahrenheit), readings no machine gives."""
+    another unit (kelvin, Fahrenheit), readings no machine gives; with
+    ``readings``, for a reader that simulates the machine from its readings,
+    temperatures given as changes since the start."""
     codes = pd.factorize(df[RUN])[0]
     order = np.argsort(codes, kind="stable")
     times = _as_float(df, [TIME])[:, 0]
@@ -784,6 +786,8 @@ def warn_implausible(df, late_start=True):
     values = df[read].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
     _warn_kelvin_sensors(df, read, values, codes)
     _warn_impossible_readings(df, read, values, codes)
+    if readings:
+        _warn_changes_as_readings(read, values, codes)
 
 
 def _warn_air_unit(df):
@@ -889,6 +893,31 @@ _LARGEST_ERROR_UM = 10_000.0
 # Share of a column's readings beyond those limits above which they are
 # taken for another unit rather than glitches.
 _UNIT_SHARE = 0.05
+
+
+def _warn_changes_as_readings(columns, values, codes):
+    """Warn when every temperature sensor (``T<name>_C``) reads exactly 0 at
+    the first row of every run: changes since the start, where a reader of
+    the readings (the gap diagnosis: its base simulates the machine from
+    the air) needs them as read; :func:`changes_since_start`'s tables, which
+    the estimators take, are not warned about elsewhere."""
+    temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
+    if not temps or len(codes) == 0:
+        return
+    first = np.r_[True, codes[1:] != codes[:-1]]
+    block = values[np.ix_(first, temps)]
+    if not (np.all(block == 0.0) and np.any(values[:, temps] != 0.0)):
+        return
+    names = ", ".join(repr(columns[j]) for j in temps[:3])
+    more = f" and {len(temps) - 3} more" if len(temps) > 3 else ""
+    warnings.warn(
+        f"Every temperature sensor ({names}{more}) reads exactly 0 at the first "
+        "row of every run: changes since the start? Columns T*_C hold the "
+        "readings in °C (the library takes the changes where a method needs "
+        "them; the simulator and the gap diagnosis need the readings).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
 
 
 def _warn_impossible_readings(df, columns, values, codes):

@@ -553,7 +553,7 @@ def build_problem(
             frame = frame.assign(**dict(zip(channels, y.T, strict=True)))
         read.append((name, frame, t, y))
     frames = [(name, frame) for name, frame, *_ in read]
-    warn_implausible(runs)
+    warn_implausible(runs, readings=True)
     warn_short_runs("diagnose", {name: t[-1] - t[0] for name, _, t, _ in read}, 5)
     keep = measured_varying([y for *_, y in read], channels, explicit)
     dead = [c for c, k in zip(channels, keep, strict=True) if not k]
