@@ -88,6 +88,11 @@ def test_search_space_names_and_errors():
         search_space("anfis", epochs=[10, 20])
     with pytest.raises(ValueError, match="low must not exceed high"):
         search_space("anfis", epochs=(20, 10))
+    # A whole-number parameter's range with a fractional bound drew values
+    # outside it ((2.5, 4) drew 2), silently; whole floats are whole.
+    with pytest.raises(ValueError, match=r"n_clusters is a whole number.*\(2\.5, 4\)"):
+        search_space("anfis", n_clusters=(2.5, 4))
+    search_space("anfis", n_clusters=(2.0, 4))
     with pytest.raises(ValueError, match="prefix"):
         search_space("anfis", prefix="")
 
@@ -728,6 +733,11 @@ def test_make_storage_kinds(tmp_path):
     assert make_storage(db) is db
     with pytest.raises(ValueError, match="Cannot tell the storage kind"):
         make_storage(tmp_path / "study.txt")
+    # A URL with one slash was a path in a folder 'sqlite:' ("does not
+    # exist"), or made a file of that name.
+    for typo in ("sqlite:/study.db", "sqlite:study.db"):
+        with pytest.raises(ValueError, match=r"takes '://' after its scheme"):
+            make_storage(typo)
     with pytest.raises(TypeError, match="storage must be"):
         make_storage(3)
 

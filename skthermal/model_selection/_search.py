@@ -94,6 +94,12 @@ def _no_experimental_warning():
 # --------------------------------------------------------------------------
 
 
+# The schemes of the database URLs a study is stored under (SQLAlchemy's,
+# with an optional driver): a storage starting so without "://" is a typo
+# of a URL, not a file path (a Windows drive letter is one letter).
+_DATABASE_SCHEME = r"(sqlite|postgres(ql)?|mysql|mariadb|oracle|mssql)(\+\w+)?:"
+
+
 @validate_params(
     {
         "spec": "no_validation",
@@ -177,6 +183,14 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
         )
     text = os.fspath(spec)
     lower = text.lower()
+    if "://" not in text and re.match(_DATABASE_SCHEME, lower):
+        # "sqlite:/study.db" was taken for a path in a folder "sqlite:".
+        scheme = text.split(":", 1)[0]
+        raise ValueError(
+            f"storage {text!r}: a database URL takes '://' after its scheme, "
+            f"e.g. {scheme}:///study.db (SQLite: three slashes before a "
+            "relative path, four before an absolute one)."
+        )
     if "://" not in text:
         folder = os.path.dirname(os.path.abspath(text))
         if not os.path.isdir(folder):

@@ -241,6 +241,13 @@ def _check_spec(key, spec, default):
             raise ValueError(f"{key}: a range is a (low, high) tuple, got {spec!r}.")
         if spec[0] > spec[1]:
             raise ValueError(f"{key}: low must not exceed high, got {spec!r}.")
+        whole = isinstance(default, tuple) and all(isinstance(v, int) for v in default)
+        if whole and any(float(v) != int(v) for v in spec):
+            # int() of a bound drew values outside the range asked for
+            # ((2.5, 4) drew 2).
+            raise ValueError(
+                f"{key} is a whole number: its range takes whole bounds, got {spec!r}."
+            )
         if key in _LOG_SCALED and spec[0] <= 0:
             raise ValueError(
                 f"{key} is searched on a log scale: its range must start above "
