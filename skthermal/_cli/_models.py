@@ -766,11 +766,10 @@ def cmd_evaluate(args):
         changes_since_first_row(pred[rows], labels[rows]),
         np.zeros(int(rows.sum())),  # the changes, one series: its first value is 0
     ).assign(run="all")
-    if fitted.any():
-        table.insert(1, "fitted", np.where(fitted, "yes", ""))
+    named = ", ".join(repr(str(r)) for r in table["run"][fitted])
     table = pd.concat([table, pd.DataFrame([mean]), pooled], ignore_index=True)
-    if fitted.any():
-        table["fitted"] = table["fitted"].fillna("")
+    if fitted.any():  # the mean and all rows are no run
+        table.insert(1, "fitted", [*np.where(fitted, "yes", ""), "", ""])
     shown = table.copy()
     for c in METRIC_COLUMNS:
         shown[c] = [compact(v) for v in table[c]]
@@ -780,7 +779,6 @@ def cmd_evaluate(args):
         "once, its residual the max over runs; all row: every sample pooled)"
     )
     if fitted.any():
-        named = ", ".join(repr(str(r)) for r in table["run"][: len(fitted)][fitted])
         caption += (
             f". Run(s) {named} are the model's training runs (fitted: yes): "
             "their errors are its fit, not a prediction; "

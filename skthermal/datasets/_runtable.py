@@ -813,6 +813,14 @@ _KELVIN_LIFT = (200.0, 350.0)
 _FAHRENHEIT_FLOOR = 50.0
 
 
+def _first_three(items):
+    """``'a', 'b', 'c' and 2 more``: the first three of ``items`` quoted,
+    and how many more there are, for a warning naming columns or runs."""
+    items = list(items)
+    more = f" and {len(items) - 3} more" if len(items) > 3 else ""
+    return ", ".join(repr(i) for i in items[:3]) + more
+
+
 def _warn_kelvin_sensors(df, columns, values, codes):
     """Warn when temperature columns (``*_C``) never read below
     ``_KELVIN_FLOOR``: kelvin under a °C header. Models take changes or
@@ -848,10 +856,9 @@ def _warn_kelvin_sensors(df, columns, values, codes):
             _warn_fahrenheit_sensors(columns, values)
         return
     name, low, high = hot[0]
-    names = ", ".join(repr(h[0]) for h in hot[:3])
-    more = f" and {len(hot) - 3} more" if len(hot) > 3 else ""
+    names = _first_three([h[0] for h in hot])
     warnings.warn(
-        f"Temperature column(s) {names}{more} never read below "
+        f"Temperature column(s) {names} never read below "
         f"{_KELVIN_FLOOR:g} ({name!r}: {low:g} to {high:g}): no machine-tool "
         "structure is that hot at every sample. In kelvin? Columns *_C are read "
         "as °C: subtract 273.15.",
@@ -867,15 +874,13 @@ def _warn_kelvin_runs(df, codes, some):
     name, runs, col, finite = some[0]
     labels = df[RUN].to_numpy()
     first = {c: int(np.flatnonzero(codes == c)[0]) for c in runs}
-    named = ", ".join(repr(plain(labels[first[c]])) for c in list(runs)[:3])
-    more_runs = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
+    named = _first_three([plain(labels[first[c]]) for c in runs])
     inside = finite & np.isin(codes, runs)
     outside = finite & ~np.isin(codes, runs)
-    names = ", ".join(repr(s[0]) for s in some[:3])
-    more = f" and {len(some) - 3} more" if len(some) > 3 else ""
+    names = _first_three([s[0] for s in some])
     warnings.warn(
-        f"Temperature column(s) {names}{more} never read below "
-        f"{_KELVIN_FLOOR:g} in run(s) {named}{more_runs}, and below it in the "
+        f"Temperature column(s) {names} never read below "
+        f"{_KELVIN_FLOOR:g} in run(s) {named}, and below it in the "
         f"other runs ({name!r}: {col[inside].min():g} to {col[inside].max():g} "
         f"there, {col[outside].min():g} to {col[outside].max():g} elsewhere): "
         "those runs logged in kelvin? Columns *_C are read as °C: subtract "
@@ -908,10 +913,9 @@ def _warn_changes_as_readings(columns, values, codes):
     block = values[np.ix_(first, temps)]
     if not (np.all(block == 0.0) and np.any(values[:, temps] != 0.0)):
         return
-    names = ", ".join(repr(columns[j]) for j in temps[:3])
-    more = f" and {len(temps) - 3} more" if len(temps) > 3 else ""
+    names = _first_three([columns[j] for j in temps])
     warnings.warn(
-        f"Every temperature sensor ({names}{more}) reads exactly 0 at the first "
+        f"Every temperature sensor ({names}) reads exactly 0 at the first "
         "row of every run: changes since the start? Columns T*_C hold the "
         "readings in °C (the library takes the changes where a method needs "
         "them; the simulator and the gap diagnosis need the readings).",
@@ -1048,10 +1052,9 @@ def _warn_fahrenheit_sensors(columns, values):
         return
     names = [columns[j] for j in temps]
     coldest = int(np.argmin(np.where(finite, block, np.inf).min(axis=0)))
-    listed = ", ".join(repr(n) for n in names[:3])
-    more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+    listed = _first_three(names)
     warnings.warn(
-        f"No temperature sensor ({listed}{more}) ever reads below "
+        f"No temperature sensor ({listed}) ever reads below "
         f"{_FAHRENHEIT_FLOOR:g} (the coldest, {names[coldest]!r}, from "
         f"{block[:, coldest][finite[:, coldest]].min():g}): a machine tool has "
         "parts near the workshop air. In Fahrenheit? Columns *_C are read as "

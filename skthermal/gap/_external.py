@@ -779,10 +779,7 @@ class ExternalGapReport(GapReport):
         if self.best_effect is None:
             return (
                 f"{self._none_opening(row)} ({self._best_candidate_text(row)}: "
-                f"{evidence})."
-                + self._ruled_out_text(row)
-                + self._stopped_text(row)
-                + self._within_noise_text(row)
+                f"{evidence})." + self._unnamed_tail(row)
             )
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "

@@ -445,13 +445,7 @@ class GapReport:
                 f"{self._none_opening(fine)} ({self._best_candidate_text(fine, how)}"
                 f": {evidence}{self._flexible_text(fine)})."
             )
-            return (
-                text
-                + self._overruled_text(fine)
-                + self._ruled_out_text(fine)
-                + self._stopped_text(fine)
-                + self._within_noise_text(fine)
-            )
+            return text + self._unnamed_tail(fine)
         text = (
             f"{self.best_effect!r} explains the gap: adding it removes "
             f"{percent(fine['shrink'])} of the held-out gap above the noise floor "
@@ -574,6 +568,18 @@ class GapReport:
         return (
             f" Its fitted {row['on_bound']} sits on its range's end: "
             f"{cls._STAND_IN}; weigh the other candidates that pass."
+        )
+
+    def _unnamed_tail(self, row):
+        """What a verdict that names no effect says after its opening, in
+        both modes: why its best candidate ``row`` is not named (overruled by
+        the finer calibration, ruled out, stopped by its range) and whether
+        the gap is within the noise."""
+        return (
+            self._overruled_text(row)
+            + self._ruled_out_text(row)
+            + self._stopped_text(row)
+            + self._within_noise_text(row)
         )
 
     def _overruled_text(self, fine):

@@ -1084,12 +1084,13 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
             )
             va_slices, va_dts = _stretches(upto, slices, dts)
             scored = np.isin(upto, va)
+            Ut_tr, Y_tr, Ut_va, Y_va = Ut[:, tr], Y[tr], Ut[:, upto], Y[upto[scored]]
             # The lags' moments on the fold's rows, for every candidate.
-            moments = _grid_moments(Ut[:, tr], Y[tr], tr_dts, tr_slices, grid)
+            moments = _grid_moments(Ut_tr, Y_tr, tr_dts, tr_slices, grid)
             for i, alpha in enumerate(candidates):
                 fits = self._identify(
-                    Ut[:, tr],
-                    Y[tr],
+                    Ut_tr,
+                    Y_tr,
                     tr_dts,
                     tr_slices,
                     bounds,
@@ -1098,17 +1099,17 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
                     moments,
                 )
                 for k, (tau, coef, intercept, *_) in enumerate(fits):
-                    Z = _fit_lags(Ut[:, upto], tau.ravel(), inputs, va_dts, va_slices)
+                    Z = _fit_lags(Ut_va, tau.ravel(), inputs, va_dts, va_slices)
                     pred = intercept + coef.ravel() @ Z[:, scored]
-                    sse[i, k] += np.sum((pred - Y[upto[scored], k]) ** 2)
+                    sse[i, k] += np.sum((pred - Y_va[:, k]) ** 2)
         scored_rows = sum(va.size for _, va in folds)
         rmse = np.sqrt(sse / scored_rows) if scored_rows else np.full_like(sse, np.nan)
         # The least error; of candidates that tie with it (to rounding: a
         # constant output, say), the largest penalty, the steadiest gains.
-        least = sse.min(axis=0) if folds else np.zeros(n_out)
-        ties = sse <= least * (1 + 1e-9) + 1e-300
-        chosen = candidates[[int(np.flatnonzero(t)[-1]) for t in ties.T]]
-        if not folds:
+        if folds:
+            ties = sse <= sse.min(axis=0) * (1 + 1e-9) + 1e-300
+            chosen = candidates[[int(np.flatnonzero(t)[-1]) for t in ties.T]]
+        else:
             chosen = np.full(n_out, candidates[0])
         return chosen, {"alpha": candidates, "rmse": rmse}
 
