@@ -821,7 +821,35 @@ def test_search_runs_a_small_study(capsys, workdir):
     assert status == 0, err
     assert "2 of 2 trial(s) complete" in text
     assert json.loads(again.read_text())["best_params"] == doc["best_params"]
-    # A study with no trial: the library's reason, said once.
+    # A study the storage does not hold (a mistyped --study-name): said in
+    # the command's options, and no empty study is stored under that name.
+    typo = ["--study-name", "skthermal-grey-psoo"]
+    status, text, err = _run(capsys, *search, *typo, "--trials", "0")
+    assert status == 2
+    last = err.strip().splitlines()[-1]
+    assert (
+        "error: --trials 0 refits the best trial of the stored study "
+        "'skthermal-grey-psoo' (--study-name), but the --storage "
+    ) in last
+    assert "holds 1 other study ('skthermal-grey-pso') (did you mean" in last
+    optuna = pytest.importorskip("optuna")
+    url = f"sqlite:///{workdir / 'study.db'}"
+    assert optuna.study.get_all_study_names(url) == ["skthermal-grey-pso"]
+    # Another model into that study: refused, in the command's words.
+    other = [*search[:4], "anfis-fcm", *search[5:]]
+    status, text, err = _run(
+        capsys, *other, "--study-name", "skthermal-grey-pso", "--trials", "1"
+    )
+    assert status == 2
+    last = err.strip().splitlines()[-1]
+    assert "(estimator 'RunStartRegressor(GreyPSORegressor)' there, " in last
+    assert last.endswith("Give another --study-name (or --storage).")
+    # A stored study with no trial: the library's reason, said once.
+    optuna.create_study(
+        storage=f"sqlite:///{workdir / 'empty.db'}",
+        study_name="skthermal-grey-pso",
+        direction="maximize",
+    )
     empty = ["--storage", workdir / "empty.db", "--trials", "0"]
     status, text, err = _run(capsys, *search[:-2], *empty)
     assert status == 2

@@ -23,7 +23,6 @@ from skthermal.gap._problem import (
     fine_keys,
     fit_gains,
     floor_squared,
-    noise_floor,
     predict_run,
     residuals,
 )
@@ -35,6 +34,7 @@ from skthermal.gap._scores import (
     speed_bands,
 )
 from skthermal.simulate import ThermalMachine
+from skthermal.utils._noise import noise_floor
 
 
 def test_regimes_by_hand():

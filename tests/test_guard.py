@@ -134,6 +134,11 @@ def test_spike_warns_naming_sensor_run_and_time(train, spiked):
     (msg,) = _messages(caught, SensorRangeWarning)
     assert "'T2_C' in run 'r0' at time_s=1800" in msg
     assert "1e+06" in msg and "1 of 4" in msg
+    # clip and hold are the remedy for a faulty sensor, not for a machine or
+    # room truly beyond the training range (an independent check: a colder
+    # room clipped or held erred 1.2 and 2.2 times as much as warned).
+    assert "A faulty sensor (stuck, jumping or cut): mode='clip' or 'hold'" in msg
+    assert "clipping or holding errs too; refit on runs that cover it." in msg
     (jump,) = [m for m in _messages(caught, SensorFaultWarning) if "jump" in m]
     # The step back to normal is judged from the last good reading, not
     # from the spike (out of range): the spike's row alone.

@@ -687,6 +687,30 @@ def test_no_trial_run_says_so(runs_data, tmp_path):
         "study_name": "zero",
     }
     est = GreyPSORegressor(calibration="ls")
+    optuna = pytest.importorskip("optuna")
+    # A study name the storage does not hold (a typo): an error, and no
+    # empty study of that name is left behind.
+    optuna.create_study(
+        storage=f"sqlite:///{tmp_path / 'zero.db'}", study_name="zero-1"
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"stored study 'zero' \(study_name\), but the storage .*zero\.db "
+        r"holds 1 other study \('zero-1'\) \(did you mean 'zero-1'\?\); "
+        r"nothing was stored",
+    ):
+        run_search(est, X, y, groups=groups, n_trials=0, **kwargs)
+    assert optuna.study.get_all_study_names(f"sqlite:///{tmp_path / 'zero.db'}") == [
+        "zero-1"
+    ]
+    with pytest.raises(ValueError, match="n_trials=0 runs no trial: .* needs storage"):
+        run_search(est, X, y, groups=groups, n_trials=0, space=kwargs["space"])
+    # A stored study without a trial: said as a warning.
+    optuna.create_study(
+        storage=f"sqlite:///{tmp_path / 'zero.db'}",
+        study_name="zero",
+        direction="maximize",
+    )
     with pytest.warns(UserWarning, match="the study holds no trial") as record:
         result = run_search(est, X, y, groups=groups, n_trials=0, **kwargs)
     assert "error" not in str(record[0].message)
@@ -924,6 +948,42 @@ def test_a_study_on_other_inputs_rows_or_folds_is_refused(runs_data, tmp_path):
     result = _grey_search(X.iloc[:, :3], y, groups, storage, random_state=1)
     assert len(result.study.trials) == 2
     assert result.study.user_attrs["skthermal_features"] == [first, second, third]
+
+
+def test_a_study_of_another_model_names_the_models_only(runs_data, tmp_path):
+    # Another model's settings and search space differ with it: every one
+    # of them was listed (about 2,000 characters from the command line).
+    X, y, groups = runs_data
+    storage = tmp_path / "model.db"
+    _grey_search(X.iloc[:, :3], y, groups, storage)
+    with pytest.raises(ValueError) as info:
+        run_search(
+            ANFISRegressor(epochs=2),
+            X.iloc[:, :3],
+            y,
+            groups=groups,
+            space=_small_anfis_space(),
+            n_trials=1,
+            storage=storage,
+            study_name="s",
+        )
+    message = str(info.value)
+    assert message.startswith(
+        "Study 's' was made by another search (estimator 'GreyPSORegressor' "
+        "there, 'ANFISRegressor' here): its trials cannot be compared"
+    )
+    assert len(message) < 300
+
+
+def test_many_differing_settings_are_counted_not_all_listed():
+    from skthermal.model_selection._search import _describe_difference
+
+    there = {f"p{i}": i for i in range(10)}
+    text = _describe_difference("skthermal_settings", there, {})
+    assert text == (
+        "estimator settings: p0 0 there, unset here; p1 1 there, unset here; "
+        "p2 2 there, unset here; p3 3 there, unset here; and 6 more"
+    )
 
 
 def test_a_study_of_another_space_is_refused_before_any_trial(runs_data, tmp_path):
@@ -1537,12 +1597,47 @@ def test_folds_that_cut_runs_and_empty_spaces_are_named(runs_data):
         run_search(est, X, y, groups=groups, space=lambda t: {}, n_trials=2)
 
 
+def test_an_interrupted_trial_records_why(runs_data, tmp_path):
+    # Ctrl-C during a trial: Optuna stores it as failed and stops; the record
+    # said "no error recorded", as for a worker killed outright.
+    X, y, groups = runs_data
+    optuna = pytest.importorskip("optuna")
+
+    def interrupted(model, X, y):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups=groups,
+            space=lambda trial: {"delay": trial.suggest_int("delay", 0, 1)},
+            scoring=interrupted,
+            n_trials=2,
+            storage=tmp_path / "stop.db",
+            study_name="stop",
+        )
+    study = optuna.load_study(
+        study_name="stop", storage=f"sqlite:///{tmp_path}/stop.db"
+    )
+    (trial,) = study.trials
+    assert trial.state.name == "FAIL"
+    assert trial.user_attrs["error"] == "interrupted (KeyboardInterrupt) in fold 0"
+
+
 def test_a_searched_setting_may_differ_before_the_first_trial(runs_data, tmp_path):
     # A worker joining a study whose first trial has not started yet: the
     # fixed value of a parameter the space draws does not count.
     X, y, groups = runs_data
     space = lambda trial: {"alpha": trial.suggest_float("alpha", 0.1, 10.0)}  # noqa: E731
     kwargs = {"space": space, "storage": tmp_path / "early.db", "study_name": "s"}
+    optuna = pytest.importorskip("optuna")
+    optuna.create_study(
+        storage=f"sqlite:///{tmp_path / 'early.db'}",
+        study_name="s",
+        direction="maximize",
+    )
     with pytest.warns(UserWarning, match="No best trial"):
         run_search(
             GreyPSORegressor(calibration="ls", alpha=1.0),

@@ -975,8 +975,14 @@ def test_auto_drivers_found_nowhere_warn():
     # The speed under another name: the warning names it (it went in as a
     # temperature without a word about it).
     rps = X.rename(columns={"spindle_rpm": "spindle_rps"})
-    with pytest.warns(UserWarning, match=r"'spindle_rps' looks like 'spindle_rpm'"):
+    with pytest.warns(
+        UserWarning, match=r"'spindle_rps' looks like 'spindle_rpm'"
+    ) as record:
         LagFeatures(time_constants=[60.0]).fit(rps)
+    # ... and says it goes in as a temperature (not "temperatures only").
+    message = str(record[0].message)
+    assert "every column is taken as a temperature, ['spindle_rps'] too" in message
+    assert "temperatures only" not in message
     # drivers=None with the speed in X: it goes in as a temperature, said.
     with pytest.warns(UserWarning, match=r"drivers=None .* \['spindle_rpm'\] too"):
         LagFeatures(time_constants=[60.0], drivers=None).fit(X)

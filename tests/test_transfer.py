@@ -849,7 +849,7 @@ def test_runs_starting_at_different_targets_warn():
         UserWarning,
         match=r"y \('disp_z_um'\) starts run 'r0' \(and 1 more run alike\) at "
         r"1\.738, the runs' median first value being 7\.738: 6 off, against "
-        r"changes of 17 within the runs and a noise of 0\.038",
+        r"changes of 17 within the runs and a noise of 0\.00091",
     ):
         TransferFunctionRegressor(speed_column=2, alpha=0.0).fit(X, y + offsets)
     with warnings.catch_warnings():
@@ -905,3 +905,25 @@ def test_a_short_run_beside_long_ones_does_not_decide_the_penalty():
     new = X.loc[["r1"]].rename(index={"r1": "other"}, level="run")
     error = model.predict(new) - y.loc[["r1"]].to_numpy()
     assert np.sqrt(np.mean(error**2)) < 0.01
+
+
+def test_start_offsets_of_one_quantum_on_quantised_readings_do_not_warn():
+    # An independent check: on a probe read to 1 µm with a noise of 0.2 µm,
+    # most steps between rows are exactly zero, the noise taken from them
+    # read 0, and first rows one quantum apart were warned about.
+    from skthermal.utils._runs import run_slices, warn_start_offsets
+
+    rng = np.random.default_rng(0)
+    n, runs = 300, 6
+    drift = np.tile(np.linspace(0.0, 1.5, n), runs)
+    y = np.round(drift + 0.2 * rng.normal(size=n * runs) + 0.45)
+    groups = np.repeat([f"R{r}" for r in range(runs)], n)
+    slices, labels = run_slices(groups)
+    first = y[[sl.start for sl in slices]]
+    assert np.ptp(first) == 1.0  # one quantum apart
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warn_start_offsets("Model", y, slices, ["disp_x_um"], labels)
+    y[groups == "R3"] += 10.0  # a run zeroed 10 quanta off still warns
+    with pytest.warns(UserWarning, match=r"starts run 'R3' at 1\d\.?\d*, the runs'"):
+        warn_start_offsets("Model", y, slices, ["disp_x_um"], labels)

@@ -807,8 +807,12 @@ def cmd_evaluate(args):
 
 def cmd_search(args):
     from skthermal.datasets import split_runs
-    from skthermal.model_selection import run_search
-    from skthermal.model_selection._search import no_best_trial, safe_url
+    from skthermal.model_selection import make_storage, run_search
+    from skthermal.model_selection._search import (
+        check_stored_study,
+        no_best_trial,
+        safe_url,
+    )
     from skthermal.models import MODELS, make_model, model_search_space
 
     if args.model not in MODELS:
@@ -852,6 +856,14 @@ def cmd_search(args):
     study_name = args.study_name
     if args.storage and not study_name:
         study_name = f"skthermal-{args.model}"
+    if args.trials == 0:
+        # Before the search stores an empty study under a mistyped name.
+        check_stored_study(
+            make_storage(args.storage),
+            study_name,
+            args.storage,
+            said=("--trials 0", "--study-name", "--storage"),
+        )
     model = make_model(args.model, random_state=args.seed)
     # Failed trials are summarised below, not logged with a traceback each.
     optuna.logging.set_verbosity(optuna.logging.ERROR)
@@ -871,19 +883,28 @@ def cmd_search(args):
         warnings.simplefilter("always", ConvergenceWarning)
         # Said below as the command's error, not twice.
         warnings.filterwarnings("ignore", message="No best trial")
-        result = run_search(
-            model,
-            X,
-            # Scored as `fit` and `evaluate` score: the change since the start
-            # of each held-out run, which is what the model predicts.
-            _target_changes(y, groups),
-            groups=groups,
-            space=model_search_space(args.model),
-            n_trials=args.trials,
-            storage=args.storage,
-            study_name=study_name,
-            random_state=args.seed,
-        )
+        try:
+            result = run_search(
+                model,
+                X,
+                # Scored as `fit` and `evaluate` score: the change since the start
+                # of each held-out run, which is what the model predicts.
+                _target_changes(y, groups),
+                groups=groups,
+                space=model_search_space(args.model),
+                n_trials=args.trials,
+                storage=args.storage,
+                study_name=study_name,
+                random_state=args.seed,
+            )
+        except ValueError as exc:
+            # The library names its parameters; here they are options.
+            raise UserError(
+                str(exc).replace(
+                    "another study_name (or storage)",
+                    "another --study-name (or --storage)",
+                )
+            ) from None
     runs = [str(r) for r in pd.unique(groups)]
     trials = result.trials_dataframe()
     done = int((trials["state"] == "COMPLETE").sum()) if len(trials) else 0

@@ -1471,8 +1471,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
 
 
 _HINT = {
-    "warn": " predict_checked lists the rows; mode='clip' or 'hold' bounds the "
-    "compensation.",
+    "warn": " predict_checked lists the rows. A faulty sensor (stuck, jumping "
+    "or cut): mode='clip' or 'hold' bounds the compensation there. The machine "
+    "or room truly beyond its training range (a colder room, a faster "
+    "spindle): clipping or holding errs too; refit on runs that cover it.",
     "clip": "",
 }
 

@@ -47,7 +47,6 @@ from skthermal.gap._problem import (
     group_scales,
     is_channel,
     measured_varying,
-    pooled_noise,
     too_few_runs,
     warn_uncompared,
     without_attrs,
@@ -77,6 +76,7 @@ from skthermal.gap._terms import (
     flexible_heldout,
 )
 from skthermal.utils._faults import flat_columns, repair_spikes
+from skthermal.utils._noise import pooled_noise
 from skthermal.utils._runs import (
     check_labels,
     check_unique_columns,

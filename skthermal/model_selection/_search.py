@@ -34,7 +34,7 @@ from sklearn.utils._param_validation import (
     validate_params,
 )
 
-from skthermal._naming import plain, qualified_name
+from skthermal._naming import plain, qualified_name, suggest
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
 from skthermal.metrics import get_scorer
@@ -860,6 +860,14 @@ class _Objective:
             except optuna.TrialPruned:
                 self._say_once(caught or [], quiet=True)
                 raise
+            except KeyboardInterrupt:
+                # Optuna stores the trial as failed, and stops the study: the
+                # record says why (a killed worker leaves none).
+                trial.set_user_attr(
+                    "error", f"interrupted (KeyboardInterrupt) in fold {fold}"
+                )
+                trial.set_user_attr("error_fold", fold)
+                raise
             except Exception as exc:  # a bad draw fails the trial, not the study
                 trial.set_user_attr("error", f"{type(exc).__name__}: {exc}")
                 trial.set_user_attr("error_fold", fold)
@@ -1106,6 +1114,12 @@ def _flat(value, path=""):
     return {path: value}
 
 
+def _first_parts(parts, most=4):
+    """The first ``most`` of a list of differences, and how many more."""
+    more = len(parts) - most
+    return "; ".join(parts[:most]) + (f"; and {more} more" if more > 0 else "")
+
+
 def _describe_difference(key, there, here):
     what = key.removeprefix("skthermal_")
     if key == "skthermal_space_ranges":
@@ -1115,7 +1129,7 @@ def _describe_difference(key, there, here):
             for k in sorted(set(a) | set(b))
             if a.get(k) != b.get(k)
         ]
-        return "search space ranges: " + "; ".join(parts)
+        return "search space ranges: " + _first_parts(parts)
     if (
         key == "skthermal_features"
         and isinstance(there, list)
@@ -1133,7 +1147,7 @@ def _describe_difference(key, there, here):
             for n in names
             if there.get(n) != here.get(n)
         ]
-        return "estimator settings: " + "; ".join(parts)
+        return "estimator settings: " + _first_parts(parts)
     return f"{what} {there!r} there, {here!r} here"
 
 
@@ -1188,6 +1202,17 @@ def _check_study_setup(study, setup, direction, space=None):
         # The ranges in full decide: the space's text lists only what
         # differs from the defaults of the version that wrote it.
         compared.pop("skthermal_space")
+    if (
+        stored.get("skthermal_estimator", setup["skthermal_estimator"])
+        != setup["skthermal_estimator"]
+    ):
+        # Another model: its settings and search space differ with it.
+        for follows in (
+            "skthermal_settings",
+            "skthermal_space",
+            "skthermal_space_ranges",
+        ):
+            compared.pop(follows, None)
     differ = [
         _describe_difference(key, stored[key], value)
         for key, value in compared.items()
@@ -1327,6 +1352,46 @@ class SearchResult:
             f"SearchResult(study={self.study.study_name!r}, n_trials={n}, "
             f"best_score_={self.best_score_!r}, best_params_={self.best_params_!r})"
         )
+
+
+def check_stored_study(
+    store, study_name, storage, said=("n_trials=0", "study_name", "storage")
+):
+    """Refitting a stored study's best trial (``n_trials=0``) reads a stored
+    study: one that is not there (a typo of its name) is an error, before an
+    empty study of that name is stored. ``store``: the Optuna storage made
+    from ``storage`` (None without one); ``said``: how the caller names the
+    trial count, the study name and the storage (the command line's
+    options)."""
+    optuna = _import_optuna()
+    trials, name_option, storage_option = said
+    if store is None:
+        raise ValueError(
+            f"{trials} runs no trial: it refits the best trial of a stored "
+            f"study, so it needs {storage_option} and the {name_option} of a "
+            "study there."
+        )
+    names = optuna.study.get_all_study_names(storage=store)
+    if study_name in names:
+        return
+    where = (
+        safe_url(os.fspath(storage))
+        if isinstance(storage, (str, os.PathLike))
+        else repr(storage)
+    )
+    held = (
+        "holds no study"
+        if not names
+        else f"holds {len(names)} other stud{'y' if len(names) == 1 else 'ies'} ("
+        + ", ".join(repr(n) for n in sorted(names)[:5])
+        + (", ..." if len(names) > 5 else "")
+        + ")"
+    )
+    raise ValueError(
+        f"{trials} refits the best trial of the stored study {study_name!r} "
+        f"({name_option}), but the {storage_option} {where} {held}"
+        f"{suggest(study_name, names)}; nothing was stored."
+    )
 
 
 def no_best_trial(study):
@@ -1636,6 +1701,8 @@ def run_search(
             "Give study_name with a storage: it is how other workers, and later "
             "sessions, find the study."
         )
+    if n_trials == 0 and (store is None or load_if_exists):
+        check_stored_study(store, study_name, storage)
     if pruner is None:
         pruner = optuna.pruners.NopPruner()
     study = optuna.create_study(

@@ -19,6 +19,7 @@ from sklearn.base import BaseEstimator
 from sklearn.utils._param_validation import InvalidParameterError
 
 from skthermal._naming import TARGET_PATTERN, plain, shown
+from skthermal.utils._noise import pooled_noise
 from skthermal.utils._warnings import user_stacklevel
 from skthermal.utils._wrappers import routed_params, routing_enabled
 
@@ -2209,7 +2210,8 @@ def warn_absolute_target(name, y, slices):
 # How far a run's first target value may lie from the runs' median first
 # value before a model that starts every run at rest is warned about it: a
 # share of the target's changes within the runs (root mean square), and a
-# multiple of its noise (from the steps between rows), whichever is larger.
+# multiple of its noise (from the second differences within the runs),
+# whichever is larger.
 _START_SHARE = 0.25
 _START_NOISES = 5.0
 
@@ -2230,16 +2232,10 @@ def warn_start_offsets(name, y, slices, names=None, labels=None):
         return
     first, change = _run_starts(Y, slices)
     within = np.sqrt(np.mean(change**2, axis=0))
-    steps = np.concatenate([np.diff(Y[sl], axis=0) for sl in slices])
-    # The noise of one reading: the steps' spread (robust, as a median
-    # absolute deviation) over sqrt(2), the drift between rows included.
-    noise = (
-        np.median(np.abs(steps - np.median(steps, axis=0)), axis=0)
-        / 0.6745
-        / np.sqrt(2)
-        if len(steps)
-        else np.zeros(Y.shape[1])
-    )
+    # The noise of one reading, from the second differences within the runs
+    # (the median step read zero on quantised readings, most of whose steps
+    # are exactly zero, and a first row one quantum off then warned).
+    noise = pooled_noise([Y[sl] for sl in slices])
     off = np.abs(first - np.median(first, axis=0))
     limit = np.maximum(_START_SHARE * within, _START_NOISES * noise)
     excess = off / np.maximum(limit, 1e-12)
@@ -2328,10 +2324,19 @@ def warn_unnamed_drivers(name, drivers, names, groups):
     if names is not None:
         if not any(str(c) in POWER_DRIVERS for c in names):
             hint = driver_lookalike_hint([str(c) for c in names], POWER_DRIVERS)
+            alike = [str(c) for c in names if driver_lookalike(str(c)) in POWER_DRIVERS]
+            # A driver under another name is not left out: it goes in as a
+            # temperature ("temperatures only" read as if it were dropped).
+            held = (
+                f"every column is taken as a temperature, {alike} too (their "
+                "changes and filters enter as a temperature's, not as heat)"
+                if alike
+                else "the features hold temperatures only, no heat input"
+            )
             warnings.warn(
                 f"{name}.fit: drivers='auto' found none of the drivers "
                 f"({', '.join(POWER_DRIVERS)}) among the columns of X{hint}, so "
-                "the features hold temperatures only, no heat input. split_runs "
+                f"{held}. split_runs "
                 "keeps the sensor columns alone unless told: "
                 "split_runs(runs, sensors=[*sensor_columns(runs), "
                 "*driver_columns(runs)]). drivers=None says there are none (and "
