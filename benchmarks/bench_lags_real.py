@@ -2,7 +2,7 @@
 
 Run from the repository root::
 
-    python benchmarks/bench_lags_real.py
+    python benchmarks/bench_lags_real.py [--data ../shared/data]
 
 Prints held-out RMSE of ``make_lag_pipeline()`` next to a linear baseline on
 FL_THERMAL (chronological 60/40, all five channels), the gas-furnace series
@@ -10,6 +10,7 @@ FL_THERMAL (chronological 60/40, all five channels), the gas-furnace series
 (leave-one-test-out).
 """
 
+import argparse
 import time
 import warnings
 from pathlib import Path
@@ -28,10 +29,10 @@ def rmse(a, b):
     return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
 
 
-def fl_thermal():
-    path = DATA / "fl_thermal_spindle.csv.gz"
+def fl_thermal(data=DATA):
+    path = data / "fl_thermal_spindle.csv.gz"
     if not path.exists():
-        print(f"FL_THERMAL: skipped ({path} not found)")
+        print(f"FL_THERMAL: skipped ({path} not found; pass --data)")
         return
     df = pd.read_csv(path)
     temps = [f"T{i}_C" for i in range(1, 17)]
@@ -58,10 +59,10 @@ def fl_thermal():
         )
 
 
-def gas_furnace():
-    path = DATA / "gas_furnace" / "gas_furnace.csv"
+def gas_furnace(data=DATA):
+    path = data / "gas_furnace" / "gas_furnace.csv"
     if not path.exists():
-        print(f"gas furnace: skipped ({path} not found)")
+        print(f"gas furnace: skipped ({path} not found; pass --data)")
         return
     df = pd.read_csv(path)
     n = len(df)
@@ -112,7 +113,19 @@ def machine_b():
         print(f"  {target}: LR {b:.3f}  lag {r:.3f}  ratio {r / b:.2f}")
 
 
-if __name__ == "__main__":
-    fl_thermal()
-    gas_furnace()
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--data",
+        default=str(DATA),
+        help="folder of the shared real data (default: ../shared/data next to "
+        "the repository)",
+    )
+    args = parser.parse_args(argv)
+    fl_thermal(Path(args.data))
+    gas_furnace(Path(args.data))
     machine_b()
+
+
+if __name__ == "__main__":
+    main()

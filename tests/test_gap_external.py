@@ -368,6 +368,19 @@ def test_different_drivers_are_named(pair):
     noisy = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 0.1)
     with pytest.raises(ValueError, match=r"exported with its sensors' noise"):
         diagnose_runs(noisy, meas)
+    # The measured air noisy, the simulated one smooth: the simulation was
+    # driven by another air series (the hint said to export it without noise,
+    # which it was).
+    rng = np.random.default_rng(3)
+    logged = meas.assign(
+        ambient_C=np.round(meas["ambient_C"] + rng.normal(0, 0.08, len(meas)), 1)
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"the simulated air is smooth and the measured one noisy: .* drive "
+        r"it with the measured ambient_C, e\.g\. ThermalMachine\.simulate_drivers",
+    ):
+        diagnose_runs(pair[0], logged)
     other = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 5.0)
     with pytest.raises(ValueError, match=r"simulated; simulate the measured") as info:
         diagnose_runs(other, meas)

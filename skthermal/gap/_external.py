@@ -76,7 +76,7 @@ from skthermal.gap._terms import (
     flexible_heldout,
 )
 from skthermal.utils._faults import flat_columns, repair_spikes
-from skthermal.utils._noise import pooled_noise
+from skthermal.utils._noise import noise_floor, pooled_noise
 from skthermal.utils._runs import (
     check_labels,
     check_unique_columns,
@@ -303,10 +303,22 @@ def _align(
                 row = f"row {k} of the run" if same else f"simulated row {k} of the run"
                 small = abs(m[at[k]] - sim_d[k]) < 1.0
                 if col == "ambient_C" and in_m and in_s and small:
-                    # Off by a little: a simulated air reading with noise.
+                    # Off by a little: a simulated air reading with noise,
+                    # or a smooth simulated air beside the logged one.
+                    rough_m, rough_s = (
+                        float(noise_floor(np.asarray(v, float)[:, None])[0])
+                        for v in (m, sim_d)
+                    )
                     where += (
-                        " (a simulation exported with its sensors' noise on "
-                        "the air reading? Export it without: skthermal "
+                        " (the simulated air is smooth and the measured one "
+                        "noisy: the simulation was driven by another air "
+                        "series than the one logged; drive it with the "
+                        "measured ambient_C, e.g. ThermalMachine."
+                        "simulate_drivers(time_s, spindle_rpm, ambient_C, "
+                        "noise=False))"
+                        if rough_s < 0.5 * rough_m
+                        else " (a simulation exported with its sensors' noise "
+                        "on the air reading? Export it without: skthermal "
                         "simulate --no-noise, or noise=False)"
                     )
                 raise ValueError(

@@ -362,7 +362,11 @@ def _finding(results, summary):
     holds = bool(fcm < grid)
     paper_fcm = np.mean([PAPER[(t, "anfis-fcm")][1] for t in TEST_RUNS])
     paper_grid = np.mean([PAPER[(t, "anfis-grid")][1] for t in TEST_RUNS])
+    # Judged on the mean over the tests; said "on the mean" when the tests
+    # split the other way (better on 2 of 5 read as a contradiction).
     verdict = "holds" if holds else "does NOT hold"
+    if holds != (2 * wins > len(by_test)):
+        verdict += " on the mean"
     ratio = results.pivot(index="test", columns="model", values="RMSE_vs_paper")
     near = [
         t for t in TEST_RUNS if t in ratio.index and ratio.loc[t, "anfis-grid"] <= 2
