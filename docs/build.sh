@@ -3,7 +3,9 @@
 #
 # Warnings are errors (-W), reported all at once (--keep-going). Environment:
 #   PYTHON=...                      interpreter with skthermal[docs] (default: python)
-#   SKTHERMAL_DOCS_EXECUTE=0        do not run the examples (gallery without output)
+#   SKTHERMAL_DOCS_EXECUTE=0        do not run the examples (gallery without output;
+#                                   running them needs the reference data in
+#                                   ../shared/data next to the repository)
 #   SKTHERMAL_DOCS_INTERSPHINX=1    link to Python/NumPy/sklearn... docs (network)
 #   SKTHERMAL_DOCS_VALIDATE=all     full numpydoc validation (a to-do list: fails -W)
 #   SPHINXOPTS="..."                extra sphinx-build options (e.g. -j auto)

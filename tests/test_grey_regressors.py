@@ -32,6 +32,18 @@ pytestmark = pytest.mark.filterwarnings("ignore:.*carry no run labels:UserWarnin
 # ---------------------------------------------------------------- data helpers
 
 
+def _driving(model):
+    """A fitted grey regressor's driving coefficients ``b_2, ..., b_N``."""
+    if hasattr(model, "development_coef_"):
+        return model.coef_
+    return model.weights_[1:-1]
+
+
+def _theta(model):
+    """A fitted grey regressor's ``(b1, b_2, ..., b_N, u)``."""
+    return np.r_[model.development_coef_, model.coef_, model.control_]
+
+
 def thermal_inputs(n, m, rng):
     """Temperatures of m sensors heated by random on/off sources (first-order)."""
     period = max(n // 6, 2)
@@ -128,7 +140,7 @@ def test_ls_recovers_tien_coefficients(rng):
     coef = np.r_[b1, b, u]
     np.testing.assert_allclose(coef, np.r_[B1, B, U], rtol=1e-6)
     model = GreyPSORegressor(calibration="ls").fit(X, y)
-    np.testing.assert_allclose(model.coef_, np.r_[B1, B, U], rtol=1e-6)
+    np.testing.assert_allclose(_theta(model), np.r_[B1, B, U], rtol=1e-6)
     assert model.n_iter_ == 0 and model.history_.shape == (1,)
 
 
@@ -194,7 +206,7 @@ def test_pso_recovers_gmc_model_from_random_start(gmc_data):
     # LS loss is not ~0 here (Tien's discretisation differs from the time
     # response), so "within 1%" is measured against the signal's own scale.
     assert rmse(model.predict(X), y - y[0]) < 0.01 * np.std(y)
-    np.testing.assert_allclose(model.coef_[:-1], np.r_[B1, B], rtol=0.02)
+    np.testing.assert_allclose(_theta(model)[:-1], np.r_[B1, B], rtol=0.02)
     assert model.n_iter_ == 500 and model.history_.shape == (501,)
     assert np.all(np.diff(model.history_) <= 0)
 
@@ -357,10 +369,10 @@ def test_training_does_not_cross_run_boundaries(run_table):
     # The same runs, in another order, give the same least-squares system.
     order = np.r_[np.arange(240, 360), np.arange(0, 240)]
     ls2 = GreyPSORegressor(calibration="ls").fit(run_table.iloc[order], y[order])
-    np.testing.assert_allclose(ls.coef_, ls2.coef_, rtol=1e-8)
+    np.testing.assert_allclose(_theta(ls), _theta(ls2), rtol=1e-8)
     np.testing.assert_allclose(ls.loss_, ls2.loss_, rtol=1e-8)
     merged = GreyPSORegressor(calibration="ls").fit(run_table.drop(columns="run"), y)
-    assert not np.allclose(ls.coef_, merged.coef_, rtol=1e-3)
+    assert not np.allclose(_theta(ls), _theta(merged), rtol=1e-3)
 
 
 def test_group_kfold_over_runs(run_table):
@@ -488,7 +500,7 @@ def test_too_few_samples_for_least_squares(rng):
 def test_varpro_recovers_gmc_coefficients(gmc_data):
     X, y = gmc_data
     model = GreyPSORegressor(calibration="varpro", alpha=0.0).fit(X, y)
-    np.testing.assert_allclose(model.coef_, np.r_[B1, B, U], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(_theta(model), np.r_[B1, B, U], rtol=1e-5, atol=1e-7)
     assert model.loss_ < 1e-12 * np.sum((y - y[0]) ** 2)
 
 
@@ -557,7 +569,7 @@ def test_ridge_shrinks_collinear_inputs(rng):
     y = gmc_series(base, B1, np.array([0.3]), 0.0) + rng.normal(0, 0.05, 200)
     free = GreyPSORegressor(alpha=0.0).fit(X, y)
     ridge = GreyPSORegressor(alpha=1e-2).fit(X, y)
-    assert np.abs(ridge.coef_[1:-1]).max() < 0.1 * np.abs(free.coef_[1:-1]).max()
+    assert np.abs(ridge.coef_).max() < 0.1 * np.abs(free.coef_).max()
     assert ridge.alpha_ == 1e-2
     auto = GNNMCIRegressor(epochs=0).fit(X, y)
     assert auto.alpha_ > 0 and auto.loss_ >= 0
@@ -783,7 +795,7 @@ def test_units_of_target_and_inputs_do_not_matter(est):
     k = 120  # fit on the start of the run, continue it in predict
     est = clone(est).set_params(random_state=0)
     ref = est.fit(X[:k], y[:k], groups=groups[:k]).predict(X, groups=groups)
-    ref_coef = getattr(est, "coef_", getattr(est, "weights_", None)).copy()
+    ref_coef = _driving(est).copy()
     assert np.all(np.isfinite(ref))
     for y_scale, x_scale in [
         (1e80, 1.0),
@@ -809,9 +821,9 @@ def test_units_of_target_and_inputs_do_not_matter(est):
             atol=1e-9 * np.ptp(ref),
             err_msg=f"y * {y_scale:g}, X * {x_scale:g}",
         )
-        coef = getattr(model, "coef_", getattr(model, "weights_", None))
-        expected = ref_coef * np.r_[1.0, np.full(3, y_scale / x_scale), y_scale]
-        np.testing.assert_allclose(coef[1:-1], expected[1:-1], rtol=1e-6)
+        np.testing.assert_allclose(
+            _driving(model), ref_coef * y_scale / x_scale, rtol=1e-6
+        )
         assert np.isfinite(model.loss_) and np.all(np.isfinite(model.history_))
 
 
@@ -888,3 +900,39 @@ def test_a_target_far_from_zero_at_the_run_starts_warns(model):
     twice = 2.0 * np.sqrt(np.mean(change**2))
     with pytest.warns(UserWarning, match=r"far from 0 there"):
         model.fit(X, twice + change, groups=groups)
+
+
+def test_coef_has_one_weight_per_feature_for_feature_selection():
+    # coef_ held (b1, b_2..b_N, u), two longer than the features:
+    # SelectFromModel's support had 6 entries for 4 features (an IndexError
+    # in transform) and RFE indexed past the last feature.
+    from sklearn.feature_selection import RFE, SelectFromModel
+
+    rng = np.random.default_rng(0)
+    t = np.arange(200.0)
+    X = np.c_[
+        6 * (1 - np.exp(-t / 60)),
+        3 * (1 - np.exp(-t / 150)),
+        rng.normal(0, 0.01, 200).cumsum(),
+        rng.normal(0, 0.01, 200).cumsum(),
+    ]
+    y = 4.0 * X[:, 0] + 2.5 * X[:, 1]
+    model = GreyPSORegressor(calibration="ls").fit(X, y)
+    assert model.coef_.shape == (4,)
+    assert np.isfinite([model.development_coef_, model.control_]).all()
+    kept = SelectFromModel(
+        GreyPSORegressor(calibration="ls"), max_features=2, threshold=-np.inf
+    )
+    assert kept.fit(X, y).transform(X).shape == (200, 2)
+    rfe = RFE(GreyPSORegressor(calibration="ls"), n_features_to_select=2).fit(X, y)
+    assert rfe.support_.shape == (4,)
+
+
+@pytest.mark.parametrize("est", [GreyPSORegressor, GNNMCIRegressor])
+def test_an_inertia_pair_may_be_a_list(est):
+    # JSON, YAML and Optuna configurations give a pair as a list: refused.
+    X, y = smooth_run()
+    kwargs = {"calibration": "pso"} if est is GreyPSORegressor else {}
+    a = est(inertia=[0.9, 0.4], epochs=3, random_state=0, **kwargs).fit(X, y)
+    b = est(inertia=(0.9, 0.4), epochs=3, random_state=0, **kwargs).fit(X, y)
+    np.testing.assert_array_equal(a.predict(X), b.predict(X))

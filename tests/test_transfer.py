@@ -74,7 +74,7 @@ def test_recovers_known_time_constants_and_gains():
     model = TransferFunctionRegressor(speed_column="spindle_rpm", max_iter=60)
     model.fit(X, y)
     np.testing.assert_allclose(model.time_constants_[:, 0], [300, 1200, 500], rtol=0.02)
-    np.testing.assert_allclose(model.coef_[:, 0], [2.0, -0.5, 0.003], rtol=0.02)
+    np.testing.assert_allclose(model.lag_coef_[:, 0], [2.0, -0.5, 0.003], rtol=0.02)
     assert model.intercept_ == pytest.approx(1.5, abs=1e-3)
     assert np.max(np.abs(model.predict(X) - y.to_numpy())) < 1e-3
 
@@ -153,7 +153,7 @@ def test_a_superfluous_slow_lag_with_no_gain_does_not_warn():
         model = TransferFunctionRegressor(speed_column="spindle_rpm", order=2).fit(X, y)
     at_bound = model.time_constants_ >= 0.99 * 4 * 3600.0
     assert at_bound.any()
-    assert np.all(np.abs(model.coef_[at_bound]) < 0.05)
+    assert np.all(np.abs(model.lag_coef_[at_bound]) < 0.05)
 
 
 def test_time_from_index_matches_dt():
@@ -183,7 +183,8 @@ def test_second_order_and_multi_output():
         speed_column=2, order=2, n_grid=5, max_iter=10
     ).fit(X, Y)
     assert model.time_constants_.shape == (2, 3, 2)
-    assert model.coef_.shape == (2, 3, 2)
+    assert model.lag_coef_.shape == (2, 3, 2)
+    assert model.coef_.shape == (2, 3)
     pred = model.predict(X)
     assert pred.shape == Y.shape
     assert np.sqrt(np.mean((pred - Y) ** 2)) < 0.05 * Y.std()
@@ -467,7 +468,7 @@ def test_second_order_keeps_its_two_time_constants_apart(taus):
     low, high = model.time_constants_[0]
     assert high >= 2.0 * low * (1 - 1e-9)
     # Gains of the size of the steady-state gain, 3 per 1000 rpm.
-    assert np.abs(model.coef_).max() < 0.01
+    assert np.abs(model.lag_coef_).max() < 0.01
     assert rmse[1] <= rmse[0]
     if taus[0] != taus[1]:  # two distinct lags: found, to the noise
         assert rmse[1] < 0.011
@@ -646,9 +647,7 @@ def test_fit_matches_the_direct_jacobian(order, monkeypatch):
     np.testing.assert_allclose(fast.predict(X), slow.predict(X), rtol=0, atol=1e-8)
     # Steady-state gains (a lag of negligible gain may move its time
     # constant a little with order=2).
-    np.testing.assert_allclose(
-        fast.coef_.sum(axis=1), slow.coef_.sum(axis=1), rtol=1e-6
-    )
+    np.testing.assert_allclose(fast.coef_, slow.coef_, rtol=1e-6)
 
 
 @pytest.mark.parametrize("kind", ["transfer", "lags"])
@@ -927,3 +926,23 @@ def test_start_offsets_of_one_quantum_on_quantised_readings_do_not_warn():
     y[groups == "R3"] += 10.0  # a run zeroed 10 quanta off still warns
     with pytest.warns(UserWarning, match=r"starts run 'R3' at 1\d\.?\d*, the runs'"):
         warn_start_offsets("Model", y, slices, ["disp_x_um"], labels)
+
+
+def test_coef_has_one_weight_per_feature_for_feature_selection():
+    # coef_ was (n_inputs, order): RFE dropped features by position, not
+    # weight (the same ranking with the columns reversed), and
+    # SelectFromModel raised an IndexError from numpy.
+    from sklearn.feature_selection import SelectFromModel
+
+    X, y = _heating_runs()
+    model = TransferFunctionRegressor(speed_column="spindle_rpm", order=2).fit(X, y)
+    assert model.coef_.shape == (X.shape[1],)
+    np.testing.assert_allclose(model.coef_, model.lag_coef_.sum(axis=1))
+    select = SelectFromModel(
+        TransferFunctionRegressor(speed_column="spindle_rpm", alpha=0.0),
+        threshold=-np.inf,
+        max_features=2,
+    ).fit(X, y)
+    assert select.get_support().shape == (X.shape[1],)
+    # The largest steady-state gains: T1 (2.0 per K) and T2 (-0.5 per K).
+    assert list(select.get_feature_names_out()) == list(X.columns[:2])

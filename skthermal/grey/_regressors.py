@@ -87,7 +87,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
         "epochs": [Interval(Integral, 0, None, closed="left")],
         "c1": [Interval(Real, 0, None, closed="left")],
         "c2": [Interval(Real, 0, None, closed="left")],
-        "inertia": [Interval(Real, 0, None, closed="left"), tuple],
+        "inertia": [Interval(Real, 0, None, closed="left"), tuple, list],
         "velocity_clamp": [
             None,
             Interval(Real, 0, None, closed="neither"),
@@ -335,7 +335,8 @@ class GreyPSORegressor(_GreyRunRegressor):
     c1, c2 : float, default=2.0
         Self- and swarm-confidence factors.
     inertia : float or (float, float), default=(0.9, 0.4)
-        Inertia weight, constant or decreasing linearly over the epochs.
+        Inertia weight, constant or decreasing linearly over the epochs (a
+        pair as a tuple or a list, as configuration files give it).
     velocity_clamp : float or array-like of shape (n_features + 2,), default=None
         Largest velocity per coefficient; None: the width of the search box.
     delay : int, default=0
@@ -366,9 +367,14 @@ class GreyPSORegressor(_GreyRunRegressor):
 
     Attributes
     ----------
-    coef_ : ndarray of shape (n_features + 2,)
-        ``(b1, b_2, ..., b_N, u)``: the development coefficient, one driving
-        coefficient per input, the grey control parameter.
+    coef_ : ndarray of shape (n_features,)
+        ``(b_2, ..., b_N)``: one driving coefficient per input, in the order
+        of the columns of ``X`` (scikit-learn's layout, so ``RFE`` and
+        ``SelectFromModel`` read one weight per feature).
+    development_coef_ : float
+        ``b1``, the development coefficient.
+    control_ : float
+        ``u``, the grey control parameter.
     alpha_ : float
         The ridge term used (chosen by cross-validation for ``alpha="auto"``).
     loss_ : float
@@ -480,8 +486,8 @@ class GreyPSORegressor(_GreyRunRegressor):
     >>> y = 4.0 * (X[:, 0] - 20) + 2.5 * (X[:, 1] - 21)
     >>> run = np.full(300, "test-1")  # the rows are one test run
     >>> model = GreyPSORegressor().fit(X[:100], y[:100], groups=run[:100])
-    >>> model.coef_.shape
-    (4,)
+    >>> model.coef_.shape  # one driving coefficient per input
+    (2,)
     >>> pred = model.predict(X, groups=run)  # change since the run's start
     >>> bool(np.sqrt(np.mean((pred - y) ** 2)) < 0.05 * np.ptp(y))
     True
@@ -587,7 +593,10 @@ class GreyPSORegressor(_GreyRunRegressor):
                 self.history_ = res.history
         theta = np.asarray(theta, dtype=float)
         loss = float(_GMCObjective(runs)(theta[None, :])[0])
-        self.coef_ = self._unscale(theta, scales)
+        theta = self._unscale(theta, scales)
+        self.development_coef_ = float(theta[0])
+        self.coef_ = np.array(theta[1:-1], dtype=float)
+        self.control_ = float(theta[-1])
         self.loss_ = float(self._unscale_loss(loss, scales))
         self.history_ = self._unscale_loss(self.history_, scales)
         if self.calibration == "ls":
@@ -602,7 +611,8 @@ class GreyPSORegressor(_GreyRunRegressor):
                 warnings.warn(
                     f"GreyPSORegressor: calibration='ls' fits the training "
                     f"rows with an RMSE of {rmse:.3g}, {rmse / spread:.3g} "
-                    f"times their change ({spread:.3g}; b1={self.coef_[0]:.3g}): "
+                    f"times their change ({spread:.3g}; "
+                    f"b1={self.development_coef_:.3g}): "
                     "least squares fit the grey equation, not the prediction, "
                     "and failed here (collinear inputs). Use "
                     "calibration='varpro'.",
@@ -623,7 +633,7 @@ class GreyPSORegressor(_GreyRunRegressor):
 
     def _end_states(self, X, slices, memory):
         """Per labelled run: what continuing it needs (see :meth:`predict`)."""
-        b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
+        b1, b, u = self.development_coef_, self.coef_, self.control_
         d = self.delay
         for sl, state in zip(slices, memory.values(), strict=False):
             Xr = X[sl]
@@ -640,7 +650,7 @@ class GreyPSORegressor(_GreyRunRegressor):
 
     def _continue(self, X, state):
         """Restored series of rows that follow the training rows of a run."""
-        b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
+        b1, b, u = self.development_coef_, self.coef_, self.control_
         d = self.delay
         Xd = np.vstack([state["tail"], X])[: X.shape[0]] if d else X
         X1 = state["X1_end"] + np.cumsum(Xd - state["x_first"], axis=0)
@@ -672,7 +682,7 @@ class GreyPSORegressor(_GreyRunRegressor):
             Zero on the first sample of every run predicted from its start.
         """
         X, slices, states = self._runs_for_predict(X, groups)
-        b1, b, u = self.coef_[0], self.coef_[1:-1], self.coef_[-1]
+        b1, b, u = self.development_coef_, self.coef_, self.control_
         out = np.empty(X.shape[0])
         with np.errstate(over="ignore", invalid="ignore"):
             for sl, state in zip(slices, states, strict=True):
@@ -708,7 +718,8 @@ class GNNMCIRegressor(_GreyRunRegressor):
     c2 : float, default=2.0
         Swarm-confidence factor (001).
     inertia : float or (float, float), default=(0.9, 0.4)
-        Inertia weight, constant or decreasing linearly (001: 0.9 to 0.4).
+        Inertia weight, constant or decreasing linearly (001: 0.9 to 0.4); a
+        pair as a tuple or a list.
     velocity_clamp : float or array-like of shape (n_features + 2,), default=1.5
         Largest velocity per weight (002: ±1.5), in the weights' units (target
         units per input unit: 1.5 suits µm and °C); None: the width of the

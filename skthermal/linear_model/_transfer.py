@@ -676,9 +676,14 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
     time_constants_ : ndarray of shape (n_inputs, order) or (n_outputs, n_inputs, order)
         Identified time constants, in the unit of ``dt``, inputs in column
         order of ``X``.
-    coef_ : ndarray of shape (n_inputs, order) or (n_outputs, n_inputs, order)
+    lag_coef_ : ndarray of shape (n_inputs, order) or (n_outputs, n_inputs, order)
         Gain of every lag (error per unit of temperature change, or per unit
-        of heat power, in steady state).
+        of heat power, in steady state), beside ``time_constants_``.
+    coef_ : ndarray of shape (n_inputs,) or (n_outputs, n_inputs)
+        Steady-state gain of every input: the sum of its lags' gains (what
+        the error changes per unit of a held input change once every lag has
+        settled). scikit-learn's layout, one weight per column of ``X``, so
+        ``RFE`` and ``SelectFromModel`` read it.
     intercept_ : float or ndarray of shape (n_outputs,)
     alpha_ : float or ndarray of shape (n_outputs,)
         The penalty used: ``alpha``, or the one the cross-validation chose
@@ -1360,7 +1365,8 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         if y.ndim == 1:
             taus, coefs, intercepts = taus[0], coefs[0], float(intercepts[0])
         self.time_constants_ = taus
-        self.coef_ = coefs
+        self.lag_coef_ = coefs
+        self.coef_ = coefs.sum(axis=-1)
         self.intercept_ = intercepts
         # What continuing a labelled run in predict needs: its first row and
         # times, and every lag's last output.
@@ -1434,11 +1440,12 @@ class TransferFunctionRegressor(ForgetRunsMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         lags, _ = self._continued(X, groups)
         # One row of lag coefficients per output.
-        coefs = self.coef_.reshape(-1, int(np.prod(self.coef_.shape[-2:])))
+        lag_coef = self.lag_coef_
+        coefs = lag_coef.reshape(-1, int(np.prod(lag_coef.shape[-2:])))
         out = np.column_stack(
             [F @ coef for F, coef in zip(lags, coefs, strict=True)]
         ) + np.atleast_1d(self.intercept_)
-        return out[:, 0] if np.ndim(self.coef_) == 2 else out
+        return out[:, 0] if np.ndim(lag_coef) == 2 else out
 
     def _continued(self, X, groups):
         """The lag features of every output (a list) for ``X``, continuing

@@ -46,6 +46,13 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
     level), so run-aware estimators (grey models, ANFIS checking sets, lag
     features) keep the run boundaries and the times.
 
+    *Runs across fit and predict*, as the grey regressors: a run label seen
+    in ``fit`` continues that run, so its later rows given alone are
+    predicted as the change since the run's first *training* row (what
+    predicting the whole run gives on them); a labelled run that starts
+    inside its training span is an error; a run not seen in ``fit`` starts
+    at its first row, with a warning if its ``time_s`` does not start at 0.
+
     Parameters
     ----------
     estimator : regressor
@@ -56,13 +63,6 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         start (``1250 rpm`` at the first row is heat, not zero). Names of
         DataFrame columns, or positions; ``"auto"``: the run table's drivers
         ``spindle_rpm`` and ``feed_mm_min`` among the columns of ``X``.
-
-    *Runs across fit and predict*, as the grey regressors: a run label seen
-    in ``fit`` continues that run, so its later rows given alone are
-    predicted as the change since the run's first *training* row (what
-    predicting the whole run gives on them); a labelled run that starts
-    inside its training span is an error; a run not seen in ``fit`` starts
-    at its first row, with a warning if its ``time_s`` does not start at 0.
 
     Attributes
     ----------
