@@ -1,5 +1,7 @@
 """Tests of the sensor selectors (skthermal.selection)."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,6 +14,7 @@ from sklearn.pipeline import make_pipeline
 from skthermal import FCMClusterPicker, GRASelector, GreyInfluenceSelector
 from skthermal.datasets import split_runs
 from skthermal.datasets._generators import make_sensor_groups
+from skthermal.selection import FuzzyEquivalenceSelector, StableTSPSelector
 
 SELECTORS = [
     GreyInfluenceSelector(n_features_to_select=3),
@@ -353,36 +356,77 @@ def test_missing_target_names_row_and_run(selector):
         clone(selector).fit(X, y, groups=groups)
 
 
+def _said_constant(selector, X, y, groups):
+    """Fit, expecting Tb_C said constant, unselected, last and scored NaN."""
+    with pytest.warns(
+        UserWarning, match=r"sensor 'Tb_C' is constant within every training run"
+    ):
+        fitted = clone(selector).fit(X, y, groups=groups)
+    j = list(X.columns).index("Tb_C")
+    assert not fitted.support_[j] and np.isnan(fitted.scores_[j])
+    if hasattr(fitted, "ranking_"):
+        assert fitted.ranking_[j] == fitted.ranking_.max()
+    return fitted
+
+
+def _not_said_constant(selector, X, y, groups):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        clone(selector).fit(X, y, groups=groups)
+    assert not [w for w in caught if "constant within" in str(w.message)]
+
+
 @pytest.mark.parametrize("selector", SELECTORS[:3] + [FCMClusterPicker(2)], ids=repr)
 def test_constant_sensor_is_named(selector):
     X, y, groups = _small()
     X["Tb_C"] = 21.5
-    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
-        clone(selector).fit(X, y, groups=groups)
+    _said_constant(selector, X, y, groups)
     X["Tb_C"] = 21.5 + np.where(np.arange(len(X)) % 3, 3e-15, 0.0)  # rounding
-    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
-        clone(selector).fit(X, y, groups=groups)
+    _said_constant(selector, X, y, groups)
     # float32 readings rounded at their own precision (1 ulp at 21.5 is
     # 1.9e-6): constant too, where a real float32 change is kept.
     X["Tb_C"] = np.float32(21.5) + np.where(
         np.arange(len(X)) % 3, np.float32(1.9073486e-06), np.float32(0.0)
     ).astype(np.float32)
     assert X["Tb_C"].dtype == np.float32 and X["Tb_C"].nunique() == 2
-    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant"):
-        clone(selector).fit(X, y, groups=groups)
+    _said_constant(selector, X, y, groups)
     X["Tb_C"] = X["Tb_C"] + np.float32(0.01) * np.arange(len(X), dtype=np.float32)
-    clone(selector).fit(X, y, groups=groups)
+    _not_said_constant(selector, X, y, groups)
     # A float64 sensor beside it keeps float64's allowance: a change of 1e-6
     # of its value is a change.
     X["Tc_C"] = 21.5 + np.where(np.arange(len(X)) % 3, 2e-5, 0.0)
-    clone(selector).fit(X, y, groups=groups)
+    _not_said_constant(selector, X, y, groups)
 
 
 def test_constant_within_each_run_is_constant():
     X, y, groups = _small()
     X["Tb_C"] = np.where(groups == "r1", 20.0, 25.0)
-    with pytest.raises(ValueError, match=r"Sensor 'Tb_C' is constant within every"):
-        GRASelector().fit(X, y, groups=groups)
+    _said_constant(GRASelector(), X, y, groups)
+    # Every sensor constant: nothing to rank.
+    flat = X.copy()
+    flat[:] = 20.0
+    with pytest.raises(ValueError, match=r"Every sensor is constant within every"):
+        GRASelector().fit(flat, y, groups=groups)
+
+
+@pytest.mark.parametrize(
+    "selector",
+    [*SELECTORS, StableTSPSelector(n_features_to_select=2), FuzzyEquivalenceSelector()],
+    ids=repr,
+)
+def test_a_sensor_moving_in_one_run_only_does_not_fail_a_fold(selector):
+    # An independent check: a sensor that moved only in one run was refused
+    # in every fold that held that run out (a NaN score and a
+    # FitFailedWarning in cross_validate, a stopped search).
+    X, y, groups = _small()
+    X["Tb_C"] = np.where(groups == "r2", np.linspace(20, 23, len(X)), 20.0)
+    model = make_pipeline(clone(selector), LinearRegression())
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*constant within every")
+        scores = cross_validate(
+            model, X, y, groups=groups, cv=GroupKFold(n_splits=2), error_score="raise"
+        )["test_score"]
+    assert np.all(np.isfinite(scores))
 
 
 def test_one_row_run_is_named():

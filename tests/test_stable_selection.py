@@ -157,7 +157,11 @@ def test_selector_errors(heating):
         StableTSPSelector().fit(bad, e)
     const = X.copy()
     const[:, 3] = 1.0
-    with pytest.raises(ValueError, match="constant"):
+    with pytest.warns(UserWarning, match="feature 3 is constant within every"):
+        fitted = StableTSPSelector().fit(const, e)
+    assert not fitted.support_[3] and np.isnan(fitted.correlation_[0, 3])
+    const[:] = 1.0
+    with pytest.raises(ValueError, match="Every sensor is constant"):
         StableTSPSelector().fit(const, e)
 
 

@@ -172,8 +172,8 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
         Y = np.asarray(y, dtype=float).reshape(X.shape[0], -1)
         _warn_drivers_as_sensors(self)
         slices, labels = run_slices(groups, X.shape[0])
-        self._check_runs(X, Y, slices, labels, rows, groups, names, shares)
-        self._fit_runs(X, Y, groups, slices)
+        constant = self._check_runs(X, Y, slices, labels, rows, groups, names, shares)
+        self._fit_varying(X, Y, groups, slices, constant)
         return self
 
     def _check_finite(self, name, A, rows, groups, hint, support=None):
@@ -228,14 +228,71 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
                 "thermal error."
             )
         constant = _unchanging(X, slices, shares[0])
-        if constant.any():
-            j = int(np.flatnonzero(constant)[0])
-            label = _feature_label(self, j)
+        if constant.all():
+            label = _feature_label(self, 0)
             raise ValueError(
-                f"{label[0].upper()}{label[1:]} is constant within every "
-                "run: it carries no information about the thermal error. Drop it "
-                f"before fitting ({int(constant.sum())} constant sensor(s) in all)."
+                f"Every sensor is constant within every run ({label} and "
+                f"{constant.size - 1} more): none carries information about "
+                "the thermal error."
             )
+        if constant.any():
+            # As scikit-learn's selectors do with a constant feature: said,
+            # and ranked last. (Refused, a sensor that moved in one run only
+            # failed the cross-validation fold that held that run out.)
+            found = [_feature_label(self, j) for j in np.flatnonzero(constant)]
+            shown = ", ".join(found[:3]) + (
+                f" and {len(found) - 3} more" if len(found) > 3 else ""
+            )
+            warnings.warn(
+                f"{type(self).__name__}: {shown} "
+                f"{'is' if len(found) == 1 else 'are'} constant within every "
+                "training run and carr"
+                f"{'ies' if len(found) == 1 else 'y'} no information about the "
+                "thermal error: not selected, ranked last, scored NaN.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+        return constant
+
+    # Fitted attributes that hold one entry per sensor, and the axes along
+    # which they do (filled with NaN for the sensors left out as constant).
+    _PER_SENSOR = {"scores_": (-1,)}
+
+    def _fit_varying(self, X, Y, groups, slices, constant):
+        """``_fit_runs`` on the sensors that vary, its per-sensor attributes
+        widened to every sensor (the constant ones unselected and last)."""
+        if not constant.any():
+            self._fit_runs(X, Y, groups, slices)
+            return
+        keep = np.flatnonzero(~constant)
+        self._fit_runs(X[:, keep], Y, groups, slices)
+        n = X.shape[1]
+        for name, axes in self._PER_SENSOR.items():
+            if not hasattr(self, name):
+                continue
+            value = np.asarray(getattr(self, name), dtype=float)
+            for axis in axes:
+                shape = list(value.shape)
+                shape[axis] = n
+                full = np.full(shape, np.nan)
+                index = [slice(None)] * value.ndim
+                index[axis] = keep
+                full[tuple(index)] = value
+                value = full
+            setattr(self, name, value)
+        support = np.zeros(n, dtype=bool)
+        support[keep] = self.support_
+        self.support_ = support
+        if hasattr(self, "ranking_"):
+            ranking = np.full(n, keep.size + 1, dtype=self.ranking_.dtype)
+            ranking[keep] = self.ranking_
+            self.ranking_ = ranking
+        if hasattr(self, "labels_"):
+            labels = np.full(n, -1, dtype=self.labels_.dtype)
+            labels[keep] = self.labels_
+            self.labels_ = labels
+        if hasattr(self, "representatives_"):
+            self.representatives_ = keep[self.representatives_]
 
     def _get_support_mask(self):
         check_is_fitted(self)

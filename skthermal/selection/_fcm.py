@@ -125,6 +125,8 @@ class FCMClusterPicker(RunAwareSelector):
     [0, 1, 2]
     """
 
+    _PER_SENSOR = {"scores_": (-1,), "memberships_": (0,)}
+
     _parameter_constraints: dict = {
         "n_clusters": [Interval(Integral, 1, None, closed="left")],
         "scorer": [

@@ -91,6 +91,8 @@ class GreyInfluenceSelector(ScoreSelector):
     (720, 5)
     """
 
+    _PER_SENSOR = {"scores_": (-1,), "coef_": (-1,)}
+
     _parameter_constraints: dict = {
         **ScoreSelector._parameter_constraints,
         "method": [StrOptions({"gm1n", "gm0n"})],

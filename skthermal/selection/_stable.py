@@ -205,6 +205,14 @@ class StableTSPSelector(ScoreSelector):
     [[0.93, 1.0, -0.99, -0.05]]
     """
 
+    _PER_SENSOR = {
+        "scores_": (-1,),
+        "correlation_": (-1,),
+        "uncertainty_": (-1,),
+        "temperature_uncertainty_": (-1,),
+        "uncertainty_correlation_": (-1,),
+    }
+
     _parameter_constraints: dict = {
         **ScoreSelector._parameter_constraints,
         "displacement_uncertainty": [Interval(Real, 0, None, closed="left")],
@@ -394,6 +402,8 @@ class FuzzyEquivalenceSelector(RunAwareSelector):
     >>> sel.labels_.tolist(), sel.representatives_.tolist()
     ([0, 0, 1, 1], [0, 3])
     """
+
+    _PER_SENSOR = {"scores_": (-1,), "similarity_": (0, 1)}
 
     _parameter_constraints: dict = {
         "threshold": [Interval(Real, 0, 1, closed="both")],
