@@ -449,6 +449,26 @@ def test_a_finding_coming_back_often_is_said_every_ten_minutes(data):
     assert 2 <= len(said) <= 10
 
 
+def test_a_finding_that_ended_is_not_said_again(data):
+    # An independent check: a sensor reading NaN for 3 rows, streamed row by
+    # row through a guard around a sequence model (given the run so far),
+    # was said again every 10 minutes until the run ended, hours after the
+    # sensor read again (and its second row again, "1 row" -> "2 rows").
+    X, y, _, new = data
+    lag = LagRidgeCV(time_constant_sets=[(900.0, 3600.0)])
+    guard = GuardedRegressor(lag, mode="hold").fit(X, y)
+    run = new[new["run"] == "c"].iloc[:200].copy()
+    run.iloc[100:103, run.columns.get_loc("T2_C")] = np.nan
+    stream = RunStream(guard)
+    assert stream.mode_ == "history"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for block in _blocks(run, [1]):
+            stream.predict_checked(block)
+    said = [w for w in caught if "reading missing" in str(w.message)]
+    assert len(said) == 1, [str(w.message)[:120] for w in said]
+
+
 def test_a_guard_inside_a_pipeline_streams_the_run_so_far(data):
     # Streamed as a static model, its jump and flat-line checks saw one
     # block at a time: a stuck sensor and a spike were missed.
@@ -622,3 +642,21 @@ def test_checked_predictions_of_a_guard_and_a_late_start_said_once(data):
     assert len(starts) == 1, [str(w.message) for w in starts]
     with pytest.raises(AttributeError, match="has no predict_checked"):
         RunStream(lag).predict_checked(late)
+
+
+def test_a_stream_given_the_runs_so_far_is_not_saved_to_skops(data, tmp_path):
+    # skops stores no pandas tables: its error ("no default __reduce__ due to
+    # non-trivial __cinit__") named nothing of the model.
+    from skthermal.io import save
+
+    X, y, _, new = data
+    guard = GuardedRegressor(LagRidgeCV(time_constant_sets=[(900.0,)])).fit(X, y)
+    stream = RunStream(guard)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        stream.predict(new[new["run"] == "c"].iloc[:10])
+    assert stream.mode_ == "history"
+    with pytest.raises(
+        TypeError, match=r"RunStream keeps the rows of its runs .* joblib"
+    ):
+        save(stream, tmp_path / "stream.skops")

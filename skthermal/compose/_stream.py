@@ -128,6 +128,7 @@ class RunStream:
         self._spans = {}  # label -> [first time_s, last time_s]
         self._history = {}
         self._said = {}  # warning key -> the block's last time_s when said
+        self._texts = {}  # warning key -> its text in the last block
 
     @property
     def runs_(self):
@@ -282,12 +283,15 @@ class RunStream:
                 )
         return new
 
-    def _say_new(self, caught, started, now):
+    def _say_new(self, caught, started, now, history=False):
         """Say the warnings of ``caught`` not said for an earlier block
         (:func:`_said_key`), a guard's finding again when it was last said
         :data:`REPEAT_S` seconds of ``time_s`` before the block's end
-        (``now``) or more; with ``started`` (every run of the block
-        continues one of the stream's), none about the runs' start."""
+        (``now``) or more and it goes on; with ``started`` (every run of the
+        block continues one of the stream's), none about the runs' start.
+        With ``history`` (the model was given each run so far), a finding
+        goes on when its text changed since the last block (more rows): an
+        unchanged one ended before this block, and is not said again."""
         for w in caught:
             key = _said_key(w)
             late = started and (
@@ -296,9 +300,12 @@ class RunStream:
             )
             if late:
                 continue
+            text = str(w.message)
+            grew = not history or self._texts.get(key) != text
+            self._texts[key] = text
             last = self._said.get(key)
             again = issubclass(w.category, GuardWarning) and (
-                last is not None and now - last >= REPEAT_S
+                last is not None and now - last >= REPEAT_S and grew
             )
             if last is None or again:
                 self._said[key] = now
@@ -329,7 +336,7 @@ class RunStream:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             out = getattr(self.model_, method)(stacked, **kwargs)
-        self._say_new(caught, not new, now)
+        self._say_new(caught, not new, now, history=True)
         for lab, whole in parts:
             self._history[lab] = whole
         rows = np.concatenate(rows)
@@ -358,7 +365,10 @@ def _said_key(w):
     before: its text without its figures outside quotes (a guard's
     finding by its kind, sensors and run, not its time, values or row
     counts; an inner model's gap count growing with the run so far)."""
-    return w.category, without_figures(str(w.message))
+    text = without_figures(str(w.message))
+    # "1 row" and "2 rows" are one finding growing.
+    text = re.sub(r"\b(row|sample|stretch)(?:e?s)\b", r"\1", text)
+    return w.category, text
 
 
 def _as_text(label):

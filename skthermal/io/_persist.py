@@ -434,6 +434,16 @@ def save(model, path, *, compress=True):
     _check_dict_keys(model)
     _check_code(model)
     _check_output_config(model)
+    if getattr(model, "mode_", None) == "history" and getattr(model, "runs_", None):
+        # skops stores no pandas tables (its error, "no default __reduce__
+        # due to non-trivial __cinit__", named nothing of the model).
+        raise TypeError(
+            f"{type(model).__name__} keeps the rows of its runs so far as pandas "
+            "tables, which a skops file cannot hold. Save the stream with "
+            "joblib.dump (a pickle: it restarts mid-run exactly), or save its "
+            "model with skthermal.io.save and give the loaded stream each "
+            "run again from its first row."
+        )
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(_without_unsaved(model), path, compression=compression)
     metadata = {"format": _FORMAT, "versions": _versions()}
