@@ -660,3 +660,23 @@ def test_a_stream_given_the_runs_so_far_is_not_saved_to_skops(data, tmp_path):
         TypeError, match=r"RunStream keeps the rows of its runs .* joblib"
     ):
         save(stream, tmp_path / "stream.skops")
+
+
+def test_a_row_at_the_last_time_is_refused_by_a_stream_of_the_runs_so_far(data):
+    # The model given the run so far refused it itself, naming "row 20" of
+    # the stream's run so far, which the controller never gave.
+    X, y, _, new = data
+    guard = GuardedRegressor(LagRidgeCV(time_constant_sets=[(900.0,)])).fit(X, y)
+    run = new[new["run"] == "c"]
+    stream = RunStream(guard)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        stream.predict(run.iloc[:20])
+        with pytest.raises(
+            ValueError, match=r"Run 'c': the block starts at time_s=1140, not after"
+        ):
+            stream.predict(run.iloc[19:20])
+        # A guard around a static model takes it (a record logged twice).
+        static = RunStream(GuardedRegressor(LinearRegression()).fit(X, y))
+        static.predict(run.iloc[:20])
+        static.predict(run.iloc[19:20])

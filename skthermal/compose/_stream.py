@@ -187,6 +187,12 @@ class RunStream:
             self.model_, "predict_checked"
         )
 
+    def _refuses_equal_time(self):
+        """Whether a block starting at the last time the stream has of its
+        run is refused: by every stream except those of a static model or
+        a guard around one (a record logged twice)."""
+        return self._keeps_states() or self.mode_ == "history"
+
     def _drop(self, lab):
         del self._spans[lab]
         self._history.pop(lab, None)
@@ -258,10 +264,11 @@ class RunStream:
                         stacklevel=4,
                     )
                 new.add(lab)
-            elif t0 < span[1] or (t0 == span[1] and self._keeps_states()):
+            elif t0 < span[1] or (t0 == span[1] and self._refuses_equal_time()):
                 # A record logged twice (at the last one's time) is no block
-                # given twice for a static model or a guard around one (a
-                # sequence model given the run so far refuses it itself).
+                # given twice for a static model or a guard around one; a
+                # sequence model given the run so far refused it itself,
+                # naming a row of the run so far the caller never gave.
                 if t0 in (0.0, span[0]):  # the run again from its start
                     warnings.warn(
                         f"Run {lab!r} starts again at time_s={t0:g}: taken as a "
