@@ -365,9 +365,23 @@ def test_different_drivers_are_named(pair):
     with pytest.raises(ValueError, match="feed_mm_min.*absent from one table"):
         diagnose_runs(sim2, meas)
     # Air off by its reading noise: the simulation was exported with noise.
-    noisy = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 0.1)
+    rng = np.random.default_rng(4)
+    noisy = pair[0].assign(
+        ambient_C=np.round(pair[0]["ambient_C"] + rng.normal(0, 0.08, len(pair[0])), 1)
+    )
     with pytest.raises(ValueError, match=r"exported with its sensors' noise"):
         diagnose_runs(noisy, meas)
+    # Off by a constant: another air probe (the noise hint pointed an
+    # external tool's user at skthermal's simulator).
+    offset = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 0.3)
+    with pytest.raises(
+        ValueError, match=r"the simulated air is the measured one offset by \+0\.3 K"
+    ):
+        diagnose_runs(offset, meas)
+    # In another unit: said.
+    fahrenheit = pair[0].assign(ambient_C=pair[0]["ambient_C"] * 1.8 + 32.0)
+    with pytest.raises(ValueError, match=r"the simulated air in °F\?"):
+        diagnose_runs(fahrenheit, meas)
     # The measured air noisy, the simulated one smooth: the simulation was
     # driven by another air series (the hint said to export it without noise,
     # which it was).
@@ -682,8 +696,13 @@ def test_mapping_typos_and_uncompared_channels(pair):
     # out of the comparison silently; named, as read_runs names it, unless
     # the mapping takes it.
     slip = meas.rename(columns={"disp_z_um": "disp_z_mm"})
-    with pytest.raises(ValueError, match="'disp_z_mm' looks like a displacement"):
+    with pytest.raises(
+        ValueError, match="'disp_z_mm' looks like a displacement"
+    ) as info:
         diagnose_runs(sim, slip)
+    # ... and that the mapping or channels= take it (the message said only
+    # to rename or drop it).
+    assert "channels=[...] or mapping={'measured': 'simulated'}" in str(info.value)
     mapped = diagnose_runs(sim, slip, mapping={"disp_z_mm": "disp_z_um"}, greedy=False)
     assert "disp_z_mm" in mapped.settings["channels"]
     with pytest.raises(
@@ -1299,3 +1318,48 @@ def test_an_exposed_surface_slower_than_an_hour_is_named():
     top = report.ranking.iloc[0]
     assert top["shrink"] > 0.9 and top["stopped"] == ""
     assert 3600 < top["fitted"]["tau_fast_s"] < 6000
+
+
+def test_a_temperature_below_absolute_zero_is_refused(pair):
+    # An independent check: a logger's -999 in four rows passed with a
+    # warning that said "above 500 °C", and the verdict blamed an effect on
+    # a 28 °C gap that the code made.
+    sim, meas = pair
+    meas = meas.copy()
+    rows = meas.index[(meas["run"] == "r1").to_numpy()][5:9]
+    meas.loc[rows, "T1_C"] = -999.0
+    with pytest.raises(
+        ValueError,
+        match=r"T1_C holds -999 in run 'r1' of the measured table at row 5 of the "
+        r"run \(time_s \d+\), and 4 such row\(s\) in all: a temperature in °C "
+        r"lies above -273\.15 \(a logger's code",
+    ):
+        diagnose_runs(sim, meas)
+
+
+def test_the_implausible_reading_warning_says_below_absolute_zero():
+    from skthermal.datasets._runtable import warn_implausible
+
+    table = pd.DataFrame(
+        {
+            "run": ["a"] * 6,
+            "time_s": np.arange(6) * 60.0,
+            "T1_C": [20.0, 20.1, -999.0, 20.2, 20.2, 20.3],
+        }
+    )
+    with pytest.warns(
+        UserWarning,
+        match=r"holds -999 .*: no machine tool reads a "
+        r"temperature below absolute zero \(-273\.15 °C\)\. A logger",
+    ):
+        warn_implausible(table)
+
+
+def test_the_as_given_remark_needs_a_difference_the_figures_show():
+    # "held-out gap 0.145 (the simulation as given: 0.145, less than the
+    # base ...)" for 0.1452020 against 0.1452256.
+    from skthermal.gap._external import _as_given_text
+
+    assert _as_given_text(0.1452020, 0.1452256) == ""
+    assert "as given: 0.13, less than" in _as_given_text(0.13, 0.145)
+    assert _as_given_text(np.nan, 0.145) == ""

@@ -1037,3 +1037,24 @@ def test_a_sensor_back_far_off_after_a_dropout_is_a_jump(train, new_run, missing
     X_bad.iloc[40 + missing :, 1] += 20 * guard.input_max_step_[1]
     checked, _ = _caught(guard.predict_checked, X_bad)
     assert checked["reason"].iloc[40 + missing] == "jump: T2_C"
+
+
+def test_a_spindle_at_one_speed_for_hours_is_no_flat_line(train):
+    # An independent check: spindle_rpm, a commanded value, was flat-line
+    # checked like a sensor; any speed (or rest) held longer than its window
+    # flagged the rows, and hold mode froze the compensation for hours
+    # (1,971 of 5,041 rows of an 84 h run; 21 -> 52 µm).
+    X, y = train
+    speeds = np.tile(np.r_[np.zeros(40), np.full(40, 3000.0), np.zeros(40)], 3)
+    fit_X = X.assign(spindle_rpm=speeds)
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(fit_X, y)
+    new = fit_X.loc[["r1"]].copy()
+    new["spindle_rpm"] = 3000.0  # held all run long, 3 times the window
+    checked, caught = _caught(guard.predict_checked, new)
+    assert not [m for m in _messages(caught, SensorFaultWarning) if "flat" in m]
+    assert checked["ok"].all()
+    # A temperature sensor stuck as long is still flagged.
+    stuck = new.copy()
+    stuck["T1_C"] = stuck["T1_C"].iloc[0]
+    checked, caught = _caught(guard.predict_checked, stuck)
+    assert any("'T1_C'" in m for m in _messages(caught, SensorFaultWarning))

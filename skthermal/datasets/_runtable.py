@@ -980,11 +980,16 @@ def _warn_impossible_readings(df, columns, values, codes):
             if many
             else "A glitch or a corrupt value?"
         )
+        said = f"a {kind} {limit:g} {unit}"
+        if test is _is_temperature and col[k] < 0:
+            # Beyond -500 °C: below absolute zero ("above 500" read wrong).
+            said = f"a temperature below absolute zero ({ABSOLUTE_ZERO_C:g} °C)"
+            cause = "A logger's code for no reading (-999)?"
         warnings.warn(
             f"Column {name!r} holds {col[k]:g} at {_where(df, k)}"
             + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
             + (f", and so do {', '.join(others)}" if others else "")
-            + f": no machine tool reads a {kind} {limit:g} {unit}. {cause} A "
+            + f": no machine tool reads {said}. {cause} A "
             "model without a guard (skthermal.compose.GuardedRegressor; "
             "skthermal fit --guard) passes it on to its prediction.",
             UserWarning,

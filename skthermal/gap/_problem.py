@@ -17,12 +17,13 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from skthermal._naming import closest, shown, suggest
+from skthermal._naming import TEMPERATURE_PATTERN, closest, shown, suggest
 from skthermal.datasets._runtable import check_column_names, warn_implausible
 from skthermal.simulate import EFFECTS
 from skthermal.utils._faults import flat_columns, repair_spikes
 from skthermal.utils._noise import pooled_noise
 from skthermal.utils._runs import (
+    ABSOLUTE_ZERO_C,
     MAX_MAGNITUDE,
     check_labels,
     check_unique_columns,
@@ -339,6 +340,21 @@ def check_finite_channels(Y, columns, t, run, table=""):
             f"of the run (time_s {t[r]:g}): no sensor reads beyond "
             f"{MAX_MAGNITUDE:g} in magnitude, a broken sensor or a corrupt file."
         )
+    # As validate_runs: a temperature at or below absolute zero is no
+    # reading (a logger's -999 ran through the diagnosis and spoilt it).
+    temperature = np.array(
+        [bool(TEMPERATURE_PATTERN.fullmatch(str(c))) for c in columns]
+    )
+    cold = (Y <= ABSOLUTE_ZERO_C) & temperature[None, :]
+    if cold.any():
+        r, c = map(int, np.argwhere(cold)[0])
+        raise ValueError(
+            f"{columns[c]} holds {Y[r, c]:g} in {_where(run, table)} at row {r} "
+            f"of the run (time_s {t[r]:g}), and {int(cold[:, c].sum())} such "
+            f"row(s) in all: a temperature in °C lies above {ABSOLUTE_ZERO_C:g} "
+            "(a logger's code for no reading, such as -999?). Drop or fill "
+            "those rows."
+        )
 
 
 def _listing(names, limit=12):
@@ -375,8 +391,16 @@ def check_mapping(mapping, measured_columns, simulated_columns, what):
 def check_measured_names(columns, mapping, channels, table):
     """The run-table naming rule on a measured table's ``columns`` (as
     :func:`skthermal.datasets.read_runs` applies it), but for the columns
-    the caller took explicitly: ``mapping``'s keys and ``channels``."""
-    check_column_names(columns, table=table, exempt={*mapping, *(channels or ())})
+    the caller took explicitly: ``mapping``'s keys and ``channels``; the
+    error says so (a table that ran with a mapping failed once its columns
+    were renamed to "clean up", and the message said only to rename)."""
+    try:
+        check_column_names(columns, table=table, exempt={*mapping, *(channels or ())})
+    except ValueError as exc:
+        raise ValueError(
+            f"{exc} (Or compare them as they are named: channels=[...] or "
+            "mapping={'measured': 'simulated'} takes a column explicitly.)"
+        ) from None
 
 
 def warn_uncompared(measured_columns, channels, why, candidates=()):
