@@ -378,6 +378,11 @@ def test_different_drivers_are_named(pair):
         ValueError, match=r"the simulated air is the measured one offset by \+0\.3 K"
     ):
         diagnose_runs(offset, meas)
+    offset = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 1.5)
+    with pytest.raises(
+        ValueError, match=r"the simulated air is the measured one offset by \+1\.5 K"
+    ):
+        diagnose_runs(offset, meas)
     # In another unit: said.
     fahrenheit = pair[0].assign(ambient_C=pair[0]["ambient_C"] * 1.8 + 32.0)
     with pytest.raises(ValueError, match=r"the simulated air in °F\?"):
@@ -395,10 +400,12 @@ def test_different_drivers_are_named(pair):
         r"it with the measured ambient_C, e\.g\. ThermalMachine\.simulate_drivers",
     ):
         diagnose_runs(pair[0], logged)
-    other = pair[0].assign(ambient_C=pair[0]["ambient_C"] + 5.0)
+    # Another air series altogether: no hint but to simulate the measured one.
+    wave = 5.0 * np.cos(np.arange(len(pair[0])) / 7.0)
+    other = pair[0].assign(ambient_C=pair[0]["ambient_C"] + wave)
     with pytest.raises(ValueError, match=r"simulated; simulate the measured") as info:
         diagnose_runs(other, meas)
-    assert "noise" not in str(info.value)
+    assert "noise" not in str(info.value) and "offset" not in str(info.value)
     # A simulated table that writes it otherwise: named (a measured one is
     # refused for it up front).
     sim3 = pair[0].assign(feed_mm_s=1000.0 / 60.0)
@@ -1363,3 +1370,14 @@ def test_the_as_given_remark_needs_a_difference_the_figures_show():
     assert _as_given_text(0.1452020, 0.1452256) == ""
     assert "as given: 0.13, less than" in _as_given_text(0.13, 0.145)
     assert _as_given_text(np.nan, 0.145) == ""
+
+
+def test_another_tools_columns_are_hinted():
+    # An independent check: 'Time [s]' and 'Air [degC]' were hinted, not
+    # 'Speed [rpm]' nor 'Load case' (a finite-element tool's run label).
+    from skthermal.datasets._runtable import meant_for
+    from skthermal.utils._runs import driver_lookalike
+
+    assert driver_lookalike("Speed [rpm]") == "spindle_rpm"
+    assert driver_lookalike("speed_pct") is None
+    assert meant_for(["Load case", "Time [s]", "T1_C"], "run") == ["Load case"]

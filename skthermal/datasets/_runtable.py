@@ -621,8 +621,13 @@ SKIP_VALIDATION = (
 def meant_for(columns, name):
     """The columns of ``columns`` that may be meant for the run table's
     ``run`` or ``time_s`` column ``name`` when it is absent (``Run``,
-    ``test_id``; ``time_min``, ``Timestamp``, ``t``)."""
-    starts = ("run", "test") if name == RUN else ("time", "t_", "date", "stamp")
+    ``test_id``, a simulation tool's ``Load case``; ``time_min``,
+    ``Timestamp``, ``t``)."""
+    starts = (
+        ("run", "test", "case", "load case", "load_case", "loadcase", "job", "batch")
+        if name == RUN
+        else ("time", "t_", "date", "stamp")
+    )
     return [
         c
         for c in columns

@@ -762,7 +762,7 @@ class ExternalGapReport(GapReport):
             f"held-out gap {row['gap_before']:.3g}{as_given} -> "
             f"{row['gap_after']:.3g}, "
             f"{row['runs_improved']}/{row['n_runs']} held-out runs better, "
-            f"p = {row['p_value']:.2g}; likelihood ratio p = "
+            f"p = {row['p_value']:.2g}; in-sample likelihood ratio p = "
             f"{row['lr_p_value']:.2g}{flexible}"
         )
         if self.best_effect is None:
@@ -988,7 +988,8 @@ def diagnose_runs(
         )
         logger.info(
             "Which: %s: held-out gap %.3g -> %.3g, shrink %.0f%% above noise "
-            "(%.0f%% of the explainable), p = %.2g, likelihood ratio p = %.2g%s.",
+            "(%.0f%% of the explainable), p = %.2g, in-sample likelihood ratio "
+            "p = %.2g%s.",
             row["effect"],
             row["gap_before"],
             row["gap_after"],
@@ -1119,8 +1120,6 @@ def _air_hint(measured, simulated, small):
         return " (the simulated air in °F? ambient_C is in °C: (F - 32) / 1.8)"
     if np.allclose(simulated, measured + 273.15, atol=1.0):
         return " (the simulated air in kelvin? ambient_C is in °C: K - 273.15)"
-    if not small:
-        return ""
     diff = simulated - measured
     if np.std(diff) <= 0.25 * abs(np.mean(diff)):
         return (
@@ -1128,6 +1127,8 @@ def _air_hint(measured, simulated, small):
             f"{np.mean(diff):+.2g} K throughout: another air probe, or one "
             "calibrated otherwise? Drive the simulation with the logged air)"
         )
+    if not small:
+        return ""
     # Off by a little and not by a constant: noise on one side.
     rough_m, rough_s = (
         float(noise_floor(np.asarray(v, float)[:, None])[0])
