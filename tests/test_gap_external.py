@@ -1381,3 +1381,22 @@ def test_another_tools_columns_are_hinted():
     assert driver_lookalike("Speed [rpm]") == "spindle_rpm"
     assert driver_lookalike("speed_pct") is None
     assert meant_for(["Load case", "Time [s]", "T1_C"], "run") == ["Load case"]
+
+
+def test_the_saved_report_keeps_the_warnings_and_the_channels(pair, tmp_path):
+    # An independent check: a unit slip warned about on the console left no
+    # trace in report.md, nor did the channels compared.
+    sim, meas = pair
+    with pytest.warns(UserWarning, match=r"\['T3_C'\] are not compared") as record:
+        report = diagnose_runs(
+            sim, meas.assign(T3_C=meas["T1_C"]), candidates=["sensor_lag"], greedy=False
+        )
+    said = [f"{w.category.__name__}: {w.message}" for w in record]
+    assert report.settings["warnings"] == said
+    text = report.to_markdown()
+    assert "**Warnings during the diagnosis** (" in text
+    assert "['T3_C'] are not compared" in text
+    assert "Channels compared: `" in text
+    report.save(tmp_path / "gap")
+    saved = json.loads((tmp_path / "gap" / "report.json").read_text())
+    assert saved["settings"]["warnings"] == said

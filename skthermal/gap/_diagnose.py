@@ -37,7 +37,7 @@ from skthermal.gap._problem import (
     too_few_runs,
 )
 from skthermal.gap._regimes import label_regimes
-from skthermal.gap._report import GapReport
+from skthermal.gap._report import GapReport, with_recorded_warnings
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
     applicable,
@@ -442,6 +442,7 @@ def _explainable(ctx, screen, floor2):
     prefer_skip_nested_validation=True,
 )
 @with_single_threaded_blas
+@with_recorded_warnings
 def diagnose(
     machine,
     runs,

@@ -52,7 +52,7 @@ from skthermal.gap._problem import (
     without_attrs,
 )
 from skthermal.gap._regimes import label_regimes
-from skthermal.gap._report import GapReport
+from skthermal.gap._report import GapReport, with_recorded_warnings
 from skthermal.gap._scores import (
     DIAGNOSIS_PARAMS,
     applicable,
@@ -791,6 +791,7 @@ class ExternalGapReport(GapReport):
     prefer_skip_nested_validation=True,
 )
 @with_single_threaded_blas
+@with_recorded_warnings
 def diagnose_runs(
     simulated,
     measured,

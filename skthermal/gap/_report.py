@@ -1,7 +1,9 @@
 """The gap report: tables, verdict, plots and files."""
 
+import functools
 import json
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -198,6 +200,26 @@ def _where_tables(problem, Rs, regimes, label):
             jumps, columns=["model", "run", "time_s", "channel", "jump", "size"]
         ),
     }
+
+
+def with_recorded_warnings(diagnosis):
+    """Decorate a diagnosis returning a :class:`GapReport`: the warnings it
+    raised are said as before and recorded in ``report.settings
+    ["warnings"]``, so a saved report keeps them (a unit slip warned about
+    on the console left no trace in report.md)."""
+
+    @functools.wraps(diagnosis)
+    def wrapper(*args, **kwargs):
+        with warnings.catch_warnings(record=True) as caught:
+            report = diagnosis(*args, **kwargs)
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        report.settings["warnings"] = [
+            f"{w.category.__name__}: {w.message}" for w in caught
+        ]
+        return report
+
+    return wrapper
 
 
 @dataclass
@@ -762,10 +784,26 @@ class GapReport:
             if which
         ]
         ruled_out += [""] if ruled_out else []
+        said = self.settings.get("warnings", [])
         parts = [
             "# Sim-to-real gap report",
             "",
             f"**Verdict.** {self.verdict()}",
+            "",
+            *(
+                [
+                    f"**Warnings during the diagnosis** ({len(said)}; they may "
+                    "bear on the verdict):",
+                    "",
+                    *[f"- {w}" for w in said],
+                    "",
+                ]
+                if said
+                else []
+            ),
+            "Channels compared: "
+            + ", ".join(f"`{c}`" for c in self.settings.get("channels", []))
+            + ".",
             "",
             f"Machine `{self.settings.get('machine')}`, candidates "
             f"{', '.join(self.settings.get('candidates', []))}; noise floor "
