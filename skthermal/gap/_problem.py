@@ -324,36 +324,40 @@ def check_finite_channels(Y, columns, t, run, table=""):
     """Raise a ValueError naming the column, the run, the first row and its
     time where the channels ``Y`` (``(n, len(columns))``) are missing, not
     finite or beyond ``MAX_MAGNITUDE`` in magnitude (no sensor reads that:
-    the squares of the least squares would overflow)."""
-    bad = ~np.isfinite(Y)
-    if bad.any():
-        r, c = map(int, np.argwhere(bad)[0])
-        raise ValueError(
-            f"{columns[c]} is missing or not finite in {_where(run, table)} at "
-            f"row {r} of the run (time_s {t[r]:g})."
-        )
-    absurd = np.abs(Y) > MAX_MAGNITUDE
-    if absurd.any():
-        r, c = map(int, np.argwhere(absurd)[0])
-        raise ValueError(
-            f"{columns[c]} holds {Y[r, c]:g} in {_where(run, table)} at row {r} "
-            f"of the run (time_s {t[r]:g}): no sensor reads beyond "
-            f"{MAX_MAGNITUDE:g} in magnitude, a broken sensor or a corrupt file."
-        )
-    # As validate_runs: a temperature at or below absolute zero is no
-    # reading (a logger's -999 ran through the diagnosis and spoilt it).
+    the squares of the least squares would overflow), or where a temperature
+    channel is at or below absolute zero (as validate_runs: a logger's -999
+    for no reading ran through the diagnosis and spoilt it)."""
     temperature = np.array(
         [bool(TEMPERATURE_PATTERN.fullmatch(str(c))) for c in columns]
     )
-    cold = (Y <= ABSOLUTE_ZERO_C) & temperature[None, :]
-    if cold.any():
-        r, c = map(int, np.argwhere(cold)[0])
+    with np.errstate(invalid="ignore"):
+        checks = (
+            (~np.isfinite(Y), None),
+            (
+                np.abs(Y) > MAX_MAGNITUDE,
+                lambda n: (
+                    f": no sensor reads beyond {MAX_MAGNITUDE:g} in "
+                    "magnitude, a broken sensor or a corrupt file."
+                ),
+            ),
+            (
+                (Y <= ABSOLUTE_ZERO_C) & temperature[None, :],
+                lambda n: (
+                    f", and {n} such row(s) in all: a temperature in °C "
+                    f"lies above {ABSOLUTE_ZERO_C:g} (a logger's code for no "
+                    "reading, such as -999?). Drop or fill those rows."
+                ),
+            ),
+        )
+    for found, why in checks:
+        if not found.any():
+            continue
+        r, c = map(int, np.argwhere(found)[0])
+        at = f"{_where(run, table)} at row {r} of the run (time_s {t[r]:g})"
+        if why is None:
+            raise ValueError(f"{columns[c]} is missing or not finite in {at}.")
         raise ValueError(
-            f"{columns[c]} holds {Y[r, c]:g} in {_where(run, table)} at row {r} "
-            f"of the run (time_s {t[r]:g}), and {int(cold[:, c].sum())} such "
-            f"row(s) in all: a temperature in °C lies above {ABSOLUTE_ZERO_C:g} "
-            "(a logger's code for no reading, such as -999?). Drop or fill "
-            "those rows."
+            f"{columns[c]} holds {Y[r, c]:g} in {at}{why(int(found[:, c].sum()))}"
         )
 
 
