@@ -1400,3 +1400,24 @@ def test_the_saved_report_keeps_the_warnings_and_the_channels(pair, tmp_path):
     report.save(tmp_path / "gap")
     saved = json.loads((tmp_path / "gap" / "report.json").read_text())
     assert saved["settings"]["warnings"] == said
+
+
+def test_measured_runs_that_start_warm_beside_a_cold_simulation_warn(pair):
+    # An independent check: runs starting warm against a simulation started
+    # from the air left only a warning about a unit slip, and a planted lag
+    # was lost. (Runs r0 and r2 start warm in both tables: no word of them.)
+    sim, meas = pair
+    warm = meas.copy()
+    temps = [c for c in warm if c.startswith("T") and c.endswith("_C")]
+    decay = 6.0 * np.exp(-warm["time_s"].to_numpy() / 3600.0)
+    warm[temps] = warm[temps].to_numpy() + decay[:, None]
+    with pytest.warns(
+        UserWarning,
+        match=r"Measured run 'r1' starts warm: its temperature sensors read "
+        r"8\.\d K above the air at its first row on average, the simulation 0\.0 K",
+    ):
+        diagnose_runs(sim, warm, candidates=["sensor_lag"], greedy=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    assert not [w for w in caught if "starts warm" in str(w.message)]

@@ -20,7 +20,7 @@ import pandas as pd
 from joblib import Parallel, delayed
 from sklearn.utils._param_validation import StrOptions, validate_params
 
-from skthermal._naming import percent
+from skthermal._naming import TEMPERATURE_PATTERN, percent
 from skthermal.datasets._runtable import meant_for, warn_implausible
 from skthermal.gap._evidence import (
     explainable_summary,
@@ -348,6 +348,7 @@ def _align(
             stacklevel=user_stacklevel(),
         )
     warn_short_runs("diagnose_runs", {name: t[-1] - t[0] for name, t, *_ in out}, 5)
+    _warn_warm_starts(out, channels)
     aligned = [row[:5] for row in out]
     blocks = [block_spans(t, name, block_hours) for name, t, *_ in out]
     if sum(len(b) for b in blocks) < 2:
@@ -1159,4 +1160,44 @@ def _as_given_text(given, before):
     return (
         f" (the simulation as given: {given:.3g}, less than the base "
         "calibrated on the other runs)"
+    )
+
+
+# How far (K) a run's temperature sensors may read above its air at its
+# first row, on average, before the run counts as starting warm: beyond
+# what sensor offsets (a K or two) make of a machine soaked at the air.
+_WARM_START_K = 3.0
+
+
+def _warn_warm_starts(out, channels):
+    """Warn when measured runs start warm (their temperature sensors well
+    above the air at the first row) and the simulation of them does not:
+    a simulation started from the air misses the warmth, and the cooling
+    from it shows as a gap, taken for a lag or a gain (an independent
+    check: the only warning blamed a unit slip, and a planted lag was
+    lost). ``out``: the aligned runs ``(name, t, drivers, y_meas, y_sim,
+    before)``."""
+    temps = [j for j, c in enumerate(channels) if TEMPERATURE_PATTERN.fullmatch(str(c))]
+    if not temps:
+        return
+    warm = []
+    for name, _, drivers, y_meas, y_sim, _ in out:
+        air = float(drivers["ambient_C"][0])
+        above_m = float(np.mean(y_meas[0, temps])) - air
+        above_s = float(np.mean(y_sim[0, temps])) - air
+        if above_m > _WARM_START_K and above_s < 0.25 * above_m:
+            warm.append((name, above_m, above_s))
+    if not warm:
+        return
+    name, above_m, above_s = warm[0]
+    more = f" (and {len(warm) - 1} more run(s) alike)" if len(warm) > 1 else ""
+    warnings.warn(
+        f"Measured run {name!r}{more} starts warm: its temperature sensors "
+        f"read {above_m:.1f} K above the air at its first row on average, the "
+        f"simulation {above_s:.1f} K. A simulation started from the air misses "
+        "that warmth, and the cooling from it shows as part of the gap (often "
+        "taken for a lag or a gain). Start the simulation from the measured "
+        "state, or earlier (a simulation may start before the measured run).",
+        UserWarning,
+        stacklevel=user_stacklevel(),
     )
