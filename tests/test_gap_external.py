@@ -532,6 +532,8 @@ def test_a_glitch_does_not_swamp_the_noise_floor(pair):
         ), said
         if label == "measured":  # as read_runs says it
             assert any("no machine tool reads a temperature above" in m for m in said)
+            # ... and what it does to a gap, not only to a model's prediction.
+            assert any("the gap diagnosis to the gap it measures" in m for m in said)
         assert report.noise_floor == pytest.approx(clean.noise_floor, rel=0.01)
         np.testing.assert_allclose(
             report.ranking["gap_before"], clean.ranking["gap_before"], rtol=0.01

@@ -996,7 +996,8 @@ def _warn_impossible_readings(df, columns, values, codes):
             + (f", and so do {', '.join(others)}" if others else "")
             + f": no machine tool reads {said}. {cause} A "
             "model without a guard (skthermal.compose.GuardedRegressor; "
-            "skthermal fit --guard) passes it on to its prediction.",
+            "skthermal fit --guard) passes it on to its prediction, and the gap "
+            "diagnosis to the gap it measures: drop or fill such rows.",
             UserWarning,
             stacklevel=user_stacklevel(),
         )
