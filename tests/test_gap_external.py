@@ -1423,3 +1423,20 @@ def test_measured_runs_that_start_warm_beside_a_cold_simulation_warn(pair):
         warnings.simplefilter("always")
         diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
     assert not [w for w in caught if "starts warm" in str(w.message)]
+
+
+def test_a_reused_report_folder_loses_the_earlier_reports_figures(pair, tmp_path):
+    # An independent check: a stale timeline of an earlier run stayed in a
+    # reused --report folder, read as part of the new report.
+    sim, meas = pair
+    report = diagnose_runs(sim, meas, candidates=["sensor_lag"], greedy=False)
+    folder = tmp_path / "gap"
+    folder.mkdir()
+    (folder / "timeline_old-run.png").write_bytes(b"stale")
+    (folder / "drift_rates.csv").write_text("stale")
+    (folder / "notes.txt").write_text("the user's")
+    report.save(folder)
+    assert not (folder / "timeline_old-run.png").exists()
+    assert not (folder / "drift_rates.csv").exists()
+    assert (folder / "notes.txt").read_text() == "the user's"
+    assert (folder / "report.md").exists()

@@ -1018,7 +1018,8 @@ class GapReport:
         drift_rates.csv when drift was fitted, and initial_states.csv: every
         run's initial node temperatures, in K above its first air reading,
         a column ``<node>_K_above_air`` each) and, with matplotlib, timeline
-        figures into ``folder``."""
+        figures into ``folder``. An earlier report's timelines, drift rates
+        and initial states in ``folder`` are removed first."""
         folder = Path(folder)
         if folder.exists() and not folder.is_dir():
             raise ValueError(
@@ -1026,6 +1027,16 @@ class GapReport:
                 "name exists; save() writes a folder of files."
             )
         folder.mkdir(parents=True, exist_ok=True)
+        # A folder reused for another report: the files this one may not
+        # write (a run's timeline, drift rates, initial states) would stay
+        # beside it, stale, as if this report had drawn them.
+        for stale in (
+            *folder.glob("timeline_*.png"),
+            folder / "drift_rates.csv",
+            folder / "initial_states.csv",
+        ):
+            if stale.is_file():
+                stale.unlink()
         self.to_json(folder / "report.json")
         # Fitted parameters (dicts) as JSON text, which any reader parses.
         self.ranking.map(
