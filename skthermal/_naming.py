@@ -33,6 +33,22 @@ def suggest(name, choices):
     return f" (did you mean {near!r}?)" if near is not None else ""
 
 
+def listed(items, most=3, *, sep=", ", show=str, more_sep=" "):
+    """The first ``most`` of ``items`` (each through ``show``) joined by
+    ``sep``, and how many more there are, for messages that name a few of
+    many.
+
+    >>> listed(["a", "b", "c", "d", "e"], show=repr)
+    "'a', 'b', 'c' and 2 more"
+    >>> listed(["x", "y"], 1, sep="; ", more_sep="; ")
+    'x; and 1 more'
+    """
+    items = list(items)
+    extra = len(items) - most
+    text = sep.join(show(i) for i in items[:most])
+    return text + (f"{more_sep}and {extra} more" if extra > 0 else "")
+
+
 def plain(value):
     """A numpy scalar as the Python value, for messages: ``'r2'`` and ``3``,
     not ``np.str_('r2')`` and ``np.int64(3)``."""

@@ -809,6 +809,7 @@ def cmd_search(args):
     from skthermal.datasets import split_runs
     from skthermal.model_selection import make_storage, run_search
     from skthermal.model_selection._search import (
+        OTHER_STUDY,
         check_stored_study,
         no_best_trial,
         safe_url,
@@ -900,10 +901,7 @@ def cmd_search(args):
         except ValueError as exc:
             # The library names its parameters; here they are options.
             raise UserError(
-                str(exc).replace(
-                    "another study_name (or storage)",
-                    "another --study-name (or --storage)",
-                )
+                str(exc).replace(OTHER_STUDY, "another --study-name (or --storage)")
             ) from None
     runs = [str(r) for r in pd.unique(groups)]
     trials = result.trials_dataframe()

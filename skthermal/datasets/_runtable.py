@@ -20,6 +20,7 @@ from skthermal._naming import (
     STRAIN_PATTERN,
     TARGET_PATTERN,
     TEMPERATURE_PATTERN,
+    listed,
     plain,
 )
 from skthermal._run_changes import changes_since_first_row
@@ -818,14 +819,6 @@ _KELVIN_LIFT = (200.0, 350.0)
 _FAHRENHEIT_FLOOR = 50.0
 
 
-def _first_three(items):
-    """``'a', 'b', 'c' and 2 more``: the first three of ``items`` quoted,
-    and how many more there are, for a warning naming columns or runs."""
-    items = list(items)
-    more = f" and {len(items) - 3} more" if len(items) > 3 else ""
-    return ", ".join(repr(i) for i in items[:3]) + more
-
-
 def _warn_kelvin_sensors(df, columns, values, codes):
     """Warn when temperature columns (``*_C``) never read below
     ``_KELVIN_FLOOR``: kelvin under a °C header. Models take changes or
@@ -861,7 +854,7 @@ def _warn_kelvin_sensors(df, columns, values, codes):
             _warn_fahrenheit_sensors(columns, values)
         return
     name, low, high = hot[0]
-    names = _first_three([h[0] for h in hot])
+    names = listed([h[0] for h in hot], show=repr)
     warnings.warn(
         f"Temperature column(s) {names} never read below "
         f"{_KELVIN_FLOOR:g} ({name!r}: {low:g} to {high:g}): no machine-tool "
@@ -879,10 +872,10 @@ def _warn_kelvin_runs(df, codes, some):
     name, runs, col, finite = some[0]
     labels = df[RUN].to_numpy()
     first = {c: int(np.flatnonzero(codes == c)[0]) for c in runs}
-    named = _first_three([plain(labels[first[c]]) for c in runs])
+    named = listed([plain(labels[first[c]]) for c in runs], show=repr)
     inside = finite & np.isin(codes, runs)
     outside = finite & ~np.isin(codes, runs)
-    names = _first_three([s[0] for s in some])
+    names = listed([s[0] for s in some], show=repr)
     warnings.warn(
         f"Temperature column(s) {names} never read below "
         f"{_KELVIN_FLOOR:g} in run(s) {named}, and below it in the "
@@ -918,7 +911,7 @@ def _warn_changes_as_readings(columns, values, codes):
     block = values[np.ix_(first, temps)]
     if not (np.all(block == 0.0) and np.any(values[:, temps] != 0.0)):
         return
-    names = _first_three([columns[j] for j in temps])
+    names = listed([columns[j] for j in temps], show=repr)
     warnings.warn(
         f"Every temperature sensor ({names}) reads exactly 0 at the first "
         "row of every run: changes since the start? Columns T*_C hold the "
@@ -1063,9 +1056,9 @@ def _warn_fahrenheit_sensors(columns, values):
         return
     names = [columns[j] for j in temps]
     coldest = int(np.argmin(np.where(finite, block, np.inf).min(axis=0)))
-    listed = _first_three(names)
+    shown = listed(names, show=repr)
     warnings.warn(
-        f"No temperature sensor ({listed}) ever reads below "
+        f"No temperature sensor ({shown}) ever reads below "
         f"{_FAHRENHEIT_FLOOR:g} (the coldest, {names[coldest]!r}, from "
         f"{block[:, coldest][finite[:, coldest]].min():g}): a machine tool has "
         "parts near the workshop air. In Fahrenheit? Columns *_C are read as "

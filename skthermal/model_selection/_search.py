@@ -34,7 +34,7 @@ from sklearn.utils._param_validation import (
     validate_params,
 )
 
-from skthermal._naming import plain, qualified_name, suggest
+from skthermal._naming import listed, plain, qualified_name, suggest
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
 from skthermal.metrics import get_scorer
@@ -98,6 +98,10 @@ def _no_experimental_warning():
 # with an optional driver): a storage starting so without "://" is a typo
 # of a URL, not a file path (a Windows drive letter is one letter).
 _DATABASE_SCHEME = r"(sqlite|postgres(ql)?|mysql|mariadb|oracle|mssql)(\+\w+)?:"
+
+# How a refusal to join a stored study says the way out (the command line
+# puts its option names in its place).
+OTHER_STUDY = "another study_name (or storage)"
 
 
 @validate_params(
@@ -1114,12 +1118,6 @@ def _flat(value, path=""):
     return {path: value}
 
 
-def _first_parts(parts, most=4):
-    """The first ``most`` of a list of differences, and how many more."""
-    more = len(parts) - most
-    return "; ".join(parts[:most]) + (f"; and {more} more" if more > 0 else "")
-
-
 def _describe_difference(key, there, here):
     what = key.removeprefix("skthermal_")
     if key == "skthermal_space_ranges":
@@ -1129,7 +1127,7 @@ def _describe_difference(key, there, here):
             for k in sorted(set(a) | set(b))
             if a.get(k) != b.get(k)
         ]
-        return "search space ranges: " + _first_parts(parts)
+        return "search space ranges: " + listed(parts, 4, sep="; ", more_sep="; ")
     if (
         key == "skthermal_features"
         and isinstance(there, list)
@@ -1147,7 +1145,7 @@ def _describe_difference(key, there, here):
             for n in names
             if there.get(n) != here.get(n)
         ]
-        return "estimator settings: " + _first_parts(parts)
+        return "estimator settings: " + listed(parts, 4, sep="; ", more_sep="; ")
     return f"{what} {there!r} there, {here!r} here"
 
 
@@ -1184,7 +1182,7 @@ def _check_study_setup(study, setup, direction, space=None):
         raise ValueError(
             f"Study {study.study_name!r} was made to {' and '.join(directions)}, "
             f"this search gives direction={direction!r}: give the study's "
-            "direction, or another study_name (or storage)."
+            f"direction, or {OTHER_STUDY}."
         )
     # Trials first: a search records its keys before its first trial, so a
     # trial seen here means that its keys are visible below.
@@ -1222,8 +1220,7 @@ def _check_study_setup(study, setup, direction, space=None):
         raise ValueError(
             f"Study {study.study_name!r} was made by another search ("
             + "; ".join(differ)
-            + "): its trials cannot be compared with this one's. Give another "
-            "study_name (or storage)."
+            + f"): its trials cannot be compared with this one's. Give {OTHER_STUDY}."
         )
     missing = [key for key in setup if key not in stored]
     if missing and n_trials:
@@ -1271,8 +1268,7 @@ def _replay(space, trial, *, warn=True):
             f"The best trial (number {trial.number}) has parameters "
             f"{trial.params} that this search space cannot replay ({why}): "
             "the study was searched with another space (made outside "
-            "run_search, or by another version of this space). Give another "
-            "study_name (or storage)."
+            f"run_search, or by another version of this space). Give {OTHER_STUDY}."
         ) from exc
     scored = trial.user_attrs.get(ATTR_PARAMS)
     if scored is None or not isinstance(params, Mapping):
@@ -1293,7 +1289,7 @@ def _replay(space, trial, *, warn=True):
             f"The best trial (number {trial.number}) was scored with other "
             f"estimator parameters than this search space draws from its values "
             f"({differ}): the space function changed since. Restore it, or give "
-            "another study_name (or storage)."
+            f"{OTHER_STUDY}."
         ) from None
     if not warn:
         return params

@@ -15,6 +15,7 @@ from sklearn.feature_selection import SelectorMixin
 from sklearn.utils._param_validation import Interval, RealNotInt, StrOptions
 from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
 
+from skthermal._naming import listed
 from skthermal.utils._runs import (
     POWER_DRIVERS,
     changes_since_start,
@@ -240,11 +241,8 @@ class RunAwareSelector(SelectorMixin, BaseEstimator):
             # and ranked last. (Refused, a sensor that moved in one run only
             # failed the cross-validation fold that held that run out.)
             found = [_feature_label(self, j) for j in np.flatnonzero(constant)]
-            shown = ", ".join(found[:3]) + (
-                f" and {len(found) - 3} more" if len(found) > 3 else ""
-            )
             warnings.warn(
-                f"{type(self).__name__}: {shown} "
+                f"{type(self).__name__}: {listed(found)} "
                 f"{'is' if len(found) == 1 else 'are'} constant within every "
                 "training run and carr"
                 f"{'ies' if len(found) == 1 else 'y'} no information about the "
