@@ -11,6 +11,8 @@ from sklearn.pipeline import make_pipeline
 
 from skthermal.compose import (
     GuardedRegressor,
+    GuardWarning,
+    RunStartWarning,
     RunStream,
     SensorFaultWarning,
     SensorRangeWarning,
@@ -460,13 +462,73 @@ def test_a_finding_that_ended_is_not_said_again(data):
     run = new[new["run"] == "c"].iloc[:200].copy()
     run.iloc[100:103, run.columns.get_loc("T2_C")] = np.nan
     stream = RunStream(guard)
-    assert stream.mode_ == "history"
+    # The guard keeps each run so far itself (remember_runs).
+    assert stream.mode_ == "incremental"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for block in _blocks(run, [1]):
             stream.predict_checked(block)
     said = [w for w in caught if "reading missing" in str(w.message)]
     assert len(said) == 1, [str(w.message)[:120] for w in said]
+
+
+def test_a_clock_reset_mid_run_is_told_from_a_new_run(data):
+    # An independent check: a controller restarting mid-run numbered time_s
+    # from 0 again under the same label, the machine warm; the stream said
+    # only a UserWarning that a new run starts (not caught by a filter on
+    # GuardWarning), and the lag model's compensation was 34 µm off.
+    X, y, lag, new = data
+    run = new[new["run"] == "c"]
+    reset = run.copy()
+    reset.loc[reset.index[150] :, "time_s"] -= reset["time_s"].iloc[150]
+    for model in (lag, GuardedRegressor(lag, mode="hold").fit(X, y)):
+        stream = RunStream(model)
+        with pytest.warns(RunStartWarning, match=r"starts again") as caught:
+            for block in _blocks(reset, [10]):
+                stream.predict(block)
+        said = [str(w.message) for w in caught if "starts again" in str(w.message)]
+        assert len(said) == 1
+        assert "go on from the earlier run's last ones" in said[0]
+        assert "time_s going on from 8940" in said[0]
+        # The same label given again from its start, the machine cold:
+        # a new run, without the hint.
+        stream = RunStream(model)
+        for block in _blocks(run, [10]):
+            stream.predict(block)
+        with pytest.warns(RunStartWarning, match=r"starts again") as caught:
+            stream.predict(run.iloc[:10])
+        said = [str(w.message) for w in caught if "starts again" in str(w.message)]
+        assert len(said) == 1 and "go on" not in said[0]
+
+
+def test_a_second_fault_is_said_with_its_own_time(data):
+    # An independent check: two spikes on one sensor 100 minutes apart,
+    # streamed row by row through a guard around a sequence model: the
+    # second was said "at time_s=<the first's time> (...; 2 rows in 2
+    # stretches)", the guard describing the run so far, not the new row.
+    X, y, _, new = data
+    lag = LagRidgeCV(time_constant_sets=[(900.0, 3600.0)])
+    guard = GuardedRegressor(lag, mode="hold").fit(X, y)
+    run = new[new["run"] == "c"].iloc[:240].copy()
+    col = run.columns.get_loc("T2_C")
+    run.iloc[[60, 160], col] = 1e6
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = guard.predict_checked(run)
+    stream = RunStream(guard)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = pd.concat([stream.predict_checked(b) for b in _blocks(run, [1])])
+    said = [str(w.message) for w in caught if issubclass(w.category, GuardWarning)]
+    t1, t2 = run["time_s"].iloc[60], run["time_s"].iloc[160]
+    range_said = [m for m in said if "training range" in m and "value 1e+06" in m]
+    assert len(range_said) == 2, range_said
+    assert f"at time_s={t1:g} " in range_said[0]
+    assert f"at time_s={t2:g} " in range_said[1]
+    assert "2 rows" not in range_said[1]
+    # The checked predictions are those of the whole run.
+    assert got["ok"].tolist() == whole["ok"].tolist()
+    np.testing.assert_allclose(got["prediction"], whole["prediction"], atol=1e-12)
 
 
 def test_a_guard_inside_a_pipeline_streams_the_run_so_far(data):
@@ -538,14 +600,18 @@ def test_blocks_need_run_labels_and_times(data):
         stream.predict(new.iloc[:0])
 
 
-@pytest.mark.parametrize("how", ["incremental", "history"])
+@pytest.mark.parametrize("how", ["sequence", "guard", "history"])
 def test_a_block_given_twice_or_out_of_order_is_refused(data, how):
     X, y, lag, new = data
-    model = lag if how == "incremental" else GuardedRegressor(lag).fit(X, y)
+    model = {
+        "sequence": lambda: lag,
+        "guard": lambda: GuardedRegressor(lag).fit(X, y),
+        "history": lambda: make_pipeline(GuardedRegressor(lag)).fit(X, y),
+    }[how]()
     run = new[new["run"] == "c"]
     whole = model.predict(run)
     stream = RunStream(model)
-    assert stream.mode_ == how
+    assert stream.mode_ == ("history" if how == "history" else "incremental")
     blocks = _blocks(run, [20])
     got = [stream.predict(blocks[0]), stream.predict(blocks[1])]
     # (The first block again would start the run anew: see below.)
@@ -651,15 +717,30 @@ def test_a_stream_given_the_runs_so_far_is_not_saved_to_skops(data, tmp_path):
 
     X, y, _, new = data
     guard = GuardedRegressor(LagRidgeCV(time_constant_sets=[(900.0,)])).fit(X, y)
-    stream = RunStream(guard)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        stream.predict(new[new["run"] == "c"].iloc[:10])
-    assert stream.mode_ == "history"
+    static = GuardedRegressor(LinearRegression()).fit(X, y)
+    streams = {}
+    for name, model in [
+        ("guard", guard),
+        ("pipeline", make_pipeline(guard)),
+        ("static", static),
+    ]:
+        streams[name] = RunStream(model)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            streams[name].predict(new[new["run"] == "c"].iloc[:10])
+    for name in ("guard", "pipeline"):
+        with pytest.raises(
+            TypeError, match=r"RunStream keeps the rows of its runs .* joblib"
+        ):
+            save(streams[name], tmp_path / "stream.skops")
+    # Nor the guard itself: restarted mid-run, its sequence model would be
+    # wrong from there on.
     with pytest.raises(
-        TypeError, match=r"RunStream keeps the rows of its runs .* joblib"
+        TypeError, match=r"GuardedRegressor keeps the rows of its runs .* joblib"
     ):
-        save(stream, tmp_path / "stream.skops")
+        save(streams["guard"].model_, tmp_path / "guard.skops")
+    # A guard around a static model restarts its checks only (documented).
+    save(streams["static"], tmp_path / "static.skops")
 
 
 def test_a_row_at_the_last_time_is_refused_by_a_stream_of_the_runs_so_far(data):

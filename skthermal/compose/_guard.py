@@ -796,11 +796,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         return pd.DataFrame(columns, index=index)
 
     def _remembers(self):
-        """Whether runs can be continued from a kept tail of their rows:
-        the wrapped model is fitted and static (a sequence model reads
-        every run from its start: :class:`~skthermal.compose.RunStream`
-        then gives the guard each run so far)."""
-        return hasattr(self, "estimator_") and not sequence_models(self.estimator_)
+        """Whether runs can be continued from kept rows: the guard is
+        fitted (a static model needs a tail of each run, a sequence model
+        the whole run, see :meth:`remember_runs`)."""
+        return hasattr(self, "estimator_")
 
     @available_if(_remembers)
     def remember_runs(self, X, *, groups=None):
@@ -811,17 +810,23 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         flat-line counts its unchanged readings, ``mode="hold"`` holds its
         last good value, as if the run so far were given again.
 
-        What is kept is bounded: the last three rows, back to each sensor's
-        last reading a step is taken from, at most 3,600 rows; what
-        ``mode="hold"`` holds (the last good prediction, each sensor's last
-        good reading), the flat-line counts and which sensors have read
-        anything are carried apart. :class:`~skthermal.compose.RunStream`
-        calls it after every block, so each block costs the same however
-        long the run. The checked predictions equal those of the run so far
-        given again, except where the run's logging period changes (the
-        flat-line window is scaled by the median period of the rows a call
-        holds) and for a sensor's first reading after a silence of over
-        3,600 rows (not checked for a jump).
+        Around a static model what is kept is bounded: the last three rows,
+        back to each sensor's last reading a step is taken from, at most
+        3,600 rows; what ``mode="hold"`` holds (the last good prediction,
+        each sensor's last good reading), the flat-line counts and which
+        sensors have read anything are carried apart.
+        :class:`~skthermal.compose.RunStream` calls it after every block, so
+        each block costs the same however long the run. The checked
+        predictions equal those of the run so far given again, except where
+        the run's logging period changes (the flat-line window is scaled by
+        the median period of the rows a call holds) and for a sensor's first
+        reading after a silence of over 3,600 rows (not checked for a jump).
+        Around a sequence model (which reads every run from its start) the
+        whole run is kept and given again with the new rows, so a block
+        costs in proportion to the run so far; the checked predictions equal
+        those of the run so far given again. Either way, the warnings of a
+        later :meth:`predict` speak of its own rows: a finding among the kept
+        rows was said when it began.
 
         Parameters
         ----------
@@ -916,6 +921,8 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         and which sensors have read anything are kept apart
         (:meth:`remember_runs`)."""
         n = reference.shape[0]
+        if sequence_models(self.estimator_):
+            return 0  # it reads every run from its start
         start = n - _KEEP_GOOD
 
         def last(mask):

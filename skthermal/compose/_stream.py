@@ -51,16 +51,17 @@ class RunStream:
       :func:`~skthermal.preprocessing.make_lag_pipeline` returns,
       :class:`~skthermal.preprocessing.LagFeatures`,
       :class:`~skthermal.linear_model.TransferFunctionRegressor`, and a
-      :class:`~skthermal.compose.GuardedRegressor` around a static model,
-      which keeps the last rows its checks read) keeps each run's end
-      state: every block costs the same, however long the run;
+      :class:`~skthermal.compose.GuardedRegressor`, which keeps the last
+      rows its checks read around a static model, each run so far around
+      a sequence model) keeps each run's end state: every block costs the
+      same, however long the run (around a guarded sequence model, in
+      proportion to the run so far);
     - a static model (no sequence model inside, not a guard) is given the
       new rows alone;
     - any other model (a Pipeline with a sequence step or a guard, a grey
-      regressor, a guard around a sequence model) is given each run's rows
-      so far with the new ones, and its predictions of the new rows are
-      returned: exact for every model, at a cost that grows with the run;
-      :meth:`forget` frees a finished run.
+      regressor) is given each run's rows so far with the new ones, and its
+      predictions of the new rows are returned: exact for every model, at a
+      cost that grows with the run; :meth:`forget` frees a finished run.
 
     A warning the model raised for an earlier block (or, after a run's
     first block, about the run's start) is not raised again; a guard's
@@ -190,11 +191,17 @@ class RunStream:
     def _refuses_equal_time(self):
         """Whether a block starting at the last time the stream has of its
         run is refused: by every stream except those of a static model or
-        a guard around one (a record logged twice)."""
-        return self._keeps_states() or self.mode_ == "history"
+        a guard around one (a record logged twice): a sequence model reads
+        the run's times in increasing order."""
+        return (
+            self._keeps_states()
+            or self.mode_ == "history"
+            or bool(sequence_models(self.model_))
+        )
 
     def _drop(self, lab):
         del self._spans[lab]
+        getattr(self, "_ends", {}).pop(lab, None)
         self._history.pop(lab, None)
         if self.mode_ == "incremental" and hasattr(self.model_, "forget_runs"):
             self.model_.forget_runs([lab])
@@ -219,7 +226,8 @@ class RunStream:
             X = X.iloc[order]
             labels, times = labels[order], times[order]
             groups = None if groups is None else np.asarray(groups)[order]
-        new = self._check_order(runs, times)
+        readings = _readings(X)
+        new = self._check_order(runs, times, readings)
         now = float(np.nanmax(times))  # for when a finding is said again
         kwargs = {} if groups is None else {"groups": groups}
         if self.mode_ == "history":
@@ -232,18 +240,22 @@ class RunStream:
             self.model_.remember_runs(X, **kwargs)
         else:
             out = getattr(self.model_, method)(X, **kwargs)
+        ends = self.__dict__.setdefault("_ends", {})
         for lab, a, b in runs:
             self._spans.setdefault(lab, [times[a], None])[1] = times[b - 1]
+            ends[lab] = (ends.get(lab, (readings[a],))[0], readings[b - 1])
         if reordered:
             back = np.empty_like(order)
             back[order] = np.arange(order.size)
             out = out.iloc[back] if hasattr(out, "iloc") else np.asarray(out)[back]
         return out
 
-    def _check_order(self, runs, times):
+    def _check_order(self, runs, times, readings):
         """The labels of the block's runs new to the stream. A known run
-        given again from its start restarts; one that does not start after
-        the stream's last time of it is an error."""
+        given again from its start restarts (said, and whether its readings
+        go on from the earlier run's last ones: a clock reset mid-run); one
+        that does not start after the stream's last time of it is an
+        error."""
         new = set()
         held = {}  # the held runs by their labels' text
         for k in self._spans:
@@ -270,13 +282,7 @@ class RunStream:
                 # sequence model given the run so far refused it itself,
                 # naming a row of the run so far the caller never gave.
                 if t0 in (0.0, span[0]):  # the run again from its start
-                    warnings.warn(
-                        f"Run {lab!r} starts again at time_s={t0:g}: taken as a "
-                        "new run under the same label; the stream's rows of the "
-                        f"earlier one (to time_s={span[1]:g}) are dropped.",
-                        UserWarning,
-                        stacklevel=4,
-                    )
+                    self._say_restart(lab, t0, span, readings[a])
                     self._drop(lab)
                     new.add(lab)
                     continue
@@ -289,6 +295,34 @@ class RunStream:
                     "first time_s (or forget(run) the old one)."
                 )
         return new
+
+    def _say_restart(self, lab, t0, span, first):
+        """Warn that run ``lab`` starts again at ``t0`` (its first readings
+        ``first``); with a sequence model inside, when those readings go on
+        from the earlier run's last ones rather than from its first (a
+        controller whose clock was reset mid-run, the machine warm), as a
+        :class:`~skthermal.compose.RunStartWarning`, saying what the model
+        makes of it."""
+        text = (
+            f"Run {lab!r} starts again at time_s={t0:g}: taken as a new run "
+            "under the same label; the stream's rows of the earlier one (to "
+            f"time_s={span[1]:g}) are dropped."
+        )
+        category = UserWarning
+        if sequence_models(self.model_) or _holds_guard(self.model_):
+            category = RunStartWarning
+            ends = getattr(self, "_ends", {}).get(lab)
+            if ends is not None and _goes_on(*ends, first):
+                text += (
+                    " Its first readings go on from the earlier run's last "
+                    "ones, not from where that run began: if the controller's "
+                    "clock was reset mid-run, the model now takes the warm "
+                    "machine for one at the start of a run, and its "
+                    "compensation is off from here. Give time_s going on from "
+                    f"{span[1]:g} to continue the run, or a new run label for "
+                    "a new run."
+                )
+        warnings.warn(text, category, stacklevel=5)
 
     def _say_new(self, caught, started, now, history=False):
         """Say the warnings of ``caught`` not said for an earlier block
@@ -376,6 +410,31 @@ def _said_key(w):
     # "1 row" and "2 rows" are one finding growing.
     text = re.sub(r"\b(row|sample|stretch)(?:e?s)\b", r"\1", text)
     return w.category, text
+
+
+def _readings(X):
+    """The block's numeric readings (not its run labels and times), one row
+    per row of ``X``."""
+    frame = X.select_dtypes(include=["number", "bool"])
+    frame = frame.drop(columns=[c for c in ("run", "time_s") if c in frame.columns])
+    return frame.to_numpy(dtype=float, na_value=np.nan)
+
+
+def _goes_on(first, last, new):
+    """Whether the readings ``new`` go on from ``last`` (an earlier run's
+    last row) rather than from ``first`` (its first row): nearer the end
+    than a quarter of their distance to the start, over the readings that
+    moved in that run."""
+    if not first.shape == last.shape == new.shape:
+        return False  # the blocks held other columns
+    moved = np.abs(last - first)
+    use = np.isfinite(moved) & np.isfinite(new) & (moved > 1e-9 * (1 + np.abs(first)))
+    if not use.any():
+        return False
+    scale = moved[use]
+    to_end = np.linalg.norm((new - last)[use] / scale)
+    to_start = np.linalg.norm((new - first)[use] / scale)
+    return bool(to_end < 0.25 * to_start)
 
 
 def _as_text(label):

@@ -28,6 +28,7 @@ import numpy as np
 from skthermal._naming import qualified_name
 from skthermal._optional import import_optional
 from skthermal._versions import package_versions
+from skthermal.utils._runs import sequence_models
 from skthermal.utils._wrappers import own_transform_output, transform_output
 
 _METADATA_NAME = "skthermal_metadata.json"
@@ -434,14 +435,15 @@ def save(model, path, *, compress=True):
     _check_dict_keys(model)
     _check_code(model)
     _check_output_config(model)
-    if getattr(model, "mode_", None) == "history" and getattr(model, "runs_", None):
+    if _keeps_whole_runs(model):
         # skops stores no pandas tables (its error, "no default __reduce__
-        # due to non-trivial __cinit__", named nothing of the model).
+        # due to non-trivial __cinit__", named nothing of the model), and a
+        # sequence model restarted mid-run is wrong from there on.
         raise TypeError(
             f"{type(model).__name__} keeps the rows of its runs so far as pandas "
-            "tables, which a skops file cannot hold. Save the stream with "
+            "tables, which a skops file cannot hold. Save it with "
             "joblib.dump (a pickle: it restarts mid-run exactly), or save its "
-            "model with skthermal.io.save and give the loaded stream each "
+            "model with skthermal.io.save and give the loaded one each "
             "run again from its first row."
         )
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
@@ -450,6 +452,17 @@ def save(model, path, *, compress=True):
     with zipfile.ZipFile(path, "a", compression=compression) as archive:
         archive.writestr(_METADATA_NAME, json.dumps(metadata, indent=2))
     return path
+
+
+def _keeps_whole_runs(model):
+    """Whether ``model`` holds the rows of runs so far that a sequence model
+    reads from their start: a :class:`~skthermal.compose.RunStream` giving
+    its model the runs so far, or a guard around a sequence model keeping
+    the runs streamed through it (both hold runs, and a sequence model)."""
+    if getattr(model, "mode_", None) == "history" and getattr(model, "runs_", None):
+        return True
+    inner = getattr(model, "model_", model)  # a stream's model
+    return bool(getattr(inner, "stream_runs_", None)) and bool(sequence_models(inner))
 
 
 def read_metadata(path):
