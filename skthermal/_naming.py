@@ -19,6 +19,37 @@ STRAIN_PATTERN = re.compile(rf"S{NAME}_ue")
 TARGET_PATTERN = re.compile(rf"disp_{NAME}_um")
 
 
+# A column that breaks a naming rule only in its separators or case:
+# (kind, its start to drop, its end to drop, the rule's start and end, rule).
+_RENAMES = (
+    ("a temperature sensor", "t", "_c", "T", "_C", TEMPERATURE_PATTERN),
+    ("a strain sensor", "s", "_ue", "S", "_ue", STRAIN_PATTERN),
+    ("a displacement", "disp", "_um", "disp_", "_um", TARGET_PATTERN),
+)
+
+
+def renamed(name, kind):
+    """The name ``name`` (meant for ``kind``: ``"a temperature sensor"``,
+    ``"a strain sensor"`` or ``"a displacement"``) has under its naming
+    rule when only its separators or the case of its marks are off
+    (``T_sp_front_C``: ``Tsp_front_C``), else None.
+
+    >>> renamed("T_fb_C", "a temperature sensor")
+    'Tfb_C'
+    """
+    norm = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
+    lower = norm.lower()
+    for meant, head, tail, start, end, rule in _RENAMES:
+        if kind != meant or not (lower.startswith(head) and lower.endswith(tail)):
+            continue
+        core = norm[len(head) : len(norm) - len(tail)].strip("_")
+        if norm.isupper():  # DISP_Z_UM: disp_z_um
+            core = core.lower()
+        candidate = f"{start}{core}{end}"
+        return candidate if core and rule.fullmatch(candidate) else None
+    return None
+
+
 def closest(name, choices):
     """The one of ``choices`` closest to a mistyped ``name`` (as text), or
     None when none is close."""

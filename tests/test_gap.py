@@ -647,6 +647,8 @@ def test_a_channel_the_machine_does_not_move_is_left_out(rig_runs):
     with pytest.warns(UserWarning, match=r"moves \['disp_ch5_um'\] by nothing"):
         report = diagnose(sketch, runs, **kw)
     assert "disp_ch5_um" not in report.settings["channels"]
+    # (Displacements alone: a lag of the sensors cannot act on them.)
+    kw["candidates"] = ["tool_growth"]
     with pytest.warns(UserWarning, match=r"compared as you chose"):
         report = diagnose(sketch, runs, channels=["disp_ch1_um", "disp_ch5_um"], **kw)
     assert "disp_ch5_um" in report.settings["channels"]
@@ -758,6 +760,18 @@ def test_a_candidate_that_cannot_act_is_not_scored(rig_runs):
     disp = [c for c in runs.columns if c.startswith("disp_")]
     with pytest.raises(ValueError, match="sensor_drift: it acts on temperature"):
         diagnose(rig, runs, candidates=["sensor_drift"], channels=disp, **FAST)
+    # A lag of the sensors, with only displacements compared: it changes
+    # them only through the start estimated from the sensors' first
+    # readings, and was scored, ranked first at 0% (an independent check).
+    with pytest.raises(ValueError, match="sensor_lag: adding it leaves every"):
+        diagnose(
+            rig,
+            runs,
+            candidates=["sensor_lag"],
+            channels=disp,
+            initial="measured",
+            **FAST,
+        )
 
 
 def test_a_candidate_names_the_part_the_machine_lacks(rig_runs):
@@ -1370,13 +1384,31 @@ def test_many_speed_levels_are_banded_in_the_regime_tables():
         residuals.append(rng.normal(size=(80, 2)))
     bands = speed_bands(regimes)
     assert 1 < len(set(bands.values())) <= MAX_SPEED_LEVELS
-    assert bands[min(bands, key=lambda s: int(s.split()[0]))].startswith("at 0-")
+    # Each band is labelled by the speeds run in it (an independent check:
+    # a top speed of 6000 rpm read "at 6000-7000 rpm").
+    run = sorted({int(s.split()[0]) for s in bands})
+    ends = [int(x) for b in bands.values() for x in b[3:-4].split("-")]
+    assert set(ends) <= set(run)
+    assert min(ends) == run[0] and max(ends) == run[-1]
     gaps = regime_gaps(residuals, regimes)
     shown = [r for r in gaps.index if r.startswith("at ")]
     slowest_first = sorted(
-        set(bands.values()), key=lambda r: float(r[3:].split("-")[0])
+        set(bands.values()), key=lambda r: int(r[3:-4].split("-")[0])
     )
     assert shown == slowest_first
+    # Speeds first met in a later run still come in order, after the
+    # other regimes.
+    late = [
+        label_regimes(np.arange(4) * 60.0, r)
+        for r in ([0, 4000, 4000, 0], [0, 1000, 2000, 3000])
+    ]
+    gaps = regime_gaps([rng.normal(size=(4, 2))] * 2, late)
+    assert list(gaps.index)[-4:] == [
+        "at 1000 rpm",
+        "at 2000 rpm",
+        "at 3000 rpm",
+        "at 4000 rpm",
+    ]
     few = [label_regimes(np.arange(4) * 60.0, [0, 4000, 8000, 8000])]
     assert speed_bands(few) == {"4000 rpm": "at 4000 rpm", "8000 rpm": "at 8000 rpm"}
 

@@ -270,6 +270,17 @@ def test_sensor_lag_is_named(rng):
     both = dataclasses.replace(report, ranking=ranking)
     assert both.verdict().startswith(report.verdict().split(" Not applicable")[0])
     assert "Alone, 'sensor_drift' (51%) also pass(es) the test" in both.verdict()
+    assert "Runner-up" not in report.verdict()
+    # One that comes close without passing is said too (an independent
+    # check: 'tool_growth' at 47% beside the named effect's 50%, unsaid).
+    named = float(ranking.loc[ranking["effect"] == "sensor_lag", "shrink"].iloc[0])
+    ranking.loc[ranking["effect"] == "sensor_drift", ["explains", "shrink"]] = [
+        False,
+        named - 0.05,
+    ]
+    close = dataclasses.replace(report, ranking=ranking).verdict()
+    assert f"Runner-up 'sensor_drift' removes {round(100 * (named - 0.05))}%" in close
+    assert "barely tell the two apart" in close
 
 
 def test_a_candidate_stopped_by_its_range_is_not_named(rng):

@@ -220,6 +220,12 @@ def test_a_small_machine_from_a_dict_simulates():
             r"sensor 'T3': .* named T<name>_C .*\(did you mean 'T3_C'\?\)",
         ),
         (
+            # An independent check: no hint, where a run-table column of the
+            # same name got one.
+            lambda d: d["sensors"].update(T_fb_C={"node": "housing"}),
+            r"sensor 'T_fb_C': .* named T<name>_C .*\(did you mean 'Tfb_C'\?\)",
+        ),
+        (
             lambda d: d["sensors"].update(disp_q_um={"node": "housing"}),
             r"sensor 'disp_q_um': .*'disp_q_um' is a displacement column",
         ),
@@ -673,6 +679,21 @@ def test_an_effect_that_cannot_act_is_off_by_default_and_warns_when_asked():
         ThermalMachine.from_spec(rig.to_spec())
 
 
+def test_without_axes_the_axes_are_the_displacement_tables():
+    # An independent check: a lathe's file with [displacement.z] and
+    # [displacement.x] and no axes got x, y and z, a spurious disp_y_um
+    # channel of noise alone (said by a warning only).
+    data = _small()
+    del data["axes"]
+    data["displacement"] = {"z": {"spindle": 2.0}, "x": {"housing": 1.0}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        spec = MachineSpec.from_dict(data)
+    assert spec.axes == ("z", "x")
+    del data["displacement"]
+    assert MachineSpec.from_dict(data).axes == ("x", "y", "z")
+
+
 def test_an_axis_without_coefficients_or_a_machine_without_heat_warns():
     data = _small()
     data["axes"] = ["z", "w"]  # no [displacement.w]
@@ -704,6 +725,11 @@ def test_a_node_that_fills_in_a_blink_warns_of_a_unit_slip():
         match=r"node 'spindle' takes up heat in 0.36 s \(capacity 2 J/K against "
         r"5.5 W/K .*J/K, not kJ/K",
     ):
+        ThermalMachine.from_spec(data, effects=[])
+    # An independent check's motor of 12 kJ/K written as 12 J/K filled in
+    # 1.3 s, past the warning (then at 1 s).
+    data["nodes"]["spindle"]["capacity_J_per_K"] = 12.0
+    with pytest.warns(UserWarning, match=r"node 'spindle' takes up heat in 2.2 s"):
         ThermalMachine.from_spec(data, effects=[])
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -22,6 +22,7 @@ from skthermal._naming import (
     TEMPERATURE_PATTERN,
     listed,
     plain,
+    renamed,
 )
 from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import (
@@ -199,32 +200,6 @@ def _looks_like(name):
     return None
 
 
-# A column that breaks a naming rule only in its separators or case:
-# (kind, its start to drop, its end to drop, the rule's start and end, valid).
-_RENAMES = (
-    ("a temperature sensor", "t", "_c", "T", "_C", _is_temperature),
-    ("a strain sensor", "s", "_ue", "S", "_ue", _is_strain),
-    ("a displacement", "disp", "_um", "disp_", "_um", _is_target),
-)
-
-
-def _renamed(name, kind):
-    """The name ``name`` (meant for ``kind``) has under its naming rule when
-    only its separators or the case of its marks are off (``T_sp_front_C``:
-    ``Tsp_front_C``), else None."""
-    norm = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")
-    lower = norm.lower()
-    for meant, head, tail, start, end, valid in _RENAMES:
-        if kind != meant or not (lower.startswith(head) and lower.endswith(tail)):
-            continue
-        core = norm[len(head) : len(norm) - len(tail)].strip("_")
-        if norm.isupper():  # DISP_Z_UM: disp_z_um
-            core = core.lower()
-        candidate = f"{start}{core}{end}"
-        return candidate if core and valid(candidate) else None
-    return None
-
-
 def _where(df, pos):
     """``run 'a', time_s 30.0 (row 2)`` for the row at position ``pos``."""
     parts = []
@@ -270,7 +245,7 @@ def _unit_hint(name, kind):
     _, end, said, how = conversion
     meant = f"{head}_{end}"
     if not (_is_target(meant) or _is_temperature(meant)):
-        meant = _renamed(meant, kind)
+        meant = renamed(meant, kind)
     return f" (in {said}? {how}" + (f" for {meant!r})" if meant else ")")
 
 
@@ -294,7 +269,7 @@ def check_column_names(columns, *, table="Run table", exempt=()):
             broken.setdefault(hit, []).append(name)
     problems = []
     for (kind, expected), names in broken.items():
-        renames = {n: _renamed(n, kind) for n in names[:4]}
+        renames = {n: renamed(n, kind) for n in names[:4]}
         renames = {n: r for n, r in renames.items() if r is not None}
         hint = ""
         if renames:

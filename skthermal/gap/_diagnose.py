@@ -689,10 +689,11 @@ def _not_applicable(problem, machine, candidates, simulated):
     head nodes for ``speed_convection``, no ball screw for
     ``feed_heating`` ...) says so. Otherwise a simulated effect is added to
     the machine at its reference parameters
-    (the calibration only scales them) and every run simulated: when no
-    compared channel changes on any run from ``simulated`` (the machine's
-    predictions, one per run), the effect has nothing to act on (e.g. no
-    feed axis, no feed, no lagging sensor compared). An effect modelled on
+    (the calibration only scales them) and every run simulated from its
+    initial state: when no compared channel changes on any run from
+    ``simulated`` (the machine's predictions, one per run), the effect has
+    nothing to act on (e.g. no feed axis, no feed, no lagging sensor
+    compared). An effect modelled on
     the residual (sensor drift) needs a compared temperature channel.
     """
     out = {}
@@ -707,8 +708,11 @@ def _not_applicable(problem, machine, candidates, simulated):
             out[c] = lacks
             continue
         with_c = machine.with_effects(add=[c])
+        # From the same start: with first readings, an effect on the
+        # sensors alone (a lag) changes the start estimated from them, and
+        # so every channel a little, whatever is compared.
         if not any(
-            np.max(np.abs(predict_run(with_c, problem, run) - b))
+            np.max(np.abs(predict_run(with_c, problem, run, same_start=True) - b))
             > 1e-9 * max(float(np.max(np.abs(b))), 1e-9)
             for run, b in zip(problem.runs, simulated, strict=True)
         ):

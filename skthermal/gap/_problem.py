@@ -763,7 +763,7 @@ def _channels_of(problem, run, values):
 PARTS = ("air", "bearing", "drive", "feed")
 
 
-def predict_run(machine, problem, run, parts=False):
+def predict_run(machine, problem, run, parts=False, same_start=False):
     """Simulated channels of one run (change since start, at ``run.rows``).
 
     The network and the sensors (with their lag) run at the measurement's own
@@ -771,13 +771,17 @@ def predict_run(machine, problem, run, parts=False):
     linear in its inputs, so with ``parts`` the prediction is returned as its
     parts driven by the air, the spindle bearings, the spindle drive (motor,
     belt and cutting) and the feed (shape ``(4, n, n_channels)``; their sum
-    is the prediction). Uses only the machine's public response API
-    (:meth:`ThermalMachine.response` and :meth:`ThermalMachine.read`).
+    is the prediction). With ``same_start``, the machine starts from the
+    run's own initial state (:attr:`MeasuredRun.initial`) whatever its
+    effects, not from its own estimate (:func:`run_initial`): what an
+    effect changes in the run itself. Uses only the machine's public
+    response API (:meth:`ThermalMachine.response` and
+    :meth:`ThermalMachine.read`).
     """
     dt = float(run.time_s[1] - run.time_s[0])
     air = run.ambient_C
     drivers = (run.time_s, run.spindle_rpm, air, run.feed_mm_min)
-    initial = run_initial(problem, run, machine)
+    initial = run.initial if same_start else run_initial(problem, run, machine)
 
     def read(T, ambient):
         values = machine.read(T, ambient, problem.sim_channels, sample_period_s=dt)

@@ -374,11 +374,12 @@ MAX_SPEED_LEVELS = 8
 
 
 def speed_bands(regimes):
-    """``{speed label: its regime label}`` over all runs' regimes: ``"at
-    4000 rpm"`` per speed, or, for more than :data:`MAX_SPEED_LEVELS`
-    speeds, ``"at 3000-4000 rpm"`` per band of a round width (100, 200,
-    250, 500, 1000, ... rpm) giving at most that many bands. Standstill
-    (``"0 rpm"``) has none."""
+    """``{speed label: its regime label}`` over all runs' regimes, slowest
+    first: ``"at 4000 rpm"`` per speed, or, for more than
+    :data:`MAX_SPEED_LEVELS` speeds, one per band of a round width (100,
+    200, 250, 500, 1000, ... rpm) giving at most that many bands, labelled
+    by the slowest and fastest speed run in it (``"at 3000-3500 rpm"``, or
+    ``"at 6000 rpm"`` for one speed). Standstill (``"0 rpm"``) has none."""
     labels = sorted(
         {s for lab in regimes for s in lab["speed"].unique() if s != "0 rpm"},
         key=lambda s: int(s.split()[0]),
@@ -389,11 +390,12 @@ def speed_bands(regimes):
     for w in [m * 10.0**e for e in range(2, 7) for m in (1, 2, 2.5, 5)]:
         first, last = np.floor(rpm[[0, -1]] / w)
         if last - first + 1 <= MAX_SPEED_LEVELS:
-            lows = np.floor(rpm / w) * w
-            return {
-                s: f"at {lo:g}-{lo + w:g} rpm"
-                for s, lo in zip(labels, lows, strict=True)
-            }
+            band = np.floor(rpm / w)
+            out = {}
+            for s, b in zip(labels, band, strict=True):
+                lo, hi = rpm[band == b].min(), rpm[band == b].max()
+                out[s] = f"at {lo:d} rpm" if lo == hi else f"at {lo:d}-{hi:d} rpm"
+            return out
     return dict.fromkeys(labels, "at speed")
 
 
@@ -423,4 +425,8 @@ def regime_gaps(Rs, regimes):
             if speed in groups:
                 rows.append(pd.DataFrame({"regime": band, "e": e[groups[speed]]}))
     frame = pd.concat(rows, ignore_index=True)
-    return frame.groupby("regime", sort=False)["e"].mean().pow(0.5)
+    gaps = frame.groupby("regime", sort=False)["e"].mean().pow(0.5)
+    # The speeds slowest first, after the other regimes (a band first met in
+    # a later run came last).
+    speeds = list(dict.fromkeys(b for b in bands.values() if b in gaps.index))
+    return gaps.reindex([r for r in gaps.index if r not in speeds] + speeds)

@@ -222,7 +222,7 @@ def _warn_idle_parts(spec, params):
 
 # A node whose capacity fills through its links and convection faster than
 # this (seconds) is taken for a unit slip (the presets' fastest: 61 s).
-FAST_NODE_S = 1.0
+FAST_NODE_S = 10.0
 
 
 def _fast_nodes(spec, params):

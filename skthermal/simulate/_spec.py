@@ -19,7 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from skthermal._naming import TARGET_PATTERN, TEMPERATURE_PATTERN, shown, suggest
+from skthermal._naming import (
+    TARGET_PATTERN,
+    TEMPERATURE_PATTERN,
+    renamed,
+    shown,
+    suggest,
+)
 from skthermal.simulate._drivers import _check_number
 from skthermal.simulate._effects import (
     ANY,
@@ -184,8 +190,10 @@ def _check_sensor_name(name):
         )
     hint = ""
     if isinstance(name, str):
-        guess = name if name.startswith("T") else f"T{name}"
-        guess = guess if guess.endswith("_C") else f"{guess}_C"
+        guess = renamed(name, "a temperature sensor")
+        if guess is None:
+            guess = name if name.startswith("T") else f"T{name}"
+            guess = guess if guess.endswith("_C") else f"{guess}_C"
         if TEMPERATURE_PATTERN.fullmatch(guess):
             hint = f" (did you mean {guess!r}?)"
     raise ValueError(f"{where}: {rule}{hint}.")
@@ -917,7 +925,8 @@ class MachineSpec:
 
             name = "my-rig"
             description = "..."
-            axes = ["x", "y", "z"]          # disp_<axis>_um columns
+            axes = ["x", "y", "z"]          # disp_<axis>_um columns (default:
+                                            # the [displacement.<axis>] tables)
 
             [roles]
             enclosure = "air"                # air node around the machine
@@ -1218,12 +1227,21 @@ class MachineSpec:
                     },
                 )
             )
-        axes = _check_names("axes", data.get("axes", ("x", "y", "z")))
+        disp = data.get("displacement", {})
+        if "axes" in data:
+            axes = _check_names("axes", data["axes"])
+        else:
+            # The axes of the [displacement.<axis>] tables, as written.
+            tables = [
+                k
+                for k, v in (disp.items() if isinstance(disp, dict) else ())
+                if k != "noise_um" and isinstance(v, dict)
+            ]
+            axes = _check_names("axes", tables or ("x", "y", "z"))
         for a in axes:
             _check_axis(a)
         if feed is not None and "axis" in feed and feed["axis"] not in axes:
             raise _unknown("heat source 'feed': axis", feed["axis"], axes, "axis")
-        disp = data.get("displacement", {})
         if isinstance(disp, dict):
             for key, value in disp.items():
                 if key not in axes and key != "noise_um" and isinstance(value, dict):
