@@ -543,9 +543,13 @@ def _add_gap(sub):
     p.add_argument(
         "--mapping",
         metavar="MEASURED=SIMULATED,...",
+        action="append",
         help="compare measured columns with simulated ones of other names, "
         "e.g. T1_C=sensor1,disp_x_um=dx (with --preset/--machine: the "
-        "machine's channel names)",
+        "machine's channel names); may be given again: give the pair of a "
+        'name holding a comma in its own --mapping ("T1_C=Temp, front '
+        '[C]"), or all pairs as a JSON object '
+        '(\'{"T1_C": "Temp, front [C]"}\')',
     )
     p.add_argument(
         "--block-hours",

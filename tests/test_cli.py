@@ -617,6 +617,25 @@ def test_fit_the_baselines_and_predict(capsys, workdir):
         capsys, "search", "--runs", workdir / "tests.csv", "--model", "ridge"
     )
     assert status != 0 and "nothing to search" in err
+    # Empty fields in columns the model does not read (the measured
+    # displacement, the air for a model on sensors alone) were refused,
+    # while the table without those columns was predicted.
+    table = pd.read_csv(workdir / "tests.csv")
+    table.loc[table.index[5:8], ["disp_y_um", "ambient_C"]] = np.nan
+    holes = workdir / "holes.csv"
+    table.to_csv(holes, index=False)
+    argv = ["predict", "--model", workdir / "ridge.joblib", "--runs", holes]
+    status, _, err = _run(capsys, *argv, "--out", workdir / "holes_pred.csv")
+    assert status == 0, err
+    out = pd.read_csv(workdir / "holes_pred.csv")
+    assert np.isfinite(out["pred_disp_y_um"]).all()
+    assert out["disp_y_um"].isna().sum() == 3
+    # A driver the model reads is still checked.
+    argv = ["predict", "--model", workdir / "lag-ridge.joblib", "--runs", holes]
+    table.loc[table.index[5], "spindle_rpm"] = np.nan
+    table.to_csv(holes, index=False)
+    status, _, err = _run(capsys, *argv, "--out", workdir / "holes_pred.csv")
+    assert status == 2 and "'spindle_rpm'" in err, err
 
 
 def test_predict_names_a_model_file_it_cannot_use(capsys, workdir, tmp_path):

@@ -138,6 +138,26 @@ def test_gap_simulated_mapping_and_channels(tables, tmp_path, capsys):
     status = main([*base, "--mapping", "disp_z_um=dz", "--channels", "disp_z_um"])
     out, err = capsys.readouterr()
     assert status == 0 and "warning" not in err, err
+    # Another tool's names holding commas (no way to give them before):
+    # each such pair in its own --mapping, or a JSON object; between two
+    # pairs of one value, a comma could belong to either name: an error.
+    sim_c = _write(
+        renamed.rename(columns={"sensor1": "Temp, front [C]", "sensor2": "T, rear"}),
+        tmp_path / "sim_c.csv",
+    )
+    base[2] = sim_c
+    assert main([*base, "--mapping", "T1_C=Temp, front [C],T2_C=T, rear"]) == 2
+    err = capsys.readouterr().err
+    assert "'front [C]' may end one name or start the next" in err, err
+    for mapping in (
+        ["--mapping", "T1_C=Temp, front [C]", "--mapping", "T2_C=T, rear"]
+        + ["--mapping", "disp_z_um=dz"],
+        ["--mapping", '{"T1_C": "Temp, front [C]", "T2_C": "T, rear"}']
+        + ["--mapping", "disp_z_um=dz"],
+    ):
+        status = main([*base, *mapping])
+        out, err = capsys.readouterr()
+        assert status == 0 and "warning" not in err, (mapping, err)
 
 
 @pytest.mark.parametrize(
@@ -145,6 +165,8 @@ def test_gap_simulated_mapping_and_channels(tables, tmp_path, capsys):
     [
         (["--mapping", "T1_C"], "is not MEASURED=SIMULATED"),
         (["--mapping", "T1_C=a,T1_C=b"], "mapped twice"),
+        (["--mapping", "T1_C=a", "--mapping", "T1_C=b"], "mapped twice"),
+        (["--mapping", '{"T1_C": 1}'], "not a JSON object of names"),
         (["--channels", "T1_C,T1_C"], "named more than once"),
         (["--max-samples", "2"], "--max-samples must be at least 3"),
         (["--block-hours", "0"], "--block-hours must be positive"),

@@ -292,6 +292,10 @@ def test_naming_errors_list_every_bad_column(runs):
         ("ambient_T_C", "ambient_C"),
         ("spindle_rev_min", "spindle_rpm"),
         ("spindle_rpm_act", "spindle_rpm"),
+        # A logger's speed column by its unit alone: kept as an unrelated
+        # extra, and the CLI fitted a model without any heat input.
+        ("rpm", "spindle_rpm"),
+        ("n [rpm]", "spindle_rpm"),
         # The workshop air by another name passed as an unrelated extra.
         ("air_C", "ambient_C"),
         ("room_temp_C", "ambient_C"),

@@ -2,6 +2,7 @@
 searches shared by several worker processes (SQLite, journal file and, when
 SKTHERMAL_TEST_POSTGRES_URL is set, PostgreSQL)."""
 
+import contextlib
 import json
 import os
 import re
@@ -88,6 +89,12 @@ def test_search_space_names_and_errors():
         search_space("anfis", epochs=[10, 20])
     with pytest.raises(ValueError, match="low must not exceed high"):
         search_space("anfis", epochs=(20, 10))
+    # The other rule base's size did nothing, silently.
+    with pytest.raises(ValueError, match=r"init='grid' draws n_mfs, not n_clusters"):
+        search_space("anfis", init="grid", n_clusters=(2, 4))
+    with pytest.raises(ValueError, match=r"init='fcm' draws n_clusters, not n_mfs"):
+        search_space("anfis", init="fcm", n_mfs=3)
+    search_space("anfis", init=["fcm", "grid"], n_clusters=(2, 4), n_mfs=2)
     # A whole-number parameter's range with a fractional bound drew values
     # outside it ((2.5, 4) drew 2), silently; whole floats are whole.
     with pytest.raises(ValueError, match=r"n_clusters is a whole number.*\(2\.5, 4\)"):
@@ -766,6 +773,45 @@ def test_make_storage_kinds(tmp_path):
         make_storage(3)
 
 
+def test_a_file_that_holds_no_study_is_refused_untouched(tmp_path):
+    # An independent check: an application's log named .log got an Optuna
+    # record appended, then "Extra data: line 1 column 5"; a file named .db
+    # that is no database gave SQLAlchemy's traceback; another
+    # application's database got Optuna's tables.
+    import sqlite3
+
+    log = tmp_path / "app.log"
+    log.write_text("2026-11-29 08:00 spindle warm-up started\n")
+    notdb = tmp_path / "notes.db"
+    notdb.write_text("not a database\n")
+    other = tmp_path / "other.db"
+    with contextlib.closing(sqlite3.connect(other)) as db:
+        db.execute("CREATE TABLE users (id INTEGER)")
+        db.commit()
+    real = tmp_path / "real.db"
+    optuna.create_study(storage=make_storage(real), study_name="s")
+    cut = tmp_path / "cut.db"
+    cut.write_bytes(real.read_bytes()[:5000])
+    cases = [
+        (log, r"'.*app\.log': the file exists and is not an Optuna journal"),
+        (notdb, r"'.*notes\.db': the file exists and is not an SQLite database"),
+        (other, r"holds another application's tables \('users'\), no studies"),
+        (cut, r"the SQLite database cannot be read \(database disk image"),
+    ]
+    for path, message in cases:
+        before = path.read_bytes()
+        with pytest.raises(ValueError, match=message + ".*nothing was written"):
+            make_storage(path)
+        assert path.read_bytes() == before
+    # Study files, and empty files, are taken.
+    make_storage(real)
+    journal = tmp_path / "study.log"
+    optuna.create_study(storage=make_storage(journal), study_name="s")
+    make_storage(journal)
+    (tmp_path / "empty.log").touch()
+    make_storage(tmp_path / "empty.log")
+
+
 def test_a_resumed_search_draws_new_points(runs_data, tmp_path):
     X, y, groups = runs_data
     kwargs = {
@@ -780,6 +826,135 @@ def test_a_resumed_search_draws_new_points(runs_data, tmp_path):
     result = run_search(ANFISRegressor(random_state=0), X, y, groups=groups, **kwargs)
     params = [tuple(sorted(t.params.items())) for t in result.study.trials]
     assert len(params) == 4 and params[2:] != params[:2]
+
+
+def test_the_library_s_wrappers_are_searched_inside(runs_data):
+    # An independent check: run_search(make_model("anfis-fcm")) (the CLI's
+    # model, a run-start wrapper) and a guarded ANFIS had "No built-in
+    # search space", and pruning="epochs" was refused for them.
+    from skthermal.compose import GuardedRegressor
+    from skthermal.models import make_model
+
+    X, y, groups = runs_data
+    kwargs = {"groups": groups, "n_trials": 2, "random_state": 0}
+    kwargs["pruner"] = optuna.pruners.MedianPruner()
+    for model in (
+        make_model("anfis-fcm", random_state=0, quick=True),
+        GuardedRegressor(ANFISRegressor(epochs=3, random_state=0)),
+    ):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            result = run_search(model, X, y, pruning="epochs", **kwargs)
+        assert "estimator__n_clusters" in result.best_params_ or (
+            "estimator__n_mfs" in result.best_params_
+        )
+        assert type(result.best_estimator_) is type(model)
+
+
+def test_a_study_not_to_join_is_said_in_run_search_s_words(runs_data, tmp_path):
+    # Optuna's DuplicatedStudyError advised its command line's
+    # --skip-if-exists.
+    X, y, groups = runs_data
+    kwargs = {"groups": groups, "n_trials": 1, "refit": False, "study_name": "s"}
+    kwargs["storage"] = tmp_path / "s.db"
+    est = GreyPSORegressor(calibration="ls")
+    run_search(est, X, y, **kwargs)
+    with pytest.raises(ValueError, match=r"already holds a study 's', and load_if"):
+        run_search(est, X, y, load_if_exists=False, **kwargs)
+
+
+def test_a_target_with_holes_is_refused_once(runs_data):
+    # An independent check: every trial failed on it, one by one, up to
+    # max_failed_trials.
+    X, y, groups = runs_data
+    y = y.copy()
+    y.iloc[[7, 9]] = np.nan
+    with pytest.raises(
+        ValueError, match=r"y has 2 missing or infinite value\(s\), the first at row 7"
+    ):
+        run_search(ANFISRegressor(random_state=0), X, y, groups=groups, n_trials=3)
+
+
+def test_an_unseeded_estimator_is_said(runs_data):
+    # An independent check: ANFIS with random_state=None searched with
+    # run_search(random_state=0) twice gave other best scores, and the
+    # refitted best model was not the one scored (-3.78 against -3.90 when
+    # scored again), silently.
+    X, y, groups = runs_data
+    kwargs = {"groups": groups, "n_trials": 1, "refit": False, "random_state": 0}
+    space = _small_anfis_space()
+    with pytest.warns(UserWarning, match=r"'random_state' of ANFISRegressor is None"):
+        run_search(ANFISRegressor(), X, y, space=space, **kwargs)
+    pipe = make_pipeline(StandardScaler(), ANFISRegressor(epochs=3))
+
+    def clusters(trial):
+        return {"anfisregressor__n_clusters": trial.suggest_int("n", 2, 3)}
+
+    with pytest.warns(UserWarning, match=r"'anfisregressor__random_state' of Pipe"):
+        run_search(pipe, X, y, space=clusters, **kwargs)
+    with pytest.warns(UserWarning, match=r"'random_state' of GreyPSORegressor"):
+        grey = GreyPSORegressor(calibration="pso", epochs=3, n_particles=4)
+        run_search(
+            grey, X, y, space=lambda t: {"delay": t.suggest_int("d", 0, 1)}, **kwargs
+        )
+
+    def seeded(trial):  # the space sets the seed
+        return {**space(trial), "random_state": trial.suggest_int("seed", 0, 9)}
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run_search(ANFISRegressor(random_state=0), X, y, space=space, **kwargs)
+        run_search(ANFISRegressor(), X, y, space=seeded, **kwargs)
+        # Settings that draw no random numbers: nothing to seed.
+        grid = {"init": "grid", "n_mfs": 2, "epochs": 3}
+        run_search(ANFISRegressor(), X.iloc[:, :2], y, space=lambda t: grid, **kwargs)
+        run_search(GreyPSORegressor(calibration="ls"), X, y, **kwargs)
+    assert not [w for w in caught if "draws its own start" in str(w.message)]
+
+
+@pytest.mark.parametrize("ext", ["db", "log"])
+def test_two_searches_started_together_do_not_both_join(
+    runs_data, tmp_path, monkeypatch, ext
+):
+    # An independent check: two workers started at the same moment on a
+    # new study name, on 3 and on 2 sensors, both found no setup to check
+    # and both recorded theirs (3 of 4 tries with a journal file): their
+    # trials were ranked together. The first here records its setup late.
+    import threading
+
+    from skthermal.model_selection import _search
+
+    X, y, groups = runs_data
+    record = _search._record_setup
+    made = threading.Event()
+
+    def late_record(study, setup, missing):
+        if threading.current_thread().name == "first":
+            made.set()
+            time.sleep(1.0)
+        record(study, setup, missing)
+
+    monkeypatch.setattr(_search, "_record_setup", late_record)
+    kwargs = {
+        "groups": groups,
+        "space": _small_anfis_space(),
+        "n_trials": 1,
+        "storage": tmp_path / f"race.{ext}",
+        "study_name": "race",
+        "refit": False,
+    }
+    out = {}
+
+    def first():
+        out["first"] = run_search(ANFISRegressor(random_state=0), X, y, **kwargs)
+
+    thread = threading.Thread(target=first, name="first")
+    thread.start()
+    assert made.wait(30)
+    with pytest.raises(ValueError, match=r"made by another search \(features"):
+        run_search(ANFISRegressor(random_state=0), X.iloc[:, :2], y, **kwargs)
+    thread.join()
+    assert len(out["first"].study.trials) == 1
 
 
 def test_a_study_of_another_search_is_refused(runs_data, tmp_path):

@@ -88,12 +88,17 @@ def label_text(run):
     return run.astype(str).to_numpy(object)
 
 
-def read_table(path, what="--runs", *, validate=True, allow_missing_sensors=False):
+def read_table(
+    path, what="--runs", *, validate=True, allow_missing_sensors=False, unchecked=None
+):
     """Read (and validate) a run table, naming the option on failure.
     ``allow_missing_sensors``: missing sensor readings pass the validation
-    (for a model that holds over them)."""
+    (for a model that holds over them); ``unchecked``: a function of the
+    table's columns giving those the command does not read, left out of
+    the validation (a measured displacement, or a driver, with empty fields
+    on a table to predict)."""
     from skthermal.datasets import read_runs
-    from skthermal.datasets._runtable import SKIP_VALIDATION
+    from skthermal.datasets._runtable import SKIP_VALIDATION, check_run_table
 
     if path is None:
         raise UserError(f"{what} FILE is required.")
@@ -103,9 +108,18 @@ def read_table(path, what="--runs", *, validate=True, allow_missing_sensors=Fals
     if path.is_dir():
         raise UserError(f"{what}: {path} is a folder, not a run table file.")
     try:
-        return read_runs(
-            path, validate=validate, allow_missing_sensors=allow_missing_sensors
+        if not unchecked or not validate:
+            return read_runs(
+                path, validate=validate, allow_missing_sensors=allow_missing_sensors
+            )
+        df = read_runs(path, validate=False)
+        used = df.drop(columns=list(unchecked(df.columns)))
+        check_run_table(
+            used,
+            allow_missing_sensors=allow_missing_sensors,
+            missing_hint=SKIP_VALIDATION,
         )
+        return df
     except UnicodeDecodeError as exc:
         raise UserError(
             f"{what} {path}: not a text CSV run table (binary data; use .csv, "
@@ -168,8 +182,9 @@ def check_out_path(path, option, *, folder=False):
             break
 
 
-def write_table(df, path, *, metadata=None, allow_missing_sensors=False):
-    """Write a run table (validated; ``allow_missing_sensors`` as in
+def write_table(df, path, *, metadata=None, allow_missing_sensors=False, validate=True):
+    """Write a run table (validated unless ``validate=False``: a table read
+    with columns left unchecked; ``allow_missing_sensors`` as in
     :func:`read_table`)."""
     from skthermal.datasets import write_runs
 
@@ -179,7 +194,11 @@ def write_table(df, path, *, metadata=None, allow_missing_sensors=False):
         path.parent.mkdir(parents=True, exist_ok=True)
     try:
         write_runs(
-            df, path, metadata=metadata, allow_missing_sensors=allow_missing_sensors
+            df,
+            path,
+            metadata=metadata,
+            validate=validate,
+            allow_missing_sensors=allow_missing_sensors,
         )
     except ImportError as exc:  # Parquet without pyarrow
         raise UserError(f"{path}: {exc}") from exc

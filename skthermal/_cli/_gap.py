@@ -2,6 +2,7 @@
 
 import contextlib
 import inspect
+import json
 import logging
 import re
 import sys
@@ -150,11 +151,17 @@ def _channel_columns(df):
 
 
 def parse_mapping(value):
-    """``"T1_C=sensor1,disp_x_um=dx"`` -> ``{"T1_C": "sensor1", ...}``."""
+    """``"T1_C=sensor1,disp_x_um=dx"`` -> ``{"T1_C": "sensor1", ...}``.
+
+    ``value``: one string or several (the option given again); each a JSON
+    object, or comma-separated pairs. A comma inside a name (another tool's
+    column, ``"Temp, front [C]=T1_C"``) is read as part of it in a value of
+    one pair; between two pairs it could end one name or start the next,
+    and is an error saying so."""
     if value is None:
         return None
     mapping = {}
-    for item in split_list(value):
+    for item in _mapping_pairs([value] if isinstance(value, str) else value):
         measured, sep, simulated = item.partition("=")
         if not sep or not measured or not simulated or "=" in simulated:
             raise UserError(
@@ -167,6 +174,51 @@ def parse_mapping(value):
     if not mapping:
         raise UserError("--mapping: give at least one MEASURED=SIMULATED pair.")
     return mapping
+
+
+def _mapping_pairs(values):
+    """The ``MEASURED=SIMULATED`` items of the ``--mapping`` values (see
+    :func:`parse_mapping`)."""
+    items = []
+    for value in values:
+        if value.lstrip().startswith("{"):
+            try:
+                pairs = json.loads(value)
+            except json.JSONDecodeError as exc:
+                raise UserError(
+                    f"--mapping: {value!r} is not a JSON object ({exc.msg})."
+                ) from None
+            if not isinstance(pairs, dict) or not all(
+                isinstance(k, str) and isinstance(v, str) for k, v in pairs.items()
+            ):
+                raise UserError(
+                    f"--mapping: {value!r} is not a JSON object of names "
+                    '(e.g. \'{"Temp, front [C]": "T1_C"}\').'
+                )
+            items += [f"{k}={v}" for k, v in pairs.items()]
+            continue
+        pieces = [p for p in value.split(",") if p.strip()]
+        pairs, held = [], []
+        for piece in pieces:
+            if "=" not in piece:
+                held.append(piece)
+                continue
+            if held and pairs:
+                raise UserError(
+                    f"--mapping: in {value!r}, {','.join(held).strip()!r} may "
+                    "end one name or start the next: give the pair of a name "
+                    "holding a comma in its own --mapping (e.g. --mapping "
+                    '"T1_C=Temp, front [C]"), or all pairs as a JSON object.'
+                )
+            pairs.append(",".join([*held, piece]).strip())
+            held = []
+        if held:
+            if pairs:  # the end of the last pair's simulated name
+                pairs[-1] = ",".join([pairs[-1], *held]).strip()
+            else:
+                pairs.append(",".join(held).strip())  # no pair: said below
+        items += pairs
+    return items
 
 
 def parse_channels(value):

@@ -459,6 +459,17 @@ def _check_model_sensors(df, bundle, path):
         check_used_sensors(df, bundle["sensors"], path)
 
 
+def _unread_columns(columns, bundle):
+    """The displacement and driver ``columns`` of a run table that the saved
+    model does not read (``bundle["sensors"]``)."""
+    from skthermal.datasets import driver_columns, target_columns
+
+    read = set(bundle["sensors"])
+    return [
+        c for c in [*target_columns(columns), *driver_columns(columns)] if c not in read
+    ]
+
+
 def cmd_predict(args):
     from skthermal.datasets import read_runs
 
@@ -466,8 +477,15 @@ def cmd_predict(args):
     check_out_path(args.out, "--out")
     bundle = load_model(args.model)
     # Sensors the model does not read may miss readings; a guard in "hold"
-    # mode holds the compensation over those of its own.
-    df = read_table(args.runs, allow_missing_sensors=True)
+    # mode holds the compensation over those of its own. Nor are the
+    # measured displacements, or drivers it does not read, checked (a
+    # production run's probe is absent or drops out).
+    df = read_table(
+        args.runs,
+        allow_missing_sensors=True,
+        unchecked=lambda columns: _unread_columns(columns, bundle),
+    )
+    unread = _unread_columns(df.columns, bundle)
     _check_model_sensors(df, bundle, args.runs)
     pred, checked = _predict(
         bundle, df, f"nothing was written to {args.out}", f"--runs {args.runs}"
@@ -486,6 +504,7 @@ def cmd_predict(args):
         args.out,
         metadata=meta if meta is not None and len(meta) else None,
         allow_missing_sensors=True,
+        validate=not unread,  # its columns as read, with the predictions
     )
     lost = ""
     if checked is not None and (checked["action"] == "unavailable").any():

@@ -21,6 +21,7 @@ import threading
 import time
 import warnings
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -209,6 +210,7 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
                 max_retry,
                 heartbeat_interval,
             )
+            _check_journal_file(text)
             return _journal_storage(optuna, text)
         if not lower.endswith(_SQLITE_SUFFIXES):
             raise ValueError(
@@ -217,6 +219,7 @@ def make_storage(spec, *, heartbeat_interval="auto", grace_period=None, max_retr
                 f"{' / '.join(_JOURNAL_SUFFIXES)} (journal file), or a database "
                 "URL such as sqlite:///study.db or postgresql://user@host/db."
             )
+        _check_sqlite_file(text)
         text = "sqlite:///" + os.path.abspath(text)
     return _rdb_storage(optuna, text, heartbeat_interval, grace_period, max_retry)
 
@@ -237,6 +240,66 @@ def _check_no_heartbeat_options(why, grace_period, max_retry, interval="auto"):
             "database storage with heartbeat_interval.",
             UserWarning,
             stacklevel=user_stacklevel(),
+        )
+
+
+_NOT_A_STUDY = (
+    "give a new file name (the study file is made there) or a study file "
+    "of skthermal or Optuna; nothing was written to it"
+)
+
+
+def _check_journal_file(path):
+    """Refuse an existing file at ``path`` that is not an Optuna journal
+    (an application's log named .log), before anything is appended to it:
+    Optuna wrote its record into it and then failed on the file's own lines
+    ("Extra data: line 1 column 5"), naming neither."""
+    if not os.path.isfile(path) or os.path.getsize(path) == 0:
+        return
+    with open(path, "rb") as f:
+        first = f.readline(1 << 16)
+    try:
+        record = json.loads(first)
+    except ValueError:
+        record = None
+    if not (isinstance(record, dict) and "op_code" in record):
+        raise ValueError(
+            f"storage {path!r}: the file exists and is not an Optuna journal "
+            f"(its first line is no journal record): {_NOT_A_STUDY}."
+        )
+
+
+def _check_sqlite_file(path):
+    """Refuse an existing file at ``path`` that is not an SQLite database
+    of studies, before anything is written to it (SQLAlchemy's traceback
+    named neither; another application's database got Optuna's tables)."""
+    if not os.path.isfile(path) or os.path.getsize(path) == 0:
+        return
+    import sqlite3
+
+    with open(path, "rb") as f:
+        header = f.read(16)
+    if header != b"SQLite format 3\x00":
+        raise ValueError(
+            f"storage {path!r}: the file exists and is not an SQLite database: "
+            f"{_NOT_A_STUDY}."
+        )
+    query = "SELECT name FROM sqlite_master WHERE type='table'"
+    try:
+        uri = Path(os.path.abspath(path)).as_uri() + "?mode=ro"
+        read_only = sqlite3.connect(uri, uri=True)
+        with contextlib.closing(read_only) as db:
+            tables = {row[0] for row in db.execute(query)}
+    except sqlite3.Error as exc:
+        raise ValueError(
+            f"storage {path!r}: the SQLite database cannot be read ({exc}): "
+            f"{_NOT_A_STUDY}."
+        ) from None
+    if tables and "studies" not in tables:
+        raise ValueError(
+            f"storage {path!r}: the SQLite database holds another application's "
+            f"tables ({listed(sorted(tables), show=repr)}), no studies: "
+            f"{_NOT_A_STUDY}."
         )
 
 
@@ -492,16 +555,31 @@ def fail_stale_trials(study, *, heartbeat=True, local_processes=True, storage=No
 # --------------------------------------------------------------------------
 
 
+def _wrapped(estimator):
+    """The estimator a wrapper holds in its ``estimator`` parameter (the
+    library's run-start and guard wrappers, scikit-learn's convention), or
+    None."""
+    if isinstance(estimator, Pipeline) or not hasattr(estimator, "get_params"):
+        return None
+    inner = estimator.get_params(deep=False).get("estimator")
+    return inner if hasattr(inner, "fit") else None
+
+
 def _final_step(estimator, prefix=""):
-    """The last estimator of (nested) pipelines and its parameter prefix."""
+    """The last estimator of (nested) pipelines, inside wrappers
+    (:func:`_wrapped`), and its parameter prefix."""
     if isinstance(estimator, Pipeline):
         name, step = estimator.steps[-1]
         return _final_step(step, f"{prefix}{name}__")
+    inner = _wrapped(estimator)
+    if inner is not None:
+        return _final_step(inner, f"{prefix}estimator__")
     return estimator, prefix
 
 
 def _infer_space(estimator):
-    """The built-in spaces of an estimator or of the steps of a pipeline."""
+    """The built-in spaces of an estimator, of the steps of a pipeline, or
+    of the estimator a wrapper holds."""
     if isinstance(estimator, Pipeline):
         spaces = []
         for name, step in estimator.steps:
@@ -510,7 +588,41 @@ def _infer_space(estimator):
                 spaces.append(PrefixedSpace(name, inner))
         return combine_spaces(*spaces) if spaces else None
     name = _default_space_name(estimator)
+    if name is None and _wrapped(estimator) is not None:
+        inner = _infer_space(_wrapped(estimator))
+        return None if inner is None else PrefixedSpace("estimator", inner)
     return None if name is None else search_space(name)
+
+
+def _check_target_finite(y):
+    """Refuse a target with missing or infinite values once, naming the
+    first (every trial failed on it one by one, up to max_failed_trials)."""
+    try:
+        values = np.asarray(y, dtype=float)
+    except (TypeError, ValueError):
+        return  # the estimator says what it makes of it
+    bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+    if not bad.any():
+        return
+    row = int(np.flatnonzero(bad)[0])
+    index = getattr(y, "index", None)
+    where = f"row {row}"
+    if index is not None:
+        label = index[row]
+        names = [n for n in (index.names or []) if n is not None]
+        if names and isinstance(label, tuple):
+            where += (
+                " ("
+                + ", ".join(
+                    f"{n} {plain(v)!r}" for n, v in zip(names, label, strict=False)
+                )
+                + ")"
+            )
+    raise ValueError(
+        f"y has {int(bad.sum())} missing or infinite value(s), the first at "
+        f"{where}: no trial could score it. Drop those rows (X, y and groups "
+        "alike) or fill them before searching."
+    )
 
 
 def _resolve_space(space, estimator):
@@ -941,6 +1053,51 @@ def _seeds(estimator):
     return out
 
 
+def _warn_unseeded(estimator, searched):
+    """Warn when a seed of ``estimator`` is None and the space does not set
+    it (``searched``): every fit then draws its own start, so the trials'
+    scores are not reproducible and the refitted best model is not the one
+    scored (an independent check: best score -3.78, the same parameters
+    -3.90 to -3.93 when scored again)."""
+    params = {**estimator.get_params(deep=True), **searched}
+    unseeded = [
+        name
+        for name, value in _seeds(estimator).items()
+        if value is None and name not in searched and _draws(params, name)
+    ]
+    if unseeded:
+        warnings.warn(
+            f"{listed(unseeded, show=repr)} of {type(estimator).__name__} "
+            f"{'is' if len(unseeded) == 1 else 'are'} None: every fit draws its "
+            "own start, so the trials' scores cannot be reproduced and the "
+            "refitted best estimator is not the model that was scored "
+            "(random_state= of run_search seeds the sampler only). Give the "
+            f"estimator a seed, e.g. set_params({unseeded[0]}=0).",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
+
+
+# Settings under which the library's estimators draw no random numbers,
+# whatever their random_state: {parameter: values}.
+_DETERMINISTIC = {"calibration": ("varpro", "ls"), "init": ("grid",)}
+
+
+def _draws(params, seed):
+    """Whether the estimator owning the parameter ``seed`` (``a__random_state``)
+    may draw random numbers with the settings ``params``: not a grey model
+    calibrated by variable projection or least squares, nor an ANFIS with a
+    grid rule base (given as "grid" or as membership functions)."""
+    prefix = seed[: -len("random_state")]
+    for name, values in _DETERMINISTIC.items():
+        value = params.get(prefix + name)
+        if isinstance(value, str) and value in values:
+            return False
+        if name == "init" and value is not None and not isinstance(value, str):
+            return False  # initial grid membership functions given
+    return True
+
+
 def _seeds_of(trial, estimator):
     """The seeds ``trial`` was scored with where they differ from the
     ``estimator``'s, with a warning naming them; {} when they agree or the
@@ -1235,6 +1392,54 @@ def _check_study_setup(study, setup, direction, space=None):
             stacklevel=4,
         )
     return missing
+
+
+# How long a search joining a study without a recorded setup or trials
+# waits for the search that made it to record its setup (s): that one
+# records it within milliseconds of making the study, before its first
+# trial; a study made outside run_search (optuna create-study) costs a
+# joining worker this wait once.
+SETUP_WAIT_S = 2.0
+
+
+def _open_study(optuna, store, name, load_if_exists, **kwargs):
+    """The study ``name`` of ``store``, made by this search or joined.
+
+    Two searches started together on a new name both found no setup to
+    check and both recorded theirs, mixing incomparable trials (an
+    independent check: 3 of 4 tries with a journal file). Making the study
+    is atomic in the storage (one of them gets ``DuplicatedStudyError``),
+    so the search that made it records its setup, and one that joins a
+    study without a recorded setup or trials waits up to
+    :data:`SETUP_WAIT_S` for it before checking against it."""
+    if store is None or not load_if_exists:
+        try:
+            return optuna.create_study(
+                storage=store, study_name=name, load_if_exists=load_if_exists, **kwargs
+            )
+        except optuna.exceptions.DuplicatedStudyError:
+            # Optuna's text advises its own command line's --skip-if-exists.
+            raise ValueError(
+                f"The storage already holds a study {name!r}, and "
+                "load_if_exists=False does not join one: give another "
+                "study_name, or load_if_exists=True to add trials to it."
+            ) from None
+    try:
+        return optuna.create_study(
+            storage=store, study_name=name, load_if_exists=False, **kwargs
+        )
+    except optuna.exceptions.DuplicatedStudyError:
+        study = optuna.create_study(
+            storage=store, study_name=name, load_if_exists=True, **kwargs
+        )
+    deadline = time.monotonic() + SETUP_WAIT_S
+    while (
+        "skthermal_version" not in study.user_attrs
+        and not study.get_trials(deepcopy=False)
+        and time.monotonic() < deadline
+    ):
+        time.sleep(0.05)
+    return study
 
 
 def _record_setup(study, setup, missing):
@@ -1579,7 +1784,8 @@ def run_search(
         Trials run in parallel threads of this process (Optuna's
         ``n_jobs``); for more throughput start more processes instead.
     random_state : int or None, default=None
-        Seed of the default sampler.
+        Seed of the default sampler (not of the estimator: an estimator
+        whose ``random_state`` is None, and not set by the space, warns).
     load_if_exists : bool, default=True
         Join the study if it exists (how workers share it).
     heartbeat_interval, grace_period, max_retry
@@ -1664,6 +1870,7 @@ def run_search(
             "worst trial; use direction='maximize' (the default), or a scoring "
             "callable whose smaller values are better."
         )
+    _check_target_finite(y)
     space = _resolve_space(space, estimator)
     _check_space_values(space, estimator)
     said = groups is not None  # run labels the user gave explicitly
@@ -1701,13 +1908,14 @@ def run_search(
         check_stored_study(store, study_name, storage)
     if pruner is None:
         pruner = optuna.pruners.NopPruner()
-    study = optuna.create_study(
-        storage=store,
-        study_name=study_name,
+    study = _open_study(
+        optuna,
+        store,
+        study_name,
+        load_if_exists,
         direction=direction,
         sampler=sampler,
         pruner=pruner,
-        load_if_exists=load_if_exists,
     )
     missing = _check_study_setup(study, setup, direction, space)
     complete = (optuna.trial.TrialState.COMPLETE,)
@@ -1761,6 +1969,7 @@ def run_search(
         warnings.warn(no_best_trial(study), UserWarning, stacklevel=3)
     if best_trial is not None:
         best_params = _replay(space, best_trial)
+        _warn_unseeded(estimator, best_params)
         if refit:
             seeds = _seeds_of(best_trial, estimator)
             best_estimator = clone(estimator).set_params(**{**seeds, **best_params})

@@ -368,6 +368,17 @@ def search_space(name, *, prefix=None, **ranges):
     for key, spec in ranges.items():
         merged[key] = _check_spec(key, spec, defaults[key])
         _check_override(name, key, merged[key])
+    if name == "anfis" and isinstance(merged["init"], str):
+        # The other rule base's size is never drawn: an override of it did
+        # nothing, silently.
+        unused = {"grid": "n_clusters", "fcm": "n_mfs"}[merged["init"]]
+        if unused in ranges:
+            used = {"grid": "n_mfs", "fcm": "n_clusters"}[merged["init"]]
+            raise ValueError(
+                f"Search space 'anfis' with init={merged['init']!r} draws "
+                f"{used}, not {unused}: give {used}=..., or init=['fcm', "
+                "'grid'] to search both rule bases."
+            )
     if prefix is not None and (not isinstance(prefix, str) or not prefix):
         raise ValueError(f"prefix must be a non-empty string, got {prefix!r}.")
     return SearchSpace(name, prefix, merged)

@@ -50,8 +50,9 @@ DRIVER_LOOKALIKES = {
         r"(_?(c|f|k|deg_?c|deg_?f|°c|°f|kelvin|celsius|fahrenheit))?_*"
     ),
     "spindle_rpm": re.compile(
-        r"(spindle(_?(speed|n))?|speed)"
+        r"((spindle(_?(speed|n))?|speed)"
         r"(_?(rpm|rps|hz|rad_?s|1/min|min-1|min\^-1|u/min|rev_?min|r_?min|rev_?s))?"
+        r"|(n_?)?rpm)"  # the unit alone: a logger's "rpm" or "n [rpm]"
         r"(_?(act|actual|meas|measured))?_*"
     ),
     "feed_mm_min": re.compile(
