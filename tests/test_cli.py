@@ -797,6 +797,16 @@ def test_fit_and_predict_with_a_safe_skops_file(capsys, workdir):
     status, _, err = _run(capsys, *argv, "--out", pred)
     assert status == 0, err
     assert "pred_disp_y_um" in pd.read_csv(pred).columns
+    # The same file under another name loads as what it is (it met the
+    # unpickler: "persistent IDs in protocol 0 must be ASCII strings").
+    renamed = workdir / "safe_renamed.joblib"
+    renamed.write_bytes(model.read_bytes())
+    argv = ["predict", "--model", renamed, "--runs", workdir / "tests.csv"]
+    status, _, err = _run(capsys, *argv, "--out", workdir / "safe_renamed.csv")
+    assert status == 0, err
+    pd.testing.assert_frame_equal(
+        pd.read_csv(workdir / "safe_renamed.csv"), pd.read_csv(pred)
+    )
 
 
 def test_fit_set_parameters(capsys, workdir):

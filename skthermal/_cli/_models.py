@@ -8,6 +8,7 @@ with :func:`skthermal.io.save` (``.skops``) or joblib (any other name).
 import json
 import re
 import warnings
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +99,11 @@ def load_model(path):
             f"--model {path}: {kind}, not a model file; write one with "
             "'skthermal fit --runs RUNS --out model.joblib' (or .skops)."
         )
+    # A skops archive loads as one whatever its name (a .skops file renamed
+    # .joblib met the unpickler: "persistent IDs in protocol 0 ...").
+    safe = _is_skops(path) or zipfile.is_zipfile(path)
     try:
-        if _is_skops(path):
+        if safe:
             from skthermal.io import load
 
             bundle = load(path)
@@ -115,7 +119,7 @@ def load_model(path):
         ) from exc
     if not isinstance(bundle, dict) or bundle.get("format") != MODEL_FORMAT:
         raise UserError(f"--model {path}: not a model file written by 'skthermal fit'.")
-    if not _is_skops(path):  # skthermal.io.load checked a .skops file's versions
+    if not safe:  # skthermal.io.load checked a skops file's versions
         from skthermal import __version__
         from skthermal.io import SkthermalVersionWarning
 

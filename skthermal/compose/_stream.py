@@ -19,6 +19,8 @@ from sklearn.utils.validation import check_is_fitted
 from skthermal.compose._guard import GuardWarning, RunStartWarning
 from skthermal.utils._runs import (
     LATE_START_WARNING,
+    RUN_COLUMN,
+    TIME_COLUMN,
     extract_runs,
     row_times,
     rows_by_run,
@@ -130,6 +132,12 @@ class RunStream:
         self._history = {}
         self._said = {}  # warning key -> the block's last time_s when said
         self._texts = {}  # warning key -> its text in the last block
+        self._ends = {}  # label -> (its first readings, its last readings)
+
+    def __setstate__(self, state):
+        # A stream pickled by an earlier version kept no readings.
+        state.setdefault("_ends", {})
+        self.__dict__.update(state)
 
     @property
     def runs_(self):
@@ -201,7 +209,7 @@ class RunStream:
 
     def _drop(self, lab):
         del self._spans[lab]
-        getattr(self, "_ends", {}).pop(lab, None)
+        self._ends.pop(lab, None)
         self._history.pop(lab, None)
         if self.mode_ == "incremental" and hasattr(self.model_, "forget_runs"):
             self.model_.forget_runs([lab])
@@ -240,10 +248,10 @@ class RunStream:
             self.model_.remember_runs(X, **kwargs)
         else:
             out = getattr(self.model_, method)(X, **kwargs)
-        ends = self.__dict__.setdefault("_ends", {})
         for lab, a, b in runs:
             self._spans.setdefault(lab, [times[a], None])[1] = times[b - 1]
-            ends[lab] = (ends.get(lab, (readings[a],))[0], readings[b - 1])
+            first = self._ends.get(lab, (readings[a],))[0]
+            self._ends[lab] = (first, readings[b - 1])
         if reordered:
             back = np.empty_like(order)
             back[order] = np.arange(order.size)
@@ -311,7 +319,7 @@ class RunStream:
         category = UserWarning
         if sequence_models(self.model_) or _holds_guard(self.model_):
             category = RunStartWarning
-            ends = getattr(self, "_ends", {}).get(lab)
+            ends = self._ends.get(lab)
             if ends is not None and _goes_on(*ends, first):
                 text += (
                     " Its first readings go on from the earlier run's last "
@@ -416,7 +424,8 @@ def _readings(X):
     """The block's numeric readings (not its run labels and times), one row
     per row of ``X``."""
     frame = X.select_dtypes(include=["number", "bool"])
-    frame = frame.drop(columns=[c for c in ("run", "time_s") if c in frame.columns])
+    labels = (RUN_COLUMN, TIME_COLUMN)
+    frame = frame.drop(columns=[c for c in labels if c in frame.columns])
     return frame.to_numpy(dtype=float, na_value=np.nan)
 
 
