@@ -501,7 +501,12 @@ def main(argv=None):
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--split", choices=("chrono", "lobo", "both"), default=None)
-    parser.add_argument("--models", default=None)
+    parser.add_argument(
+        "--models",
+        default=None,
+        help="comma list of words: the rows whose name contains any of them "
+        "(case-insensitive), e.g. 'lasso,transfer'",
+    )
     parser.add_argument("--cv-folds", type=int, choices=sorted(CV_PROTOCOLS), default=2)
     args = parser.parse_args(argv)
     split = args.split or ("chrono" if args.quick else "both")

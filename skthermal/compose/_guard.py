@@ -379,9 +379,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         Longest stretch of identical consecutive readings within a training
         run, in samples (1 when every reading differed from the last).
     stream_runs_ : dict
-        After :meth:`remember_runs` (a static wrapped model): per run label,
-        what continuing the run needs, its last rows and what ``mode="hold"``
-        holds; not saved in ``.skops`` files.
+        After :meth:`remember_runs`: per run label, what continuing the run
+        needs: around a static model its last rows and what ``mode="hold"``
+        holds (not saved in ``.skops`` files), around a sequence model the
+        run so far (``skthermal.io.save`` refuses the guard then).
     output_min_ : ndarray of shape (n_outputs,)
         Smallest training target, per output.
     output_max_ : ndarray of shape (n_outputs,)
@@ -402,9 +403,12 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
     Notes
     -----
     All checks compare one batch of rows with the training statistics; no
-    state is kept between calls. A jump and a flat-line show only between
-    consecutive rows of one call, so on the machine's controller give
-    ``predict`` the rows of the current run so far and use the last row. A
+    state is kept between calls unless :meth:`remember_runs` keeps it
+    (:class:`~skthermal.compose.RunStream` calls it after every block). A
+    jump and a flat-line show only between consecutive rows of one call, so
+    on the machine's controller stream the blocks through a ``RunStream``,
+    or give ``predict`` the rows of the current run so far and use the last
+    row. A
     window of recent rows will do for a static model only: a sequence model
     needs the run from its start, or the rows after those of a run it saw in
     ``fit`` or ``partial_fit`` (same run label), which it continues; other
@@ -846,6 +850,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         features, runs = extract_runs(stacked, stacked_groups, finite=False)
         if runs is None:
             return self
+        if sequence_models(self.estimator_):
+            self.stream_runs_ = self._whole_runs(stacked, features, runs)
+            return self
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # said by predict
             checked = self._guard(
@@ -897,6 +904,31 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         self.stream_runs_ = states
         return self
 
+    def _whole_runs(self, stacked, features, runs):
+        """:attr:`stream_runs_` for a sequence model: each labelled run of
+        ``stacked`` (the runs so far with the new rows) kept whole, with
+        nothing held from before its first row, so that replaying it gives
+        what the whole run gives (holding the run's latest good readings
+        over its faulty first rows instead moved a transfer function's
+        start by up to 8 µm for the rest of the run, in an independent
+        check). No check is run again: the rows are only kept."""
+        p, n_out = self.n_features_in_, self.output_min_.size
+        times = row_times(features)
+        states = dict(getattr(self, "stream_runs_", {}))
+        slices, labels = run_slices(runs, len(stacked))
+        for sl, label in zip(slices, labels, strict=True):
+            if label is None:
+                continue
+            states[label] = {
+                "rows": stacked.iloc[sl],
+                "t_last": -np.inf if times is None else float(times[sl][-1]),
+                "inputs": np.full(p, np.nan),
+                "prediction": np.full(n_out, np.nan),
+                "unchanged": np.zeros(p, dtype=int),
+                "read": np.zeros(p, dtype=bool),
+            }
+        return states
+
     @available_if(_remembers)
     def forget_runs(self, labels):
         """Forget the kept rows of the runs ``labels`` (see
@@ -921,8 +953,6 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         and which sensors have read anything are kept apart
         (:meth:`remember_runs`)."""
         n = reference.shape[0]
-        if sequence_models(self.estimator_):
-            return 0  # it reads every run from its start
         start = n - _KEEP_GOOD
 
         def last(mask):

@@ -16,11 +16,10 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
+from skthermal._naming import TEMPERATURE_PATTERN
 from skthermal.compose._guard import GuardWarning, RunStartWarning
 from skthermal.utils._runs import (
     LATE_START_WARNING,
-    RUN_COLUMN,
-    TIME_COLUMN,
     extract_runs,
     row_times,
     rows_by_run,
@@ -69,7 +68,10 @@ class RunStream:
     first block, about the run's start) is not raised again; a guard's
     finding that goes on from one block to the next is said when it
     begins, and the same finding (its kind, sensors and run) again once
-    :data:`REPEAT_S` seconds of ``time_s`` after it was last said.
+    :data:`REPEAT_S` seconds of ``time_s`` after it was last said (the
+    stream's time: how far its runs went on, whatever labels they reuse):
+    one more fault of a sensor within those ten minutes is flagged in its
+    rows (``ok``) but not said again.
 
     Differences from the whole run remain, by design: a guard in
     ``mode="hold"`` replaces a reading that is faulty from a run's first
@@ -133,11 +135,30 @@ class RunStream:
         self._said = {}  # warning key -> the block's last time_s when said
         self._texts = {}  # warning key -> its text in the last block
         self._ends = {}  # label -> (its first readings, its last readings)
+        self._clock = 0.0  # s of time_s streamed, over all runs (_advance)
 
     def __setstate__(self, state):
-        # A stream pickled by an earlier version kept no readings.
+        # A stream pickled by an earlier version kept no readings, and said
+        # its findings at the blocks' time_s.
         state.setdefault("_ends", {})
+        state.setdefault("_clock", max(state.get("_said", {}).values(), default=0.0))
         self.__dict__.update(state)
+
+    def _advance(self, runs, times):
+        """The stream's clock after the block (``runs``: its runs' rows,
+        ``times``: their time_s): it goes on by the most any run of the
+        block went on since its last block (a new run: since its first
+        row). Findings are said again :data:`REPEAT_S` after on it, not on
+        the blocks' time_s, which a run label given again from 0, or runs
+        started at other times, took back (a fault of the new run was never
+        said)."""
+        step = 0.0
+        for lab, a, b in runs:
+            span = self._spans.get(lab)
+            start = times[a] if span is None or times[a] <= span[1] else span[1]
+            step = max(step, float(times[b - 1] - start))
+        self._clock += step
+        return self._clock
 
     @property
     def runs_(self):
@@ -236,7 +257,7 @@ class RunStream:
             groups = None if groups is None else np.asarray(groups)[order]
         readings = _readings(X)
         new = self._check_order(runs, times, readings)
-        now = float(np.nanmax(times))  # for when a finding is said again
+        now = self._advance(runs, times)  # for when a finding is said again
         kwargs = {} if groups is None else {"groups": groups}
         if self.mode_ == "history":
             out = self._with_history(method, X, groups, runs, new, now)
@@ -320,7 +341,12 @@ class RunStream:
         if sequence_models(self.model_) or _holds_guard(self.model_):
             category = RunStartWarning
             ends = self._ends.get(lab)
-            if ends is not None and _goes_on(*ends, first):
+            # Only a sequence model takes a warm machine for a cold one.
+            if (
+                ends is not None
+                and sequence_models(self.model_)
+                and _goes_on(*ends, first)
+            ):
                 text += (
                     " Its first readings go on from the earlier run's last "
                     "ones, not from where that run began: if the controller's "
@@ -335,8 +361,8 @@ class RunStream:
     def _say_new(self, caught, started, now, history=False):
         """Say the warnings of ``caught`` not said for an earlier block
         (:func:`_said_key`), a guard's finding again when it was last said
-        :data:`REPEAT_S` seconds of ``time_s`` before the block's end
-        (``now``) or more and it goes on; with ``started`` (every run of the
+        :data:`REPEAT_S` seconds before on the stream's clock (``now``,
+        :meth:`_advance`) or more and it goes on; with ``started`` (every run of the
         block continues one of the stream's), none about the runs' start.
         With ``history`` (the model was given each run so far), a finding
         goes on when its text changed since the last block (more rows): an
@@ -421,29 +447,33 @@ def _said_key(w):
 
 
 def _readings(X):
-    """The block's numeric readings (not its run labels and times), one row
-    per row of ``X``."""
-    frame = X.select_dtypes(include=["number", "bool"])
-    labels = (RUN_COLUMN, TIME_COLUMN)
-    frame = frame.drop(columns=[c for c in labels if c in frame.columns])
-    return frame.to_numpy(dtype=float, na_value=np.nan)
+    """The block's temperature readings (``T<name>_C`` columns), one row per
+    row of ``X``."""
+    columns = [
+        c for c in X.columns if isinstance(c, str) and TEMPERATURE_PATTERN.fullmatch(c)
+    ]
+    values = X[columns].apply(pd.to_numeric, errors="coerce")
+    return values.to_numpy(dtype=float, na_value=np.nan)
+
+
+# A sensor that warmed (or cooled) this much over a run counts in telling a
+# clock reset from a new run (K): one that moved a quantum step does not.
+_MOVED_K = 0.5
 
 
 def _goes_on(first, last, new):
-    """Whether the readings ``new`` go on from ``last`` (an earlier run's
-    last row) rather than from ``first`` (its first row): nearer the end
-    than a quarter of their distance to the start, over the readings that
-    moved in that run."""
+    """Whether the temperatures ``new`` go on from ``last`` (an earlier
+    run's last row) rather than from ``first`` (its first row): nearer the
+    end than half their distance to the start for most of the sensors that
+    moved over :data:`_MOVED_K` in that run."""
     if not first.shape == last.shape == new.shape:
         return False  # the blocks held other columns
     moved = np.abs(last - first)
-    use = np.isfinite(moved) & np.isfinite(new) & (moved > 1e-9 * (1 + np.abs(first)))
+    use = np.isfinite(moved) & np.isfinite(new) & (moved > _MOVED_K)
     if not use.any():
         return False
-    scale = moved[use]
-    to_end = np.linalg.norm((new - last)[use] / scale)
-    to_start = np.linalg.norm((new - first)[use] / scale)
-    return bool(to_end < 0.25 * to_start)
+    near_end = np.abs(new - last)[use] < 0.5 * np.abs(new - first)[use]
+    return bool(np.mean(near_end) > 0.5)
 
 
 def _as_text(label):

@@ -81,6 +81,8 @@ def _parquet_error(exc):
 def _unzip(path):
     with zipfile.ZipFile(path) as archive:
         names = [n for n in archive.namelist() if not n.endswith("/")]
+        if "[Content_Types].xml" in names or "content.xml" in names:
+            raise ValueError(_WORKBOOK.format(path=path))
         if len(names) != 1:
             raise ValueError(
                 f"{path}: a zipped run table must hold exactly one file, found "
@@ -147,6 +149,25 @@ _MAGIC = (
 )
 
 
+_WORKBOOK = (
+    "{path}: the file is a spreadsheet workbook, not CSV text; run tables are "
+    "read from CSV or Parquet. Save the sheet as CSV (UTF-8) from the "
+    "spreadsheet, or read it with pandas.read_excel and pass the frame to "
+    "skthermal.datasets.validate_runs."
+)
+# An OLE2 compound file: an Excel 97-2003 workbook (.xls).
+_OLE_MAGIC = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
+
+
+def _is_workbook(data):
+    """Whether ``data`` is a zip archive of an Office or OpenDocument
+    workbook (an .xlsx or .ods file, whatever its name)."""
+    if not data.startswith(b"PK\x03\x04"):
+        return False
+    head = data[:4096]
+    return b"xl/" in head or b"[Content_Types].xml" in head or b"spreadsheet" in head
+
+
 def _check_not_binary(path, data):
     """Raise naming what ``data`` (the CSV bytes of ``path``, decompressed
     as its name says) is, when its first bytes show a compressed stream or
@@ -157,6 +178,10 @@ def _check_not_binary(path, data):
             f"{path}: the file is a Parquet file, not CSV text; name it "
             f"{path.stem}.parquet to read it as Parquet."
         )
+    excel = path.suffix.lower() in (".xlsx", ".xlsm", ".xls", ".ods")
+    if excel or data.startswith(_OLE_MAGIC) or _is_workbook(data):
+        # Named .zip it failed again ("must hold exactly one file, found 4").
+        raise ValueError(_WORKBOOK.format(path=path))
     for magic, what, suffix in _MAGIC:
         if not data.startswith(magic):
             continue

@@ -315,6 +315,36 @@ def _missing_column(name, meaning, candidates, df=None):
 _THOUSANDS = re.compile(r"\s*[-+]?[0-9]{1,3}(,[0-9]{3})+(\.[0-9]*)?\s*")
 
 
+# Elapsed time written as [d days] h:mm:ss(.f), which no date parser takes
+# past 24 h.
+_DURATION = re.compile(r"\s*(\d+\s+days?,?\s+)?\d+:\d{2}(:\d{2}(\.\d*)?)?\s*")
+
+
+# Text that reads as a time or a date: digits on both sides of ':', '-',
+# '/' or '.' ("00:01:30", "2026-03-29"), not a unit ("s").
+_CLOCKLIKE = re.compile(r"\d[-/.:]\d")
+
+
+def _time_recipe(col, column):
+    """How a column of clock times, dates or elapsed times (``col``, named
+    ``column``) becomes ``time_s``, the seconds since each run's first row:
+    `` becomes time_s as ...`` for the kind of its first values."""
+    text = col.dropna().astype(str).head(20)
+    if len(text) and text.str.fullmatch(_DURATION).all():
+        t = f"pandas.to_timedelta(df[{column!r}])"
+        kind = "elapsed times (h:mm:ss)"
+    else:
+        # utc=True: stamps with offsets across a daylight-saving change
+        # ("Mixed timezones detected" without it).
+        t = f"pandas.to_datetime(df[{column!r}], utc=True)"
+        kind = "clock times or dates"
+    return (
+        f" holds {kind}: they become time_s as the seconds since each run's "
+        f"first row, e.g. t = {t}; df['time_s'] = (t - t.groupby(df['run'])"
+        ".transform('first')).dt.total_seconds()"
+    )
+
+
 def _check_numeric(df, columns):
     for name in columns:
         col = df[name]
@@ -366,6 +396,10 @@ def _check_numeric(df, columns):
                         ", a number with a decimal comma; write numbers with a "
                         "decimal point"
                     )
+                elif (
+                    name == TIME and isinstance(value, str) and _CLOCKLIKE.search(value)
+                ):
+                    where += "; the column" + _time_recipe(col, TIME)
                 elif bad.size == 1 and bad[0] == 0 and len(df) > 1:
                     where += (
                         ", the only text in the column, on the line under the "
@@ -392,14 +426,24 @@ def _report_nonfinite(df, columns, mask, what, hint=""):
     bad_cols = np.flatnonzero(mask.any(axis=0))
     if not bad_cols.size:
         return
-    parts = []
+    parts, empty = [], 0
     for j in bad_cols:
         rows = np.flatnonzero(mask[:, j])
+        if what == "missing" and rows.size == mask.shape[0] > 1:
+            empty += 1
+            # Dropping or filling rows is no way out: the sensor read nothing.
+            parts.append(
+                f"column {columns[j]!r} is empty in every row (a sensor that "
+                "was not connected? drop the column)"
+            )
+            continue
         first = _where(df, rows[0])
         parts.append(
             f"column {columns[j]!r} has {rows.size} {what} value(s), "
             f"the first at {first}"
         )
+    if empty == len(parts):
+        hint = ""  # no row to impute or drop
     raise ValueError("; ".join(parts) + hint + ".")
 
 
@@ -481,7 +525,31 @@ def _check_runs(df):
             f"Run {plain(run.iloc[pos])!r} has a single row (row {pos}); a run "
             "needs at least two samples."
         )
+    _warn_labels_alike(uniques)
     return codes
+
+
+def _warn_labels_alike(uniques):
+    """Warn when run labels differ only in spaces or case (``"R1"`` and
+    ``"R1 "``): one test logged under two labels is two runs, the second
+    starting anew (its changes since the start from zero, a group of its
+    own in cross-validation), where an independent check found no word."""
+    seen = {}
+    for label in uniques:
+        if not isinstance(label, str):
+            continue
+        key = " ".join(label.split()).casefold()
+        if key in seen:
+            warnings.warn(
+                f"Run labels {seen[key]!r} and {label!r} differ only in spaces "
+                "or case: two runs, the second starting anew. If they are one "
+                "test, give its rows one label (e.g. df['run'] = "
+                "df['run'].str.strip()).",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+            return
+        seen[key] = label
 
 
 def _check_time(df, codes):
@@ -636,12 +704,7 @@ def check_run_table(
         )
         if candidates and not pd.api.types.is_numeric_dtype(df[candidates[0]]):
             column = candidates[0]
-            error = ValueError(
-                f"{error} A clock time or date column becomes time_s as the "
-                "seconds since each run's first row, e.g. t = "
-                f"pandas.to_datetime(df[{column!r}]); df['time_s'] = (t - "
-                f"t.groupby(df['run']).transform('first')).dt.total_seconds()."
-            )
+            error = ValueError(f"{error} It{_time_recipe(df[column], column)}.")
         raise error
     check_column_names(df.columns)
     sensors = sensor_columns(df)
@@ -701,6 +764,7 @@ def check_run_table(
     _warn_kelvin_sensors(df, everything, values, codes)
     _warn_impossible_readings(df, everything, values, codes)
     _warn_displacement_runs(df, everything, values, codes)
+    _warn_zero_readings(df, everything, values, codes)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
@@ -825,8 +889,8 @@ def _warn_kelvin_sensors(df, columns, values, codes):
     if some:
         _warn_kelvin_runs(df, codes, some)
     if not hot:
-        if not some:
-            _warn_fahrenheit_sensors(columns, values)
+        if not some and not _warn_fahrenheit_sensors(columns, values):
+            _warn_fahrenheit_runs(df, columns, values, codes)
         return
     name, low, high = hot[0]
     names = listed([h[0] for h in hot], show=repr)
@@ -944,7 +1008,9 @@ def _warn_impossible_readings(df, columns, values, codes):
         if not found:
             continue
         name, col, bad, level = found[0]
-        k = bad[np.argmax(np.abs(col[bad] - level[bad]))]  # the farthest
+        # The largest in magnitude (of a table in nm, not a run's zero
+        # start, which lies as far from the median).
+        k = bad[np.argmax(np.abs(col[bad]))]
         others = [repr(f[0]) for f in found[1:]]
         # Beyond a few glitches: a whole stretch in another unit.
         many = bad.size > max(2, _UNIT_SHARE * np.isfinite(col).sum())
@@ -980,14 +1046,20 @@ _RUN_SPAN_RATIO = 100.0
 def _warn_displacement_runs(df, columns, values, codes):
     """Warn naming the run when a displacement column moves over
     :data:`_RUN_SPAN_UM` in one run and :data:`_RUN_SPAN_RATIO` times as
-    much as in the others (their median): that run logged in nm. Judged per
-    run, so a probe mounted anew with another offset is no finding."""
+    much as in the others (their median): that run logged in nm; or, the
+    other way, under :data:`_MM_SPAN_UM` in one run (or in all of them, the
+    temperatures moving) and :data:`_RUN_SPAN_RATIO` times less than in the
+    others: in mm. Judged per run, so a probe mounted anew with another
+    offset is no finding."""
+    temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
     for j, name in enumerate(columns):
         if not _is_target(name):
             continue
         col = values[:, j]
         ok = np.isfinite(col)
         span = pd.Series(col[ok]).groupby(codes[ok]).agg(np.ptp)
+        if _warn_mm(df, name, span, values[:, temps], codes):
+            return
         if span.size < 2:
             continue
         for code, value in span.items():
@@ -1018,17 +1090,81 @@ def _warn_displacement_runs(df, columns, values, codes):
                 return
 
 
+# No probe of a thermal error moves less than this (µm) over a run whose
+# temperatures change by over _MM_TEMPERATURE_K: its noise alone is more.
+_MM_SPAN_UM = 0.1
+_MM_TEMPERATURE_K = 1.0
+
+
+def _warn_mm(df, name, span, temps, codes):
+    """The millimetre half of :func:`_warn_displacement_runs` for column
+    ``name`` (``span``: its movement per run code; ``temps``: the
+    temperature columns' values): warn and return True when it moves under
+    :data:`_MM_SPAN_UM` (but moves) in every run while the temperatures
+    move over :data:`_MM_TEMPERATURE_K`, or in some runs while it moves
+    :data:`_RUN_SPAN_RATIO` times as much in the others. An independent
+    check: a table in mm passed, the CLI printing an RMSE of 1e-7 "µm"."""
+    if not span.size:
+        return False
+    small = span[(span > 0) & (span < _MM_SPAN_UM)]
+    if small.empty:
+        return False
+    labels = df[RUN].to_numpy()
+    if small.size == span.size:
+        if temps.shape[1] == 0 or not np.isfinite(temps).any():
+            return False
+        moved = (
+            pd.DataFrame(temps)
+            .groupby(codes)
+            .agg(lambda c: np.ptp(c.dropna()) if c.notna().any() else 0.0)
+        )
+        if float(moved.to_numpy().max()) <= _MM_TEMPERATURE_K:
+            return False
+        warnings.warn(
+            f"Column {name!r} moves at most {span.max():.3g} within a run while "
+            f"the temperatures move by up to {float(moved.to_numpy().max()):.3g} "
+            "K: no probe of a thermal error moves that little (its noise alone "
+            "is more). Logged in millimetres? Columns *_um are read as µm: "
+            "multiply by 1000.",
+            UserWarning,
+            stacklevel=user_stacklevel(),
+        )
+        return True
+    # Against the runs that move as a µm probe may (not one in nm, nor a
+    # logger's error code).
+    rest = span.drop(small.index)
+    rest = rest[rest <= _RUN_SPAN_UM]
+    if rest.empty:
+        return False
+    others = float(rest.median())
+    tiny = small[others > _RUN_SPAN_RATIO * small]
+    if tiny.empty:
+        return False
+    first = {c: int(np.flatnonzero(codes == c)[0]) for c in tiny.index}
+    named = listed([plain(labels[first[c]]) for c in tiny.index], show=repr)
+    warnings.warn(
+        f"Column {name!r} moves at most {tiny.max():.3g} within run(s) {named}, "
+        f"a hundredth or less of its movement in the other runs (median "
+        f"{others:.4g}): those runs logged in millimetres? Columns *_um are "
+        "read as µm: multiply their readings by 1000.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+    return True
+
+
 def _warn_fahrenheit_sensors(columns, values):
     """Warn when no temperature sensor (``T<name>_C``) ever reads below
     :data:`_FAHRENHEIT_FLOOR`: a machine's structure holds parts near the
-    workshop air, which in Fahrenheit reads 50-85."""
+    workshop air, which in Fahrenheit reads 50-85. Returns whether it
+    warned."""
     temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
     if not temps:
-        return
+        return False
     block = values[:, temps]
     finite = np.isfinite(block)
     if not finite.any() or block[finite].min() <= _FAHRENHEIT_FLOOR:
-        return
+        return False
     names = [columns[j] for j in temps]
     coldest = int(np.argmin(np.where(finite, block, np.inf).min(axis=0)))
     shown = listed(names, show=repr)
@@ -1042,6 +1178,79 @@ def _warn_fahrenheit_sensors(columns, values):
         UserWarning,
         stacklevel=user_stacklevel(),
     )
+    return True
+
+
+def _warn_fahrenheit_runs(df, columns, values, codes):
+    """Warn naming the runs in which no temperature sensor reads below
+    :data:`_FAHRENHEIT_FLOOR` while every other run has one that does (a
+    logger set to Fahrenheit for one test: some 40 above the other runs,
+    which an independent check's models took as a 4-9 µm error)."""
+    temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
+    if not temps:
+        return
+    block = values[:, temps]
+    coldest = pd.Series(np.nanmin(np.where(np.isfinite(block), block, np.inf), axis=1))
+    run_min = (
+        coldest[np.isfinite(coldest.to_numpy())]
+        .groupby(codes[np.isfinite(coldest.to_numpy())])
+        .min()
+    )
+    hot = run_min[run_min > _FAHRENHEIT_FLOOR]
+    if hot.empty or hot.size == run_min.size:
+        return
+    others = run_min.drop(hot.index)
+    # Where the other runs' coldest readings would read in Fahrenheit (give
+    # or take 20): a cutting-zone sensor at 250 °C in one hot test is none.
+    hot = hot[hot <= 1.8 * others.max() + 32.0 + 20.0]
+    if hot.empty:
+        return
+    labels = df[RUN].to_numpy()
+    first = {c: int(np.flatnonzero(codes == c)[0]) for c in hot.index}
+    named = listed([plain(labels[first[c]]) for c in hot.index], show=repr)
+    warnings.warn(
+        f"No temperature sensor reads below {_FAHRENHEIT_FLOOR:g} in run(s) "
+        f"{named} (the coldest from {hot.min():g}), while the other runs "
+        f"have one from {others.max():g} down: those runs logged in "
+        "Fahrenheit? Columns *_C are read as °C: convert those runs' readings "
+        "with (F - 32) / 1.8.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+# A logger's code for "no reading": a temperature of exactly 0 in a run
+# whose readings otherwise sit this far from it (°C).
+_ZERO_GAP_C = 5.0
+
+
+def _warn_zero_readings(df, columns, values, codes):
+    """Warn naming the column and the first row where a temperature sensor
+    reads exactly 0 in a run whose other readings all lie over
+    :data:`_ZERO_GAP_C` away (24 -> 0 -> 24 °C): a logger writing 0 for no
+    reading, which models take as a reading (an independent check: a
+    training error of 2 µm where the others' was 0.0001)."""
+    for j, name in enumerate(columns):
+        if not _is_temperature(name):
+            continue
+        col = values[:, j]
+        zero = col == 0.0
+        if not zero.any():
+            continue
+        away = np.where(zero | ~np.isfinite(col), np.inf, np.abs(col))
+        nearest = pd.Series(away).groupby(codes).transform("min").to_numpy()
+        bad = np.flatnonzero(zero & (nearest > _ZERO_GAP_C) & np.isfinite(nearest))
+        if bad.size:
+            warnings.warn(
+                f"Column {name!r} reads exactly 0 at {_where(df, bad[0])}"
+                + (f" ({bad.size} such rows in all)" if bad.size > 1 else "")
+                + f", where its run reads nothing within {_ZERO_GAP_C:g} °C of "
+                "0 otherwise: a logger's 0 for no reading? Models take it as a "
+                "reading: set those rows to NaN (missing), or drop them.",
+                UserWarning,
+                stacklevel=user_stacklevel(),
+            )
+            return
 
 
 def check_missing_sensors(df, sensors, values=None, hint=ALLOW_MISSING):

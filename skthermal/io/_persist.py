@@ -406,9 +406,11 @@ def save(model, path, *, compress=True):
     requests (``set_fit_request(groups=True)`` and the like, for
     scikit-learn's metadata routing): set them again after loading to route
     ``groups`` through a loaded pipeline. Nor are the rows a
-    ``GuardedRegressor`` keeps of runs streamed through it
-    (:meth:`~skthermal.compose.GuardedRegressor.remember_runs`): a loaded
-    guard starts those runs anew.
+    ``GuardedRegressor`` around a static model keeps of runs streamed
+    through it (:meth:`~skthermal.compose.GuardedRegressor.remember_runs`):
+    a loaded guard starts those runs anew. A ``RunStream`` that has seen a
+    block, or a guard around a sequence model holding runs, is refused
+    (``TypeError``): save them with ``joblib.dump``.
 
     Examples
     --------
@@ -440,11 +442,11 @@ def save(model, path, *, compress=True):
         # due to non-trivial __cinit__", named nothing of the model), and a
         # sequence model restarted mid-run is wrong from there on.
         raise TypeError(
-            f"{type(model).__name__} keeps the rows of its runs so far as pandas "
-            "tables, which a skops file cannot hold. Save it with "
-            "joblib.dump (a pickle: it restarts mid-run exactly), or save its "
-            "model with skthermal.io.save and give the loaded one each "
-            "run again from its first row."
+            f"{type(model).__name__} keeps the runs it streams (their rows or "
+            "end states, and the findings it said), which a skops file cannot "
+            "hold. Save it with joblib.dump (a pickle: it restarts mid-run "
+            "exactly), or save its model with skthermal.io.save and give the "
+            "loaded one each run again from its first row."
         )
     compression = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     sio.dump(_without_unsaved(model), path, compression=compression)
@@ -455,14 +457,15 @@ def save(model, path, *, compress=True):
 
 
 def _keeps_whole_runs(model):
-    """Whether ``model`` holds the rows of runs so far that a sequence model
-    reads from their start: a :class:`~skthermal.compose.RunStream` giving
-    its model the runs so far, or a guard around a sequence model keeping
-    the runs streamed through it (both hold runs, and a sequence model)."""
-    if getattr(model, "mode_", None) == "history" and getattr(model, "runs_", None):
+    """Whether ``model`` holds runs it streams that a skops file cannot keep:
+    a :class:`~skthermal.compose.RunStream` that has seen a block (the runs'
+    rows or end states, the findings said, keyed by tuples; after a warning
+    skops' own error named an internal key and advised a refit), or a guard
+    around a sequence model keeping the runs streamed through it (restarted
+    mid-run, the model would be wrong from there on)."""
+    if hasattr(model, "mode_") and getattr(model, "runs_", None):
         return True
-    inner = getattr(model, "model_", model)  # a stream's model
-    return bool(getattr(inner, "stream_runs_", None)) and bool(sequence_models(inner))
+    return bool(getattr(model, "stream_runs_", None)) and bool(sequence_models(model))
 
 
 def read_metadata(path):
