@@ -1836,6 +1836,12 @@ def test_units_and_labels_that_passed_in_silence_are_said():
     said = _said(table)
     assert any("'T1_C' reads exactly 0 at run 'A', time_s 300.0 (row 5) (3 such"
                in m for m in said), said  # fmt: skip
+    # Spindle speeds in krpm, or "2.000" read as 2 (a thousands dot).
+    table = _three_runs().assign(spindle_rpm=2.0)
+    said = _said(table)
+    assert any("'spindle_rpm' never exceeds 2 (rpm)" in m for m in said), said
+    assert not _said(_three_runs().assign(spindle_rpm=2000.0))
+    assert not _said(_three_runs().assign(spindle_rpm=0.0))  # at rest
     # Readings near 0 °C (a cold room) are readings.
     cold = _three_runs()
     cold[["T1_C", "T2_C"]] -= 21.0

@@ -17,6 +17,8 @@ Not kept, and why:
   (``machine_b_tests.csv``);
 - illustrative blocks, with names the page leaves to the reader:
   deployment.md (``run_so_far``, ``alarm``, ``RollingMean``);
+  own_machine.md's check of ``initial="auto"`` (``sampled``, ``train`` and
+  ``params`` of examples/plot_own_machine.py);
   model_selection.md (``search.py`` reads ``sys.argv[1]``; a PostgreSQL
   server); sensor_selection.md (``regressor``);
 - slow blocks: model_selection.md's two searches (50 and 20 Optuna trials,

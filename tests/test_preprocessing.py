@@ -464,6 +464,26 @@ def test_a_static_lag_ridge_says_nothing_of_filtering_across_gaps():
         LagRidgeCV(time_constant_sets=[(600.0,)], drivers=None).fit(X, y)
 
 
+def test_lag_ridge_says_once_that_fit_had_a_later_part():
+    # An independent check of the docs: predicting an earlier part of a run
+    # that fit saw later said it twice, from LagRidgeCV and its LagFeatures.
+    t = np.arange(400) * 30.0
+    index = pd.MultiIndex.from_arrays(
+        [np.full(t.size, "a"), t], names=["run", "time_s"]
+    )
+    X = pd.DataFrame({"T1_C": 20.0 + 5.0 * (1.0 - np.exp(-t / 2400.0))}, index=index)
+    y = 3.0 * X["T1_C"].to_numpy()
+    model = LagRidgeCV(time_constant_sets=[(600.0,)], drivers=None)
+    model.fit(X.iloc[200:], y[200:])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.predict(X.iloc[:100])
+    said = [
+        str(w.message) for w in caught if "starts before its rows" in str(w.message)
+    ]
+    assert len(said) == 1 and "given to LagRidgeCV.predict" in said[0], said
+
+
 def test_lag_ridge_names_a_repeated_time():
     X = _frame()
     t = X.index.get_level_values("time_s").to_numpy().copy()

@@ -765,6 +765,7 @@ def check_run_table(
     _warn_impossible_readings(df, everything, values, codes)
     _warn_displacement_runs(df, everything, values, codes)
     _warn_zero_readings(df, everything, values, codes)
+    _warn_speed_unit(df)
     if not allow_missing_sensors:
         check_missing_sensors(df, sensors, values[:, len(strict) :], missing_hint)
     return df
@@ -1214,6 +1215,35 @@ def _warn_fahrenheit_runs(df, columns, values, codes):
         f"have one from {others.max():g} down: those runs logged in "
         "Fahrenheit? Columns *_C are read as °C: convert those runs' readings "
         "with (F - 32) / 1.8.",
+        UserWarning,
+        stacklevel=user_stacklevel(),
+    )
+
+
+# The highest spindle speed of a thermal test (rpm) is above this: below it,
+# the speeds are in another unit (krpm, rev/s) or a thousands dot ("6.000")
+# was read as a decimal point.
+_SLOWEST_TOP_RPM = 60.0
+
+
+def _warn_speed_unit(df):
+    """Warn when ``spindle_rpm`` turns but never reaches
+    :data:`_SLOWEST_TOP_RPM`: no spindle of a machine tool heats a thermal
+    test at that speed (an independent check: "2.000" rpm, a thousands dot,
+    read as 2 in silence)."""
+    if "spindle_rpm" not in df.columns:
+        return
+    rpm = _as_float(df, ["spindle_rpm"])[:, 0]
+    top = np.nanmax(np.abs(rpm)) if np.isfinite(rpm).any() else 0.0
+    if not 0 < top < _SLOWEST_TOP_RPM:
+        return
+    warnings.warn(
+        f"Column 'spindle_rpm' never exceeds {top:g} (rpm): no spindle heats a "
+        "machine tool at that speed. In another unit (thousands of rpm, "
+        "revolutions per second: multiply by 1000 or 60), or with a thousands "
+        'separator read as a decimal point ("6.000" as 6: read the file '
+        "with pandas.read_csv(..., thousands='.'))? Columns spindle_rpm are "
+        "read as rpm.",
         UserWarning,
         stacklevel=user_stacklevel(),
     )

@@ -15,6 +15,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 from skthermal.preprocessing._lags import LagFeatures, runs_start_driven
 from skthermal.utils._folds import run_folds
 from skthermal.utils._runs import (
+    EARLIER_PART_WARNING,
     GAP_BRIDGE,
     LATE_START_WARNING,
     PAUSE_BRIDGE,
@@ -652,6 +653,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
             warnings.filterwarnings("ignore", message=r"LagFeatures was fitted on")
             warnings.filterwarnings("ignore", message=LATE_START_WARNING)
             warnings.filterwarnings("ignore", message=REUSED_LABEL_WARNING)
+            warnings.filterwarnings("ignore", message=EARLIER_PART_WARNING)
             F = np.asarray(self.lag_features_.transform(X_raw, groups=groups))
         if self.time_constants_:
             warn_gaps(type(self).__name__, X_raw, slices, labels, GAP_BRIDGE, 3)

@@ -2875,6 +2875,9 @@ TARGET_COLUMNS_WARNING = (
     r"X's column\(s\) .* equal the target y|X holds the displacement"
 )
 REUSED_LABEL_WARNING = r"Run .* given to .* has the label of a training run"
+# The warning of continued_runs for a run given from before its rows seen in
+# fit, for a wrapper that has said it for its inner model.
+EARLIER_PART_WARNING = r"Run .* given to .* starts before its rows seen in fit"
 # The unit warning of warn_odd_times, for a model that has said it for X as
 # given and fits inner models on the same times.
 TIME_UNIT_WARNING = r"time_s is read as seconds since each run's start"
