@@ -452,8 +452,11 @@ def _readings(X):
     columns = [
         c for c in X.columns if isinstance(c, str) and TEMPERATURE_PATTERN.fullmatch(c)
     ]
-    values = X[columns].apply(pd.to_numeric, errors="coerce")
-    return values.to_numpy(dtype=float, na_value=np.nan)
+    try:
+        return X[columns].to_numpy(dtype=float, na_value=np.nan)
+    except (TypeError, ValueError):  # text among them: the model says so
+        values = X[columns].apply(pd.to_numeric, errors="coerce")
+        return values.to_numpy(dtype=float, na_value=np.nan)
 
 
 # A sensor that warmed (or cooled) this much over a run counts in telling a
