@@ -1902,3 +1902,36 @@ def test_clock_and_elapsed_times_get_a_recipe_that_works(column):
         recipe = re.search(r"e\.g\. (t = .*)\.$", str(info.value)).group(1)
         exec(recipe.replace("; ", "\n"), {"pandas": pd, "df": df})
         validate_runs(df.drop(columns=[c for c in [column] if c != "time_s"]))
+
+
+def test_comments_empty_rows_and_repeated_headers_are_named(tmp_path):
+    # An independent check: a logger's "# end of log" was read as a file
+    # cut off, a "# pause" inside a run as a run split in two ("sort the
+    # table"), a spreadsheet's empty trailing rows as missing labels, and
+    # files joined with their headers as text in time_s.
+    table = _three_runs()
+    text = table.to_csv(index=False)
+    lines = text.splitlines()
+    cases = {
+        "end.csv": (
+            "\n".join([*lines, "# end of log"]),
+            r"line 92 is a comment \('# end of log'\), not a row",
+        ),
+        "pause.csv": (
+            "\n".join([*lines[:11], "# pause", *lines[11:]]),
+            r"line 12 is a comment \('# pause'\)",
+        ),
+        "excel.csv": (
+            "\n".join([*lines, ",,,,", ",,,,"]),
+            r"rows 90-91 are empty \(a spreadsheet's trailing rows\?\); delete them",
+        ),
+        "joined.csv": (
+            "\n".join([*lines[:31], *lines]),
+            r"holds 'time_s', its own name: the header line again",
+        ),
+    }
+    for name, (content, message) in cases.items():
+        path = tmp_path / name
+        path.write_text(content + "\n", encoding="utf-8")
+        with pytest.raises(ValueError, match=message):
+            read_runs(path)

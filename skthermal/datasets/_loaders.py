@@ -418,6 +418,26 @@ def _check_utf16(path, data):
         )
 
 
+def _check_comments(path, data):
+    """Raise naming the first comment line (``# ...``) below a CSV header: a
+    logger's "# end of log" was read as a row cut short ("the file is cut
+    off"), a "# pause" inside a run as a run split in two ("sort the
+    table"). Comments above the header are a preamble
+    (:func:`_check_preamble`)."""
+    lines = data.split(b"\n")
+    if not lines or lines[0].lstrip().startswith(b"#"):
+        return
+    for number, line in enumerate(lines[1:], start=2):
+        if line.lstrip().startswith(b"#"):
+            text = line.decode("utf-8", errors="replace").strip()
+            raise ValueError(
+                f"{path}: line {number} is a comment ({text[:60]!r}), not a row: a "
+                "run table holds rows only. Delete such lines, or read the file "
+                "with pandas.read_csv(path, comment='#') and pass the frame to "
+                "skthermal.datasets.validate_runs."
+            )
+
+
 def _read_csv(path, labels=None):
     data = _raw_bytes(path)
     if not data.strip():
@@ -427,6 +447,7 @@ def _read_csv(path, labels=None):
         )
     _check_not_binary(path, data)
     _check_utf16(path, data)
+    _check_comments(path, data)
     _check_complete(path, data)
     try:
         header = _check_header(path, data)

@@ -396,6 +396,11 @@ def _check_numeric(df, columns):
                         ", a number with a decimal comma; write numbers with a "
                         "decimal point"
                     )
+                elif value == name:
+                    where += (
+                        ", its own name: the header line again (files joined "
+                        "one after the other?); delete the repeated header lines"
+                    )
                 elif (
                     name == TIME and isinstance(value, str) and _CLOCKLIKE.search(value)
                 ):
@@ -494,9 +499,16 @@ def _check_runs(df):
     run = df[RUN]
     missing = np.flatnonzero(run.isna().to_numpy())
     if missing.size:
+        empty = df.iloc[missing].isna().all(axis=1).to_numpy()
+        why = (
+            f": rows {missing[0]}-{missing[-1]} are empty (a spreadsheet's "
+            "trailing rows?); delete them"
+            if empty.all() and missing.size == missing[-1] - missing[0] + 1
+            else "; every row needs a run label"
+        )
         raise ValueError(
             f"Column 'run' has {missing.size} missing label(s), the first at row "
-            f"{missing[0]}; every row needs a run label."
+            f"{missing[0]}{why}."
         )
     check_label_kinds(run)
     codes, uniques = pd.factorize(run)
