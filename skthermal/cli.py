@@ -42,6 +42,20 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
+class _Once(argparse.Action):
+    """An option given at most once: ``--target x --target z`` kept z alone,
+    fitting one model of the last target, silently."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if getattr(namespace, self.dest, None) is not None:
+            parser.error(
+                f"{option_string} given twice ({getattr(namespace, self.dest)!r} "
+                f"and {values!r}): a model predicts one displacement column; "
+                "fit one per target"
+            )
+        setattr(namespace, self.dest, values)
+
+
 def _integer(text):
     try:
         return int(text)
@@ -273,7 +287,9 @@ def _add_select(sub):
         "--n-sensors", type=int, default=5, help="sensors to keep (default 5)"
     )
     p.add_argument(
-        "--target", help="displacement column (default: the only one, or disp_y_um)"
+        "--target",
+        action=_Once,
+        help="displacement column (default: the only one, or disp_y_um)",
     )
     p.add_argument("--train-runs", metavar="LIST", help="runs to fit on (default all)")
     p.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
@@ -322,7 +338,9 @@ def _add_fit(sub):
         help="anfis-fcm, anfis-grid, gnnmci, grey-pso, mlp, ridge or lag-ridge",
     )
     p.add_argument(
-        "--target", help="displacement column (default: the only one, or disp_y_um)"
+        "--target",
+        action=_Once,
+        help="displacement column (default: the only one, or disp_y_um)",
     )
     p.add_argument(
         "--sensors",
@@ -404,7 +422,7 @@ def _add_evaluate(sub):
     p.add_argument("--runs", metavar="FILE", required=True, help="measured runs")
     p.add_argument("--predictions", metavar="FILE", help="table with pred_<target>")
     p.add_argument("--model", metavar="FILE", help="predict with this model")
-    p.add_argument("--target", help="displacement column")
+    p.add_argument("--target", action=_Once, help="displacement column")
     p.add_argument("--out", metavar="FILE", help="write the table (.csv or .md)")
     p.set_defaults(func="_models:cmd_evaluate")
 
@@ -458,7 +476,9 @@ def _add_search(sub):
         help="name of the study in the storage (default skthermal-<model>)",
     )
     p.add_argument(
-        "--target", help="displacement column (default: the only one, or disp_y_um)"
+        "--target",
+        action=_Once,
+        help="displacement column (default: the only one, or disp_y_um)",
     )
     p.add_argument(
         "--sensors",

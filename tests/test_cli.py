@@ -445,6 +445,62 @@ def test_simulate_help_options_are_in_the_docs(capsys):
     assert "spindle-rig" in section and "skthermal simulate --machine" in section
 
 
+def test_the_target_of_a_sensors_file_is_the_fit_s(capsys, workdir):
+    # An independent check: fit --sensors of a file selected for disp_x_um
+    # fitted disp_y_um (the default) on those sensors, silently; --target
+    # given twice kept the last.
+    runs, sensors = workdir / "tests.csv", workdir / "sensors_x.json"
+    argv = ["select", "--runs", runs, "--target", "disp_x_um", "--out", sensors]
+    assert _run(capsys, *argv)[0] == 0
+    assert json.loads(sensors.read_text())["target"] == "disp_x_um"
+    fit = ["fit", "--runs", runs, "--model", "ridge", "--sensors", sensors]
+    status, text, err = _run(capsys, *fit, "--out", workdir / "x.joblib")
+    assert status == 0 and "-> disp_x_um" in text, err
+    status, _, err = _run(
+        capsys, *fit, "--target", "disp_z_um", "--out", workdir / "z.joblib"
+    )
+    assert status == 2 and "were selected for 'disp_x_um'" in err, err
+    with pytest.raises(SystemExit) as exited:  # a usage error, as argparse's
+        _run(capsys, *fit[:-2], "--target", "disp_x_um", "--target", "disp_z_um")
+    err = capsys.readouterr().err
+    assert exited.value.code == 2 and "--target given twice" in err, err
+
+
+def test_chained_guarded_predictions_keep_each_target_s_checks(capsys, workdir):
+    # An independent check: predicting a second target from the first's
+    # table overwrote guard_ok/action/reason (a spike the first model had
+    # flagged vanished); predicting a target again left its old checks
+    # beside the new prediction.
+    runs = workdir / "tests.csv"
+    models = {}
+    for target in ("disp_y_um", "disp_x_um"):
+        models[target] = workdir / f"guard_{target}.joblib"
+        argv = ["fit", "--runs", runs, "--model", "ridge", "--target", target]
+        argv += ["--guard", "clip", "--sensors", "T05_C,T40_C"]
+        assert _run(capsys, *argv, "--out", models[target])[0] == 0
+    first, second = workdir / "chain_y.csv", workdir / "chain_yx.csv"
+    argv = ["predict", "--model", models["disp_y_um"], "--runs", runs]
+    assert _run(capsys, *argv, "--out", first)[0] == 0
+    assert "guard_ok" in pd.read_csv(first).columns
+    argv = ["predict", "--model", models["disp_x_um"], "--runs", first]
+    assert _run(capsys, *argv, "--out", second)[0] == 0
+    chained = pd.read_csv(second)
+    for target in ("disp_y_um", "disp_x_um"):
+        assert {f"guard_ok_{target}", f"guard_reason_{target}"} <= set(chained)
+    assert "guard_ok" not in chained.columns
+    yonly = pd.read_csv(first)
+    assert chained["guard_ok_disp_y_um"].tolist() == yonly["guard_ok"].tolist()
+    # The y target predicted again without a guard: its old checks go.
+    plain = workdir / "plain_y.joblib"
+    argv = ["fit", "--runs", runs, "--model", "ridge", "--target", "disp_y_um"]
+    assert _run(capsys, *argv, "--sensors", "T05_C,T40_C", "--out", plain)[0] == 0
+    argv = ["predict", "--model", plain, "--runs", second]
+    status, _, err = _run(capsys, *argv, "--out", workdir / "again.csv")
+    assert status == 0 and "checked the earlier pred_disp_y_um" in err, err
+    again = pd.read_csv(workdir / "again.csv")
+    assert "guard_ok_disp_y_um" not in again and "guard_ok_disp_x_um" in again
+
+
 def test_select_fit_predict_evaluate_chain(capsys, workdir):
     runs, sensors = workdir / "tests.csv", workdir / "sensors.json"
     status, text, _ = _run(

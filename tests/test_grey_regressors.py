@@ -936,3 +936,35 @@ def test_an_inertia_pair_may_be_a_list(est):
     a = est(inertia=[0.9, 0.4], epochs=3, random_state=0, **kwargs).fit(X, y)
     b = est(inertia=(0.9, 0.4), epochs=3, random_state=0, **kwargs).fit(X, y)
     np.testing.assert_array_equal(a.predict(X), b.predict(X))
+
+
+def test_models_of_one_target_say_so_for_several():
+    # An independent check: scikit-learn's "y should be a 1d array, got an
+    # array of shape (80, 3)" named neither the model nor the way out.
+    from skthermal.ensemble import ModularRegressor
+    from skthermal.models import make_model
+
+    rng = np.random.default_rng(0)
+    index = pd.MultiIndex.from_product(
+        [["a", "b"], np.arange(40) * 60.0], names=["run", "time_s"]
+    )
+    X = pd.DataFrame(
+        {"T1_C": 20 + rng.random(80).cumsum() / 10, "T2_C": 20 + rng.random(80)},
+        index=index,
+    )
+    y = pd.DataFrame(
+        {f"disp_{a}_um": X["T1_C"] * k for a, k in zip("xyz", (1, 2, 3))},
+        index=index,
+    )
+    for model in (
+        GreyPSORegressor(calibration="ls"),
+        GNNMCIRegressor(epochs=2, n_particles=4, random_state=0),
+        make_model("lag-ridge"),
+        ModularRegressor([("all", make_model("lag-ridge"), "all")]),
+    ):
+        with pytest.raises(
+            ValueError,
+            match=r"fits one target, got 3 \(\['disp_x_um', 'disp_y_um', 'disp_z_um'"
+            r"\]\): fit one model per target, e\.g\. sklearn\.multioutput\.",
+        ):
+            model.fit(X, y)

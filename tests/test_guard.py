@@ -542,6 +542,24 @@ def test_a_run_with_a_dead_sensor_is_unavailable_in_a_batch(train):
     assert (everything["action"] == "unavailable").all()
 
 
+def test_a_one_column_target_keeps_its_column_when_a_sensor_dies(train):
+    # An independent check: fitted on a one-column frame, predict_checked's
+    # column was 'prediction_disp_y_um', and 'prediction' whenever a run of
+    # the batch had a dead sensor (a script reading it by name failed then).
+    X, y = train
+    frame = pd.DataFrame({"disp_y_um": np.asarray(y)}, index=X.index)
+    guard = GuardedRegressor(LinearRegression(), mode="hold").fit(X, frame)
+    batch, _ = make_runs([1.5, 2.5], seed=3)
+    dead = batch.copy()
+    dead.loc["r1", "T2_C"] = np.nan
+    good = guard.predict_checked(batch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        checked = guard.predict_checked(dead)
+    assert list(checked.columns) == list(good.columns)
+    assert list(good.columns)[0] == "prediction_disp_y_um"
+
+
 def _relative_hold_guard(train, new_run):
     """A guard in hold mode around a model of changes since the run start,
     and its predictions of the clean new run."""

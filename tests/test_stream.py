@@ -566,6 +566,21 @@ def test_a_fault_of_a_run_given_again_under_its_label_is_said(data):
         assert f"time_s={t1:g} " in spikes[0] and f"time_s={t2:g} " in spikes[1]
 
 
+def test_rows_out_of_order_in_a_block_are_named_in_the_block(data):
+    # An independent check: the guard kept the run so far and named the
+    # row by its place behind those ("row 101" of a 3-row block).
+    X, y, _, new = data
+    guard = GuardedRegressor(LagRidgeCV(time_constant_sets=[(900.0,)])).fit(X, y)
+    run = new[new["run"] == "c"]
+    stream = RunStream(guard)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        stream.predict(run.iloc[:100])
+    block = run.iloc[100:103].iloc[[0, 2, 1]]
+    with pytest.raises(ValueError, match=r"in run 'c' row 2 has time_s=6060 after"):
+        stream.predict(block)
+
+
 def test_a_second_fault_is_said_with_its_own_time(data):
     # An independent check: two spikes on one sensor 100 minutes apart,
     # streamed row by row through a guard around a sequence model: the

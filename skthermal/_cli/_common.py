@@ -270,6 +270,30 @@ def _selected_flags(column, path):
     return text.map(_SELECTED).astype(bool).to_numpy()
 
 
+def sensor_file_target(value, target):
+    """The target of a run: ``target`` (``--target``), else the one a
+    ``skthermal select`` JSON file given as ``--sensors`` records; a
+    UserError when they differ (the file's target was ignored: a model of
+    disp_y_um fitted on the sensors selected for disp_x_um)."""
+    path = Path(value) if value else None
+    if path is None or path.suffix.lower() != ".json" or not path.is_file():
+        return target
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError:
+        return target  # read_sensor_list names it
+    recorded = doc.get("target") if isinstance(doc, dict) else None
+    if not isinstance(recorded, str):
+        return target
+    if target is not None and target != recorded:
+        raise UserError(
+            f"--target {target}: the sensors of {path} were selected for "
+            f"{recorded!r}; give --target {recorded}, or select sensors for "
+            f"{target} ('skthermal select --target {target}')."
+        )
+    return recorded
+
+
 def read_sensor_list(value, df):
     """Sensor names from ``--sensors``: a comma list or a select output file."""
     from skthermal.datasets import driver_columns, sensor_columns

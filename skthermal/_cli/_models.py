@@ -27,6 +27,7 @@ from skthermal._cli._common import (
     read_table,
     require,
     run_mask,
+    sensor_file_target,
     write_table,
 )
 from skthermal._naming import compact
@@ -224,7 +225,7 @@ def cmd_fit(args):
     check_out_path(args.out, "--out")
     # With --sensors, other sensors may miss readings (a channel a run lacks).
     df = read_table(args.runs, allow_missing_sensors=bool(args.sensors))
-    target = pick_target(df, args.target, args.runs)
+    target = pick_target(df, sensor_file_target(args.sensors, args.target), args.runs)
     mask = run_mask(df, args.train_runs)
     if args.sensors:
         sensors = read_sensor_list(args.sensors, df)
@@ -474,6 +475,54 @@ def _unread_columns(columns, bundle):
     ]
 
 
+_GUARD_COLUMNS = ("guard_ok", "guard_action", "guard_reason")
+
+
+def _other_predictions(df, target):
+    """The targets of the prediction columns of ``df`` other than ``target``'s."""
+    return [
+        c[len("pred_") :]
+        for c in df.columns
+        if isinstance(c, str) and c.startswith("pred_") and c != f"pred_{target}"
+    ]
+
+
+def _guard_columns(out, target, guarded):
+    """``out`` (the table given to ``predict``) with the guard columns of an
+    earlier ``predict`` named for their target, where this one would
+    overwrite or orphan them (an independent check: the x model's checks
+    replaced the z model's, which had flagged a spike; a model predicting
+    the target again left the old checks beside its new prediction).
+
+    Unnamed ones (``guard_ok`` ...) belong to the one other prediction in
+    the table: renamed ``guard_ok_<target>``; those of ``target`` itself
+    are dropped, being of the prediction this one replaces."""
+    held = [c for c in _GUARD_COLUMNS if c in out.columns]
+    stale = [c for c in out.columns if c in {f"{g}_{target}" for g in _GUARD_COLUMNS}]
+    others = _other_predictions(out, target)
+    if held:
+        if not others:  # they check pred_<target>, which is replaced
+            stale += held
+        elif len(others) == 1:
+            out = out.rename(columns={c: f"{c}_{others[0]}" for c in held})
+        elif guarded:
+            raise UserError(
+                f"The run table holds guard columns ({', '.join(held)}) of an "
+                f"earlier predict of one of {others}, which this model's checks "
+                "would replace: predict each target from the table without "
+                "them, or rename them."
+            )
+    if stale:
+        warnings.warn(
+            f"The run table's {', '.join(stale)} checked the earlier "
+            f"pred_{target}, which this prediction replaces: dropped.",
+            UserWarning,
+            stacklevel=2,
+        )
+        out = out.drop(columns=stale)
+    return out
+
+
 def cmd_predict(args):
     from skthermal.datasets import read_runs
 
@@ -494,11 +543,17 @@ def cmd_predict(args):
     pred, checked = _predict(
         bundle, df, f"nothing was written to {args.out}", f"--runs {args.runs}"
     )
-    out = df.copy()
+    out = _guard_columns(df.copy(), bundle["target"], checked is not None)
     out[f"pred_{bundle['target']}"] = pred
     if checked is not None:  # a model fitted with --guard
+        suffix = (
+            ""
+            if "guard_ok" not in df.columns
+            and not _other_predictions(df, bundle["target"])
+            else f"_{bundle['target']}"
+        )
         for column in ("ok", "action", "reason"):
-            out[f"guard_{column}"] = checked[column].to_numpy()
+            out[f"guard_{column}{suffix}"] = checked[column].to_numpy()
     try:
         _, meta = read_runs(args.runs, metadata=True, validate=False)
     except ValueError:
@@ -857,7 +912,7 @@ def cmd_search(args):
     check_out_path(args.save_model, "--save-model")
     optuna = require("optuna", extra="optuna", command="search")
     df = read_table(args.runs)
-    target = pick_target(df, args.target, args.runs)
+    target = pick_target(df, sensor_file_target(args.sensors, args.target), args.runs)
     df = df[run_mask(df, args.train_runs)]
     if args.sensors:
         sensors = read_sensor_list(args.sensors, df)

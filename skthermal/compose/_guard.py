@@ -553,6 +553,7 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             row_times(features),
         )
         self._output_names = target_names(y)
+        self._y_1d = np.asarray(y).ndim == 1
         return self
 
     def _resolve_inputs(self):
@@ -985,6 +986,9 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
         times = row_times(features)
         if runs is None or times is None:
             return X, groups, None, None
+        # Here, where the rows are the caller's: stacked behind the kept
+        # ones, a row out of order was named by its place among those.
+        check_time_order(features, runs, strict=False)
         order, rows_of = rows_by_run(runs)
         # A kept run goes on with rows after its kept ones (at the same
         # time: a record logged twice); others are predicted as given.
@@ -1259,7 +1263,10 @@ class GuardedRegressor(MetaEstimatorMixin, RegressorMixin, BaseEstimator):
             out["prediction"][keep] = np.reshape(part["prediction"], (keep.size, -1))
             for key in ("bad", "action", "reason", "fault", "reference", "jump"):
                 out[key][keep] = part[key]
-        if n_out == 1:  # as the wrapped model of one target predicts
+        # As the wrapped model predicts: a target given as one column (a
+        # one-column frame) keeps its column ("prediction_<name>" in
+        # predict_checked; it became "prediction" when a sensor died).
+        if n_out == 1 and getattr(self, "_y_1d", True):
             out["prediction"] = out["prediction"][:, 0]
         return out
 

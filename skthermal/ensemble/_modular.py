@@ -33,6 +33,7 @@ from skthermal.utils._runs import (
     TIME_COLUMN,
     UNLABELLED_WARNING,
     changes_since_start,
+    check_one_target,
     check_time_order,
     continued_runs,
     continued_values,
@@ -365,6 +366,8 @@ class ModularRegressor(RegressorMixin, _BaseComposition):
         self : ModularRegressor
         """
         X_raw, groups = extract_runs(X, groups, y=y)
+        if not get_tags(self).target_tags.multi_output:
+            check_one_target(type(self).__name__, y, f"{type(self).__name__}(...)")
         X, y = validate_data(
             self,
             X_raw,

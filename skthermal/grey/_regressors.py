@@ -33,6 +33,7 @@ from skthermal.grey._gmc import (
 from skthermal.grey._varpro import _gmc_varpro, _gnnmci_ridge
 from skthermal.optimize._pso import particle_swarm
 from skthermal.utils._runs import (
+    check_one_target,
     check_run_lengths,
     check_time_order,
     continued_runs,
@@ -98,6 +99,7 @@ class _GreyRunRegressor(RegressorMixin, BaseEstimator):
     }
 
     def _runs_for_fit(self, X, y, groups):
+        check_one_target(type(self).__name__, y, f"{type(self).__name__}()")
         X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
         slices, labels = run_slices(groups, _num_samples(X))

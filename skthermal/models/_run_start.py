@@ -16,6 +16,7 @@ from skthermal.utils._runs import (
     TARGET_COLUMNS_WARNING,
     TIME_COLUMN,
     changes_since_start,
+    check_one_target,
     check_time_order,
     continued_runs,
     continued_values,
@@ -178,6 +179,8 @@ class RunStartRegressor(RegressorMixin, BaseEstimator):
         X, groups = extract_runs(X, groups, y=y)
         check_time_order(X, groups)
         multi = get_tags(self).target_tags.multi_output
+        if not multi:
+            check_one_target(type(self).__name__, y, f"{type(self).__name__}(...)")
         A, y = validate_data(
             self, X, y, y_numeric=True, multi_output=multi, dtype=np.float64
         )

@@ -21,6 +21,7 @@ from skthermal.utils._runs import (
     PAUSE_BRIDGE,
     REUSED_LABEL_WARNING,
     TIME_UNIT_WARNING,
+    check_one_target,
     check_positive_numbers,
     check_time_order,
     continued_runs,
@@ -351,15 +352,7 @@ class LagRidgeCV(RegressorMixin, BaseEstimator):
         """
         sets, alphas = self._check_grids()
         X_raw, groups = extract_runs(X, groups, y=y)
-        shape = getattr(y, "shape", None) or np.asarray(y).shape
-        if len(shape) == 2 and shape[1] > 1:
-            names = getattr(y, "columns", None)
-            which = "" if names is None else f" ({[str(c) for c in names]})"
-            raise ValueError(
-                f"{type(self).__name__} fits one target, got {shape[1]}{which}: "
-                "fit one model per target, e.g. "
-                "sklearn.multioutput.MultiOutputRegressor(make_lag_pipeline())."
-            )
+        check_one_target(type(self).__name__, y, "make_lag_pipeline()")
         X_arr, y = validate_data(self, X_raw, y, dtype=np.float64, y_numeric=True)
         name = type(self).__name__
         warn_unlabelled_runs(name, None, groups, len(y), X=X_raw, stacklevel=None)

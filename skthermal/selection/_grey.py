@@ -153,7 +153,8 @@ class GRASelector(ScoreSelector):
     Attributes
     ----------
     scores_ : ndarray of shape (n_features_in_,)
-        Relational degree of every sensor (mean over targets when several).
+        Relational degree of every sensor. With several targets, the mean
+        over targets of the degrees scaled to a maximum of one per target.
     ranking_ : ndarray of shape (n_features_in_,)
         Rank of every sensor, 1 = most related.
     support_ : ndarray of bool of shape (n_features_in_,)

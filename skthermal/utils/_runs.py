@@ -1005,6 +1005,22 @@ def _same_index(y_index, X, given_index):
     )
 
 
+def check_one_target(name, y, example):
+    """Raise naming the estimator ``name`` and the targets of ``y`` when it
+    holds several columns: an estimator of one target says so, and how to
+    fit one per target (``example``: the estimator as a user writes it,
+    e.g. ``"GreyPSORegressor()"``), not scikit-learn's "y should be a 1d
+    array"."""
+    shape = getattr(y, "shape", None) or np.asarray(y).shape
+    if len(shape) == 2 and shape[1] > 1:
+        names = getattr(y, "columns", None)
+        which = "" if names is None else f" ({[str(c) for c in names]})"
+        raise ValueError(
+            f"{name} fits one target, got {shape[1]}{which}: fit one model per "
+            f"target, e.g. sklearn.multioutput.MultiOutputRegressor({example})."
+        )
+
+
 def check_target_rows(y, X, groups, *, given_index=None):
     """Raise a ValueError when ``y`` holds the rows of ``X`` in another order.
 
