@@ -1935,3 +1935,31 @@ def test_comments_empty_rows_and_repeated_headers_are_named(tmp_path):
         path.write_text(content + "\n", encoding="utf-8")
         with pytest.raises(ValueError, match=message):
             read_runs(path)
+
+
+def test_the_new_checks_leave_legitimate_tables_alone(tmp_path):
+    # An independent hunt for false positives of the checks above: labels
+    # "#1" (every data line starting with '#') refused as comments; an idle
+    # run among heating ones taken for millimetres; a warm start (air in
+    # °C) taken for Fahrenheit; changes since the start (0 at each run's
+    # first row) taken for a logger's 0; a stiff axis beside a moving one.
+    from skthermal.datasets import changes_since_start, write_runs
+
+    table = _three_runs().assign(run=lambda t: "#" + t["run"])
+    path = tmp_path / "hash.csv"
+    write_runs(table, path)
+    assert read_runs(path)["run"].tolist() == table["run"].tolist()
+    idle = _three_runs()
+    still = idle["run"] == "C"
+    idle.loc[still, ["T1_C", "T2_C"]] = 21.0
+    idle.loc[still, "disp_y_um"] = 0.01 * np.tile([0.0, 1.0, 2.0], 10)
+    assert _said(idle) == []
+    warm = _three_runs().assign(ambient_C=21.0)
+    b = warm["run"] == "B"
+    warm.loc[b, ["T1_C", "T2_C"]] += 40.0
+    assert not any("Fahrenheit" in m for m in _said(warm))
+    fast = _three_runs()
+    fast.loc[fast.index % 30 != 0, "T1_C"] += 10.0  # 10 K in the first step
+    assert not any("exactly 0" in m for m in _said(changes_since_start(fast)))
+    stiff = _three_runs().assign(disp_x_um=lambda t: 0.0005 * t["T1_C"])
+    assert not any("millimetres" in m for m in _said(stiff))

@@ -566,16 +566,23 @@ def test_a_fault_of_a_run_given_again_under_its_label_is_said(data):
         assert f"time_s={t1:g} " in spikes[0] and f"time_s={t2:g} " in spikes[1]
 
 
-def test_rows_out_of_order_in_a_block_are_named_in_the_block(data):
-    # An independent check: the guard kept the run so far and named the
-    # row by its place behind those ("row 101" of a 3-row block).
+def _guarded_lag_stream(data, rows):
+    """A stream of a guard around a lag model that has been given the first
+    ``rows`` rows of the new run 'c', and that run."""
     X, y, _, new = data
     guard = GuardedRegressor(LagRidgeCV(time_constant_sets=[(900.0,)])).fit(X, y)
     run = new[new["run"] == "c"]
     stream = RunStream(guard)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        stream.predict(run.iloc[:100])
+        stream.predict(run.iloc[:rows])
+    return stream, run
+
+
+def test_rows_out_of_order_in_a_block_are_named_in_the_block(data):
+    # An independent check: the guard kept the run so far and named the
+    # row by its place behind those ("row 101" of a 3-row block).
+    stream, run = _guarded_lag_stream(data, 100)
     block = run.iloc[100:103].iloc[[0, 2, 1]]
     with pytest.raises(ValueError, match=r"in run 'c' row 2 has time_s=6060 after"):
         stream.predict(block)
@@ -830,13 +837,10 @@ def test_a_stream_given_the_runs_so_far_is_not_saved_to_skops(data, tmp_path):
 def test_a_row_at_the_last_time_is_refused_by_a_stream_of_the_runs_so_far(data):
     # The model given the run so far refused it itself, naming "row 20" of
     # the stream's run so far, which the controller never gave.
-    X, y, _, new = data
-    guard = GuardedRegressor(LagRidgeCV(time_constant_sets=[(900.0,)])).fit(X, y)
-    run = new[new["run"] == "c"]
-    stream = RunStream(guard)
+    X, y, _, _ = data
+    stream, run = _guarded_lag_stream(data, 20)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        stream.predict(run.iloc[:20])
         with pytest.raises(
             ValueError, match=r"Run 'c': the block starts at time_s=1140, not after"
         ):

@@ -422,20 +422,30 @@ def _check_comments(path, data):
     """Raise naming the first comment line (``# ...``) below a CSV header: a
     logger's "# end of log" was read as a row cut short ("the file is cut
     off"), a "# pause" inside a run as a run split in two ("sort the
-    table"). Comments above the header are a preamble
-    (:func:`_check_preamble`)."""
-    lines = data.split(b"\n")
-    if not lines or lines[0].lstrip().startswith(b"#"):
+    table"). A comment is a record whose one field starts with ``#``: a row
+    whose run label or text starts with it ("#1") is a row. Comments above
+    the header are a preamble (:func:`_check_preamble`)."""
+    if b"#" not in data:
         return
-    for number, line in enumerate(lines[1:], start=2):
-        if line.lstrip().startswith(b"#"):
-            text = line.decode("utf-8", errors="replace").strip()
-            raise ValueError(
-                f"{path}: line {number} is a comment ({text[:60]!r}), not a row: a "
-                "run table holds rows only. Delete such lines, or read the file "
-                "with pandas.read_csv(path, comment='#') and pass the frame to "
-                "skthermal.datasets.validate_runs."
-            )
+    text = data.decode("utf-8", errors="replace")
+    reader = csv.reader(io.StringIO(text))
+    try:
+        header = next(reader)
+    except (StopIteration, csv.Error):
+        return
+    if not header or header[0].lstrip().startswith("#") or len(header) < 2:
+        return
+    try:
+        for fields in reader:
+            filled = [f for f in fields if f.strip()]
+            if len(filled) == 1 and filled[0].lstrip().startswith("#"):
+                raise ValueError(
+                    f"{path}: line {reader.line_num} is a comment "
+                    f"({filled[0].strip()[:60]!r}), not a row: a run table holds "
+                    "rows only. Delete such lines."
+                )
+    except csv.Error:
+        return  # _csv_fields names a malformed line
 
 
 def _read_csv(path, labels=None):

@@ -27,6 +27,7 @@ from skthermal._naming import (
 from skthermal._run_changes import changes_since_first_row
 from skthermal.utils._runs import (
     ABSOLUTE_ZERO_C,
+    AIR_RANGE_C,
     DECIMAL_COMMA,
     DRIVER_RULE,
     MAX_MAGNITUDE,
@@ -555,8 +556,8 @@ def _warn_labels_alike(uniques):
             warnings.warn(
                 f"Run labels {seen[key]!r} and {label!r} differ only in spaces "
                 "or case: two runs, the second starting anew. If they are one "
-                "test, give its rows one label (e.g. df['run'] = "
-                "df['run'].str.strip()).",
+                "test, give its rows one label (e.g. df['run'] = df['run'].replace("
+                f"{{{label!r}: {seen[key]!r}}})).",
                 UserWarning,
                 stacklevel=user_stacklevel(),
             )
@@ -917,14 +918,21 @@ def _warn_kelvin_sensors(df, columns, values, codes):
     )
 
 
+def _run_names(labels, codes, runs):
+    """The labels of the runs numbered ``runs`` (their ``codes``; ``labels``:
+    every row's), for a message: ``"'a', 'b' and 2 more"``."""
+    return listed(
+        [plain(labels[int(np.flatnonzero(codes == c)[0])]) for c in runs], show=repr
+    )
+
+
 def _warn_kelvin_runs(df, codes, some):
     """The warning of :func:`_warn_kelvin_sensors` for columns that read
     above the kelvin floor at every sample of some runs only: ``some`` holds
     ``(column, hot run codes, values, finite)``."""
     name, runs, col, finite = some[0]
     labels = df[RUN].to_numpy()
-    first = {c: int(np.flatnonzero(codes == c)[0]) for c in runs}
-    named = listed([plain(labels[first[c]]) for c in runs], show=repr)
+    named = _run_names(labels, codes, runs)
     inside = finite & np.isin(codes, runs)
     outside = finite & ~np.isin(codes, runs)
     names = listed([s[0] for s in some], show=repr)
@@ -1065,13 +1073,19 @@ def _warn_displacement_runs(df, columns, values, codes):
     others: in mm. Judged per run, so a probe mounted anew with another
     offset is no finding."""
     temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
-    for j, name in enumerate(columns):
-        if not _is_target(name):
-            continue
-        col = values[:, j]
-        ok = np.isfinite(col)
-        span = pd.Series(col[ok]).groupby(codes[ok]).agg(np.ptp)
-        if _warn_mm(df, name, span, values[:, temps], codes):
+    targets = [j for j, name in enumerate(columns) if _is_target(name)]
+    spans = {}
+    for j in targets:
+        ok = np.isfinite(values[:, j])
+        spans[j] = pd.Series(values[ok, j]).groupby(codes[ok]).agg(np.ptp)
+    # How far the temperatures moved in every run (K).
+    moved = _temperature_moves(values[:, temps], codes)
+    for j in targets:
+        name, col, span = columns[j], values[:, j], spans[j]
+        # A column in mm beside others that move as µm probes do is more
+        # likely a stiff axis (a capacitive probe reads nm).
+        alone = all(not (spans[k] > 1.0).any() for k in targets if k != j)
+        if _warn_mm(df, name, span, moved, codes, alone):
             return
         if span.size < 2:
             continue
@@ -1109,36 +1123,44 @@ _MM_SPAN_UM = 0.1
 _MM_TEMPERATURE_K = 1.0
 
 
-def _warn_mm(df, name, span, temps, codes):
+def _temperature_moves(temps, codes):
+    """How far the temperatures ``temps`` (columns) moved in every run
+    (``codes``), in K: the largest span of a column within the run, 0
+    where none reads; a Series by run code."""
+    if temps.shape[1] == 0:
+        return pd.Series(0.0, index=np.unique(codes))
+    frame = pd.DataFrame(temps)
+    span = frame.groupby(codes).max() - frame.groupby(codes).min()
+    return span.max(axis=1).fillna(0.0)
+
+
+def _warn_mm(df, name, span, moved, codes, alone):
     """The millimetre half of :func:`_warn_displacement_runs` for column
-    ``name`` (``span``: its movement per run code; ``temps``: the
-    temperature columns' values): warn and return True when it moves under
-    :data:`_MM_SPAN_UM` (but moves) in every run while the temperatures
-    move over :data:`_MM_TEMPERATURE_K`, or in some runs while it moves
-    :data:`_RUN_SPAN_RATIO` times as much in the others. An independent
-    check: a table in mm passed, the CLI printing an RMSE of 1e-7 "µm"."""
+    ``name`` (``span``: its movement per run code; ``moved``: the
+    temperatures' per run, :func:`_temperature_moves`): warn and return
+    True when it moves under :data:`_MM_SPAN_UM` (but moves) in every run
+    while the temperatures move over :data:`_MM_TEMPERATURE_K`, and no
+    other displacement column moves over 1 µm (``alone``); or in some
+    runs whose temperatures move so, while it moves
+    :data:`_RUN_SPAN_RATIO` times as much in the others (an idle run among
+    heating ones is no finding). An independent check: a table in mm
+    passed, the CLI printing an RMSE of 1e-7 "µm"."""
     if not span.size:
         return False
     small = span[(span > 0) & (span < _MM_SPAN_UM)]
+    small = small[moved.reindex(small.index).fillna(0.0) > _MM_TEMPERATURE_K]
     if small.empty:
         return False
     labels = df[RUN].to_numpy()
     if small.size == span.size:
-        if temps.shape[1] == 0 or not np.isfinite(temps).any():
-            return False
-        moved = (
-            pd.DataFrame(temps)
-            .groupby(codes)
-            .agg(lambda c: np.ptp(c.dropna()) if c.notna().any() else 0.0)
-        )
-        if float(moved.to_numpy().max()) <= _MM_TEMPERATURE_K:
+        if not alone:
             return False
         warnings.warn(
             f"Column {name!r} moves at most {span.max():.3g} within a run while "
-            f"the temperatures move by up to {float(moved.to_numpy().max()):.3g} "
-            "K: no probe of a thermal error moves that little (its noise alone "
-            "is more). Logged in millimetres? Columns *_um are read as µm: "
-            "multiply by 1000.",
+            f"the temperatures move by up to {float(moved.max()):.3g} K: no "
+            "probe of a thermal error in µm moves that little (a capacitive "
+            "probe's nanometres aside). Logged in millimetres? Columns *_um are "
+            "read as µm: multiply by 1000.",
             UserWarning,
             stacklevel=user_stacklevel(),
         )
@@ -1153,8 +1175,7 @@ def _warn_mm(df, name, span, temps, codes):
     tiny = small[others > _RUN_SPAN_RATIO * small]
     if tiny.empty:
         return False
-    first = {c: int(np.flatnonzero(codes == c)[0]) for c in tiny.index}
-    named = listed([plain(labels[first[c]]) for c in tiny.index], show=repr)
+    named = _run_names(labels, codes, tiny.index)
     warnings.warn(
         f"Column {name!r} moves at most {tiny.max():.3g} within run(s) {named}, "
         f"a hundredth or less of its movement in the other runs (median "
@@ -1210,6 +1231,12 @@ def _warn_fahrenheit_runs(df, columns, values, codes):
         .min()
     )
     hot = run_min[run_min > _FAHRENHEIT_FLOOR]
+    if "ambient_C" in df.columns:
+        # The air of a run in Fahrenheit reads some 70 (warned about as
+        # such); air in °C says the run is hot (a warm start with sensors
+        # on the bearings and motor only, a climate chamber at 52 °C).
+        air = pd.Series(_as_float(df, ["ambient_C"])[:, 0]).groupby(codes).median()
+        hot = hot[air.reindex(hot.index) > AIR_RANGE_C[1]]
     if hot.empty or hot.size == run_min.size:
         return
     others = run_min.drop(hot.index)
@@ -1219,8 +1246,7 @@ def _warn_fahrenheit_runs(df, columns, values, codes):
     if hot.empty:
         return
     labels = df[RUN].to_numpy()
-    first = {c: int(np.flatnonzero(codes == c)[0]) for c in hot.index}
-    named = listed([plain(labels[first[c]]) for c in hot.index], show=repr)
+    named = _run_names(labels, codes, hot.index)
     warnings.warn(
         f"No temperature sensor reads below {_FAHRENHEIT_FLOOR:g} in run(s) "
         f"{named} (the coldest from {hot.min():g}), while the other runs "
@@ -1250,12 +1276,13 @@ def _warn_speed_unit(df):
     if not 0 < top < _SLOWEST_TOP_RPM:
         return
     warnings.warn(
-        f"Column 'spindle_rpm' never exceeds {top:g} (rpm): no spindle heats a "
-        "machine tool at that speed. In another unit (thousands of rpm, "
+        f"Column 'spindle_rpm' never exceeds {top:g} (rpm), slow for the "
+        "spindle of a thermal test. In another unit (thousands of rpm, "
         "revolutions per second: multiply by 1000 or 60), or with a thousands "
         'separator read as a decimal point ("6.000" as 6: read the file '
         "with pandas.read_csv(..., thousands='.'))? Columns spindle_rpm are "
-        "read as rpm.",
+        "read as rpm. (A slow spindle, a rotary table or a lathe's face "
+        "plate may ignore this.)",
         UserWarning,
         stacklevel=user_stacklevel(),
     )
@@ -1276,7 +1303,8 @@ def _warn_zero_readings(df, columns, values, codes):
         if not _is_temperature(name):
             continue
         col = values[:, j]
-        zero = col == 0.0
+        # Not a run's first row: changes since the start are 0 there.
+        zero = (col == 0.0) & np.r_[False, codes[1:] == codes[:-1]]
         if not zero.any():
             continue
         away = np.where(zero | ~np.isfinite(col), np.inf, np.abs(col))
