@@ -1963,3 +1963,22 @@ def test_the_new_checks_leave_legitimate_tables_alone(tmp_path):
     assert not any("exactly 0" in m for m in _said(changes_since_start(fast)))
     stiff = _three_runs().assign(disp_x_um=lambda t: 0.0005 * t["T1_C"])
     assert not any("millimetres" in m for m in _said(stiff))
+
+
+def test_a_semicolon_export_gets_a_recipe_that_reads_it(tmp_path):
+    # An independent check: with a logger's preamble or a Windows-1252 °
+    # in the header, the recipe pandas.read_csv(path, sep=';', decimal=',')
+    # failed inside pandas (a parser error, a decoding error).
+    body = _three_runs().to_csv(sep=";", decimal=",", index=False)
+    cases = {
+        "preamble.csv": ("Logger;HBM QuantumX\nMachine;VMC-B\n\n" + body, "utf-8"),
+        "windows.csv": (body.replace("T1_C", "T1_°C", 1), "cp1252"),
+    }
+    for name, (text, encoding) in cases.items():
+        path = tmp_path / name
+        path.write_text(text, encoding=encoding)
+        with pytest.raises(ValueError, match=r"pandas\.read_csv\(path, ") as info:
+            read_runs(path)
+        recipe = re.search(r"pandas\.read_csv\(path, (.*?)\) and", str(info.value))
+        frame = eval(f"pd.read_csv(path, {recipe.group(1)})")  # noqa: S307
+        assert frame.shape == (90, 5) and frame["time_s"].dtype.kind == "f"

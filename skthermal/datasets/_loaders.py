@@ -271,11 +271,30 @@ def _check_header(path, data):
     if len(fields) == 1:
         for sep, name in _OTHER_SEPARATORS.items():
             if sep in fields[0]:
-                sample = data[: 1 << 16].decode("utf-8", errors="replace")
-                lines = sample.splitlines()[1:6]
+                head = data[: 1 << 16]
+                try:
+                    sample, encoding = head.decode("utf-8"), ""
+                except UnicodeDecodeError:
+                    # A spreadsheet of Windows (°: 0xb0); the recipe said
+                    # nothing of it, and pandas then failed on the byte.
+                    sample, encoding = head.decode("cp1252", errors="replace"), "cp1252"
+                every = sample.splitlines()[:_PREAMBLE_LINES]
+                # The header: the first line with as many fields as most
+                # lines (the rows; a logger's preamble lines hold fewer).
+                counts = [len(line.split(sep)) for line in every]
+                filled = [c for c, line in zip(counts, every, strict=True) if line]
+                rows = max(set(filled), key=filled.count) if filled else 1
+                skip = next((i for i, c in enumerate(counts) if c == rows), 0)
+                lines = every[skip + 1 : skip + 6]
                 decimal = any(_DECIMAL_COMMA.search(line) for line in lines)
+                header = every[skip] if every else header
                 shown = header if len(header) <= 60 else header[:57] + "..."
-                convert = f"sep={sep!r}" + (", decimal=','" if decimal else "")
+                convert = (
+                    f"sep={sep!r}"
+                    + (", decimal=','" if decimal else "")
+                    + (f", skiprows={skip}" if skip else "")
+                    + (f", encoding={encoding!r}" if encoding else "")
+                )
                 raise ValueError(
                     f"{path}: the header line {shown!r} is a single column: the "
                     f"file seems to use {name} as the separator"
