@@ -863,6 +863,33 @@ def test_a_study_not_to_join_is_said_in_run_search_s_words(runs_data, tmp_path):
         run_search(est, X, y, load_if_exists=False, **kwargs)
 
 
+def test_a_name_drawn_with_two_kinds_is_said_in_the_library_s_words(runs_data):
+    # Optuna's "Cannot set different distribution kind to the same parameter
+    # name." stopped the search from 14 frames deep, naming nothing.
+    X, y, groups = runs_data
+
+    def space(trial):
+        if trial.suggest_categorical("kind", ["a", "b"]) == "a":
+            return {"delay": trial.suggest_int("x", 0, 1)}
+        return {"alpha": trial.suggest_float("x", 0.01, 0.5)}
+
+    sampler = optuna.samplers.RandomSampler(seed=0)
+    with pytest.raises(
+        ValueError, match=r"drew one Optuna name with two kinds of distribution"
+    ) as info:
+        run_search(
+            GreyPSORegressor(calibration="ls"),
+            X,
+            y,
+            groups=groups,
+            space=space,
+            n_trials=12,
+            sampler=sampler,
+            refit=False,
+        )
+    assert "Drawn before it in this trial: ['kind']" in str(info.value)
+
+
 def test_a_target_with_holes_is_refused_once(runs_data):
     # An independent check: every trial failed on it, one by one, up to
     # max_failed_trials.

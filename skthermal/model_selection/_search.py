@@ -923,7 +923,21 @@ class _Objective:
         optuna = _import_optuna()
         for key, value in _worker_identity().items():
             trial.set_user_attr(key, value)
-        params = self.space(trial)
+        try:
+            params = self.space(trial)
+        except ValueError as exc:
+            if not (_raised_in(exc, "optuna") and "distribution" in str(exc)):
+                raise
+            # Optuna's message names no parameter, and came from 14 frames
+            # deep (an independent check).
+            drawn = sorted(trial.params)
+            raise ValueError(
+                f"The search space drew one Optuna name with two kinds of "
+                f"distribution in trial {trial.number} (Optuna: {exc}): a name "
+                "must keep its kind and range in every trial. Give each kind "
+                "of draw its own name (e.g. 'x_int', 'x_float'). Drawn before "
+                f"it in this trial: {drawn or 'nothing'}."
+            ) from None
         if not isinstance(params, Mapping):
             raise TypeError(
                 f"The search space returned {type(params).__name__}, not a dict "
