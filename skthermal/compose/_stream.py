@@ -255,7 +255,10 @@ class RunStream:
             X = X.iloc[order]
             labels, times = labels[order], times[order]
             groups = None if groups is None else np.asarray(groups)[order]
-        readings = _readings(X)
+        # The temperatures of each run's first and last row of the block
+        # (a clock reset is told by them), by row.
+        ends = sorted({a for _, a, _ in runs} | {b - 1 for _, _, b in runs})
+        readings = dict(zip(ends, _readings(X.iloc[ends]), strict=True))
         new = self._check_order(runs, times, readings)
         now = self._advance(runs, times)  # for when a finding is said again
         kwargs = {} if groups is None else {"groups": groups}
@@ -281,8 +284,9 @@ class RunStream:
 
     def _check_order(self, runs, times, readings):
         """The labels of the block's runs new to the stream. A known run
-        given again from its start restarts (said, and whether its readings
-        go on from the earlier run's last ones: a clock reset mid-run); one
+        given again from its start restarts (said, and whether its readings,
+        ``readings`` of its first row, go on from the earlier run's last
+        ones: a clock reset mid-run); one
         that does not start after the stream's last time of it is an
         error."""
         new = set()
@@ -337,16 +341,13 @@ class RunStream:
             "under the same label; the stream's rows of the earlier one (to "
             f"time_s={span[1]:g}) are dropped."
         )
+        sequence = bool(sequence_models(self.model_))
         category = UserWarning
-        if sequence_models(self.model_) or _holds_guard(self.model_):
+        if sequence or _holds_guard(self.model_):
             category = RunStartWarning
             ends = self._ends.get(lab)
             # Only a sequence model takes a warm machine for a cold one.
-            if (
-                ends is not None
-                and sequence_models(self.model_)
-                and _goes_on(*ends, first)
-            ):
+            if ends is not None and sequence and _goes_on(*ends, first):
                 text += (
                     " Its first readings go on from the earlier run's last "
                     "ones, not from where that run began: if the controller's "
@@ -447,8 +448,8 @@ def _said_key(w):
 
 
 def _readings(X):
-    """The block's temperature readings (``T<name>_C`` columns), one row per
-    row of ``X``."""
+    """The temperature readings (``T<name>_C`` columns) of the rows of
+    ``X``, one array row per row."""
     columns = [
         c for c in X.columns if isinstance(c, str) and TEMPERATURE_PATTERN.fullmatch(c)
     ]

@@ -1223,13 +1223,8 @@ def _warn_fahrenheit_runs(df, columns, values, codes):
     temps = [j for j, name in enumerate(columns) if _is_temperature(name)]
     if not temps:
         return
-    block = values[:, temps]
-    coldest = pd.Series(np.nanmin(np.where(np.isfinite(block), block, np.inf), axis=1))
-    run_min = (
-        coldest[np.isfinite(coldest.to_numpy())]
-        .groupby(codes[np.isfinite(coldest.to_numpy())])
-        .min()
-    )
+    # The coldest reading of every run (none where no sensor reads).
+    run_min = pd.DataFrame(values[:, temps]).groupby(codes).min().min(axis=1).dropna()
     hot = run_min[run_min > _FAHRENHEIT_FLOOR]
     if "ambient_C" in df.columns:
         # The air of a run in Fahrenheit reads some 70 (warned about as

@@ -437,7 +437,7 @@ def save(model, path, *, compress=True):
     _check_dict_keys(model)
     _check_code(model)
     _check_output_config(model)
-    if _keeps_whole_runs(model):
+    if _holds_streamed_runs(model):
         # skops stores no pandas tables (its error, "no default __reduce__
         # due to non-trivial __cinit__", named nothing of the model), and a
         # sequence model restarted mid-run is wrong from there on.
@@ -456,7 +456,7 @@ def save(model, path, *, compress=True):
     return path
 
 
-def _keeps_whole_runs(model):
+def _holds_streamed_runs(model):
     """Whether ``model`` holds runs it streams that a skops file cannot keep:
     a :class:`~skthermal.compose.RunStream` that has seen a block (the runs'
     rows or end states, the findings said, keyed by tuples; after a warning

@@ -588,8 +588,9 @@ def _infer_space(estimator):
                 spaces.append(PrefixedSpace(name, inner))
         return combine_spaces(*spaces) if spaces else None
     name = _default_space_name(estimator)
-    if name is None and _wrapped(estimator) is not None:
-        inner = _infer_space(_wrapped(estimator))
+    wrapped = _wrapped(estimator) if name is None else None
+    if wrapped is not None:
+        inner = _infer_space(wrapped)
         return None if inner is None else PrefixedSpace("estimator", inner)
     return None if name is None else search_space(name)
 
